@@ -1,0 +1,118 @@
+# hmdwarp build: every program into build/, one static library per layer.
+# Layers link downwards only: runtime -> drivers -> platform -> sim -> warp (see DEVELOPERS.md).
+#
+#   make                 build everything          make run     run hmdwarpd on the simulated board
+#   make test            unit + accuracy tests     make asan    the tests under ASan+UBSan
+#   make install PREFIX=/usr DESTDIR=...           make clean
+#   make CROSS_COMPILE=aarch64-linux-gnu-          cross build for the board
+
+CROSS_COMPILE ?=
+ifeq ($(origin CC),default)
+CC := $(CROSS_COMPILE)gcc
+endif
+AR := $(CROSS_COMPILE)ar
+PKG_CONFIG ?= pkg-config
+BUILD ?= build
+PREFIX ?= /usr/local
+DESTDIR ?=
+
+# Libraries every program links (Debian packages named in board/deps.sh).
+PKGS      := inih libpng zlib
+TEST_PKGS := cmocka
+
+OPT      ?= -O2
+CFLAGS   ?= $(OPT) -g
+WARN     := -Wall -Wextra -Werror -Wshadow -Wstrict-prototypes -Wmissing-prototypes -Wvla
+CPPFLAGS += -I. -D_GNU_SOURCE
+ALL_CFLAGS = -std=gnu11 $(WARN) $(CFLAGS) -pthread -MMD -MP \
+             $(shell $(PKG_CONFIG) --cflags $(PKGS) 2>/dev/null)
+LDLIBS_ALL = $(shell $(PKG_CONFIG) --libs $(PKGS) 2>/dev/null) -lm -pthread
+TEST_CFLAGS = $(shell $(PKG_CONFIG) --cflags $(TEST_PKGS) 2>/dev/null)
+TEST_LIBS   = $(shell $(PKG_CONFIG) --libs $(TEST_PKGS) 2>/dev/null)
+
+# Layers, lowest last (link order).
+LAYERS := runtime drivers platform sim warp
+# Program entry points are *_main.c; everything else in a layer folder goes into its library.
+MAINS := $(wildcard runtime/*_main.c tools/*/*_main.c)
+layer_src = $(filter-out %_main.c,$(wildcard $(1)/*.c))
+LIBS := $(foreach l,$(LAYERS),$(BUILD)/lib$(l).a)
+
+PROGRAMS := $(BUILD)/hmdwarpd
+
+TEST_SRC := $(wildcard tests/unit/test_*.c tests/accuracy/test_*.c)
+TEST_SUPPORT_SRC := $(wildcard tests/support/*.c)
+TEST_BINS := $(patsubst tests/%.c,$(BUILD)/tests/%,$(TEST_SRC))
+
+.PHONY: all deps run test asan install clean
+all: $(PROGRAMS) $(TEST_BINS)
+.SECONDARY:
+
+# Quiet by default; `make V=1` shows the commands.
+ifeq ($(V),1)
+Q :=
+else
+Q := @
+endif
+
+deps:
+	@board/deps.sh
+
+$(BUILD)/obj/%.o: %.c
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  CC      $<")
+	$(Q)$(CC) $(CPPFLAGS) $(ALL_CFLAGS) -c $< -o $@
+
+$(BUILD)/obj/tests/%.o: tests/%.c
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  CC      $<")
+	$(Q)$(CC) $(CPPFLAGS) $(ALL_CFLAGS) $(TEST_CFLAGS) -c $< -o $@
+
+define layer_rule
+$(BUILD)/lib$(1).a: $(patsubst %.c,$(BUILD)/obj/%.o,$(call layer_src,$(1)))
+	@mkdir -p $$(dir $$@)
+	$(Q)rm -f $$@
+	$(Q)$(AR) rcs $$@ $$^
+endef
+$(foreach l,$(LAYERS),$(eval $(call layer_rule,$(l))))
+
+$(BUILD)/hmdwarpd: $(BUILD)/obj/runtime/hmdwarpd_main.o $(LIBS)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_ALL)
+
+TEST_SUPPORT_OBJ := $(patsubst %.c,$(BUILD)/obj/%.o,$(TEST_SUPPORT_SRC))
+$(BUILD)/tests/%: $(BUILD)/obj/tests/%.o $(TEST_SUPPORT_OBJ) $(LIBS)
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_ALL) $(TEST_LIBS)
+
+# `make run` knobs, forwarded to hmdwarpd as config overrides (see README).
+RUN_ARGS ?=
+run_set = $(if $(2),--set $(1)=$(2))
+RUN_OVERRIDES = $(call run_set,sim.scene,$(SCENE)) $(call run_set,sim.trace,$(TRACE)) \
+                $(call run_set,sim.duration_s,$(DURATION)) $(call run_set,warp.method,$(METHOD)) \
+                $(call run_set,render.renderer,$(RENDER))
+run: deps
+	@$(MAKE) --no-print-directory $(BUILD)/hmdwarpd
+	$(BUILD)/hmdwarpd --config board/sim/board.ini $(RUN_OVERRIDES) $(RUN_ARGS)
+
+test: deps
+	@$(MAKE) --no-print-directory all
+	@tests/run.sh $(BUILD)/tests $(TEST_BINS)
+
+# Tests under AddressSanitizer + UndefinedBehaviorSanitizer, in their own build tree.
+asan: deps
+	@$(MAKE) --no-print-directory BUILD=build/asan OPT=-O1 \
+	  CFLAGS="-O1 -g -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined" \
+	  LDFLAGS="-fsanitize=address,undefined" all
+	@ASAN_OPTIONS=detect_leaks=1:abort_on_error=0 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+	  tests/run.sh build/asan/tests $(patsubst $(BUILD)/%,build/asan/%,$(TEST_BINS))
+
+install: $(PROGRAMS)
+	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/share/hmdwarp/boards/sim
+	install -m 0755 $(PROGRAMS) $(DESTDIR)$(PREFIX)/bin/
+	install -m 0644 board/sim/board.ini $(DESTDIR)$(PREFIX)/share/hmdwarp/boards/sim/board.ini
+
+clean:
+	rm -rf build
+
+-include $(shell find $(BUILD)/obj -name '*.d' 2>/dev/null)

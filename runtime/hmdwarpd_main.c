@@ -1,0 +1,7 @@
+/* hmdwarpd: entry point (placeholder until the runtime lands). */
+#include <stdio.h>
+int main(void)
+{
+    puts("hmdwarpd: not yet");
+    return 0;
+}

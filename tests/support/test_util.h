@@ -1,0 +1,39 @@
+/* test_util: small helpers shared by the test programs (deterministic random numbers, random rotations).
+ * Header-only pieces are static inline so each test binary stays self-contained. */
+#ifndef TEST_UTIL_H
+#define TEST_UTIL_H
+
+#include <math.h>
+#include <stdint.h>
+
+#include "warp/warp_math.h"
+
+typedef struct { uint64_t s; } test_rng;
+
+static inline test_rng test_rng_make(uint64_t seed)
+{
+    test_rng r = {seed * 0x9E3779B97F4A7C15ull + 1};
+    return r;
+}
+/* splitmix64: tiny, fixed-seed reproducible across platforms */
+static inline uint64_t test_rng_next(test_rng *r)
+{
+    uint64_t z = (r->s += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+}
+static inline double test_rng_uniform(test_rng *r, double lo, double hi)
+{
+    return lo + (hi - lo) * ((double)(test_rng_next(r) >> 11) * (1.0 / 9007199254740992.0));
+}
+static inline warp_quat test_random_quat(test_rng *r)
+{
+    warp_quat q = {test_rng_uniform(r, -1, 1), test_rng_uniform(r, -1, 1), test_rng_uniform(r, -1, 1),
+                   test_rng_uniform(r, -1, 1)};
+    warp_quat o;
+    warp_quat_normalize(q, &o);
+    return o;
+}
+
+#endif
