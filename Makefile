@@ -100,12 +100,13 @@ test: deps
 	@tests/run.sh $(BUILD)/tests $(TEST_BINS)
 
 # Tests under AddressSanitizer + UndefinedBehaviorSanitizer, in their own build tree.
+ASAN_BUILD ?= build/asan
 asan: deps
-	@$(MAKE) --no-print-directory BUILD=build/asan OPT=-O1 \
+	@$(MAKE) --no-print-directory BUILD=$(ASAN_BUILD) OPT=-O1 \
 	  CFLAGS="-O1 -g -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined" \
 	  LDFLAGS="-fsanitize=address,undefined" all
 	@ASAN_OPTIONS=detect_leaks=1:abort_on_error=0 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
-	  tests/run.sh build/asan/tests $(patsubst $(BUILD)/%,build/asan/%,$(TEST_BINS))
+	  tests/run.sh $(ASAN_BUILD)/tests $(patsubst $(BUILD)/%,$(ASAN_BUILD)/%,$(TEST_BINS))
 
 install: $(PROGRAMS)
 	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/share/hmdwarp/boards/sim
