@@ -1,0 +1,103 @@
+/* plat_png: PNG image file I/O through libpng, for snapshots, tools and test artefacts.
+ * Never called on the vsync path (file I/O). */
+#include "platform/plat_png.h"
+
+#include <errno.h>
+#include <png.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static bool fail(char *err, int errlen, const char *fmt, const char *path, const char *why)
+{
+    if (err && errlen > 0) snprintf(err, (size_t)errlen, fmt, path, why);
+    return false;
+}
+
+static bool write_png(const char *path, int w, int h, int color_type, png_bytep *rows, char *err, int errlen)
+{
+    FILE *f = fopen(path, "wb");
+    if (!f) return fail(err, errlen, "cannot write %s: %s", path, strerror(errno));
+    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, NULL, NULL, NULL);
+    png_infop info = png ? png_create_info_struct(png) : NULL;
+    if (!png || !info) {
+        png_destroy_write_struct(&png, &info);
+        fclose(f);
+        return fail(err, errlen, "cannot write %s: %s", path, "out of memory");
+    }
+    if (setjmp(png_jmpbuf(png))) {
+        png_destroy_write_struct(&png, &info);
+        fclose(f);
+        return fail(err, errlen, "cannot write %s: %s", path, "libpng error");
+    }
+    png_init_io(png, f);
+    /* Fast compression: snapshots are for looking at, and the writer thread should keep up. */
+    png_set_compression_level(png, 1);
+    png_set_IHDR(png, info, (png_uint_32)w, (png_uint_32)h, 8, color_type, PNG_INTERLACE_NONE,
+                 PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+    png_write_info(png, info);
+    png_write_image(png, rows);
+    png_write_end(png, NULL);
+    png_destroy_write_struct(&png, &info);
+    if (fclose(f) != 0) return fail(err, errlen, "cannot write %s: %s", path, strerror(errno));
+    return true;
+}
+
+bool plat_png_write(const char *path, const warp_image_rgba8 *img, bool rgb_only, char *err, int errlen)
+{
+    png_bytep *rows = malloc(sizeof(png_bytep) * (size_t)img->h);
+    unsigned char *rgb = NULL;
+    if (!rows) return fail(err, errlen, "cannot write %s: %s", path, "out of memory");
+    if (rgb_only) {
+        rgb = malloc((size_t)img->w * (size_t)img->h * 3);
+        if (!rgb) {
+            free(rows);
+            return fail(err, errlen, "cannot write %s: %s", path, "out of memory");
+        }
+        for (int y = 0; y < img->h; y++) {
+            unsigned char *d = rgb + (size_t)y * (size_t)img->w * 3;
+            const warp_rgba8 *s = &WARP_AT(img, 0, y);
+            for (int x = 0; x < img->w; x++) {
+                d[3 * x] = s[x].r;
+                d[3 * x + 1] = s[x].g;
+                d[3 * x + 2] = s[x].b;
+            }
+            rows[y] = d;
+        }
+    } else {
+        for (int y = 0; y < img->h; y++) rows[y] = (png_bytep)&WARP_AT(img, 0, y);
+    }
+    bool ok = write_png(path, img->w, img->h, rgb_only ? PNG_COLOR_TYPE_RGB : PNG_COLOR_TYPE_RGBA, rows, err, errlen);
+    free(rgb);
+    free(rows);
+    return ok;
+}
+
+bool plat_png_write_u8(const char *path, const warp_image_u8 *img, char *err, int errlen)
+{
+    png_bytep *rows = malloc(sizeof(png_bytep) * (size_t)img->h);
+    if (!rows) return fail(err, errlen, "cannot write %s: %s", path, "out of memory");
+    for (int y = 0; y < img->h; y++) rows[y] = (png_bytep)&WARP_AT(img, 0, y);
+    bool ok = write_png(path, img->w, img->h, PNG_COLOR_TYPE_GRAY, rows, err, errlen);
+    free(rows);
+    return ok;
+}
+
+bool plat_png_read(const char *path, warp_image_rgba8 *img, char *err, int errlen)
+{
+    /* libpng's simplified API converts every PNG flavour to RGBA8 for us. */
+    png_image pi;
+    memset(&pi, 0, sizeof pi);
+    pi.version = PNG_IMAGE_VERSION;
+    if (!png_image_begin_read_from_file(&pi, path)) return fail(err, errlen, "cannot read %s: %s", path, pi.message);
+    pi.format = PNG_FORMAT_RGBA;
+    if (!warp_image_rgba8_alloc(img, (int)pi.width, (int)pi.height)) {
+        png_image_free(&pi);
+        return fail(err, errlen, "cannot read %s: %s", path, "image too large or out of memory");
+    }
+    if (!png_image_finish_read(&pi, NULL, img->px, (png_int_32)(img->stride * 4), NULL)) {
+        warp_image_free(img);
+        return fail(err, errlen, "cannot read %s: %s", path, pi.message);
+    }
+    return true;
+}

@@ -1,0 +1,462 @@
+/* rt_config: hmdwarpd's settings: defaults, board.ini parsing (inih) with errors naming line and key, command-line
+ * overrides (section.key=value) and validation. One table defines every key, its range and its help text. */
+#include "runtime/rt_config.h"
+
+#include <ini.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "warp/warp_head.h"
+
+static const char *const method_names[] = {"none", "rotation", "raytrace", NULL};
+static const char *const edge_fill_names[] = {"far", "linear", NULL};
+static const char *const sink_names[] = {"null", "png", "raw", NULL};
+static const char *const renderer_names[] = {"cpu", NULL};
+static const char *const imu_names[] = {"sim", NULL};
+static const char *const frames_names[] = {"sim", NULL};
+static const char *const vsync_names[] = {"sim", NULL};
+
+const char *rt_method_name(rt_method m) { return m >= 0 && m < RT_METHOD_COUNT ? method_names[m] : "?"; }
+
+typedef enum { K_INT, K_DOUBLE, K_U64, K_STR, K_CHOICE, K_ENUM, K_DLIST } ktype;
+
+typedef struct {
+    const char *section, *key;
+    ktype type;
+    size_t off;
+    int n;                      /* string buffer size, or list length */
+    double lo, hi;
+    const char *const *names;   /* K_CHOICE (stored as string) and K_ENUM (stored as int index) */
+    const char *help;
+} keydef;
+
+#define F(field) offsetof(rt_config, field)
+#define S(field) (int)sizeof(((rt_config *)0)->field)
+
+static const keydef keys[] = {
+    {"board", "name", K_STR, F(board_name), S(board_name), 0, 0, NULL, "board name shown in the summary"},
+    {"display", "width", K_INT, F(panel_w), 0, 16, 16384, NULL, "panel width in pixels (both eyes side by side)"},
+    {"display", "height", K_INT, F(panel_h), 0, 16, 16384, NULL, "panel height in pixels"},
+    {"display", "refresh_hz", K_DOUBLE, F(refresh_hz), 0, 10, 500, NULL, "panel refresh rate"},
+    {"display", "photon_offset_ms", K_DOUBLE, F(photon_offset_ms), 0, 0, 100, NULL,
+     "time from the vsync edge to when the photons are seen (prediction target)"},
+    {"display", "sink", K_CHOICE, F(sink), S(sink), 0, 0, sink_names,
+     "where panel images go: null, png (snapshots) or raw (RGBA8 stream)"},
+    {"display", "sink_every", K_INT, F(sink_every), 0, 1, 1000000, NULL, "write every Nth vsync (png/raw sinks)"},
+    {"display", "sink_path", K_STR, F(sink_path), S(sink_path), 0, 0, NULL, "directory for png/raw sink output"},
+    {"render", "renderer", K_CHOICE, F(renderer), S(renderer), 0, 0, renderer_names, "warp backend"},
+    {"render", "threads", K_INT, F(threads), 0, 1, 16, NULL, "compositor threads (the vsync thread included)"},
+    {"render", "rt_priority", K_INT, F(rt_priority), 0, 0, 99, NULL,
+     "SCHED_FIFO priority for the compositor when permitted (0 = normal scheduling)"},
+    {"eye", "width", K_INT, F(eye_w), 0, 16, 8192, NULL, "host eye buffer width"},
+    {"eye", "height", K_INT, F(eye_h), 0, 16, 8192, NULL, "host eye buffer height"},
+    {"eye", "fov", K_DLIST, F(fov_deg), 4, 1, 89, NULL,
+     "left eye's half-angles in degrees: left right up down (the right eye is mirrored)"},
+    {"eye", "near", K_DOUBLE, F(near_z), 0, 0.001, 10, NULL, "near plane in metres"},
+    {"eye", "ipd", K_DOUBLE, F(ipd), 0, 0.04, 0.09, NULL, "interpupillary distance in metres"},
+    {"lens", "mesh", K_INT, F(mesh_n), 0, 2, 1024, NULL, "distortion mesh vertices per side (N x N)"},
+    {"lens", "k_red", K_DLIST, F(k[0]), WARP_LENS_TERMS, -100, 100, NULL,
+     "red radial scale polynomial k0 k1 k2 k3: s(r^2) = k0 + k1 r^2 + k2 r^4 + k3 r^6"},
+    {"lens", "k_green", K_DLIST, F(k[1]), WARP_LENS_TERMS, -100, 100, NULL, "green polynomial"},
+    {"lens", "k_blue", K_DLIST, F(k[2]), WARP_LENS_TERMS, -100, 100, NULL, "blue polynomial"},
+    {"lens", "scale", K_DOUBLE, F(lens_scale), 0, 1, 100000, NULL, "panel pixels per unit of normalised radius"},
+    {"lens", "center", K_DLIST, F(lens_center), 2, -100000, 100000, NULL,
+     "left eye's lens centre x y in pixels within its half of the panel (mirrored for the right eye)"},
+    {"warp", "method", K_ENUM, F(method), 0, 0, 0, method_names,
+     "none (lens only), rotation (003 §3.4) or raytrace (003 §3.5)"},
+    {"warp", "raytrace_steps", K_INT, F(raytrace_steps), 0, 1, 100000, NULL, "raytrace step budget per ray"},
+    {"warp", "edge_fill", K_ENUM, F(edge_fill), 0, 0, 0, edge_fill_names,
+     "raytrace disocclusion fill: far (far side) or linear (003 §4.4)"},
+    {"warp", "edge_jump", K_DOUBLE, F(edge_jump), 0, 0.001, 10, NULL,
+     "relative inverse-depth jump per step that counts as an occlusion edge"},
+    {"imu", "backend", K_CHOICE, F(imu_backend), S(imu_backend), 0, 0, imu_names, "IMU source"},
+    {"imu", "rate_hz", K_DOUBLE, F(imu_rate_hz), 0, 10, 10000, NULL, "IMU sample rate"},
+    {"frames", "backend", K_CHOICE, F(frames_backend), S(frames_backend), 0, 0, frames_names, "host frame source"},
+    {"vsync", "backend", K_CHOICE, F(vsync_backend), S(vsync_backend), 0, 0, vsync_names, "vsync source"},
+    {"sim", "scene", K_STR, F(scene), S(scene), 0, 0, NULL, "simulated scene (see --list)"},
+    {"sim", "trace", K_STR, F(trace), S(trace), 0, 0, NULL, "simulated head motion (see --list)"},
+    {"sim", "duration_s", K_DOUBLE, F(duration_s), 0, 0, 1e6, NULL, "run time in seconds (0 = until SIGINT)"},
+    {"sim", "seed", K_U64, F(seed), 0, 0, 0, NULL, "seed for noise and trace variations"},
+    {"sim", "host_rate_hz", K_DOUBLE, F(host_rate_hz), 0, 1, 500, NULL, "simulated host render rate (at most)"},
+    {"sim", "host_latency_ms", K_DOUBLE, F(host_latency_ms), 0, 0, 1000, NULL,
+     "simulated transport latency after each host render"},
+    {"sim", "host_threads", K_INT, F(host_threads), 0, 1, 16, NULL, "threads the simulated host renders with"},
+    {"sim", "gyro_noise", K_DOUBLE, F(gyro_noise), 0, 0, 10, NULL, "simulated gyro noise, rad/s rms"},
+    {"sim", "gyro_bias", K_DLIST, F(gyro_bias), 3, -10, 10, NULL, "simulated gyro bias x y z, rad/s"},
+    {"sim", "accel_noise", K_DOUBLE, F(accel_noise), 0, 0, 100, NULL, "simulated accelerometer noise, m/s^2 rms"},
+    {"sim", "eval_every_ms", K_DOUBLE, F(eval_every_ms), 0, 0, 1e6, NULL,
+     "compare a displayed frame with ground truth this often (0 = off)"},
+    {"telemetry", "csv", K_STR, F(csv), S(csv), 0, 0, NULL, "write one CSV row per vsync to this file"},
+};
+#define NKEYS (int)(sizeof keys / sizeof keys[0])
+
+void rt_config_defaults(rt_config *c)
+{
+    memset(c, 0, sizeof *c);
+    snprintf(c->board_name, sizeof c->board_name, "unnamed");
+    c->panel_w = 2880;
+    c->panel_h = 1600;
+    c->refresh_hz = 90;
+    c->photon_offset_ms = 5.5;
+    snprintf(c->sink, sizeof c->sink, "null");
+    c->sink_every = 90;
+    snprintf(c->sink_path, sizeof c->sink_path, "build/frames");
+    snprintf(c->renderer, sizeof c->renderer, "cpu");
+    c->threads = 2;
+    c->rt_priority = 10;
+    c->eye_w = 1440;
+    c->eye_h = 1600;
+    c->fov_deg[0] = 52; c->fov_deg[1] = 48; c->fov_deg[2] = 52; c->fov_deg[3] = 52;
+    c->near_z = 0.05;
+    c->ipd = 0.064;
+    c->mesh_n = 64;
+    const double base[WARP_LENS_TERMS] = {1.0, 0.22, 0.24, 0.0};
+    const double ca[3] = {0.996, 1.0, 1.008}; /* lateral chromatic aberration: per-channel radial scale */
+    for (int ch = 0; ch < 3; ch++)
+        for (int i = 0; i < WARP_LENS_TERMS; i++) c->k[ch][i] = base[i] * ca[ch];
+    c->lens_scale = 720;
+    c->lens_center[0] = 760; /* slightly towards the nose: lens axes sit closer together than the panel halves */
+    c->lens_center[1] = 800;
+    c->method = RT_METHOD_ROTATION;
+    c->raytrace_steps = 512;
+    c->edge_fill = 0;
+    c->edge_jump = 0.1;
+    snprintf(c->imu_backend, sizeof c->imu_backend, "sim");
+    snprintf(c->frames_backend, sizeof c->frames_backend, "sim");
+    snprintf(c->vsync_backend, sizeof c->vsync_backend, "sim");
+    snprintf(c->scene, sizeof c->scene, "room");
+    snprintf(c->trace, sizeof c->trace, "fast");
+    c->duration_s = 10;
+    c->seed = 1;
+    c->host_rate_hz = 45;
+    c->host_latency_ms = 4;
+    c->host_threads = 1;
+    c->imu_rate_hz = 1000;
+    c->gyro_noise = 0.005;
+    c->gyro_bias[0] = 0.01; c->gyro_bias[1] = -0.007; c->gyro_bias[2] = 0.004;
+    c->accel_noise = 0.05;
+    c->eval_every_ms = 500;
+}
+
+static void add_error(rt_config_errors *e, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+static void add_error(rt_config_errors *e, const char *fmt, ...)
+{
+    if (!e) return;
+    if (e->count >= (int)(sizeof e->msg / sizeof e->msg[0])) {
+        e->count++;
+        return;
+    }
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(e->msg[e->count], sizeof e->msg[0], fmt, ap);
+    va_end(ap);
+    e->count++;
+}
+
+static bool parse_double(const char *s, double *out)
+{
+    char *end;
+    double v = strtod(s, &end);
+    while (*end == ' ' || *end == '\t') end++;
+    if (end == s || *end || !isfinite(v)) return false;
+    *out = v;
+    return true;
+}
+
+static void list_names(const char *const *names, char *buf, size_t len)
+{
+    buf[0] = 0;
+    for (int i = 0; names[i]; i++) {
+        strncat(buf, i ? ", " : "", len - strlen(buf) - 1);
+        strncat(buf, names[i], len - strlen(buf) - 1);
+    }
+}
+
+/* Sets one key; `where` is "file:line" or "command line" for messages. */
+static bool set_key(rt_config *c, const char *section, const char *key, const char *value, const char *where,
+                    rt_config_errors *err)
+{
+    const keydef *k = NULL;
+    bool section_known = false;
+    for (int i = 0; i < NKEYS; i++) {
+        if (strcmp(keys[i].section, section) != 0) continue;
+        section_known = true;
+        if (strcmp(keys[i].key, key) == 0) {
+            k = &keys[i];
+            break;
+        }
+    }
+    if (!section_known) {
+        add_error(err, "%s: unknown section [%s]", where, section);
+        return false;
+    }
+    if (!k) {
+        add_error(err, "%s: unknown key '%s' in [%s]", where, key, section);
+        return false;
+    }
+    char *base = (char *)c + k->off;
+    switch (k->type) {
+    case K_INT: {
+        double v;
+        if (!parse_double(value, &v) || v != floor(v) || v < k->lo || v > k->hi) {
+            add_error(err, "%s: [%s] %s = '%s': expected a whole number from %g to %g", where, section, key, value,
+                      k->lo, k->hi);
+            return false;
+        }
+        *(int *)base = (int)v;
+        return true;
+    }
+    case K_DOUBLE: {
+        double v;
+        if (!parse_double(value, &v) || v < k->lo || v > k->hi) {
+            add_error(err, "%s: [%s] %s = '%s': expected a number from %g to %g", where, section, key, value, k->lo,
+                      k->hi);
+            return false;
+        }
+        *(double *)base = v;
+        return true;
+    }
+    case K_U64: {
+        char *end;
+        unsigned long long v = strtoull(value, &end, 0);
+        if (end == value || *end || value[0] == '-') {
+            add_error(err, "%s: [%s] %s = '%s': expected a non-negative integer", where, section, key, value);
+            return false;
+        }
+        *(uint64_t *)base = v;
+        return true;
+    }
+    case K_STR:
+        if (strlen(value) >= (size_t)k->n) {
+            add_error(err, "%s: [%s] %s: value longer than %d characters", where, section, key, k->n - 1);
+            return false;
+        }
+        snprintf(base, (size_t)k->n, "%s", value);
+        return true;
+    case K_CHOICE:
+    case K_ENUM:
+        for (int i = 0; k->names[i]; i++)
+            if (strcmp(k->names[i], value) == 0) {
+                if (k->type == K_ENUM)
+                    *(int *)base = i;
+                else
+                    snprintf(base, (size_t)k->n, "%s", value);
+                return true;
+            }
+        {
+            char names[200];
+            list_names(k->names, names, sizeof names);
+            add_error(err, "%s: [%s] %s = '%s': not available in this build (expected one of: %s)", where, section,
+                      key, value, names);
+        }
+        return false;
+    case K_DLIST: {
+        double v[8];
+        int n = 0;
+        const char *p = value;
+        char *end;
+        while (*p && n < 8) {
+            while (*p == ' ' || *p == '\t' || *p == ',') p++;
+            if (!*p) break;
+            v[n] = strtod(p, &end);
+            if (end == p || !isfinite(v[n])) {
+                n = -1;
+                break;
+            }
+            n++;
+            p = end;
+        }
+        bool ok = n == k->n;
+        for (int i = 0; ok && i < n; i++) ok = v[i] >= k->lo && v[i] <= k->hi;
+        if (!ok) {
+            add_error(err, "%s: [%s] %s = '%s': expected %d numbers from %g to %g", where, section, key, value, k->n,
+                      k->lo, k->hi);
+            return false;
+        }
+        memcpy(base, v, sizeof(double) * (size_t)n);
+        return true;
+    }
+    }
+    return false;
+}
+
+/* inih hands lines over through a reader; counting them there gives every handler call its line number. */
+typedef struct {
+    rt_config *c;
+    rt_config_errors *err;
+    const char *name;
+    int line;
+    FILE *f;
+    const char *text;
+    bool ok;
+} parse_ctx;
+
+static char *reader(char *str, int num, void *stream)
+{
+    parse_ctx *p = stream;
+    if (p->f) {
+        if (!fgets(str, num, p->f)) return NULL;
+    } else {
+        if (!*p->text) return NULL;
+        int i = 0;
+        while (i < num - 1 && p->text[i] && p->text[i] != '\n') {
+            str[i] = p->text[i];
+            i++;
+        }
+        if (p->text[i] == '\n' && i < num - 1) str[i++] = '\n';
+        str[i] = 0;
+        p->text += i;
+    }
+    p->line++;
+    return str;
+}
+
+static int handler(void *user, const char *section, const char *name, const char *value)
+{
+    parse_ctx *p = user;
+    char where[300];
+    snprintf(where, sizeof where, "%s:%d", p->name, p->line);
+    if (!set_key(p->c, section, name, value, where, p->err)) p->ok = false;
+    return 1; /* keep going: report every problem of the file at once */
+}
+
+static bool parse(parse_ctx *p)
+{
+    p->ok = true;
+    int r = ini_parse_stream(reader, p, handler, p);
+    if (r > 0) {
+        add_error(p->err, "%s:%d: syntax error (expected '[section]' or 'key = value')", p->name, r);
+        p->ok = false;
+    }
+    return p->ok;
+}
+
+bool rt_config_load(rt_config *c, const char *path, rt_config_errors *err)
+{
+    parse_ctx p = {c, err, path, 0, fopen(path, "r"), NULL, true};
+    if (!p.f) {
+        add_error(err, "%s: cannot open config file", path);
+        return false;
+    }
+    bool ok = parse(&p);
+    fclose(p.f);
+    return ok;
+}
+
+bool rt_config_load_string(rt_config *c, const char *text, const char *name, rt_config_errors *err)
+{
+    parse_ctx p = {c, err, name, 0, NULL, text, true};
+    return parse(&p);
+}
+
+bool rt_config_set(rt_config *c, const char *assignment, rt_config_errors *err)
+{
+    const char *dot = strchr(assignment, '.'), *eq = strchr(assignment, '=');
+    if (!dot || !eq || dot > eq) {
+        add_error(err, "command line: '%s': expected section.key=value", assignment);
+        return false;
+    }
+    char section[64], key[64];
+    snprintf(section, sizeof section, "%.*s", (int)(dot - assignment), assignment);
+    snprintf(key, sizeof key, "%.*s", (int)(eq - dot - 1), dot + 1);
+    return set_key(c, section, key, eq + 1, "command line", err);
+}
+
+warp_camera rt_config_eye_camera(const rt_config *c, int eye)
+{
+    warp_camera cam;
+    double l = tan(c->fov_deg[0] * WARP_PI / 180), r = tan(c->fov_deg[1] * WARP_PI / 180);
+    cam.width = c->eye_w;
+    cam.height = c->eye_h;
+    /* Mirror for the right eye: its temporal side is on the right. */
+    cam.tan_left = eye == WARP_EYE_LEFT ? l : r;
+    cam.tan_right = eye == WARP_EYE_LEFT ? r : l;
+    cam.tan_up = tan(c->fov_deg[2] * WARP_PI / 180);
+    cam.tan_down = tan(c->fov_deg[3] * WARP_PI / 180);
+    cam.near_z = c->near_z;
+    cam.far_z = INFINITY;
+    return cam;
+}
+
+warp_lens rt_config_lens(const rt_config *c, int eye)
+{
+    warp_lens lens;
+    for (int ch = 0; ch < 3; ch++)
+        for (int i = 0; i < WARP_LENS_TERMS; i++) lens.ch[ch].k[i] = c->k[ch][i];
+    double vw = c->panel_w / 2.0;
+    lens.center_x = eye == WARP_EYE_LEFT ? c->lens_center[0] : vw - c->lens_center[0];
+    lens.center_y = c->lens_center[1];
+    lens.scale = c->lens_scale;
+    return lens;
+}
+
+bool rt_config_validate(const rt_config *c, rt_config_errors *err)
+{
+    int before = err ? err->count : 0;
+    if (c->panel_w % 2) add_error(err, "[display] width = %d: must be even (two eyes side by side)", c->panel_w);
+    warp_camera cam = rt_config_eye_camera(c, WARP_EYE_LEFT);
+    const char *why = warp_camera_check(&cam);
+    if (why) add_error(err, "[eye]: %s", why);
+    char buf[200];
+    warp_lens lens = rt_config_lens(c, WARP_EYE_LEFT);
+    const char *lw = warp_lens_check(&lens, c->panel_w / 2, c->panel_h, buf, sizeof buf);
+    if (lw) add_error(err, "[lens]: %s", lw);
+    if (c->host_rate_hz > c->refresh_hz * 2)
+        add_error(err, "[sim] host_rate_hz = %g: more than twice the display rate makes no sense", c->host_rate_hz);
+    return (err ? err->count : 0) == before;
+}
+
+static void format_value(const rt_config *c, const keydef *k, char *buf, size_t len)
+{
+    const char *base = (const char *)c + k->off;
+    switch (k->type) {
+    case K_INT: snprintf(buf, len, "%d", *(const int *)base); break;
+    case K_DOUBLE: snprintf(buf, len, "%g", *(const double *)base); break;
+    case K_U64: snprintf(buf, len, "%llu", (unsigned long long)*(const uint64_t *)base); break;
+    case K_STR:
+    case K_CHOICE: snprintf(buf, len, "%s", base); break;
+    case K_ENUM: snprintf(buf, len, "%s", k->names[*(const int *)base]); break;
+    case K_DLIST: {
+        buf[0] = 0;
+        for (int i = 0; i < k->n; i++) {
+            char one[32];
+            snprintf(one, sizeof one, "%s%g", i ? " " : "", ((const double *)base)[i]);
+            strncat(buf, one, len - strlen(buf) - 1);
+        }
+        break;
+    }
+    }
+}
+
+void rt_config_print_keys(FILE *out)
+{
+    rt_config d;
+    rt_config_defaults(&d);
+    const char *sec = "";
+    for (int i = 0; i < NKEYS; i++) {
+        if (strcmp(sec, keys[i].section) != 0) {
+            sec = keys[i].section;
+            fprintf(out, "  [%s]\n", sec);
+        }
+        char v[128];
+        format_value(&d, &keys[i], v, sizeof v);
+        fprintf(out, "    %-17s %s (default: %s)\n", keys[i].key, keys[i].help, v[0] ? v : "empty");
+    }
+}
+
+void rt_config_print(const rt_config *c, FILE *out)
+{
+    const char *sec = "";
+    for (int i = 0; i < NKEYS; i++) {
+        if (strcmp(sec, keys[i].section) != 0) {
+            sec = keys[i].section;
+            fprintf(out, "%s[%s]\n", i ? "\n" : "", sec);
+        }
+        char v[128];
+        format_value(c, &keys[i], v, sizeof v);
+        fprintf(out, "%s = %s\n", keys[i].key, v);
+    }
+}

@@ -1,0 +1,74 @@
+/* rt_frameq: the lock-free handoff of host frames from the frames thread to the compositor (a triple buffer):
+ * the producer never waits, the consumer always gets the newest complete frame without blocking. */
+#include "runtime/rt_frameq.h"
+
+#include <string.h>
+
+#define NEW_BIT 4
+
+warp_view rt_frame_view(const rt_frame *fr, int eye)
+{
+    warp_view v;
+    v.cam = fr->f.cam[eye];
+    v.pose = fr->f.eye_pose[eye];
+    v.color = &fr->f.color[eye];
+    v.inv_depth = fr->has_depth ? &fr->inv_depth[eye] : NULL;
+    v.inv_depth_min = fr->inv_min[eye];
+    v.inv_depth_max = fr->inv_max[eye];
+    return v;
+}
+
+bool rt_frameq_init(rt_frameq *q, int w, int h, unsigned planes, int max_layers)
+{
+    memset(q, 0, sizeof *q);
+    for (int i = 0; i < 3; i++) {
+        rt_frame *s = &q->slot[i];
+        bool ok = drv_frame_alloc(&s->f, w, h, planes, max_layers);
+        for (int e = 0; ok && e < 2; e++) {
+            ok = warp_planar3_alloc(&s->planar[e], w, h);
+            if (ok && (planes & DRV_PLANE_DEPTH)) ok = warp_image_f32_alloc(&s->inv_depth[e], w, h);
+        }
+        if (!ok) {
+            rt_frameq_free(q);
+            return false;
+        }
+    }
+    q->back = 0;
+    atomic_store(&q->middle, 1);
+    q->front = 2;
+    return true;
+}
+
+void rt_frameq_free(rt_frameq *q)
+{
+    for (int i = 0; i < 3; i++) {
+        drv_frame_free(&q->slot[i].f);
+        for (int e = 0; e < 2; e++) {
+            warp_image_free(&q->slot[i].inv_depth[e]);
+            warp_planar3_free(&q->slot[i].planar[e]);
+        }
+    }
+}
+
+rt_frame *rt_frameq_back(rt_frameq *q) { return &q->slot[q->back]; }
+
+bool rt_frameq_publish(rt_frameq *q)
+{
+    /* acq_rel: release our writes to the slot, acquire the consumer's release of the slot we get back. */
+    int old = atomic_exchange_explicit(&q->middle, q->back | NEW_BIT, memory_order_acq_rel);
+    q->back = old & 3;
+    return (old & NEW_BIT) != 0;
+}
+
+const rt_frame *rt_frameq_latest(rt_frameq *q, bool *is_new)
+{
+    bool fresh = false;
+    if (atomic_load_explicit(&q->middle, memory_order_relaxed) & NEW_BIT) {
+        int old = atomic_exchange_explicit(&q->middle, q->front, memory_order_acq_rel);
+        q->front = old & 3;
+        fresh = true;
+    }
+    if (is_new) *is_new = fresh;
+    /* Until the first publish the consumer's slot holds nothing. */
+    return q->slot[q->front].f.seq ? &q->slot[q->front] : NULL;
+}

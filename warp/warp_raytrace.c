@@ -1,0 +1,225 @@
+/* warp_raytrace: the height-map raytrace warp of 003 §3.5: every target pixel casts a ray through the source
+ * frame's depth treated as a continuous height map; edge fills of 003 §4.4 and a sub-pixel refinement of the hit. */
+#include "warp/warp_raytrace.h"
+
+#include <math.h>
+
+/* Geometry of one ray, in the source image. A point of the target ray X = o + l*dir has homogeneous source
+ * position a + l*b (a = K o, b = K dir), so its inverse depth is D = 1/(aw + l*bw) and its pixel position is
+ *     S(D) = p_inf + D * e,   p_inf = b.xy / bw,   e = a.xy - aw * p_inf:
+ * affine in D. The search therefore walks a straight screen-space line with the ray's inverse depth changing
+ * linearly along it, exactly the linear search of 003 eq. 10 (which is written in post-projective depth). */
+
+warp_raytrace_params warp_raytrace_default_params(void)
+{
+    warp_raytrace_params p = {512, 4, WARP_EDGE_FILL_FAR, 0.1f};
+    return p;
+}
+
+const char *warp_raytrace_prepare(warp_raytrace_setup *s, const warp_view *src, const warp_camera *dst_cam,
+                                  warp_pose dst_pose, const warp_raytrace_params *p)
+{
+    if (!src->inv_depth) return "raytrace warp needs a depth plane";
+    if (!src->color) return "raytrace warp needs a colour plane";
+    if (src->inv_depth->w != src->color->w || src->inv_depth->h != src->color->h)
+        return "depth and colour planes differ in size";
+    if (!(src->inv_depth_max >= src->inv_depth_min) || !(src->inv_depth_min >= 0) || !isfinite(src->inv_depth_max))
+        return "inverse depth range is not valid";
+    if (p->max_steps < 1) return "raytrace step budget must be at least 1";
+    s->src = src;
+    s->p = *p;
+    /* Relative pose of the target eye in the source eye's frame; subtracting positions first keeps precision for
+     * heads far from the world origin. */
+    warp_pose rel = warp_pose_relative(src->pose, dst_pose);
+    s->h = warp_rotation_homography(&src->cam, dst_cam, rel.q);
+    warp_mat3 k = warp_camera_K(&src->cam);
+    warp_vec3 a = warp_mat3_apply(&k, rel.p);
+    s->ax = a.x;
+    s->ay = a.y;
+    s->aw = a.z;
+    s->dst_w = dst_cam->width;
+    s->dst_h = dst_cam->height;
+    return NULL;
+}
+
+/* Bilinear inverse depth at continuous position (x, y), clamped to the image like the colour fringe fill. */
+static inline float inv_at(const warp_image_f32 *d, float x, float y)
+{
+    float fx = x - 0.5f, fy = y - 0.5f;
+    fx = fx < 0 ? 0 : (fx > (float)(d->w - 1) ? (float)(d->w - 1) : fx);
+    fy = fy < 0 ? 0 : (fy > (float)(d->h - 1) ? (float)(d->h - 1) : fy);
+    int x0 = (int)fx, y0 = (int)fy;
+    int x1 = x0 + (x0 + 1 < d->w), y1 = y0 + (y0 + 1 < d->h);
+    float ax = fx - (float)x0, ay = fy - (float)y0;
+    const float *r0 = &WARP_AT(d, 0, y0), *r1 = &WARP_AT(d, 0, y1);
+    float top = r0[x0] + (r0[x1] - r0[x0]) * ax;
+    float bot = r1[x0] + (r1[x1] - r1[x0]) * ax;
+    return top + (bot - top) * ay;
+}
+
+/* Colour of the farthest of the four texels around (x, y): the far side of an edge without near-side bleed. */
+static warp_rgba8 far_texel(const warp_view *v, float x, float y)
+{
+    const warp_image_f32 *d = v->inv_depth;
+    int x0 = (int)floorf(x - 0.5f), y0 = (int)floorf(y - 0.5f);
+    int bx = 0, by = 0;
+    float best = INFINITY;
+    for (int j = 0; j < 2; j++)
+        for (int i = 0; i < 2; i++) {
+            int xi = x0 + i, yj = y0 + j;
+            xi = xi < 0 ? 0 : (xi >= d->w ? d->w - 1 : xi);
+            yj = yj < 0 ? 0 : (yj >= d->h ? d->h - 1 : yj);
+            float dv = WARP_AT(d, xi, yj);
+            if (dv < best) {
+                best = dv;
+                bx = xi;
+                by = yj;
+            }
+        }
+    return WARP_AT(v->color, bx, by);
+}
+
+/* Clips the D interval [*lo, *hi] to where p + D*e lies inside [0, size]. Returns false when empty. */
+static bool clip_axis(double p, double e, double size, double *lo, double *hi)
+{
+    if (fabs(e) < 1e-12) return p >= 0 && p <= size;
+    double d0 = (0 - p) / e, d1 = (size - p) / e;
+    if (d0 > d1) {
+        double t = d0;
+        d0 = d1;
+        d1 = t;
+    }
+    if (d0 > *lo) *lo = d0;
+    if (d1 < *hi) *hi = d1;
+    return *lo <= *hi;
+}
+
+void warp_raytrace_rows(const warp_raytrace_setup *s, warp_image_rgba8 *dst, warp_image_u8 *mask, int y0, int y1,
+                        warp_raytrace_stats *st)
+{
+    const warp_view *v = s->src;
+    const warp_image_f32 *dimg = v->inv_depth;
+    const double sw = v->color->w, sh = v->color->h;
+    const double dmin = v->inv_depth_min, dmax = v->inv_depth_max;
+    const int max_steps = s->p.max_steps;
+    const float jump = s->p.edge_jump;
+    long steps_total = 0, edges = 0, fringes = 0;
+
+    for (int y = y0; y < y1; y++) {
+        double py = y + 0.5;
+        double bx = s->h.m[0][0] * 0.5 + s->h.m[0][1] * py + s->h.m[0][2];
+        double by = s->h.m[1][0] * 0.5 + s->h.m[1][1] * py + s->h.m[1][2];
+        double bw = s->h.m[2][0] * 0.5 + s->h.m[2][1] * py + s->h.m[2][2];
+        warp_rgba8 *out = &WARP_AT(dst, 0, y);
+        uint8_t *m = mask ? &WARP_AT(mask, 0, y) : NULL;
+        for (int x = 0; x < dst->w; x++, bx += s->h.m[0][0], by += s->h.m[1][0], bw += s->h.m[2][0]) {
+            uint8_t flag = 0;
+            /* A ray at or beyond 90 degrees from the source view axis has no point at infinity in the source
+             * image; with centimetre head translations such rays see nothing the source saw: fringe. */
+            if (!(bw > 1e-9 * (fabs(bx) + fabs(by) + fabs(bw)))) {
+                out[x] = warp_sample_bilinear(v->color, bx > 0 ? (float)sw : 0.f, by > 0 ? (float)sh : 0.f);
+                if (m) m[x] = WARP_MASK_FRINGE;
+                fringes++;
+                continue;
+            }
+            double pix = bx / bw, piy = by / bw;
+            double ex = s->ax - s->aw * pix, ey = s->ay - s->aw * piy;
+            /* Search interval in inverse depth: the scene's depth range, cut to the part of the ray in front of
+             * the target eye (D <= 1/aw when the eye is in front of the source eye's plane) ... */
+            double hi = dmax, lo = dmin;
+            if (s->aw > 0 && 1.0 / s->aw < hi) hi = 1.0 / s->aw;
+            bool near_clipped = false;
+            double hi0 = hi;
+            /* ... and to the part that projects inside the source image, where the height map is known. */
+            bool inside = lo <= hi && clip_axis(pix, ex, sw, &lo, &hi) && clip_axis(piy, ey, sh, &lo, &hi);
+            if (!inside) {
+                double d = lo < dmin ? dmin : lo;
+                out[x] = warp_sample_bilinear(v->color, (float)(pix + d * ex), (float)(piy + d * ey));
+                if (m) m[x] = WARP_MASK_FRINGE;
+                fringes++;
+                continue;
+            }
+            near_clipped = hi < hi0;
+            /* One step per source pixel along the segment (003 §3.5: n_d is the pixel count), within budget. */
+            double len = fabs(hi - lo) * sqrt(ex * ex + ey * ey);
+            int n = (int)ceil(len);
+            if (n < 1) n = 1;
+            if (n > max_steps) n = max_steps;
+            double dd = (hi - lo) / n;
+
+            double da = hi, fa;
+            float sa = inv_at(dimg, (float)(pix + da * ex), (float)(piy + da * ey));
+            fa = sa - da;
+            double db = da, fb = fa;
+            float sb = sa;
+            int k = 0;
+            if (fa >= 0) {
+                /* Hit at the very first sample. If the segment was cut at the image border, the ray entered
+                 * below the surface: it is hidden by something the source never saw. */
+                if (near_clipped) flag = WARP_MASK_FRINGE;
+            } else {
+                for (k = 1; k <= n; k++) {
+                    db = hi - dd * k;
+                    if (k == n) db = lo;
+                    sb = inv_at(dimg, (float)(pix + db * ex), (float)(piy + db * ey));
+                    fb = sb - db;
+                    if (fb >= 0) break;
+                    da = db;
+                    fa = fb;
+                    sa = sb;
+                }
+                steps_total += k < n ? k : n;
+                if (k > n) {
+                    /* Not even the farthest depth was reached inside the image: the ray leaves the source. */
+                    flag = WARP_MASK_FRINGE;
+                    da = db;
+                } else {
+                    /* Regula falsi (Illinois) between the last sample in front of the surface and the first one
+                     * behind it: the hit lands between samples, not on the step grid. */
+                    int side = 0;
+                    for (int it = 0; it < s->p.refine_iters; it++) {
+                        double dm = da + (db - da) * (-fa) / (fb - fa);
+                        float sm = inv_at(dimg, (float)(pix + dm * ex), (float)(piy + dm * ey));
+                        double fm = sm - dm;
+                        if (fm < 0) {
+                            da = dm;
+                            fa = fm;
+                            if (side == -1) fb *= 0.5;
+                            side = -1;
+                        } else {
+                            db = dm;
+                            fb = fm;
+                            if (side == 1) fa *= 0.5;
+                            side = 1;
+                        }
+                    }
+                    da = fb - fa != 0 ? da + (db - da) * (-fa) / (fb - fa) : db;
+                }
+            }
+            float hx = (float)(pix + da * ex), hy = (float)(piy + da * ey);
+            /* Edge fills (003 §4.4): a large jump of the surface's inverse depth across the bracketing step means
+             * the ray went down the steep wall the height map draws between a near and a far surface. A hit in
+             * the wall's upper half is the near object's silhouette; lower, it is a disocclusion gap. */
+            if (!flag) {
+                float near_d = sa > sb ? sa : sb, far_d = sa > sb ? sb : sa;
+                if (near_d - far_d > jump * near_d) {
+                    double alpha = (da - far_d) / (near_d - far_d);
+                    if (alpha < 0.5) flag = WARP_MASK_EDGE;
+                }
+            }
+            if (flag == WARP_MASK_EDGE && s->p.edge_fill == WARP_EDGE_FILL_FAR)
+                out[x] = far_texel(v, hx, hy);
+            else
+                out[x] = warp_sample_bilinear(v->color, hx, hy);
+            if (m) m[x] = flag;
+            edges += flag == WARP_MASK_EDGE;
+            fringes += flag == WARP_MASK_FRINGE;
+        }
+    }
+    if (st) {
+        st->rays += (long)(y1 - y0) * dst->w;
+        st->steps += steps_total;
+        st->edge_pixels += edges;
+        st->fringe_pixels += fringes;
+    }
+}
