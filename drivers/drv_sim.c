@@ -19,7 +19,10 @@ typedef struct {
     uint64_t next; /* index of the next sample to deliver */
 } imu_sim;
 
-static int64_t sample_time(const imu_sim *s, uint64_t i) { return s->t0 + (int64_t)llround((double)i * 1e9 / s->p.rate_hz); }
+static int64_t sample_time(const imu_sim *s, uint64_t i)
+{
+    return s->t0 + (int64_t)llround((s->p.t_start + (double)i / s->p.rate_hz) * 1e9);
+}
 
 static int imu_sim_read(drv_imu *imu, drv_imu_sample *out, int max, int timeout_ms)
 {

@@ -12,7 +12,7 @@
 #include "sim/sim_trace.h"
 #include "warp/warp_head.h"
 
-/* IMU samples of `trace` paced in real time; scene time 0 is t0_ns. */
+/* IMU samples of `trace` paced in real time; scene time 0 is t0_ns, the first sample is at p->t_start. */
 drv_imu *drv_imu_sim_create(const sim_trace *trace, const sim_imu_params *p, int64_t t0_ns);
 
 /* Vsync every 1/refresh_hz seconds, phase-locked to t0_ns. */

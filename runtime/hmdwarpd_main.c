@@ -1,7 +1,149 @@
-/* hmdwarpd: entry point (placeholder until the runtime lands). */
+/* hmdwarpd: the display runtime of an HMD controller board: command line, configuration, signals, and the run
+ * summary. Everything else lives in rt_app and below. */
+#include <signal.h>
 #include <stdio.h>
-int main(void)
+#include <stdlib.h>
+#include <string.h>
+
+#include "runtime/rt_app.h"
+#include "runtime/rt_config.h"
+#include "sim/sim_scene.h"
+#include "sim/sim_trace.h"
+
+static rt_app app;
+
+static void on_signal(int sig)
 {
-    puts("hmdwarpd: not yet");
+    (void)sig;
+    rt_app_request_stop(&app); /* an atomic store: async-signal-safe */
+}
+
+static void usage(FILE *out)
+{
+    fprintf(out,
+            "usage: hmdwarpd [options]\n"
+            "Warps the newest host frame to the predicted head pose at every vsync, corrects the lens, and shows it.\n"
+            "\n"
+            "options:\n"
+            "  --config FILE       board configuration (default: board/sim/board.ini if present)\n"
+            "  --set SEC.KEY=VAL   override one configuration key (repeatable), e.g. --set warp.method=raytrace\n"
+            "  --duration S        shorthand for --set sim.duration_s=S (0 = run until Ctrl-C)\n"
+            "  --scene NAME        shorthand for --set sim.scene=NAME\n"
+            "  --trace NAME        shorthand for --set sim.trace=NAME\n"
+            "  --method NAME       shorthand for --set warp.method=NAME (none, rotation, raytrace)\n"
+            "  --csv FILE          shorthand for --set telemetry.csv=FILE (one row per vsync)\n"
+            "  --check-config      load and validate the configuration, print it, and exit (0 = valid)\n"
+            "  --list              list simulated scenes and head-motion traces\n"
+            "  --help              this text\n"
+            "\n"
+            "configuration keys (board.ini sections):\n");
+    rt_config_print_keys(out);
+}
+
+static void list(void)
+{
+    printf("scenes:\n");
+    for (const char *const *n = sim_scene_names(); *n; n++) {
+        const sim_scene *s = sim_scene_find(*n);
+        char fx[160];
+        printf("  %-10s %s [%s]\n", *n, sim_scene_description(s), sim_effects_str(sim_scene_effects(s), fx, sizeof fx));
+    }
+    printf("head-motion traces:\n");
+    for (const char *const *n = sim_trace_names(); *n; n++) printf("  %s\n", *n);
+}
+
+static bool shorthand(rt_config *c, const char *key, const char *val, rt_config_errors *err)
+{
+    char buf[512];
+    snprintf(buf, sizeof buf, "%s=%s", key, val);
+    return rt_config_set(c, buf, err);
+}
+
+int main(int argc, char **argv)
+{
+    rt_config cfg;
+    rt_config_defaults(&cfg);
+    rt_config_errors err = {0};
+    const char *config = NULL;
+    bool check = false;
+
+    /* Load the config file first so that command-line overrides apply on top of it, whatever their order. */
+    for (int i = 1; i < argc; i++)
+        if (strcmp(argv[i], "--config") == 0 && i + 1 < argc) config = argv[++i];
+    if (!config) {
+        FILE *f = fopen("board/sim/board.ini", "r");
+        if (f) {
+            fclose(f);
+            config = "board/sim/board.ini";
+        }
+    }
+    if (config) rt_config_load(&cfg, config, &err);
+
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        const char *v = i + 1 < argc ? argv[i + 1] : NULL;
+        if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
+            usage(stdout);
+            return 0;
+        } else if (strcmp(a, "--list") == 0) {
+            list();
+            return 0;
+        } else if (strcmp(a, "--check-config") == 0) {
+            check = true;
+        } else if (strcmp(a, "--config") == 0 && v) {
+            i++;
+        } else if (strcmp(a, "--set") == 0 && v) {
+            rt_config_set(&cfg, v, &err);
+            i++;
+        } else if (strcmp(a, "--duration") == 0 && v) {
+            shorthand(&cfg, "sim.duration_s", v, &err);
+            i++;
+        } else if (strcmp(a, "--scene") == 0 && v) {
+            shorthand(&cfg, "sim.scene", v, &err);
+            i++;
+        } else if (strcmp(a, "--trace") == 0 && v) {
+            shorthand(&cfg, "sim.trace", v, &err);
+            i++;
+        } else if (strcmp(a, "--method") == 0 && v) {
+            shorthand(&cfg, "warp.method", v, &err);
+            i++;
+        } else if (strcmp(a, "--csv") == 0 && v) {
+            shorthand(&cfg, "telemetry.csv", v, &err);
+            i++;
+        } else {
+            fprintf(stderr, "hmdwarpd: unknown or incomplete option '%s' (see --help)\n", a);
+            return 2;
+        }
+    }
+    if (!err.count) rt_config_validate(&cfg, &err);
+    if (err.count) {
+        for (int i = 0; i < err.count && i < 16; i++) fprintf(stderr, "hmdwarpd: config error: %s\n", err.msg[i]);
+        if (err.count > 16) fprintf(stderr, "hmdwarpd: ... and %d more\n", err.count - 16);
+        return 2;
+    }
+    if (check) {
+        printf("; %s: valid\n", config ? config : "built-in defaults");
+        rt_config_print(&cfg, stdout);
+        return 0;
+    }
+
+    char msg[512];
+    if (!rt_app_init(&app, &cfg, msg, sizeof msg)) {
+        fprintf(stderr, "hmdwarpd: %s\n", msg);
+        rt_app_free(&app);
+        return 1;
+    }
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_signal;
+    sigaction(SIGINT, &sa, NULL);
+    sigaction(SIGTERM, &sa, NULL);
+    printf("hmdwarpd: board '%s', scene '%s', trace '%s', method %s, %s\n", cfg.board_name, cfg.scene, cfg.trace,
+           rt_method_name(cfg.method),
+           cfg.duration_s > 0 ? "running" : "running until Ctrl-C");
+    fflush(stdout);
+    rt_app_run(&app);
+    rt_app_summary(&app, stdout);
+    rt_app_free(&app);
     return 0;
 }

@@ -84,6 +84,8 @@ static const keydef keys[] = {
     {"sim", "host_latency_ms", K_DOUBLE, F(host_latency_ms), 0, 0, 1000, NULL,
      "simulated transport latency after each host render"},
     {"sim", "host_threads", K_INT, F(host_threads), 0, 1, 16, NULL, "threads the simulated host renders with"},
+    {"sim", "imu_rest_s", K_DOUBLE, F(imu_rest_s), 0, 0, 60, NULL,
+     "seconds the simulated headset lies still before the head motion starts (the tracker learns gyro bias)"},
     {"sim", "gyro_noise", K_DOUBLE, F(gyro_noise), 0, 0, 10, NULL, "simulated gyro noise, rad/s rms"},
     {"sim", "gyro_bias", K_DLIST, F(gyro_bias), 3, -10, 10, NULL, "simulated gyro bias x y z, rad/s"},
     {"sim", "accel_noise", K_DOUBLE, F(accel_noise), 0, 0, 100, NULL, "simulated accelerometer noise, m/s^2 rms"},
@@ -135,6 +137,7 @@ void rt_config_defaults(rt_config *c)
     c->host_latency_ms = 4;
     c->host_threads = 1;
     c->imu_rate_hz = 1000;
+    c->imu_rest_s = 1.0;
     c->gyro_noise = 0.005;
     c->gyro_bias[0] = 0.01; c->gyro_bias[1] = -0.007; c->gyro_bias[2] = 0.004;
     c->accel_noise = 0.05;

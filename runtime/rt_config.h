@@ -51,6 +51,7 @@ typedef struct {
     double host_latency_ms;     /* transport latency added after the simulated render */
     int host_threads;           /* threads the simulated host renders with */
     double imu_rate_hz;
+    double imu_rest_s;          /* the simulated headset lies still this long before the motion starts */
     double gyro_noise, gyro_bias[3], accel_noise;
     double eval_every_ms;       /* accuracy sample period; 0 = off */
     /* [telemetry] */

@@ -17,10 +17,14 @@ typedef struct {
     double still_gyro;       /* rad/s: below this (after bias) with a steady accelerometer the head counts as still */
     double still_time;       /* seconds of stillness before the gyro mean is learned as bias (all three axes) */
     double max_prediction;   /* seconds: predictions further ahead are clamped (angular velocity only) */
+    warp_vec3 lever_arm;     /* head-frame vector from the rotation centre (neck pivot) to the IMU, metres: the
+                              * accelerometer's share of the head's rotation (w x (w x r) + a x r) is removed */
+    double max_centripetal;  /* m/s^2: no tilt correction while w^2 |r| exceeds this (compensation too uncertain) */
 } rt_fusion_params;
 
 /* Defaults: tilt_gain 0.5, bias_gain 0.02, accel_tolerance 1.0, still_gyro 0.05, still_time 0.5,
- * max_prediction 0.1. */
+ * max_prediction 0.1, lever_arm 0 (the IMU at the rotation centre; the runtime sets it from its neck model),
+ * max_centripetal 2.0. */
 rt_fusion_params rt_fusion_default_params(void);
 
 typedef struct {
@@ -54,8 +58,10 @@ typedef struct {
     /* writer-only state */
     rt_fusion_state cur;
     bool have_sample;
+    bool bias_known;         /* a stillness period has measured the gyro bias at least once */
     double still_for;        /* seconds the head has been still */
     warp_vec3 still_mean;    /* running mean of raw gyro while still */
+    warp_vec3 alpha;         /* low-passed angular acceleration, head frame, rad/s^2 */
     double still_n;
     _Atomic uint64_t rejected[RT_FUSION_ERR_COUNT];
     /* published history */

@@ -28,7 +28,7 @@ bool sim_trace_init(sim_trace *tr, const char *name, uint64_t seed);
 const char *const *sim_trace_names(void); /* NULL-terminated */
 const char *sim_trace_name(const sim_trace *tr);
 
-/* True head orientation (world_from_head) at time t seconds (t >= 0). */
+/* True head orientation (world_from_head) at time t seconds. For t < 0 the head rests at its t = 0 orientation. */
 warp_quat sim_trace_orientation(const sim_trace *tr, double t);
 /* Head pose through the trace's neck model (warp_head_pose_from_orientation). */
 warp_pose sim_trace_head_pose(const sim_trace *tr, double t);
@@ -44,6 +44,7 @@ typedef struct {
     double accel_noise;    /* m/s^2 rms per sample */
     warp_vec3 accel_bias;  /* m/s^2 */
     uint64_t seed;
+    double t_start;        /* time of sample 0, seconds; negative: the IMU runs while the head still rests */
 } sim_imu_params;
 
 /* Defaults: 1 kHz, gyro noise 0.005 rad/s, gyro bias (0.01, -0.007, 0.004) rad/s, accel noise 0.05 m/s^2. */
@@ -55,7 +56,7 @@ typedef struct {
     warp_vec3 accel;   /* head frame specific force, m/s^2: reads (0, +9.81, 0) when upright and at rest */
 } sim_imu_sample;
 
-/* Sample number `index` (t = index / rate_hz). Stateless and deterministic: noise comes from a counter-based
+/* Sample number `index` (t = t_start + index / rate_hz). Stateless and deterministic: noise comes from a counter-based
  * generator keyed by (seed, index), so any thread can produce any sample. */
 void sim_imu_sample_at(const sim_trace *tr, const sim_imu_params *p, uint64_t index, sim_imu_sample *out);
 

@@ -177,7 +177,10 @@ void warp_raytrace_rows(const warp_raytrace_setup *s, warp_image_rgba8 *dst, war
                     /* Regula falsi (Illinois) between the last sample in front of the surface and the first one
                      * behind it: the hit lands between samples, not on the step grid. */
                     int side = 0;
-                    for (int it = 0; it < s->p.refine_iters; it++) {
+                    /* Refining a bracket that already spans under 1/64 pixel cannot move the hit visibly: most
+                     * rays of a small head translation stop here after one step. */
+                    const double epx = sqrt(ex * ex + ey * ey);
+                    for (int it = 0; it < s->p.refine_iters && fabs(db - da) * epx > 1.0 / 64; it++) {
                         double dm = da + (db - da) * (-fa) / (fb - fa);
                         float sm = inv_at(dimg, (float)(pix + dm * ex), (float)(piy + dm * ey));
                         double fm = sm - dm;
@@ -193,7 +196,11 @@ void warp_raytrace_rows(const warp_raytrace_setup *s, warp_image_rgba8 *dst, war
                             side = 1;
                         }
                     }
-                    da = fb - fa != 0 ? da + (db - da) * (-fa) / (fb - fa) : db;
+                    /* Without refinement the hit is the first sample behind the surface, as in 003 eq. 10. */
+                    if (s->p.refine_iters > 0)
+                        da = fb - fa != 0 ? da + (db - da) * (-fa) / (fb - fa) : db;
+                    else
+                        da = db;
                 }
             }
             float hx = (float)(pix + da * ex), hy = (float)(piy + da * ey);

@@ -14,7 +14,8 @@ typedef enum {
 
 typedef struct {
     int max_steps;      /* step budget per ray; the search takes one step per source pixel (003 eq. 10) up to it */
-    int refine_iters;   /* regula-falsi iterations after the bracketing step: makes the hit sub-pixel accurate */
+    int refine_iters;   /* regula-falsi iterations after the bracketing step: makes the hit sub-pixel accurate;
+                         * 0 = the plain linear search of 003 eq. 10 (hit at the first sample behind) */
     warp_edge_fill edge_fill;
     float edge_jump;    /* relative inverse-depth jump across one step that counts as an occlusion edge */
 } warp_raytrace_params;

@@ -1,0 +1,359 @@
+/* rt_app: one hmdwarpd instance: devices chosen by board.ini, the IMU, frames, compositor and helper threads, and
+ * the run summary. hmdwarpd_main parses arguments; tests drive an instance directly. */
+#include "runtime/rt_app.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "drivers/drv_sim.h"
+#include "platform/plat_clock.h"
+#include "warp/warp_resample.h"
+
+static bool predict_for_host(void *ctx, int64_t t_ns, warp_pose *head)
+{
+    rt_app *a = ctx;
+    warp_quat q;
+    if (!rt_fusion_at(a->fusion, t_ns, &q)) return false;
+    *head = warp_head_pose_from_orientation(&a->head, q);
+    return true;
+}
+
+static bool fail(char *err, int errlen, const char *fmt, const char *a1, const char *a2)
+{
+    snprintf(err, (size_t)errlen, fmt, a1, a2);
+    return false;
+}
+
+static void names_list(const char *const *names, char *buf, size_t len)
+{
+    buf[0] = 0;
+    for (int i = 0; names[i]; i++) {
+        strncat(buf, i ? ", " : "", len - strlen(buf) - 1);
+        strncat(buf, names[i], len - strlen(buf) - 1);
+    }
+}
+
+bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen)
+{
+    memset(a, 0, sizeof *a);
+    a->cfg = *cfg;
+    const rt_config *c = &a->cfg;
+    char list[512];
+
+    /* The simulated board's scene and motion (also the only device set in this build). */
+    a->scene = sim_scene_find(c->scene);
+    if (!a->scene) {
+        names_list(sim_scene_names(), list, sizeof list);
+        return fail(err, errlen, "[sim] scene = '%s': unknown scene (available: %s)", c->scene, list);
+    }
+    if (!sim_trace_init(&a->trace, c->trace, c->seed)) {
+        names_list(sim_trace_names(), list, sizeof list);
+        return fail(err, errlen, "[sim] trace = '%s': unknown trace (available: %s)", c->trace, list);
+    }
+
+    a->head = warp_head_default();
+    a->head.ipd = c->ipd;
+    a->trace.head.ipd = c->ipd;
+    int vw = c->panel_w / 2;
+    for (int e = 0; e < 2; e++) {
+        a->eye_cam[e] = rt_config_eye_camera(c, e);
+        a->lens[e] = rt_config_lens(c, e);
+        if (!warp_mesh_init(&a->mesh[e], c->mesh_n, &a->lens[e], e * vw, 0, vw, c->panel_h))
+            return fail(err, errlen, "%s%s: cannot allocate the distortion mesh", "[lens] mesh", "");
+    }
+    if (!plat_swapchain_init(&a->sc, 3, c->panel_w, c->panel_h))
+        return fail(err, errlen, "cannot allocate the swapchain (%s%s)", "[display] width/height", "");
+    a->workers = plat_workers_create(c->threads - 1, c->rt_priority);
+    if (!a->workers) return fail(err, errlen, "cannot start %s%s", "compositor worker threads", "");
+    a->rt_params = warp_raytrace_default_params();
+    a->rt_params.max_steps = c->raytrace_steps;
+    a->rt_params.edge_fill = (warp_edge_fill)c->edge_fill;
+    a->rt_params.edge_jump = (float)c->edge_jump;
+    if (c->method == RT_METHOD_RAYTRACE)
+        for (int e = 0; e < 2; e++)
+            if (!warp_image_rgba8_alloc(&a->inter[e], c->eye_w, c->eye_h) ||
+                !warp_planar3_alloc(&a->inter_planar[e], c->eye_w, c->eye_h))
+                return fail(err, errlen, "cannot allocate %s%s", "raytrace buffers", "");
+
+    a->fusion = calloc(1, sizeof *a->fusion);
+    a->tel = rt_telemetry_create();
+    if (!a->fusion || !a->tel) return fail(err, errlen, "%s%s", "out of memory", "");
+    rt_fusion_params fp = rt_fusion_default_params();
+    fp.lever_arm = a->head.neck_to_eye; /* the IMU sits between the eyes, on the neck model's lever arm */
+    rt_fusion_init(a->fusion, &fp);
+
+    /* Devices. Scene time 0 lies a little in the future, after the simulated headset's rest at boot, so every
+     * thread is up and the tracker has learned the gyro bias when the head starts moving. */
+    a->t0_ns = plat_now_ns() + 50 * PLAT_NS_PER_MS + (int64_t)(c->imu_rest_s * 1e9);
+    if (c->duration_s > 0) a->t_end_ns = a->t0_ns + (int64_t)(c->duration_s * 1e9);
+    sim_imu_params ip = sim_imu_default_params();
+    ip.rate_hz = c->imu_rate_hz;
+    ip.gyro_noise = c->gyro_noise;
+    ip.gyro_bias = warp_v3(c->gyro_bias[0], c->gyro_bias[1], c->gyro_bias[2]);
+    ip.accel_noise = c->accel_noise;
+    ip.seed = c->seed;
+    ip.t_start = -c->imu_rest_s;
+    a->imu = drv_imu_sim_create(&a->trace, &ip, a->t0_ns);
+    a->vsync = drv_vsync_sim_create(c->refresh_hz, a->t0_ns);
+    drv_frames_sim_params sp;
+    memset(&sp, 0, sizeof sp);
+    sp.scene = a->scene;
+    sp.cam[0] = a->eye_cam[0];
+    sp.cam[1] = a->eye_cam[1];
+    sp.head = a->head;
+    sp.rate_hz = c->host_rate_hz;
+    sp.latency_ms = c->host_latency_ms;
+    sp.threads = c->host_threads;
+    sp.t0_ns = a->t0_ns;
+    sp.poses.predict = predict_for_host;
+    sp.poses.ctx = a;
+    /* The warps of this build use colour and depth; ids, motion and layers would be rendered for nothing. */
+    sp.planes_wanted = DRV_PLANE_COLOR | DRV_PLANE_DEPTH;
+    a->frames = drv_frames_sim_create(&sp);
+    if (!a->imu || !a->vsync || !a->frames) return fail(err, errlen, "cannot create the %s%s", "simulated devices", "");
+    if (!rt_frameq_init(&a->fq, c->eye_w, c->eye_h, drv_frames_planes(a->frames), 4))
+        return fail(err, errlen, "cannot allocate %s%s", "the frame slots", "");
+
+    if (strcmp(c->sink, "null") == 0) {
+        a->display = plat_display_null();
+    } else {
+        char e2[300];
+        a->display = plat_display_files(c->sink, c->sink_path, c->sink_every, e2, sizeof e2);
+        if (!a->display) return fail(err, errlen, "[display] sink = %s: %s", c->sink, e2);
+    }
+    if (!a->display) return fail(err, errlen, "%s%s", "out of memory", "");
+
+    if (!rt_ring_init(&a->eval_ring, sizeof(rt_eval_record), 64))
+        return fail(err, errlen, "%s%s", "out of memory", "");
+    if (c->csv[0]) {
+        a->csv = fopen(c->csv, "w");
+        if (!a->csv) return fail(err, errlen, "[telemetry] csv = %s: %s", c->csv, strerror(errno));
+        fprintf(a->csv, "vsync,vsync_ns,frame_seq,method,warp_ms,missed,m2p_ms,frame_age_ms\n");
+        if (!rt_ring_init(&a->csv_ring, sizeof(rt_csv_row), 8192))
+            return fail(err, errlen, "%s%s", "out of memory", "");
+    }
+    return true;
+}
+
+static void *imu_thread(void *arg)
+{
+    rt_app *a = arg;
+    plat_thread_set_name("hmdwarp-imu");
+    /* Just below the compositor: late IMU samples are late photons. */
+    if (a->cfg.rt_priority > 1) plat_thread_set_realtime(a->cfg.rt_priority - 1);
+    drv_imu_sample buf[64];
+    while (!atomic_load_explicit(&a->stop, memory_order_relaxed)) {
+        int n = drv_imu_read(a->imu, buf, 64, 50);
+        if (n < 0) {
+            atomic_fetch_add(&a->tel->imu_read_errors, 1);
+            plat_sleep_ns(100 * PLAT_NS_PER_MS); /* device gone: keep the last orientation and retry */
+            continue;
+        }
+        for (int i = 0; i < n; i++) rt_fusion_update(a->fusion, &buf[i]);
+        atomic_fetch_add_explicit(&a->tel->imu_samples, (uint64_t)n, memory_order_relaxed);
+    }
+    return NULL;
+}
+
+/* Everything derived from a frame is computed here, once per host frame, not once per vsync. */
+static drv_frame_err prepare_frame(rt_frame *s)
+{
+    drv_frame_err e = drv_frame_validate(&s->f);
+    if (e != DRV_FRAME_OK) return e;
+    s->has_depth = (s->f.planes & DRV_PLANE_DEPTH) != 0;
+    for (int eye = 0; eye < 2; eye++) {
+        if (s->has_depth) {
+            long bad = warp_inverse_depth_from(&s->f.cam[eye], s->f.depth_encoding, &s->f.depth[eye],
+                                               &s->inv_depth[eye], &s->inv_min[eye], &s->inv_max[eye]);
+            if (bad) return DRV_FRAME_ERR_BAD_DEPTH;
+        }
+        warp_planar3_from_rgba_rows(&s->planar[eye], &s->f.color[eye], 0, s->f.color[eye].h);
+    }
+    return DRV_FRAME_OK;
+}
+
+static void *frames_thread(void *arg)
+{
+    rt_app *a = arg;
+    plat_thread_set_name("hmdwarp-frames");
+    while (!atomic_load_explicit(&a->stop, memory_order_relaxed)) {
+        rt_frame *slot = rt_frameq_back(&a->fq);
+        int rc = drv_frames_receive(a->frames, &slot->f, 50);
+        if (rc == 0) continue;
+        drv_frame_err e = rc < 0 ? (drv_frame_err)(-rc) : prepare_frame(slot);
+        if (e != DRV_FRAME_OK) {
+            /* Rejected: counted, and the compositor keeps warping the last good frame. */
+            if (e < 0 || e >= DRV_FRAME_ERR_COUNT) e = DRV_FRAME_ERR_IO;
+            atomic_fetch_add(&a->tel->frames_rejected[e], 1);
+            continue;
+        }
+        rt_hist_add(&a->tel->host_render_ms, (double)(slot->f.received_ns - slot->f.render_start_ns) * 1e-6);
+        atomic_fetch_add(&a->tel->frames_received, 1);
+        rt_frameq_publish(&a->fq);
+    }
+    return NULL;
+}
+
+static void drain_csv(rt_app *a)
+{
+    rt_csv_row r;
+    while (rt_ring_pop(&a->csv_ring, &r))
+        fprintf(a->csv, "%llu,%lld,%llu,%s,%.3f,%d,%.3f,%.3f\n", (unsigned long long)r.vsync_no, (long long)r.vsync_ns,
+                (unsigned long long)r.frame_seq, rt_method_name((rt_method)r.method), r.warp_ms, r.missed, r.m2p_ms,
+                r.frame_age_ms);
+}
+
+static void *aux_thread(void *arg)
+{
+    rt_app *a = arg;
+    plat_thread_set_name("hmdwarp-aux");
+    /* CSV rows are written here, away from the vsync path; then accuracy evaluation once the run is over if the
+     * idle-priority evaluator could not keep up. */
+    while (!atomic_load(&a->stop)) {
+        if (a->csv) drain_csv(a);
+        plat_sleep_ns(20 * PLAT_NS_PER_MS);
+    }
+    if (a->csv) drain_csv(a);
+    return NULL;
+}
+
+void rt_app_request_stop(rt_app *a) { atomic_store(&a->stop, 1); }
+
+void rt_app_run(rt_app *a)
+{
+    pthread_t eval_th;
+    bool eval_up = a->cfg.eval_every_ms > 0 && pthread_create(&eval_th, NULL, rt_eval_thread, a) == 0;
+    a->th_imu_up = pthread_create(&a->th_imu, NULL, imu_thread, a) == 0;
+    a->th_frames_up = pthread_create(&a->th_frames, NULL, frames_thread, a) == 0;
+    a->th_aux_up = pthread_create(&a->th_aux, NULL, aux_thread, a) == 0;
+    plat_thread_set_name("hmdwarp-vsync");
+    a->realtime = a->cfg.rt_priority > 0 && plat_thread_set_realtime(a->cfg.rt_priority);
+    rt_compositor_run(a);
+    atomic_store(&a->stop, 1);
+    if (a->th_imu_up) pthread_join(a->th_imu, NULL);
+    if (a->th_frames_up) pthread_join(a->th_frames, NULL);
+    if (a->th_aux_up) pthread_join(a->th_aux, NULL);
+    if (eval_up) pthread_join(eval_th, NULL);
+    drv_frames_sim_stats st;
+    drv_frames_sim_stats_get(a->frames, &st);
+    a->sim_frames = st.frames;
+    memcpy(a->sim_plane_renders, st.plane_renders, sizeof st.plane_renders);
+}
+
+static void pct_line(FILE *out, const char *label, const rt_hist *h)
+{
+    if (!h->count)
+        fprintf(out, "  %-26s -\n", label);
+    else
+        fprintf(out, "  %-26s p50 %6.2f ms   p99 %6.2f ms   max %6.2f ms   (%llu)\n", label, rt_hist_pct(h, 50),
+                rt_hist_pct(h, 99), h->max, (unsigned long long)h->count);
+}
+
+void rt_app_summary(rt_app *a, FILE *out)
+{
+    const rt_config *c = &a->cfg;
+    const rt_telemetry *t = a->tel;
+    char buf[400];
+    double secs = (double)t->vsyncs / c->refresh_hz;
+    fprintf(out, "\nhmdwarpd summary — board '%s', scene '%s', head motion '%s', %.1f s\n", c->board_name, c->scene,
+            c->trace, secs);
+    fprintf(out, "  renderer                   cpu (%s kernel, %d threads, %s), warp method %s\n",
+            warp_resample_kernel(), plat_workers_threads(a->workers),
+            a->realtime ? "SCHED_FIFO" : "normal priority", rt_method_name(c->method));
+    fprintf(out, "  panel                      %dx%d at %.0f Hz, eye buffers %dx%d, lens mesh %dx%d\n", c->panel_w,
+            c->panel_h, c->refresh_hz, c->eye_w, c->eye_h, c->mesh_n, c->mesh_n);
+    fprintf(out, "display\n");
+    fprintf(out, "  vsyncs                     %llu, missed %llu (%.2f %%)%s\n", (unsigned long long)t->vsyncs,
+            (unsigned long long)t->missed, t->vsyncs ? 100.0 * (double)t->missed / (double)t->vsyncs : 0.0,
+            t->no_buffer ? " (some with no free swapchain image)" : "");
+    for (int m = 0; m < RT_METHOD_COUNT; m++)
+        if (t->method_count[m]) {
+            snprintf(buf, sizeof buf, "warp time (%s)", rt_method_name((rt_method)m));
+            pct_line(out, buf, &t->warp_ms[m]);
+        }
+    if (a->raytrace_fallbacks)
+        fprintf(out, "  raytrace fallbacks         %llu vsyncs used rotation: the frame had no depth\n",
+                (unsigned long long)a->raytrace_fallbacks);
+    pct_line(out, "motion-to-photon", &t->m2p_ms);
+    pct_line(out, "frame age at photon time", &t->frame_age_ms);
+    a->display->describe(a->display, buf, sizeof buf);
+    fprintf(out, "  output                     %s\n", buf);
+    fprintf(out, "host frames\n");
+    uint64_t rejected = 0;
+    for (int e = 1; e < DRV_FRAME_ERR_COUNT; e++) rejected += t->frames_rejected[e];
+    fprintf(out, "  received                   %llu (%.1f Hz), shown %llu, dropped unseen %llu, rejected %llu\n",
+            (unsigned long long)t->frames_received, secs > 0 ? (double)t->frames_received / secs : 0.0,
+            (unsigned long long)t->new_frames_shown, (unsigned long long)t->frames_dropped,
+            (unsigned long long)rejected);
+    for (int e = 1; e < DRV_FRAME_ERR_COUNT; e++)
+        if (t->frames_rejected[e])
+            fprintf(out, "    rejected as %-13s %llu\n", drv_frame_err_str((drv_frame_err)e),
+                    (unsigned long long)t->frames_rejected[e]);
+    pct_line(out, "host render + transport", &t->host_render_ms);
+    static const char *const plane_names[5] = {"color", "depth", "ids", "motion", "layers"};
+    buf[0] = 0;
+    for (int p = 0; p < 5; p++) {
+        char one[48];
+        snprintf(one, sizeof one, "%s%s %llu", p ? ", " : "", plane_names[p], (unsigned long long)a->sim_plane_renders[p]);
+        strncat(buf, one, sizeof buf - strlen(buf) - 1);
+    }
+    char fx[160];
+    fprintf(out, "  planes rendered            %s (scene effects: %s)\n", buf,
+            sim_effects_str(sim_scene_effects(a->scene), fx, sizeof fx));
+    fprintf(out, "tracking\n");
+    fprintf(out, "  IMU samples                %llu (%.0f Hz), rejected %llu, read errors %llu\n",
+            (unsigned long long)t->imu_samples, secs > 0 ? (double)t->imu_samples / secs : 0.0,
+            (unsigned long long)(rt_fusion_rejected(a->fusion, RT_FUSION_BAD_VALUE) +
+                                 rt_fusion_rejected(a->fusion, RT_FUSION_TIME_REPEAT) +
+                                 rt_fusion_rejected(a->fusion, RT_FUSION_TIME_JUMP)),
+            (unsigned long long)t->imu_read_errors);
+    rt_fusion_state st;
+    if (rt_fusion_latest(a->fusion, &st)) {
+        double ts = (double)(st.t_ns - a->t0_ns) * 1e-9;
+        warp_quat truth = sim_trace_orientation(&a->trace, ts);
+        fprintf(out, "  orientation error at end   %.3f deg (gyro bias estimate %.4f %.4f %.4f rad/s)\n",
+                warp_quat_angle_between(truth, st.q) * 180 / WARP_PI, st.bias.x, st.bias.y, st.bias.z);
+    }
+    if (c->eval_every_ms > 0) {
+        fprintf(out, "accuracy vs ground truth     left eye at photon time, before the lens; %d frames sampled\n",
+                a->eval[RT_EVAL_NONE].n);
+        const rt_eval_pose *pe = &a->eval_pose;
+        if (pe->n)
+            fprintf(out, "  pose error at photon time  mean %.3f deg / %.2f mm, max %.3f deg / %.2f mm "
+                         "(prediction and tracking; no warp can fix it)\n",
+                    pe->angle_sum / pe->n, pe->pos_sum / pe->n, pe->angle_max, pe->pos_max);
+        fprintf(out, "  %-26s %9s %9s %8s %12s\n", "method", "PSNR dB", "min dB", "SSIM", "error px %");
+        static const char *const names[RT_EVAL_METHODS] = {"no warp", "rotation (003 §3.4)", "raytrace (003 §3.5)"};
+        for (int m = 0; m < RT_EVAL_METHODS; m++) {
+            const rt_eval_acc *e = &a->eval[m];
+            if (!e->n) continue;
+            fprintf(out, "  %-26s %9.2f %9.2f %8.4f %12.3f\n", names[m], e->psnr_sum / e->n, e->psnr_min,
+                    e->ssim_sum / e->n, e->err_sum / e->n);
+        }
+    }
+    if (a->csv) fprintf(out, "per-vsync CSV                %s\n", c->csv);
+}
+
+void rt_app_free(rt_app *a)
+{
+    drv_imu_destroy(a->imu);
+    drv_frames_destroy(a->frames);
+    drv_vsync_destroy(a->vsync);
+    plat_display_destroy(a->display);
+    if (a->workers) plat_workers_destroy(a->workers);
+    for (int e = 0; e < 2; e++) {
+        warp_mesh_free(&a->mesh[e]);
+        warp_image_free(&a->inter[e]);
+        warp_planar3_free(&a->inter_planar[e]);
+    }
+    plat_swapchain_free(&a->sc);
+    rt_frameq_free(&a->fq);
+    rt_ring_free(&a->eval_ring);
+    rt_ring_free(&a->csv_ring);
+    if (a->csv) fclose(a->csv);
+    free(a->fusion);
+    rt_telemetry_destroy(a->tel);
+    memset(a, 0, sizeof *a);
+}

@@ -1,0 +1,127 @@
+/* rt_app: one hmdwarpd instance: devices chosen by board.ini, the IMU, frames, compositor and helper threads, and
+ * the run summary. hmdwarpd_main parses arguments; tests drive an instance directly. */
+#ifndef RT_APP_H
+#define RT_APP_H
+
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdbool.h>
+#include <stdio.h>
+
+#include "drivers/drv_frames.h"
+#include "drivers/drv_imu.h"
+#include "drivers/drv_vsync.h"
+#include "platform/plat_display.h"
+#include "platform/plat_workers.h"
+#include "runtime/rt_config.h"
+#include "runtime/rt_frameq.h"
+#include "runtime/rt_fusion.h"
+#include "runtime/rt_ring.h"
+#include "runtime/rt_telemetry.h"
+#include "sim/sim_scene.h"
+#include "sim/sim_trace.h"
+#include "warp/warp_head.h"
+#include "warp/warp_lens.h"
+#include "warp/warp_mesh.h"
+#include "warp/warp_raytrace.h"
+
+/* What the compositor hands the accuracy evaluator about one displayed frame (simulated board only). */
+typedef struct {
+    uint64_t vsync_no, frame_seq;
+    double src_scene_time;     /* the scene time the host rendered */
+    double photon_scene_time;  /* when the warped frame is seen */
+    warp_pose src_eye;         /* left eye pose the frame was rendered with */
+    warp_pose shown_eye;       /* left eye pose the compositor warped to (the prediction) */
+    int method;
+} rt_eval_record;
+
+/* How far the pose the compositor warped to was from the true pose at photon time: the error no warp can fix. */
+typedef struct {
+    int n;
+    double angle_sum, angle_max;  /* degrees */
+    double pos_sum, pos_max;      /* millimetres */
+} rt_eval_pose;
+
+/* Accuracy of one method over the evaluated frames (left eye, before lens distortion, vs ground truth). */
+typedef struct {
+    int n;
+    double psnr_sum, ssim_sum, err_sum; /* err: error-pixel % (002 §4) */
+    double psnr_min;
+} rt_eval_acc;
+
+enum { RT_EVAL_NONE, RT_EVAL_ROTATION, RT_EVAL_RAYTRACE, RT_EVAL_METHODS };
+
+/* One CSV row per vsync, produced on the vsync path and written by the telemetry thread. */
+typedef struct {
+    uint64_t vsync_no, frame_seq;
+    int64_t vsync_ns;
+    float warp_ms, m2p_ms, frame_age_ms;
+    int method;
+    int missed;
+} rt_csv_row;
+
+typedef struct {
+    rt_config cfg;
+    int64_t t0_ns;         /* scene time origin (simulated board) */
+    int64_t t_end_ns;      /* 0 = run until stopped */
+    _Atomic int stop;
+
+    /* devices */
+    drv_imu *imu;
+    drv_frames *frames;
+    drv_vsync *vsync;
+    plat_display *display;
+
+    /* tracking and frames */
+    rt_fusion *fusion;
+    rt_frameq fq;
+    warp_head head;
+
+    /* compositor */
+    warp_camera eye_cam[2];
+    warp_lens lens[2];
+    warp_mesh mesh[2];
+    plat_swapchain sc;
+    plat_workers *workers;
+    warp_raytrace_params rt_params;
+    warp_image_rgba8 inter[2];  /* raytrace output in eye space, before the lens pass */
+    warp_planar3 inter_planar[2];
+    bool realtime;              /* compositor got SCHED_FIFO */
+    uint64_t raytrace_fallbacks; /* raytrace requested but the frame had no depth */
+
+    /* telemetry */
+    rt_telemetry *tel;
+    rt_ring csv_ring;
+    FILE *csv;
+
+    /* simulated board */
+    const sim_scene *scene;
+    sim_trace trace;
+    rt_ring eval_ring;
+    rt_eval_acc eval[RT_EVAL_METHODS];
+    rt_eval_pose eval_pose;
+    int eval_done;
+    uint64_t sim_plane_renders[5];
+    uint64_t sim_frames;
+
+    pthread_t th_imu, th_frames, th_aux;
+    bool th_imu_up, th_frames_up, th_aux_up;
+} rt_app;
+
+/* Opens devices and allocates everything the run needs (nothing is allocated after this on the vsync path).
+ * On failure returns false with a message naming the key or device in err. */
+bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen);
+/* Starts the IMU, frames and helper threads, then runs the compositor on the calling thread until the configured
+ * duration elapses or rt_app_request_stop() is called. */
+void rt_app_run(rt_app *a);
+void rt_app_request_stop(rt_app *a);
+/* Prints the run summary (see README "Reading the summary"). */
+void rt_app_summary(rt_app *a, FILE *out);
+void rt_app_free(rt_app *a);
+
+/* The compositor loop (rt_compositor.c). */
+void rt_compositor_run(rt_app *a);
+/* The accuracy evaluator (rt_eval.c): processes records until stop is set and the ring is empty. */
+void *rt_eval_thread(void *arg);
+
+#endif

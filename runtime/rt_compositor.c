@@ -1,0 +1,209 @@
+/* rt_compositor: the vsync-paced loop: just before each vsync it predicts the head pose at photon time, takes the
+ * newest host frame, warps and distorts it into a free swapchain image and presents it. No allocation, no I/O, no
+ * locks on this path. */
+#include <math.h>
+#include <string.h>
+
+#include "platform/plat_clock.h"
+#include "runtime/rt_app.h"
+#include "warp/warp_raytrace.h"
+#include "warp/warp_resample.h"
+
+#define TILE_W 128
+#define TILE_H 32
+#define BAND_H 16
+
+/* One vsync's work, shared with the worker threads. */
+typedef struct {
+    rt_app *a;
+    const rt_frame *frame;
+    warp_image_rgba8 *out;
+    const warp_planar3 *src[2];
+    int tiles_x[2], tiles_y[2];
+    warp_view views[2]; /* the raytrace setups point at these */
+    warp_raytrace_setup rts[2];
+    int bands;
+} job;
+
+static void resample_task(void *ctx, int task)
+{
+    job *j = ctx;
+    int per_eye = j->tiles_x[0] * j->tiles_y[0];
+    int e = task >= per_eye ? 1 : 0;
+    int t = task - e * per_eye;
+    const warp_mesh *m = &j->a->mesh[e];
+    int tx = t % j->tiles_x[e], ty = t / j->tiles_x[e];
+    int x0 = tx * TILE_W, y0 = ty * TILE_H;
+    int x1 = x0 + TILE_W < m->vp_w ? x0 + TILE_W : m->vp_w;
+    int y1 = y0 + TILE_H < m->vp_h ? y0 + TILE_H : m->vp_h;
+    warp_mesh_resample(m, j->src[e], j->out, x0, y0, x1, y1);
+}
+
+/* Raytrace one band of one eye into eye space, then deinterleave it for the lens pass. */
+static void raytrace_task(void *ctx, int task)
+{
+    job *j = ctx;
+    int e = task >= j->bands ? 1 : 0;
+    int b = task - e * j->bands;
+    rt_app *a = j->a;
+    int h = a->inter[e].h;
+    int y0 = b * BAND_H, y1 = y0 + BAND_H < h ? y0 + BAND_H : h;
+    warp_raytrace_rows(&j->rts[e], &a->inter[e], NULL, y0, y1, NULL);
+    warp_planar3_from_rgba_rows(&a->inter_planar[e], &a->inter[e], y0, y1);
+}
+
+static void run_resample(rt_app *a, job *j)
+{
+    for (int e = 0; e < 2; e++) {
+        j->tiles_x[e] = (a->mesh[e].vp_w + TILE_W - 1) / TILE_W;
+        j->tiles_y[e] = (a->mesh[e].vp_h + TILE_H - 1) / TILE_H;
+    }
+    plat_workers_run(a->workers, j->tiles_x[0] * j->tiles_y[0] + j->tiles_x[1] * j->tiles_y[1], resample_task, j);
+}
+
+/* Warps `frame` to the eye poses `eyes` into `out`. Returns the method actually used. */
+static rt_method compose(rt_app *a, job *j, const rt_frame *frame, const warp_pose eyes[2], rt_method method)
+{
+    j->frame = frame;
+    if (method == RT_METHOD_RAYTRACE && !frame->has_depth) {
+        /* The host sent no depth (a rotation-only scene): nothing to raytrace against. */
+        a->raytrace_fallbacks++;
+        method = RT_METHOD_ROTATION;
+    }
+    if (method == RT_METHOD_RAYTRACE) {
+        bool ok = true;
+        for (int e = 0; e < 2 && ok; e++) {
+            j->views[e] = rt_frame_view(frame, e);
+            ok = warp_raytrace_prepare(&j->rts[e], &j->views[e], &frame->f.cam[e], eyes[e], &a->rt_params) == NULL;
+        }
+        if (ok) {
+            j->bands = (a->inter[0].h + BAND_H - 1) / BAND_H;
+            plat_workers_run(a->workers, 2 * j->bands, raytrace_task, j);
+            for (int e = 0; e < 2; e++) {
+                warp_mesh_update(&a->mesh[e], &frame->f.cam[e], warp_quat_identity());
+                j->src[e] = &a->inter_planar[e];
+            }
+            run_resample(a, j);
+            return method;
+        }
+        method = RT_METHOD_ROTATION;
+    }
+    for (int e = 0; e < 2; e++) {
+        /* 003 §3.4: only orientations matter; NONE shows the frame as rendered, through the lens. */
+        warp_quat src_from_dst = method == RT_METHOD_ROTATION
+                                     ? warp_quat_mul(warp_quat_conj(frame->f.eye_pose[e].q), eyes[e].q)
+                                     : warp_quat_identity();
+        warp_mesh_update(&a->mesh[e], &frame->f.cam[e], src_from_dst);
+        j->src[e] = &frame->planar[e];
+    }
+    run_resample(a, j);
+    return method;
+}
+
+static void clear_image(warp_image_rgba8 *img)
+{
+    for (int y = 0; y < img->h; y++) memset(&WARP_AT(img, 0, y), 0, sizeof(warp_rgba8) * (size_t)img->w);
+}
+
+void rt_compositor_run(rt_app *a)
+{
+    rt_telemetry *tel = a->tel;
+    const rt_config *c = &a->cfg;
+    const int64_t photon_ns = (int64_t)(c->photon_offset_ms * 1e6);
+    const int64_t margin_ns = PLAT_NS_PER_MS / 2;
+    const int64_t eval_every = (int64_t)(c->eval_every_ms * 1e6);
+    int64_t next_eval = a->t0_ns + eval_every;
+    int64_t period = 0;
+    int64_t t_vs = drv_vsync_next(a->vsync, plat_now_ns() + 2 * PLAT_NS_PER_MS, &period);
+    /* Expected warp time: rises at once on a slow frame, decays slowly (like Monado's pacing, which backs off on
+     * a miss and creeps back otherwise). Starts at 20 % of the frame. */
+    int64_t warp_est = period / 5;
+    uint64_t vsync_no = 0, last_seq = 0;
+    job j;
+    memset(&j, 0, sizeof j);
+    j.a = a;
+
+    while (!atomic_load_explicit(&a->stop, memory_order_relaxed)) {
+        if (a->t_end_ns && t_vs > a->t_end_ns) break;
+        plat_sleep_until_ns(t_vs - warp_est - margin_ns);
+        int64_t t_start = plat_now_ns();
+
+        bool is_new = false;
+        const rt_frame *frame = rt_frameq_latest(&a->fq, &is_new);
+        if (is_new) {
+            if (last_seq && frame->f.seq > last_seq + 1) tel->frames_dropped += frame->f.seq - last_seq - 1;
+            last_seq = frame->f.seq;
+            tel->new_frames_shown++;
+        }
+
+        int idx = plat_swapchain_next(&a->sc);
+        int64_t t_photon = t_vs + photon_ns;
+        rt_fusion_state st;
+        bool tracked = rt_fusion_latest(a->fusion, &st);
+        warp_quat q = tracked ? rt_fusion_predict(a->fusion, &st, t_photon) : warp_quat_identity();
+        warp_pose head = warp_head_pose_from_orientation(&a->head, q);
+        warp_pose eyes[2] = {warp_head_eye_pose(&a->head, head, 0), warp_head_eye_pose(&a->head, head, 1)};
+
+        rt_method used = c->method;
+        if (idx < 0) {
+            tel->no_buffer++; /* every image is still being read: show the previous one again */
+        } else if (!frame) {
+            tel->no_frame++;
+            clear_image(&a->sc.img[idx]);
+        } else {
+            j.out = &a->sc.img[idx];
+            used = compose(a, &j, frame, eyes, c->method);
+        }
+        int64_t t_done = plat_now_ns();
+        int64_t dur = t_done - t_start;
+        bool missed = t_done > t_vs || idx < 0;
+        if (idx >= 0) {
+            plat_display_present(a->display, &a->sc, idx, t_vs, vsync_no);
+            a->sc.on_screen = idx;
+        }
+
+        tel->vsyncs++;
+        tel->missed += missed;
+        double warp_ms = (double)dur * 1e-6;
+        if (frame && idx >= 0) {
+            tel->method_count[used]++;
+            rt_hist_add(&tel->warp_ms[used], warp_ms);
+        }
+        rt_hist_add(&tel->late_ms, (double)(t_done - t_vs) * 1e-6 + 50.0);
+        double m2p = tracked ? (double)(t_photon - st.t_ns) * 1e-6 : NAN;
+        double age = frame ? (double)(t_photon - frame->f.pose_t_ns) * 1e-6 : NAN;
+        if (tracked) rt_hist_add(&tel->m2p_ms, m2p);
+        if (frame) rt_hist_add(&tel->frame_age_ms, age);
+        if (a->csv) {
+            rt_csv_row row = {vsync_no, frame ? frame->f.seq : 0, t_vs, (float)warp_ms, (float)m2p, (float)age,
+                              (int)used, missed};
+            rt_ring_push(&a->csv_ring, &row);
+        }
+        if (a->scene && eval_every > 0 && frame && t_vs >= next_eval) {
+            rt_eval_record r = {vsync_no, frame->f.seq, frame->f.scene_time,
+                                (double)(t_photon - a->t0_ns) * 1e-9, frame->f.eye_pose[0], eyes[0], (int)used};
+            rt_ring_push(&a->eval_ring, &r);
+            next_eval += eval_every;
+        }
+
+        if (dur > warp_est)
+            warp_est = dur + dur / 4;
+        else
+            warp_est -= (warp_est - dur) / 64;
+        if (warp_est > period - margin_ns) warp_est = period - margin_ns;
+
+        vsync_no++;
+        int64_t next = drv_vsync_next(a->vsync, t_vs, &period);
+        /* Overran a whole period: the vsyncs in between were not served. */
+        int64_t now = plat_now_ns();
+        if (next - warp_est - margin_ns < now) {
+            int64_t later = drv_vsync_next(a->vsync, now + warp_est, &period);
+            uint64_t skipped = period > 0 ? (uint64_t)((later - next) / period) : 0;
+            tel->vsyncs += skipped;
+            tel->missed += skipped;
+            vsync_no += skipped;
+            next = later;
+        }
+        t_vs = next;
+    }
+}

@@ -1,0 +1,83 @@
+/* rt_eval: accuracy of the simulated board against ground truth. For sampled vsyncs it re-renders the host's frame
+ * (the simulator is deterministic), renders the truth at the true photon-time pose and scores no warp, rotation
+ * reprojection and raytrace. Runs at idle priority, off the vsync path. */
+#include <math.h>
+#include <string.h>
+
+#include "platform/plat_clock.h"
+#include "runtime/rt_app.h"
+#include "warp/warp_metrics.h"
+#include "warp/warp_raytrace.h"
+#include "warp/warp_reproject.h"
+#include "warp/warp_view.h"
+
+static void score(rt_eval_acc *acc, const warp_image_rgba8 *img, const warp_image_rgba8 *truth)
+{
+    double p = warp_psnr(img, truth, NULL, 0);
+    if (isinf(p)) p = 99.0; /* identical: cap so averages stay finite */
+    double s = warp_ssim(img, truth, NULL, 0);
+    double e = warp_error_pixel_percent(img, truth, NULL, 0, 20.0);
+    if (!(p == p) || !(s == s) || !(e == e)) return;
+    if (acc->n == 0 || p < acc->psnr_min) acc->psnr_min = p;
+    acc->n++;
+    acc->psnr_sum += p;
+    acc->ssim_sum += s;
+    acc->err_sum += e;
+}
+
+void *rt_eval_thread(void *arg)
+{
+    rt_app *a = arg;
+    plat_thread_set_name("hmdwarp-eval");
+    plat_thread_set_idle();
+    const warp_camera *cam = &a->eye_cam[0];
+    sim_buffers src, truth;
+    warp_image_rgba8 out;
+    warp_image_f32 inv;
+    bool ok = sim_buffers_alloc(&src, cam->width, cam->height, SIM_PLANE_COLOR | SIM_PLANE_DEPTH, 1) &&
+              sim_buffers_alloc(&truth, cam->width, cam->height, SIM_PLANE_COLOR, 1) &&
+              warp_image_rgba8_alloc(&out, cam->width, cam->height) &&
+              warp_image_f32_alloc(&inv, cam->width, cam->height);
+    warp_raytrace_params rp = a->rt_params;
+    for (;;) {
+        rt_eval_record r;
+        if (!rt_ring_pop(&a->eval_ring, &r)) {
+            if (atomic_load(&a->stop)) break;
+            plat_sleep_ns(5 * PLAT_NS_PER_MS);
+            continue;
+        }
+        if (!ok) continue;
+        /* The frame as the host rendered it, and what the eye really saw at photon time. */
+        sim_render(a->scene, r.src_scene_time, r.src_eye, cam, SIM_PLANE_COLOR | SIM_PLANE_DEPTH, &src);
+        warp_pose true_head = sim_trace_head_pose(&a->trace, r.photon_scene_time);
+        warp_pose true_eye = warp_head_eye_pose(&a->head, true_head, 0);
+        sim_render(a->scene, r.photon_scene_time, true_eye, cam, SIM_PLANE_COLOR, &truth);
+        rt_eval_pose *pe = &a->eval_pose;
+        double ang = warp_quat_angle_between(true_eye.q, r.shown_eye.q) * 180 / WARP_PI;
+        double mm = warp_v3_norm(warp_v3_sub(true_eye.p, r.shown_eye.p)) * 1000;
+        pe->n++;
+        pe->angle_sum += ang;
+        pe->pos_sum += mm;
+        if (ang > pe->angle_max) pe->angle_max = ang;
+        if (mm > pe->pos_max) pe->pos_max = mm;
+
+        warp_view v = {*cam, r.src_eye, &src.color, &inv, 0, 0};
+        warp_inverse_depth_from(cam, WARP_DEPTH_LINEAR, &src.depth, &inv, &v.inv_depth_min, &v.inv_depth_max);
+
+        score(&a->eval[RT_EVAL_NONE], &src.color, &truth.color);
+        warp_mat3 h = warp_reproject_homography(&v, cam, r.shown_eye.q);
+        warp_reproject_rows(&v, &h, &out, NULL, 0, out.h);
+        score(&a->eval[RT_EVAL_ROTATION], &out, &truth.color);
+        warp_raytrace_setup s;
+        if (!warp_raytrace_prepare(&s, &v, cam, r.shown_eye, &rp)) {
+            warp_raytrace_rows(&s, &out, NULL, 0, out.h, NULL);
+            score(&a->eval[RT_EVAL_RAYTRACE], &out, &truth.color);
+        }
+        a->eval_done++;
+    }
+    sim_buffers_free(&src);
+    sim_buffers_free(&truth);
+    warp_image_free(&out);
+    warp_image_free(&inv);
+    return NULL;
+}
