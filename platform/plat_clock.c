@@ -6,6 +6,7 @@
 #include <pthread.h>
 #include <sched.h>
 #include <string.h>
+#include <sys/mman.h>
 #include <time.h>
 
 int64_t plat_now_ns(void)
@@ -48,6 +49,8 @@ bool plat_thread_set_idle(void)
     memset(&sp, 0, sizeof sp);
     return pthread_setschedparam(pthread_self(), SCHED_IDLE, &sp) == 0;
 }
+
+bool plat_lock_memory(void) { return mlockall(MCL_CURRENT | MCL_FUTURE) == 0; }
 
 void plat_thread_set_name(const char *name)
 {

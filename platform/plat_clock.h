@@ -21,6 +21,9 @@ int64_t plat_thread_cpu_ns(void);
 bool plat_thread_set_realtime(int prio);
 /* Lowest scheduling class (SCHED_IDLE): for work that must never take CPU from the display path. */
 bool plat_thread_set_idle(void);
+/* Locks current and future pages in RAM (mlockall) so the vsync path never waits on a page fault. False when not
+ * permitted (RLIMIT_MEMLOCK): the caller reports it. */
+bool plat_lock_memory(void);
 /* Names the calling thread (shows in top -H and in debuggers). */
 void plat_thread_set_name(const char *name);
 

@@ -9,6 +9,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <time.h>
 
 #include "platform/plat_png.h"
 
@@ -144,6 +145,15 @@ static void files_present(plat_display *d, plat_swapchain *sc, int index, int64_
     sem_post(&f->go); /* never blocks */
 }
 
+static void files_flush(plat_display *d)
+{
+    files_display *f = (files_display *)d;
+    while (atomic_load_explicit(&f->busy, memory_order_acquire)) {
+        struct timespec ts = {0, 1000000};
+        nanosleep(&ts, NULL);
+    }
+}
+
 static void files_describe(plat_display *d, char *buf, int len)
 {
     files_display *f = (files_display *)d;
@@ -213,6 +223,7 @@ plat_display *plat_display_files(const char *kind, const char *dir, int every, c
     }
     f->base.name = raw ? "raw" : "png";
     f->base.present = files_present;
+    f->base.flush = files_flush;
     f->base.describe = files_describe;
     f->base.destroy = files_destroy;
     return &f->base;

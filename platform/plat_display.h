@@ -30,6 +30,8 @@ struct plat_display {
     const char *name;
     /* Queues image `index` for the vsync at vsync_ns. Called on the vsync path: must not block or do I/O. */
     void (*present)(plat_display *d, plat_swapchain *sc, int index, int64_t vsync_ns, uint64_t vsync_no);
+    /* Waits until images handed over so far are written (not on the vsync path; NULL = nothing pending). */
+    void (*flush)(plat_display *d);
     /* One line for the run summary (what was written where, what was skipped). */
     void (*describe)(plat_display *d, char *buf, int len);
     /* Waits for pending writes, then frees. */
@@ -40,6 +42,10 @@ static inline void plat_display_present(plat_display *d, plat_swapchain *sc, int
                                         uint64_t vsync_no)
 {
     d->present(d, sc, index, vsync_ns, vsync_no);
+}
+static inline void plat_display_flush(plat_display *d)
+{
+    if (d && d->flush) d->flush(d);
 }
 static inline void plat_display_destroy(plat_display *d)
 {

@@ -230,12 +230,15 @@ void rt_app_run(rt_app *a)
     a->th_aux_up = pthread_create(&a->th_aux, NULL, aux_thread, a) == 0;
     plat_thread_set_name("hmdwarp-vsync");
     a->realtime = a->cfg.rt_priority > 0 && plat_thread_set_realtime(a->cfg.rt_priority);
+    /* Everything is allocated by now; keep it resident so no page fault lands on the vsync path. */
+    if (a->realtime) a->memory_locked = plat_lock_memory();
     rt_compositor_run(a);
     atomic_store(&a->stop, 1);
     if (a->th_imu_up) pthread_join(a->th_imu, NULL);
     if (a->th_frames_up) pthread_join(a->th_frames, NULL);
     if (a->th_aux_up) pthread_join(a->th_aux, NULL);
     if (eval_up) pthread_join(eval_th, NULL);
+    plat_display_flush(a->display);
     drv_frames_sim_stats st;
     drv_frames_sim_stats_get(a->frames, &st);
     a->sim_frames = st.frames;
@@ -259,9 +262,11 @@ void rt_app_summary(rt_app *a, FILE *out)
     double secs = (double)t->vsyncs / c->refresh_hz;
     fprintf(out, "\nhmdwarpd summary — board '%s', scene '%s', head motion '%s', %.1f s\n", c->board_name, c->scene,
             c->trace, secs);
-    fprintf(out, "  renderer                   cpu (%s kernel, %d threads, %s), warp method %s\n",
+    fprintf(out, "  renderer                   cpu (%s kernel, %d threads, %s%s), warp method %s\n",
             warp_resample_kernel(), plat_workers_threads(a->workers),
-            a->realtime ? "SCHED_FIFO" : "normal priority", rt_method_name(c->method));
+            a->realtime ? "SCHED_FIFO" : "normal priority (not permitted to use SCHED_FIFO)",
+            a->realtime ? (a->memory_locked ? ", memory locked" : ", memory not locked") : "",
+            rt_method_name(c->method));
     fprintf(out, "  panel                      %dx%d at %.0f Hz, eye buffers %dx%d, lens mesh %dx%d\n", c->panel_w,
             c->panel_h, c->refresh_hz, c->eye_w, c->eye_h, c->mesh_n, c->mesh_n);
     fprintf(out, "display\n");
@@ -284,7 +289,8 @@ void rt_app_summary(rt_app *a, FILE *out)
     uint64_t rejected = 0;
     for (int e = 1; e < DRV_FRAME_ERR_COUNT; e++) rejected += t->frames_rejected[e];
     fprintf(out, "  received                   %llu (%.1f Hz), shown %llu, dropped unseen %llu, rejected %llu\n",
-            (unsigned long long)t->frames_received, secs > 0 ? (double)t->frames_received / secs : 0.0,
+            (unsigned long long)t->frames_received,
+            secs + c->imu_rest_s > 0 ? (double)t->frames_received / (secs + c->imu_rest_s) : 0.0,
             (unsigned long long)t->new_frames_shown, (unsigned long long)t->frames_dropped,
             (unsigned long long)rejected);
     for (int e = 1; e < DRV_FRAME_ERR_COUNT; e++)
@@ -303,8 +309,9 @@ void rt_app_summary(rt_app *a, FILE *out)
     fprintf(out, "  planes rendered            %s (scene effects: %s)\n", buf,
             sim_effects_str(sim_scene_effects(a->scene), fx, sizeof fx));
     fprintf(out, "tracking\n");
-    fprintf(out, "  IMU samples                %llu (%.0f Hz), rejected %llu, read errors %llu\n",
-            (unsigned long long)t->imu_samples, secs > 0 ? (double)t->imu_samples / secs : 0.0,
+    fprintf(out, "  IMU samples                %llu (%.0f Hz, incl. the rest at boot), rejected %llu, read errors %llu\n",
+            (unsigned long long)t->imu_samples,
+            secs + c->imu_rest_s > 0 ? (double)t->imu_samples / (secs + c->imu_rest_s) : 0.0,
             (unsigned long long)(rt_fusion_rejected(a->fusion, RT_FUSION_BAD_VALUE) +
                                  rt_fusion_rejected(a->fusion, RT_FUSION_TIME_REPEAT) +
                                  rt_fusion_rejected(a->fusion, RT_FUSION_TIME_JUMP)),

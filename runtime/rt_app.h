@@ -87,6 +87,7 @@ typedef struct {
     warp_image_rgba8 inter[2];  /* raytrace output in eye space, before the lens pass */
     warp_planar3 inter_planar[2];
     bool realtime;              /* compositor got SCHED_FIFO */
+    bool memory_locked;         /* mlockall succeeded */
     uint64_t raytrace_fallbacks; /* raytrace requested but the frame had no depth */
 
     /* telemetry */

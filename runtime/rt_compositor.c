@@ -115,9 +115,16 @@ void rt_compositor_run(rt_app *a)
     int64_t next_eval = a->t0_ns + eval_every;
     int64_t period = 0;
     int64_t t_vs = drv_vsync_next(a->vsync, plat_now_ns() + 2 * PLAT_NS_PER_MS, &period);
-    /* Expected warp time: rises at once on a slow frame, decays slowly (like Monado's pacing, which backs off on
-     * a miss and creeps back otherwise). Starts at 20 % of the frame. */
-    int64_t warp_est = period / 5;
+    /* When to wake: the vsync minus the longest warp and the latest wake-up among the last WINDOW vsyncs, plus a
+     * margin. A running maximum rather than an average: a miss costs a whole repeated frame, waking a little
+     * early costs only that much latency (Monado's pacing likewise backs off at once and creeps back). */
+    enum { WINDOW = 128 };
+    int64_t durs[WINDOW], lates[WINDOW];
+    for (int i = 0; i < WINDOW; i++) {
+        durs[i] = period / 2; /* the first warps run with cold caches */
+        lates[i] = 0;
+    }
+    int64_t warp_est = period / 2, late_est = 0;
     uint64_t vsync_no = 0, last_seq = 0;
     job j;
     memset(&j, 0, sizeof j);
@@ -125,7 +132,8 @@ void rt_compositor_run(rt_app *a)
 
     while (!atomic_load_explicit(&a->stop, memory_order_relaxed)) {
         if (a->t_end_ns && t_vs > a->t_end_ns) break;
-        plat_sleep_until_ns(t_vs - warp_est - margin_ns);
+        int64_t wake = t_vs - warp_est - late_est - margin_ns;
+        plat_sleep_until_ns(wake);
         int64_t t_start = plat_now_ns();
 
         bool is_new = false;
@@ -186,17 +194,20 @@ void rt_compositor_run(rt_app *a)
             next_eval += eval_every;
         }
 
-        if (dur > warp_est)
-            warp_est = dur + dur / 4;
-        else
-            warp_est -= (warp_est - dur) / 64;
-        if (warp_est > period - margin_ns) warp_est = period - margin_ns;
+        durs[vsync_no % WINDOW] = dur;
+        lates[vsync_no % WINDOW] = t_start > wake ? t_start - wake : 0;
+        warp_est = late_est = 0;
+        for (int i = 0; i < WINDOW; i++) {
+            if (durs[i] > warp_est) warp_est = durs[i];
+            if (lates[i] > late_est) late_est = lates[i];
+        }
+        if (warp_est + late_est > period - margin_ns) warp_est = period - margin_ns - late_est;
 
         vsync_no++;
         int64_t next = drv_vsync_next(a->vsync, t_vs, &period);
         /* Overran a whole period: the vsyncs in between were not served. */
         int64_t now = plat_now_ns();
-        if (next - warp_est - margin_ns < now) {
+        if (next - warp_est - late_est - margin_ns < now) {
             int64_t later = drv_vsync_next(a->vsync, now + warp_est, &period);
             uint64_t skipped = period > 0 ? (uint64_t)((later - next) / period) : 0;
             tel->vsyncs += skipped;

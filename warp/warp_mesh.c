@@ -8,26 +8,38 @@
 bool warp_mesh_init(warp_mesh *m, int n, const warp_lens *lens, int vp_x, int vp_y, int vp_w, int vp_h)
 {
     memset(m, 0, sizeof *m);
-    if (n < 2 || n > 1024 || vp_w <= 0 || vp_h <= 0) return false;
-    size_t count = (size_t)n * (size_t)n * 3;
+    if (n < 2 || n > 1024 || vp_w <= 0 || vp_h <= 0 || vp_w > 16384 || vp_h > 16384) return false;
+    /* Columns a multiple of 8 pixels apart (see warp_mesh.h): the nearest such spacing to n evenly spread. */
+    int cell_w = 8 * (int)((double)vp_w / (n - 1) / 8.0 + 0.5);
+    if (cell_w < 8) cell_w = 8;
+    const int rows = n, cols = (vp_w + cell_w - 1) / cell_w + 1;
+    const int line_stride = (cols - 1 + 7) / 8 * 8 + 8;
+    size_t count = (size_t)rows * (size_t)cols * 3;
+    size_t lines = (size_t)(rows - 1) * 2 * WARP_MESH_LINE_VALUES * (size_t)line_stride;
     m->tan = calloc(count, sizeof *m->tan);
     m->src = calloc(count, sizeof *m->src);
-    if (!m->tan || !m->src) {
+    m->lines = calloc(lines, sizeof *m->lines);
+    m->work = calloc((size_t)rows * 6 * (size_t)cols, sizeof *m->work);
+    if (!m->tan || !m->src || !m->lines || !m->work) {
         warp_mesh_free(m);
         return false;
     }
     m->n = n;
+    m->rows = rows;
+    m->cols = cols;
+    m->cell_w = cell_w;
+    m->line_stride = line_stride;
     m->vp_x = vp_x;
     m->vp_y = vp_y;
     m->vp_w = vp_w;
     m->vp_h = vp_h;
-    for (int j = 0; j < n; j++)
-        for (int i = 0; i < n; i++) {
-            double x = (double)i * vp_w / (n - 1), y = (double)j * vp_h / (n - 1);
+    for (int j = 0; j < rows; j++)
+        for (int i = 0; i < cols; i++) {
+            double x = (double)i * cell_w, y = (double)j * vp_h / (rows - 1);
             for (int c = 0; c < 3; c++) {
                 double u, v;
                 warp_lens_distort(lens, c, x, y, &u, &v);
-                m->tan[((size_t)j * n + i) * 3 + c] = (warp_vec2f){(float)u, (float)v};
+                m->tan[((size_t)j * cols + i) * 3 + c] = (warp_vec2f){(float)u, (float)v};
             }
         }
     return true;
@@ -37,7 +49,33 @@ void warp_mesh_free(warp_mesh *m)
 {
     free(m->tan);
     free(m->src);
+    free(m->lines);
+    free(m->work);
     memset(m, 0, sizeof *m);
+}
+
+/* Writes the resampler's per-cell lines of band j (layout in warp_mesh.h) from the scaled vertex positions of
+ * its two vertex rows (work: per vertex row, 6 runs of cols values, channel-major, x then y). */
+static void band_lines(warp_mesh *m, int j)
+{
+    const int cols = m->cols;
+    const double icw = 1.0 / m->cell_w;
+    float *top = m->lines + (size_t)j * 2 * WARP_MESH_LINE_VALUES * m->line_stride;
+    float *chg = top + (size_t)WARP_MESH_LINE_VALUES * m->line_stride;
+    for (int c = 0; c < 3; c++)
+        for (int a = 0; a < 2; a++) {
+            const double *t = m->work + ((size_t)j * 6 + (size_t)(c * 2 + a)) * (size_t)cols, *b = t + 6 * (size_t)cols;
+            float *tp = top + (size_t)WARP_MESH_LINE(c, a, 0) * m->line_stride;
+            float *tq = top + (size_t)WARP_MESH_LINE(c, a, 1) * m->line_stride;
+            float *cp = chg + (size_t)WARP_MESH_LINE(c, a, 0) * m->line_stride;
+            float *cq = chg + (size_t)WARP_MESH_LINE(c, a, 1) * m->line_stride;
+            for (int i = 0; i < cols - 1; i++) {
+                tp[i] = (float)t[i];
+                cp[i] = (float)(b[i] - t[i]);
+                tq[i] = (float)((t[i + 1] - t[i]) * icw);
+                cq[i] = (float)(((b[i + 1] - b[i]) - (t[i + 1] - t[i])) * icw);
+            }
+        }
 }
 
 void warp_mesh_update(warp_mesh *m, const warp_camera *src_cam, warp_quat src_from_dst)
@@ -48,24 +86,35 @@ void warp_mesh_update(warp_mesh *m, const warp_camera *src_cam, warp_quat src_fr
      * border like every other fringe position. */
     const float far_out = -65536.0f;
     int behind = 0;
-    size_t count = (size_t)m->n * (size_t)m->n * 3;
-    for (size_t i = 0; i < count; i++) {
-        double u = m->tan[i].x, v = m->tan[i].y;
-        double x = h.m[0][0] * u + h.m[0][1] * v - h.m[0][2];
-        double y = h.m[1][0] * u + h.m[1][1] * v - h.m[1][2];
-        double w = h.m[2][0] * u + h.m[2][1] * v - h.m[2][2];
-        if (w > 1e-6) {
-            double iw = 1.0 / w;
-            x *= iw;
-            y *= iw;
-            /* Keep within what the fixed-point resampler can represent; anything this far is fringe anyway. */
-            x = x < -65536 ? -65536 : (x > 65536 ? 65536 : x);
-            y = y < -65536 ? -65536 : (y > 65536 ? 65536 : y);
-            m->src[i] = (warp_vec2f){(float)x, (float)y};
-        } else {
-            m->src[i] = (warp_vec2f){far_out, far_out};
-            behind++;
-        }
+    const int cols = m->cols;
+    for (int j = 0; j < m->rows; j++) {
+        double *row = m->work + (size_t)j * 6 * (size_t)cols;
+        for (int i = 0; i < cols; i++)
+            for (int c = 0; c < 3; c++) {
+                const size_t v_at = ((size_t)j * cols + i) * 3 + c;
+                double u = m->tan[v_at].x, v = m->tan[v_at].y;
+                double x = h.m[0][0] * u + h.m[0][1] * v - h.m[0][2];
+                double y = h.m[1][0] * u + h.m[1][1] * v - h.m[1][2];
+                double w = h.m[2][0] * u + h.m[2][1] * v - h.m[2][2];
+                if (w > 1e-6) {
+                    double iw = 1.0 / w;
+                    x *= iw;
+                    y *= iw;
+                    /* Keep within what the fixed-point resampler can represent; anything this far is fringe
+                     * anyway. Written so that a NaN (a broken lens or pose) also ends up at the border. */
+                    x = x > -65536 ? (x < 65536 ? x : 65536) : -65536;
+                    y = y > -65536 ? (y < 65536 ? y : 65536) : -65536;
+                } else {
+                    x = y = far_out;
+                    behind++;
+                }
+                m->src[v_at] = (warp_vec2f){(float)x, (float)y};
+                /* for the lines: 1/64 pixel units, minus the half pixel from centre to corner, plus the rounding
+                 * bias (warp_mesh.h) */
+                row[(size_t)(c * 2) * cols + i] = 64.0 * (float)x - 31.5;
+                row[(size_t)(c * 2 + 1) * cols + i] = 64.0 * (float)y - 31.5;
+            }
     }
     m->behind = behind;
+    for (int j = 0; j < m->rows - 1; j++) band_lines(m, j);
 }

@@ -9,19 +9,47 @@
 #include "warp/warp_image.h"
 #include "warp/warp_lens.h"
 
-/* n x n vertices spread evenly over one eye's viewport of the panel, vertex (0,0) at the viewport's top-left
- * corner and (n-1, n-1) at its bottom-right corner. Per vertex and colour channel the mesh holds the lens
- * direction (fixed at start-up) and the source pixel position for the current warp (rebuilt every vsync). */
+/* Values per mesh cell in `lines`: for each channel c (R, G, B) and axis a (x, y) an offset p and a slope q, at
+ * index WARP_MESH_LINE(c, a, 0) and WARP_MESH_LINE(c, a, 1). */
+#define WARP_MESH_LINE_VALUES 12
+#define WARP_MESH_LINE(c, a, pq) ((c) * 4 + (a) * 2 + (pq))
+
+/* A grid of `rows` x `cols` vertices over one eye's viewport of the panel. n, the size asked for, means "about n
+ * vertices per side":
+ *  - rows = n, spread evenly: vertex row j at y = j * vp_h / (n - 1), from the viewport's top to its bottom edge;
+ *  - columns are cell_w pixels apart, cell_w a multiple of 8 near vp_w / (n - 1) (8 * round(vp_w / (n-1) / 8),
+ *    at least 8): vertex column i at x = i * cell_w, cols = ceil(vp_w / cell_w) + 1, so the last column may lie
+ *    beyond the viewport's right edge. Every aligned run of 8 pixels then lies in one cell, which lets the SIMD
+ *    resampler treat 8 (or 16) pixels with one set of coefficients instead of looking a cell up per pixel.
+ * x and y are continuous viewport coordinates (pixel (x, y) has its centre at (x + 0.5, y + 0.5)); the lens and
+ * the warp are evaluated exactly there, and the resampler interpolates bilinearly in between.
+ * Per vertex and channel the mesh holds the lens direction (fixed at start-up) and the source pixel position for
+ * the current warp; per cell it holds those positions in the form the resampler evaluates (`lines`). Both are
+ * rebuilt every vsync. */
 typedef struct {
-    int n;
+    int n;                      /* vertices per side asked for (= rows) */
+    int rows, cols;             /* vertex rows and columns */
+    int cell_w;                 /* horizontal vertex spacing, pixels, a multiple of 8 */
     int vp_x, vp_y, vp_w, vp_h; /* viewport on the panel, pixels */
-    warp_vec2f *tan;            /* [(j*n + i)*3 + c] lens tangent direction (u, v) */
-    warp_vec2f *src;            /* [(j*n + i)*3 + c] source pixel position for the current warp */
-    int behind;                 /* vertices of the last update that pointed behind the source camera */
+    warp_vec2f *tan;            /* [(j*cols + i)*3 + c] lens tangent direction (u, v) */
+    warp_vec2f *src;            /* [(j*cols + i)*3 + c] source pixel position for the current warp */
+    /* Per cell band j (between vertex rows j and j+1), value k and cell i:
+     *   lines[((j * 2 + 0) * WARP_MESH_LINE_VALUES + k) * line_stride + i]  value at the band's top edge,
+     *   lines[((j * 2 + 1) * WARP_MESH_LINE_VALUES + k) * line_stride + i]  change across the band,
+     * so a row at fraction ty of the band has value(k) = top + change * ty. For channel c and axis a the source
+     * position of the pixel at xl pixels right of its cell's left edge (xl = x + 0.5 - i * cell_w), interpolated
+     * bilinearly between the cell's corners, is
+     *   64 * pos - 31.5 = value(p) + value(q) * xl,
+     * i.e. in 1/64 source pixel, shifted by the half pixel between centres and corners, plus 0.5 so that
+     * truncating rounds to the nearest 1/64 (see warp_resample.c). */
+    float *lines;
+    int line_stride; /* a multiple of 8, with room for 8-wide loads starting at the last cell */
+    double *work;    /* scratch of warp_mesh_update (allocated here: the update runs on the vsync path) */
+    int behind;      /* vertices of the last update that pointed behind the source camera */
 } warp_mesh;
 
-/* Allocates the mesh and evaluates the lens at every vertex (start-up only). n must be in [2, 1024].
- * Returns false on bad arguments or out of memory. */
+/* Allocates the mesh and evaluates the lens at every vertex (start-up only). n must be in [2, 1024], the viewport
+ * at most 16384 pixels on a side. Returns false on bad arguments or out of memory. */
 bool warp_mesh_init(warp_mesh *m, int n, const warp_lens *lens, int vp_x, int vp_y, int vp_w, int vp_h);
 void warp_mesh_free(warp_mesh *m);
 
