@@ -17,7 +17,7 @@ PREFIX ?= /usr/local
 DESTDIR ?=
 
 # Libraries every program links (Debian packages named in board/deps.sh).
-PKGS      := inih libpng zlib
+PKGS      := inih libpng zlib hidapi-hidraw libusb-1.0 libgpiod
 TEST_PKGS := cmocka
 
 OPT      ?= -O2
@@ -27,7 +27,8 @@ CPPFLAGS += -I. -D_GNU_SOURCE
 # No FMA contraction: scalar, SIMD and cross-built code round alike (kernels are tested bit for bit).
 ALL_CFLAGS = -std=gnu11 $(WARN) $(CFLAGS) -ffp-contract=off -pthread -MMD -MP \
              $(shell $(PKG_CONFIG) --cflags $(PKGS) 2>/dev/null)
-LDLIBS_ALL = $(shell $(PKG_CONFIG) --libs $(PKGS) 2>/dev/null) -lm -pthread
+# libi2c (SMBus helpers, Debian's libi2c-dev) ships no pkg-config file.
+LDLIBS_ALL = $(shell $(PKG_CONFIG) --libs $(PKGS) 2>/dev/null) -li2c -lm -pthread
 TEST_CFLAGS = $(shell $(PKG_CONFIG) --cflags $(TEST_PKGS) 2>/dev/null)
 TEST_LIBS   = $(shell $(PKG_CONFIG) --libs $(TEST_PKGS) 2>/dev/null)
 
@@ -38,7 +39,9 @@ MAINS := $(wildcard runtime/*_main.c tools/*/*_main.c)
 layer_src = $(filter-out %_main.c,$(wildcard $(1)/*.c))
 LIBS := $(foreach l,$(LAYERS),$(BUILD)/lib$(l).a)
 
-PROGRAMS := $(BUILD)/hmdwarpd
+# Host-side tools: every folder tools/NAME builds $(BUILD)/NAME from all its .c files.
+TOOLS := $(notdir $(wildcard tools/*))
+PROGRAMS := $(BUILD)/hmdwarpd $(addprefix $(BUILD)/,$(TOOLS))
 
 TEST_SRC := $(wildcard tests/unit/test_*.c tests/accuracy/test_*.c)
 TEST_SUPPORT_SRC := $(wildcard tests/support/*.c)
@@ -79,6 +82,13 @@ $(foreach l,$(LAYERS),$(eval $(call layer_rule,$(l))))
 $(BUILD)/hmdwarpd: $(BUILD)/obj/runtime/hmdwarpd_main.o $(LIBS)
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_ALL)
+
+define tool_rule
+$(BUILD)/$(1): $(patsubst %.c,$(BUILD)/obj/%.o,$(wildcard tools/$(1)/*.c)) $(LIBS)
+	@$$(if $(Q),echo "  LD      $$@")
+	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -o $$@ $$^ $(LDLIBS_ALL)
+endef
+$(foreach t,$(TOOLS),$(eval $(call tool_rule,$(t))))
 
 TEST_SUPPORT_OBJ := $(patsubst %.c,$(BUILD)/obj/%.o,$(TEST_SUPPORT_SRC))
 $(BUILD)/tests/%: $(BUILD)/obj/tests/%.o $(TEST_SUPPORT_OBJ) $(LIBS)

@@ -6,6 +6,7 @@ set -eu
 # Keep in step with the README's dependency list.
 PKGS="gcc libc6-dev make pkg-config
 libinih-dev libpng-dev zlib1g-dev
+libhidapi-dev libusb-1.0-0-dev libgpiod-dev libi2c-dev linux-libc-dev
 libcmocka-dev"
 
 missing=""

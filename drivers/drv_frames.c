@@ -38,6 +38,7 @@ const char *drv_frame_err_str(drv_frame_err e)
 {
     static const char *const names[DRV_FRAME_ERR_COUNT] = {
         "ok", "truncated", "bad size", "bad version", "bad CRC", "bad pose", "bad depth", "bad camera", "I/O error",
+        "bad magic", "too large", "bad format",
     };
     return e >= 0 && e < DRV_FRAME_ERR_COUNT ? names[e] : "unknown";
 }

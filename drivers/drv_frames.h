@@ -61,6 +61,9 @@ typedef enum {
     DRV_FRAME_ERR_BAD_DEPTH = 6,  /* NaN/negative depth values */
     DRV_FRAME_ERR_BAD_CAMERA = 7,
     DRV_FRAME_ERR_IO = 8,
+    DRV_FRAME_ERR_BAD_MAGIC = 9,  /* not a frame (lost sync on a byte stream, wrong in-band marker) */
+    DRV_FRAME_ERR_TOO_LARGE = 10, /* declares more bytes than the configured maximum frame size */
+    DRV_FRAME_ERR_BAD_FORMAT = 11, /* unsupported plane format, pixel format or plane combination */
     DRV_FRAME_ERR_COUNT
 } drv_frame_err;
 const char *drv_frame_err_str(drv_frame_err e);
