@@ -15,7 +15,13 @@ static bool predict_for_host(void *ctx, int64_t t_ns, warp_pose *head)
 {
     rt_app *a = ctx;
     warp_quat q;
-    if (!rt_fusion_at(a->fusion, t_ns, &q)) return false;
+    rt_fusion_state st;
+    if (!rt_fusion_latest(a->fusion, &st)) return false;
+    /* As on the display path: hold the last orientation while the IMU is gone rather than extrapolate. */
+    if (t_ns - st.t_ns > RT_IMU_STALE_NS)
+        q = st.q;
+    else if (!rt_fusion_at(a->fusion, t_ns, &q))
+        return false;
     *head = warp_head_pose_from_orientation(&a->head, q);
     return true;
 }
@@ -112,6 +118,8 @@ bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen)
     /* The warps of this build use colour and depth; ids, motion and layers would be rendered for nothing. */
     sp.planes_wanted = DRV_PLANE_COLOR | DRV_PLANE_DEPTH;
     a->frames = drv_frames_sim_create(&sp);
+    a->sim_host = true;
+    a->has_truth = true;
     if (!a->imu || !a->vsync || !a->frames) return fail(err, errlen, "cannot create the %s%s", "simulated devices", "");
     if (!rt_frameq_init(&a->fq, c->eye_w, c->eye_h, drv_frames_planes(a->frames), 4))
         return fail(err, errlen, "cannot allocate %s%s", "the frame slots", "");
@@ -137,6 +145,18 @@ bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen)
     return true;
 }
 
+/* Board mounting: the IMU's axes into the head frame the tracker works in. */
+static void remap_axes(const rt_app *a, drv_imu_sample *s)
+{
+    double g[3], ac[3];
+    for (int i = 0; i < 3; i++) {
+        g[i] = a->imu_sign[i] * s->gyro[a->imu_map[i]];
+        ac[i] = a->imu_sign[i] * s->accel[a->imu_map[i]];
+    }
+    memcpy(s->gyro, g, sizeof g);
+    memcpy(s->accel, ac, sizeof ac);
+}
+
 static void *imu_thread(void *arg)
 {
     rt_app *a = arg;
@@ -144,14 +164,32 @@ static void *imu_thread(void *arg)
     /* Just below the compositor: late IMU samples are late photons. */
     if (a->cfg.rt_priority > 1) plat_thread_set_realtime(a->cfg.rt_priority - 1);
     drv_imu_sample buf[64];
+    bool lost = false;
     while (!atomic_load_explicit(&a->stop, memory_order_relaxed)) {
         int n = drv_imu_read(a->imu, buf, 64, 50);
         if (n < 0) {
+            /* Device gone: the display holds the last orientation (RT_IMU_STALE_NS) while the backend retries;
+             * read() itself paces the reopen attempts. */
             atomic_fetch_add(&a->tel->imu_read_errors, 1);
-            plat_sleep_ns(100 * PLAT_NS_PER_MS); /* device gone: keep the last orientation and retry */
+            if (!lost) {
+                atomic_fetch_add(&a->tel->imu_lost, 1);
+                drv_imu_stats ds;
+                drv_imu_stats_get(a->imu, &ds);
+                fprintf(stderr, "hmdwarpd: IMU %s lost (%s): holding the last orientation, retrying\n",
+                        a->imu->name, ds.last_error[0] ? ds.last_error : strerror(-n));
+                lost = true;
+            }
+            plat_sleep_ns(20 * PLAT_NS_PER_MS);
             continue;
         }
-        for (int i = 0; i < n; i++) rt_fusion_update(a->fusion, &buf[i]);
+        if (lost && n > 0) {
+            fprintf(stderr, "hmdwarpd: IMU %s is back\n", a->imu->name);
+            lost = false;
+        }
+        for (int i = 0; i < n; i++) {
+            if (a->imu_remap) remap_axes(a, &buf[i]);
+            rt_fusion_update(a->fusion, &buf[i]);
+        }
         atomic_fetch_add_explicit(&a->tel->imu_samples, (uint64_t)n, memory_order_relaxed);
     }
     return NULL;
@@ -224,7 +262,7 @@ void rt_app_request_stop(rt_app *a) { atomic_store(&a->stop, 1); }
 void rt_app_run(rt_app *a)
 {
     pthread_t eval_th;
-    bool eval_up = a->cfg.eval_every_ms > 0 && pthread_create(&eval_th, NULL, rt_eval_thread, a) == 0;
+    bool eval_up = a->has_truth && a->cfg.eval_every_ms > 0 && pthread_create(&eval_th, NULL, rt_eval_thread, a) == 0;
     a->th_imu_up = pthread_create(&a->th_imu, NULL, imu_thread, a) == 0;
     a->th_frames_up = pthread_create(&a->th_frames, NULL, frames_thread, a) == 0;
     a->th_aux_up = pthread_create(&a->th_aux, NULL, aux_thread, a) == 0;
@@ -239,10 +277,12 @@ void rt_app_run(rt_app *a)
     if (a->th_aux_up) pthread_join(a->th_aux, NULL);
     if (eval_up) pthread_join(eval_th, NULL);
     plat_display_flush(a->display);
-    drv_frames_sim_stats st;
-    drv_frames_sim_stats_get(a->frames, &st);
-    a->sim_frames = st.frames;
-    memcpy(a->sim_plane_renders, st.plane_renders, sizeof st.plane_renders);
+    if (a->sim_host) {
+        drv_frames_sim_stats st;
+        drv_frames_sim_stats_get(a->frames, &st);
+        a->sim_frames = st.frames;
+        memcpy(a->sim_plane_renders, st.plane_renders, sizeof st.plane_renders);
+    }
 }
 
 static void pct_line(FILE *out, const char *label, const rt_hist *h)
@@ -281,6 +321,13 @@ void rt_app_summary(rt_app *a, FILE *out)
     if (a->raytrace_fallbacks)
         fprintf(out, "  raytrace fallbacks         %llu vsyncs used rotation: the frame had no depth\n",
                 (unsigned long long)a->raytrace_fallbacks);
+    drv_vsync_stats vs;
+    if (drv_vsync_stats_get(a->vsync, &vs))
+        fprintf(out, "  vsync source               %s: edges %llu, spurious %llu, missed %llu, timer fallbacks %llu%s, "
+                     "period %.3f ms, jitter %.0f us%s%s\n",
+                a->vsync->name, (unsigned long long)vs.edges, (unsigned long long)vs.spurious,
+                (unsigned long long)vs.missed, (unsigned long long)vs.fallbacks, vs.on_timer ? " (on timer now)" : "",
+                (double)vs.period_ns * 1e-6, vs.jitter_us, vs.last_error[0] ? "; last: " : "", vs.last_error);
     pct_line(out, "motion-to-photon", &t->m2p_ms);
     pct_line(out, "frame age at photon time", &t->frame_age_ms);
     a->display->describe(a->display, buf, sizeof buf);
@@ -298,16 +345,19 @@ void rt_app_summary(rt_app *a, FILE *out)
             fprintf(out, "    rejected as %-13s %llu\n", drv_frame_err_str((drv_frame_err)e),
                     (unsigned long long)t->frames_rejected[e]);
     pct_line(out, "host render + transport", &t->host_render_ms);
-    static const char *const plane_names[5] = {"color", "depth", "ids", "motion", "layers"};
-    buf[0] = 0;
-    for (int p = 0; p < 5; p++) {
-        char one[48];
-        snprintf(one, sizeof one, "%s%s %llu", p ? ", " : "", plane_names[p], (unsigned long long)a->sim_plane_renders[p]);
-        strncat(buf, one, sizeof buf - strlen(buf) - 1);
+    if (a->sim_host) {
+        static const char *const plane_names[5] = {"color", "depth", "ids", "motion", "layers"};
+        buf[0] = 0;
+        for (int p = 0; p < 5; p++) {
+            char one[48];
+            snprintf(one, sizeof one, "%s%s %llu", p ? ", " : "", plane_names[p],
+                     (unsigned long long)a->sim_plane_renders[p]);
+            strncat(buf, one, sizeof buf - strlen(buf) - 1);
+        }
+        char fx[160];
+        fprintf(out, "  planes rendered            %s (scene effects: %s)\n", buf,
+                sim_effects_str(sim_scene_effects(a->scene), fx, sizeof fx));
     }
-    char fx[160];
-    fprintf(out, "  planes rendered            %s (scene effects: %s)\n", buf,
-            sim_effects_str(sim_scene_effects(a->scene), fx, sizeof fx));
     fprintf(out, "tracking\n");
     fprintf(out, "  IMU samples                %llu (%.0f Hz, incl. the rest at boot), rejected %llu, read errors %llu\n",
             (unsigned long long)t->imu_samples,
@@ -316,14 +366,23 @@ void rt_app_summary(rt_app *a, FILE *out)
                                  rt_fusion_rejected(a->fusion, RT_FUSION_TIME_REPEAT) +
                                  rt_fusion_rejected(a->fusion, RT_FUSION_TIME_JUMP)),
             (unsigned long long)t->imu_read_errors);
+    drv_imu_stats is;
+    if (drv_imu_stats_get(a->imu, &is))
+        fprintf(out, "  IMU device                 %s: %s, reports %llu, bad %llu, read errors %llu, reconnects %llu%s%s\n",
+                a->imu->name, is.connected ? "connected" : "NOT connected", (unsigned long long)is.reports,
+                (unsigned long long)is.bad_reports, (unsigned long long)is.read_errors,
+                (unsigned long long)is.reconnects, is.last_error[0] ? "; last: " : "", is.last_error);
+    if (t->imu_lost || t->imu_stale)
+        fprintf(out, "  IMU lost                   %llu times; %llu vsyncs held the last orientation\n",
+                (unsigned long long)t->imu_lost, (unsigned long long)t->imu_stale);
     rt_fusion_state st;
-    if (rt_fusion_latest(a->fusion, &st)) {
+    if (a->has_truth && rt_fusion_latest(a->fusion, &st)) {
         double ts = (double)(st.t_ns - a->t0_ns) * 1e-9;
         warp_quat truth = sim_trace_orientation(&a->trace, ts);
         fprintf(out, "  orientation error at end   %.3f deg (gyro bias estimate %.4f %.4f %.4f rad/s)\n",
                 warp_quat_angle_between(truth, st.q) * 180 / WARP_PI, st.bias.x, st.bias.y, st.bias.z);
     }
-    if (c->eval_every_ms > 0) {
+    if (a->has_truth && c->eval_every_ms > 0) {
         fprintf(out, "accuracy vs ground truth     left eye at photon time, before the lens; %d frames sampled\n",
                 a->eval[RT_EVAL_NONE].n);
         const rt_eval_pose *pe = &a->eval_pose;

@@ -25,6 +25,9 @@
 #include "warp/warp_mesh.h"
 #include "warp/warp_raytrace.h"
 
+/* Older than this, the newest IMU state is not extrapolated: the device is gone or stalled (prediction off). */
+#define RT_IMU_STALE_NS (150 * 1000000LL)
+
 /* What the compositor hands the accuracy evaluator about one displayed frame (simulated board only). */
 typedef struct {
     uint64_t vsync_no, frame_seq;
@@ -67,6 +70,10 @@ typedef struct {
     _Atomic int stop;
 
     /* devices */
+    bool sim_host;         /* frames come straight from the simulated host (its render statistics are known) */
+    bool has_truth;        /* the head motion and the scene are simulated: accuracy can be scored */
+    bool imu_remap;        /* [imu] axes is not the identity */
+    int imu_map[3], imu_sign[3];
     drv_imu *imu;
     drv_frames *frames;
     drv_vsync *vsync;

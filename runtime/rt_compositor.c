@@ -148,7 +148,11 @@ void rt_compositor_run(rt_app *a)
         int64_t t_photon = t_vs + photon_ns;
         rt_fusion_state st;
         bool tracked = rt_fusion_latest(a->fusion, &st);
-        warp_quat q = tracked ? rt_fusion_predict(a->fusion, &st, t_photon) : warp_quat_identity();
+        /* With no IMU sample for a while (unplugged, bus error) extrapolating the last angular velocity would
+         * spin the view: hold the last orientation instead until samples return. */
+        bool stale = tracked && t_photon - st.t_ns > RT_IMU_STALE_NS;
+        tel->imu_stale += stale;
+        warp_quat q = !tracked ? warp_quat_identity() : stale ? st.q : rt_fusion_predict(a->fusion, &st, t_photon);
         warp_pose head = warp_head_pose_from_orientation(&a->head, q);
         warp_pose eyes[2] = {warp_head_eye_pose(&a->head, head, 0), warp_head_eye_pose(&a->head, head, 1)};
 
@@ -187,7 +191,7 @@ void rt_compositor_run(rt_app *a)
                               (int)used, missed};
             rt_ring_push(&a->csv_ring, &row);
         }
-        if (a->scene && eval_every > 0 && frame && t_vs >= next_eval) {
+        if (a->has_truth && eval_every > 0 && frame && t_vs >= next_eval) {
             rt_eval_record r = {vsync_no, frame->f.seq, frame->f.scene_time,
                                 (double)(t_photon - a->t0_ns) * 1e-9, frame->f.eye_pose[0], eyes[0], (int)used};
             rt_ring_push(&a->eval_ring, &r);

@@ -15,9 +15,13 @@ static const char *const method_names[] = {"none", "rotation", "raytrace", NULL}
 static const char *const edge_fill_names[] = {"far", "linear", NULL};
 static const char *const sink_names[] = {"null", "png", "raw", NULL};
 static const char *const renderer_names[] = {"cpu", NULL};
-static const char *const imu_names[] = {"sim", NULL};
-static const char *const frames_names[] = {"sim", NULL};
-static const char *const vsync_names[] = {"sim", NULL};
+static const char *const imu_names[] = {"sim", "hid", "i2c", NULL};
+static const char *const frames_names[] = {"sim", "usb", "v4l2", NULL};
+static const char *const vsync_names[] = {"sim", "gpio", "timer", NULL};
+static const char *const chip_names[] = {"auto", "mpu6050", "mpu9250", "icm42688", NULL};
+static const char *const v4l2_format_names[] = {"auto", "yuyv", "nv12", "bgr32", "rgb24", NULL};
+static const char *const bool_names[] = {"false", "true", NULL};
+static const char *const edge_names[] = {"rising", "falling", NULL};
 
 const char *rt_method_name(rt_method m) { return m >= 0 && m < RT_METHOD_COUNT ? method_names[m] : "?"; }
 
@@ -72,10 +76,37 @@ static const keydef keys[] = {
      "raytrace disocclusion fill: far (far side) or linear (003 §4.4)"},
     {"warp", "edge_jump", K_DOUBLE, F(edge_jump), 0, 0.001, 10, NULL,
      "relative inverse-depth jump per step that counts as an occlusion edge"},
-    {"imu", "backend", K_CHOICE, F(imu_backend), S(imu_backend), 0, 0, imu_names, "IMU source"},
+    {"imu", "backend", K_CHOICE, F(imu_backend), S(imu_backend), 0, 0, imu_names,
+     "IMU source: sim (simulated board), hid (USB HID, hidraw) or i2c (i2c-dev)"},
+    {"imu", "device", K_STR, F(imu_device), S(imu_device), 0, 0, NULL,
+     "hid: /dev/hidrawN or VVVV:PPPP (hex vendor:product); i2c: /dev/i2c-N; mock: the simulated IMU behind the "
+     "real decoder"},
+    {"imu", "address", K_INT, F(imu_address), 0, 0x03, 0x77, NULL, "i2c: 7-bit device address (e.g. 0x68)"},
+    {"imu", "chip", K_CHOICE, F(imu_chip), S(imu_chip), 0, 0, chip_names,
+     "i2c: register map: auto (probe WHO_AM_I), mpu6050, mpu9250 or icm42688"},
+    {"imu", "gyro_dps", K_INT, F(imu_gyro_dps), 0, 125, 4000, NULL, "i2c: gyro full scale, degrees/s"},
+    {"imu", "accel_g", K_INT, F(imu_accel_g), 0, 2, 32, NULL, "i2c: accelerometer full scale, g"},
+    {"imu", "axes", K_STR, F(imu_axes), S(imu_axes), 0, 0, NULL,
+     "mounting: the head's x y z axes as signed IMU axes, e.g. '-y +x +z' (head x = IMU -y)"},
     {"imu", "rate_hz", K_DOUBLE, F(imu_rate_hz), 0, 10, 10000, NULL, "IMU sample rate"},
-    {"frames", "backend", K_CHOICE, F(frames_backend), S(frames_backend), 0, 0, frames_names, "host frame source"},
-    {"vsync", "backend", K_CHOICE, F(vsync_backend), S(vsync_backend), 0, 0, vsync_names, "vsync source"},
+    {"frames", "backend", K_CHOICE, F(frames_backend), S(frames_backend), 0, 0, frames_names,
+     "host frame source: sim (simulated host), usb (FunctionFS gadget) or v4l2 (HDMI/CSI capture)"},
+    {"frames", "device", K_STR, F(frames_device), S(frames_device), 0, 0, NULL,
+     "usb: FunctionFS mount directory; v4l2: capture device; mock: the simulated host over the real wire format"},
+    {"frames", "format", K_CHOICE, F(v4l2_format), S(v4l2_format), 0, 0, v4l2_format_names,
+     "v4l2: capture pixel format (auto picks one the device offers)"},
+    {"frames", "depth", K_ENUM, F(frames_depth), 0, 0, 0, bool_names,
+     "v4l2: the host packs a depth plane beside the colour"},
+    {"frames", "max_frame_mb", K_DOUBLE, F(max_frame_mb), 0, 0.01, 4096, NULL,
+     "largest host frame accepted, MiB (larger ones are rejected unread)"},
+    {"frames", "pose_rate_hz", K_DOUBLE, F(pose_rate_hz), 0, 1, 2000, NULL,
+     "usb: how often the board sends its predicted head pose to the host"},
+    {"vsync", "backend", K_CHOICE, F(vsync_backend), S(vsync_backend), 0, 0, vsync_names,
+     "vsync source: sim (simulated panel), gpio (panel TE line via libgpiod) or timer (free running)"},
+    {"vsync", "chip", K_STR, F(vsync_chip), S(vsync_chip), 0, 0, NULL,
+     "gpio: gpiochipN, N or /dev/gpiochipN; mock: simulated TE edges through the real edge handling"},
+    {"vsync", "line", K_INT, F(vsync_line), 0, 0, 1023, NULL, "gpio: line offset of the TE signal on the chip"},
+    {"vsync", "edge", K_ENUM, F(vsync_falling), 0, 0, 0, edge_names, "gpio: which TE edge marks the vsync"},
     {"sim", "scene", K_STR, F(scene), S(scene), 0, 0, NULL, "simulated scene (see --list)"},
     {"sim", "trace", K_STR, F(trace), S(trace), 0, 0, NULL, "simulated head motion (see --list)"},
     {"sim", "duration_s", K_DOUBLE, F(duration_s), 0, 0, 1e6, NULL, "run time in seconds (0 = until SIGINT)"},
@@ -91,6 +122,20 @@ static const keydef keys[] = {
     {"sim", "accel_noise", K_DOUBLE, F(accel_noise), 0, 0, 100, NULL, "simulated accelerometer noise, m/s^2 rms"},
     {"sim", "eval_every_ms", K_DOUBLE, F(eval_every_ms), 0, 0, 1e6, NULL,
      "compare a displayed frame with ground truth this often (0 = off)"},
+    {"mock", "corrupt_every", K_INT, F(mock_corrupt_every), 0, 0, 1000000, NULL,
+     "mock devices: garble every Nth HID report / host frame (0 = never)"},
+    {"mock", "truncate_every", K_INT, F(mock_truncate_every), 0, 0, 1000000, NULL,
+     "mock host link: cut every Nth frame short (0 = never)"},
+    {"mock", "imu_unplug_at_s", K_DOUBLE, F(mock_imu_unplug_at_s), 0, 0, 1e6, NULL,
+     "mock HID IMU: unplug at this run time (0 = never)"},
+    {"mock", "imu_unplug_for_s", K_DOUBLE, F(mock_imu_unplug_for_s), 0, 0, 1e6, NULL, "... and replug after"},
+    {"mock", "host_stall_at_s", K_DOUBLE, F(mock_host_stall_at_s), 0, 0, 1e6, NULL,
+     "mock host link: the host stops sending at this run time (0 = never)"},
+    {"mock", "host_stall_for_s", K_DOUBLE, F(mock_host_stall_for_s), 0, 0, 1e6, NULL, "... for this long"},
+    {"mock", "vsync_jitter_us", K_DOUBLE, F(mock_vsync_jitter_us), 0, 0, 10000, NULL, "mock TE edges: jitter"},
+    {"mock", "edges_stop_at_s", K_DOUBLE, F(mock_edges_stop_at_s), 0, 0, 1e6, NULL,
+     "mock TE edges: stop at this run time (0 = never)"},
+    {"mock", "edges_stop_for_s", K_DOUBLE, F(mock_edges_stop_for_s), 0, 0, 1e6, NULL, "... for this long"},
     {"telemetry", "csv", K_STR, F(csv), S(csv), 0, 0, NULL, "write one CSV row per vsync to this file"},
 };
 #define NKEYS (int)(sizeof keys / sizeof keys[0])
@@ -129,6 +174,15 @@ void rt_config_defaults(rt_config *c)
     snprintf(c->imu_backend, sizeof c->imu_backend, "sim");
     snprintf(c->frames_backend, sizeof c->frames_backend, "sim");
     snprintf(c->vsync_backend, sizeof c->vsync_backend, "sim");
+    c->imu_address = 0x68;
+    snprintf(c->imu_chip, sizeof c->imu_chip, "auto");
+    c->imu_gyro_dps = 2000;
+    c->imu_accel_g = 16;
+    snprintf(c->imu_axes, sizeof c->imu_axes, "+x +y +z");
+    snprintf(c->v4l2_format, sizeof c->v4l2_format, "auto");
+    c->max_frame_mb = 64;
+    c->pose_rate_hz = 500;
+    snprintf(c->vsync_chip, sizeof c->vsync_chip, "gpiochip0");
     snprintf(c->scene, sizeof c->scene, "room");
     snprintf(c->trace, sizeof c->trace, "fast");
     c->duration_s = 10;
@@ -396,6 +450,25 @@ warp_lens rt_config_lens(const rt_config *c, int eye)
     return lens;
 }
 
+bool rt_config_parse_axes(const char *s, int map[3], int sign[3])
+{
+    int n = 0, used = 0;
+    for (const char *p = s; *p && n <= 3;) {
+        while (*p == ' ' || *p == '\t' || *p == ',') p++;
+        if (!*p) break;
+        int sg = 1;
+        if (*p == '+' || *p == '-') sg = *p++ == '-' ? -1 : 1;
+        if (*p < 'x' || *p > 'z' || n == 3) return false;
+        int axis = *p++ - 'x';
+        if (used & (1 << axis)) return false;
+        used |= 1 << axis;
+        map[n] = axis;
+        sign[n] = sg;
+        n++;
+    }
+    return n == 3;
+}
+
 bool rt_config_validate(const rt_config *c, rt_config_errors *err)
 {
     int before = err ? err->count : 0;
@@ -407,6 +480,16 @@ bool rt_config_validate(const rt_config *c, rt_config_errors *err)
     warp_lens lens = rt_config_lens(c, WARP_EYE_LEFT);
     const char *lw = warp_lens_check(&lens, c->panel_w / 2, c->panel_h, buf, sizeof buf);
     if (lw) add_error(err, "[lens]: %s", lw);
+    int map[3], sign[3];
+    if (!rt_config_parse_axes(c->imu_axes, map, sign))
+        add_error(err, "[imu] axes = '%s': expected three signed axes using each of x, y, z once, e.g. '-y +x +z'",
+                  c->imu_axes);
+    if (strcmp(c->imu_backend, "sim") != 0 && !c->imu_device[0])
+        add_error(err, "[imu] device: required for backend = %s (a device path%s, or mock)", c->imu_backend,
+                  strcmp(c->imu_backend, "hid") == 0 ? " or VVVV:PPPP" : "");
+    if (strcmp(c->frames_backend, "sim") != 0 && !c->frames_device[0])
+        add_error(err, "[frames] device: required for backend = %s (%s, or mock)", c->frames_backend,
+                  strcmp(c->frames_backend, "usb") == 0 ? "the FunctionFS mount directory" : "a /dev/videoN path");
     if (c->host_rate_hz > c->refresh_hz * 2)
         add_error(err, "[sim] host_rate_hz = %g: more than twice the display rate makes no sense", c->host_rate_hz);
     return (err ? err->count : 0) == before;

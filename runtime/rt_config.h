@@ -41,8 +41,27 @@ typedef struct {
     int raytrace_steps;
     int edge_fill;              /* warp_edge_fill */
     double edge_jump;
-    /* [imu] [frames] [vsync] backends */
+    /* [imu] [frames] [vsync] backends and their devices; device "mock" puts the simulated board's device behind
+     * the real backend's decoding (HID reports, I2C register maps, GPIO edges, framelink, V4L2 layout) */
     char imu_backend[16], frames_backend[16], vsync_backend[16];
+    char imu_device[128];       /* hid: /dev/hidrawN or VVVV:PPPP; i2c: /dev/i2c-N; or mock */
+    int imu_address;            /* i2c */
+    char imu_chip[16];          /* i2c: auto | mpu6050 | mpu9250 | icm42688 */
+    int imu_gyro_dps, imu_accel_g;
+    char imu_axes[32];          /* mounting: head x y z as signed IMU axes, e.g. "-y +x +z" */
+    char frames_device[128];    /* usb: FunctionFS mount; v4l2: /dev/videoN; or mock */
+    char v4l2_format[16];       /* auto | yuyv | nv12 | bgr32 | rgb24 */
+    int frames_depth;           /* v4l2: a depth plane is packed beside the colour */
+    double max_frame_mb;
+    double pose_rate_hz;        /* board -> host pose messages */
+    char vsync_chip[64];        /* gpio: gpiochipN, N, /dev/gpiochipN, or mock */
+    int vsync_line;
+    int vsync_falling;          /* edge: 0 rising, 1 falling */
+    /* [mock] fault injection into mock devices (hardware-in-the-loop style runs) */
+    int mock_corrupt_every, mock_truncate_every;
+    double mock_imu_unplug_at_s, mock_imu_unplug_for_s;
+    double mock_host_stall_at_s, mock_host_stall_for_s;
+    double mock_vsync_jitter_us, mock_edges_stop_at_s, mock_edges_stop_for_s;
     /* [sim] */
     char scene[32], trace[32];
     double duration_s;
@@ -75,6 +94,9 @@ bool rt_config_load_string(rt_config *c, const char *text, const char *name, rt_
 bool rt_config_set(rt_config *c, const char *assignment, rt_config_errors *err);
 /* Cross-key checks (camera, lens folding over the viewport, sizes). */
 bool rt_config_validate(const rt_config *c, rt_config_errors *err);
+
+/* Parses a mounting string ("-y +x +z": head axis i = sign[i] * IMU axis map[i]). */
+bool rt_config_parse_axes(const char *s, int map[3], int sign[3]);
 
 /* Derived objects. eye = WARP_EYE_LEFT / WARP_EYE_RIGHT. */
 warp_camera rt_config_eye_camera(const rt_config *c, int eye);

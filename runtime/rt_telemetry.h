@@ -32,12 +32,14 @@ typedef struct {
     rt_hist frame_age_ms;  /* frame's render pose time -> photon time: how far the warp had to reach */
     rt_hist late_ms;       /* warp finish relative to the vsync deadline (negative = early), shifted by +50 ms */
     uint64_t frames_dropped; /* frames that arrived but were replaced before any vsync showed them */
+    uint64_t imu_stale;      /* vsyncs warped to the last known orientation: no IMU sample for too long */
     /* frames thread */
     _Atomic uint64_t frames_received;
     _Atomic uint64_t frames_rejected[DRV_FRAME_ERR_COUNT];
     rt_hist host_render_ms;
     /* IMU thread */
     _Atomic uint64_t imu_samples, imu_read_errors;
+    _Atomic uint64_t imu_lost;   /* times the IMU went away (read() reported the device gone) */
 } rt_telemetry;
 
 /* The telemetry block is large (histograms); allocate it, do not put it on a stack. */
