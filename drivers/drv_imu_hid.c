@@ -166,6 +166,7 @@ static int imu_hid_read(drv_imu *imu, drv_imu_sample *out, int max, int timeout_
         if (r > 0) {
             n = handle_report(h, buf, r, now, out, max);
             if (n > 0) return n;
+            if (now >= deadline) return 0;
             continue; /* a bad or empty report: read on until the deadline */
         }
         /* Silence far beyond the nominal period is no normal timeout: note it once per stall. */
