@@ -379,6 +379,7 @@ static void test_depth_packing(void **state)
             free(img);
         }
     /* Frames without depth in a layout with depth rows: colour only. */
+    drv_frame_free(&f);
     frame_random(&f, DRV_PLANE_COLOR | DRV_PLANE_DEPTH, 4);
     f.planes = DRV_PLANE_COLOR;
     drv_v4l2_geom g;
