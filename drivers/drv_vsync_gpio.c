@@ -59,11 +59,14 @@ static void slot_write(pub_slot *s, const drv_vsync_model *m)
 
 static void publish(vsync_edges *s, const drv_vsync_model *m)
 {
+    /* Each switch is a release (the copy readers move to is complete) followed by a release fence (a reader that
+     * sees the copy being overwritten also sees the switch, and retries). */
     unsigned q = atomic_load_explicit(&s->seq, memory_order_relaxed);
-    atomic_store_explicit(&s->seq, q + 1, memory_order_relaxed); /* readers move to copy (q + 1) & 1 */
+    atomic_store_explicit(&s->seq, q + 1, memory_order_release); /* readers move to copy (q + 1) & 1 */
     atomic_thread_fence(memory_order_release);
     slot_write(&s->slot[q & 1], m);
     atomic_store_explicit(&s->seq, q + 2, memory_order_release); /* readers back to copy q & 1 */
+    atomic_thread_fence(memory_order_release);
     slot_write(&s->slot[(q + 1) & 1], m);
     s->published = *m;
 }
@@ -121,26 +124,29 @@ static void update(vsync_edges *s, int64_t now, const char *fault, uint64_t bad,
     drv_vsync_est *e = &s->est;
     bool locked = drv_vsync_est_locked(e);
     char msg[160] = "";
-    if (locked && !s->on_timer && (double)(now - e->last_accept_ns) > FALLBACK_PERIODS * e->model.period_ns) {
+    /* On the timer before the first lock (not a fallback), when the edges stop, or if the lock is lost. */
+    bool stopped = locked && (double)(now - e->last_accept_ns) > FALLBACK_PERIODS * e->model.period_ns;
+    if (!s->on_timer && (stopped || !locked)) {
         s->on_timer = true;
         s->timer_since_ns = now;
-        snprintf(msg, sizeof msg, "vsync %s: edges stopped; free-running at the estimated %.3f Hz", s->src->name,
-                 1e9 / e->model.period_ns);
+        snprintf(msg, sizeof msg, "vsync %s: %s; free-running at %.3f Hz", s->src->name,
+                 stopped ? "edges stopped" : "lock lost", 1e9 / s->published.period_ns);
         pthread_mutex_lock(&s->mu);
         s->st.fallbacks++;
         pthread_mutex_unlock(&s->mu);
-    } else if (s->on_timer && locked && e->last_accept_ns > s->timer_since_ns) {
+    } else if (s->on_timer && locked && !stopped && e->last_accept_ns > s->timer_since_ns) {
         s->on_timer = false;
     }
     if (!locked && !s->warned_no_lock && now - s->created_ns > NO_LOCK_WARN_NS) {
         s->warned_no_lock = true;
-        snprintf(msg, sizeof msg, "vsync %s: no lock after %llu edges; free-running at the nominal %.3f Hz",
-                 s->src->name, (unsigned long long)drv_vsync_est_counters_get(e)->edges, 1e9 / s->nominal_ns);
+        snprintf(msg, sizeof msg, "vsync %s: no lock after %llu edges; free-running at %.3f Hz", s->src->name,
+                 (unsigned long long)drv_vsync_est_counters_get(e)->edges, 1e9 / s->published.period_ns);
     }
 
-    drv_vsync_model m = {s->created_ns, s->nominal_ns};
-    drv_vsync_est_model(e, &m); /* unchanged (nominal rate from creation) until the first lock */
-    if (m.ref_ns != s->published.ref_ns || m.period_ns != s->published.period_ns) publish(s, &m);
+    /* Free-running continues on the last estimate (the nominal rate from creation until the first lock). */
+    drv_vsync_model m = s->published;
+    if (drv_vsync_est_model(e, &m) && (m.ref_ns != s->published.ref_ns || m.period_ns != s->published.period_ns))
+        publish(s, &m);
 
     const drv_vsync_est_counters *c = drv_vsync_est_counters_get(e);
     pthread_mutex_lock(&s->mu);

@@ -373,6 +373,10 @@ static bool wait_for(drv_vsync *v, bool want_on_timer, int64_t deadline, drv_vsy
     drv_vsync_edges_stats ex;
     for (;;) {
         drv_vsync_edges_stats_get(v, st, &ex);
+        /* Meanwhile next() always answers sensibly, however the edge thread is updating the estimate. */
+        int64_t now = plat_now_ns(), per;
+        int64_t nx = drv_vsync_next(v, now, &per);
+        assert_true(nx > now && nx - now <= per + 1 && per > 0);
         if (ex.locked && st->on_timer == want_on_timer) return true;
         if (plat_now_ns() > deadline) return false;
         plat_sleep_ns(2 * MS);
