@@ -6,7 +6,7 @@
 #include <stdbool.h>
 #include <stdint.h>
 
-#define DRV_VSYNC_EST_WINDOW 64   /* accepted edges in the line fit (~0.7 s at 90 Hz) */
+#define DRV_VSYNC_EST_WINDOW 128  /* accepted edges in the line fit (~1.4 s at 90 Hz) */
 #define DRV_VSYNC_EST_RAW 16      /* unexplained edges kept for (re)acquisition */
 #define DRV_VSYNC_EST_ACQUIRE 8   /* edges needed to (re)lock */
 #define DRV_VSYNC_EST_MAX_DEV 0.1 /* never locks onto a period further than this from nominal */
