@@ -28,7 +28,7 @@ typedef struct {
 
 typedef struct {
     uint64_t edges;    /* edges fed */
-    uint64_t accepted; /* edges in the fit (ACCEPTED, AFTER_GAP, LOCKED) */
+    uint64_t accepted; /* edges taken as vsyncs (ACCEPTED, AFTER_GAP, and those a lock was made of) */
     uint64_t spurious; /* edges rejected as glitches */
     uint64_t missed;   /* vsyncs between accepted edges that had no edge */
     uint64_t locks;    /* locks gained (the first one and every relock) */
@@ -37,7 +37,7 @@ typedef struct {
 typedef struct {
     double nominal_ns; /* 0: invalid nominal rate, never locks */
     bool locked;
-    drv_vsync_model model; /* valid when locked; ref_ns is the fitted time of the newest accepted edge */
+    drv_vsync_model model; /* valid when locked; ref_ns: fitted time of the newest edge in the fit */
     double rms_ns;         /* residual RMS of the fit */
     double slope_se_ns;    /* standard error of the fitted period */
     int64_t last_edge_ns;  /* newest edge fed (any kind); INT64_MIN before the first */
@@ -51,7 +51,7 @@ typedef struct {
     /* accepted edges far off the fit, all on one side: held out of it until they prove a small phase jump */
     int64_t held_k[DRV_VSYNC_EST_RUN], held_t[DRV_VSYNC_EST_RUN];
     int held_n, held_sign;
-    /* edges since the last accepted one, for acquisition */
+    /* unexplained edges since the last accepted one, for (re)acquisition */
     int64_t raw[DRV_VSYNC_EST_RAW];
     int raw_n;
     drv_vsync_est_counters c;
