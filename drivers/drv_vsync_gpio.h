@@ -1,0 +1,67 @@
+/* drv_vsync_gpio: vsync sources for the real board: the panel's TE line on a GPIO (edges through libgpiod, a robust
+ * estimator, a timer fallback when the edges stop), its mock with simulated edges, and a free-running timer. */
+#ifndef DRV_VSYNC_GPIO_H
+#define DRV_VSYNC_GPIO_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "drivers/drv_vsync.h"
+
+/* ---- vsync backends ---- */
+
+typedef struct {
+    char chip[64];     /* "gpiochip0", "0" or "/dev/gpiochip0" (also a chip label) */
+    int line;          /* line offset on that chip */
+    double refresh_hz; /* nominal panel rate: the estimator starts from it and locks only within +-10 % */
+    bool falling_edge; /* TE active low: vsync at the falling edge */
+} drv_vsync_gpio_params;
+
+/* Opens the TE line and starts the edge thread. NULL with a message in err (no such chip, no such line, line busy
+ * and by whom, permission) when it cannot. */
+drv_vsync *drv_vsync_gpio_create(const drv_vsync_gpio_params *p, char *err, int errlen);
+
+typedef struct {
+    double jitter_us;     /* each edge uniformly within +-jitter_us of its vsync */
+    double miss_prob;     /* each edge lost with this probability */
+    double spurious_prob; /* per period, probability of one glitch at a random time between two vsyncs */
+    double stop_at_s, stop_for_s; /* no edges in [t0 + stop_at_s, t0 + stop_at_s + stop_for_s) (stop_for_s 0: never) */
+    double rate_error;    /* true panel rate = refresh_hz * (1 + rate_error), e.g. -0.005 = 0.5 % slow */
+    uint64_t seed;
+} drv_vsync_mock_params;
+
+/* The GPIO backend with only the libgpiod edge source replaced: edges come in real time (vsync k at
+ * t0_ns + k / true rate, plus the faults of mp; NULL mp: clean). Estimator, thread and fallback are the real code. */
+drv_vsync *drv_vsync_gpio_create_mock(double refresh_hz, int64_t t0_ns, const drv_vsync_mock_params *mp);
+
+/* Free-running CLOCK_MONOTONIC timer, vsync 0 at creation. */
+drv_vsync *drv_vsync_timer_create(double refresh_hz);
+
+/* ---- edge sources (what the GPIO backend reads; libgpiod v1 in drv_gpiod1.c, a v2 one may sit beside it) ---- */
+
+typedef struct drv_edge_source drv_edge_source;
+struct drv_edge_source {
+    const char *name; /* for messages: "gpiochip0 line 17" */
+    /* Waits up to timeout_ms for edges; stores up to max CLOCK_MONOTONIC edge times (oldest first). Returns how
+     * many, 0 on timeout, or a negative errno (err, if not NULL, gets a message naming the line). */
+    int (*wait)(drv_edge_source *s, int64_t *t_ns, int max, int timeout_ms, char *err, int errlen);
+    void (*close)(drv_edge_source *s);
+};
+
+/* libgpiod 1.6: the line's edge events as requested by consumer "hmdwarp-vsync". */
+drv_edge_source *drv_gpiod1_edges_open(const char *chip, int line, bool falling_edge, char *err, int errlen);
+
+/* The GPIO vsync backend on any edge source (takes ownership of src, closing it on failure too). */
+drv_vsync *drv_vsync_edges_create(drv_edge_source *src, double refresh_hz, const char *name);
+
+/* Extra counters of an edge-driven backend, beyond drv_vsync_stats. */
+typedef struct {
+    uint64_t locks;        /* estimator locks: the first and each relock after a phase jump */
+    uint64_t read_errors;  /* wait() errors */
+    uint64_t bad_stamps;   /* edge times implausibly far from now (wrong clock), dropped */
+    bool locked;
+} drv_vsync_edges_stats;
+/* v must come from drv_vsync_edges_create / _gpio_create / _gpio_create_mock. Safe from any thread. */
+void drv_vsync_edges_stats_get(drv_vsync *v, drv_vsync_stats *st, drv_vsync_edges_stats *ex);
+
+#endif
