@@ -208,7 +208,9 @@ void rt_compositor_run(rt_app *a)
         if (warp_est + late_est > period - margin_ns) warp_est = period - margin_ns - late_est;
 
         vsync_no++;
-        int64_t next = drv_vsync_next(a->vsync, t_vs, &period);
+        /* Half a period on: an estimated phase (GPIO TE line) may move the vsync just served a few µs later, and
+         * asking for "after t_vs" would then return the same vsync again. */
+        int64_t next = drv_vsync_next(a->vsync, t_vs + period / 2, &period);
         /* Overran a whole period: the vsyncs in between were not served. */
         int64_t now = plat_now_ns();
         if (next - warp_est - late_est - margin_ns < now) {
