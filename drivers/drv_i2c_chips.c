@@ -15,7 +15,8 @@ const char *drv_i2c_strerror(int neg_errno)
 {
     switch (-neg_errno) {
     case ENXIO:
-    case EREMOTEIO: return "no ACK";
+    case EREMOTEIO:
+    case ENODEV: return "no ACK"; /* ENODEV: i2c-stub for an address it does not emulate */
     case ETIMEDOUT: return "bus timeout";
     case EAGAIN: return "arbitration lost / bus busy";
     default: return strerror(-neg_errno);
@@ -274,7 +275,7 @@ int drv_i2c_chip_identify(drv_i2c_bus *bus, const drv_i2c_chip *expect, const dr
     if (rc < 0) {
         snprintf(err, (size_t)errlen, "%s: %s reading WHO_AM_I (reg 0x%02x)%s", bus->name, drv_i2c_strerror(rc),
                  MPU_REG_WHO_AM_I,
-                 rc == -ENXIO || rc == -EREMOTEIO ? " - nothing at this address? check wiring, power and AD0" : "");
+                 rc == -ENXIO || rc == -EREMOTEIO || rc == -ENODEV ? " - nothing at this address? check wiring, power and AD0" : "");
         return rc;
     }
     const drv_i2c_chip *c = drv_i2c_chip_by_who_am_i(who);

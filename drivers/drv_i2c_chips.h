@@ -38,7 +38,7 @@ static inline void drv_i2c_bus_destroy(drv_i2c_bus *b)
 {
     if (b) b->destroy(b);
 }
-/* Short reason for a bus errno: "no ACK" for ENXIO/EREMOTEIO, "bus timeout", else strerror. */
+/* Short reason for a bus errno: "no ACK" for ENXIO/EREMOTEIO/ENODEV, "bus timeout", else strerror. */
 const char *drv_i2c_strerror(int neg_errno);
 
 /* ---- chips ---- */

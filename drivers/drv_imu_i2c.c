@@ -52,7 +52,7 @@ static int dev_rdwr(i2c_dev *d, struct i2c_msg *msgs, int n)
 static int dev_read_block(drv_i2c_bus *b, uint8_t reg, uint8_t *buf, int n)
 {
     i2c_dev *d = (i2c_dev *)b;
-    if (d->fd < 0) return -ENODEV;
+    if (d->fd < 0) return -EBADF;
     if (n < 1 || n > DRV_I2C_BLOCK_MAX) return -EINVAL;
     if (d->rdwr_read) {
         /* register address write, repeated start, read: what the SMBus I2C-block read does on the wire */
@@ -67,7 +67,7 @@ static int dev_read_block(drv_i2c_bus *b, uint8_t reg, uint8_t *buf, int n)
 static int dev_write_byte(drv_i2c_bus *b, uint8_t reg, uint8_t val)
 {
     i2c_dev *d = (i2c_dev *)b;
-    if (d->fd < 0) return -ENODEV;
+    if (d->fd < 0) return -EBADF;
     if (d->rdwr_write) {
         uint8_t msg[2] = {reg, val};
         struct i2c_msg m = {(__u16)d->addr, 0, 2, msg};
