@@ -381,6 +381,7 @@ static drv_frame_err check_header(const uint8_t *buf, size_t len, size_t max_fra
         return fail(detail, dlen, DRV_FRAME_ERR_CRC, "header CRC 0x%08x, computed 0x%08x", want, got);
     size_t total = get_u32(buf + OFF_TOTAL);
     if (total < hdr + 4) return fail(detail, dlen, DRV_FRAME_ERR_BAD_SIZE, "total size %zu < header %zu", total, hdr);
+    *need = total; /* also on TOO_LARGE: a stream receiver skips exactly this many bytes */
     if (max_frame && total > max_frame)
         return fail(detail, dlen, DRV_FRAME_ERR_TOO_LARGE, "frame of %zu bytes, limit %zu", total, max_frame);
     *need = total;

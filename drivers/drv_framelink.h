@@ -60,7 +60,7 @@ size_t drv_framelink_encode_ex(const drv_frame *f, const drv_framelink_tx *tx, u
 /* Header only, for byte streams. With len < the header it returns DRV_FRAME_ERR_TRUNCATED and *total = the bytes
  * needed to decide (the header size once the prefix is in); DRV_FRAME_OK with *total = the whole frame's size once
  * the header arrived and its CRC holds. Otherwise BAD_MAGIC, BAD_VERSION, BAD_SIZE, CRC, or TOO_LARGE (total >
- * max_frame; max_frame 0 means no limit). */
+ * max_frame, max_frame 0 means no limit; *total is then the declared size, so a stream can skip the frame). */
 drv_frame_err drv_framelink_peek(const uint8_t *buf, size_t len, size_t max_frame, size_t *total);
 
 /* Decodes one frame into *out, whose planes the caller allocated (drv_frame_alloc): the sizes must match the
