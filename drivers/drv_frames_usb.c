@@ -25,7 +25,8 @@
 #include "platform/plat_clock.h"
 #include "warp/warp_head.h"
 
-#define CHUNK (256 * 1024)        /* bytes per OUT read: a multiple of every bulk max packet size */
+#define CHUNK (256 * 1024)        /* bytes per receive step: a multiple of every bulk max packet size */
+#define FFS_READ (64 * 1024)      /* bytes per FunctionFS read request (the kernel allocates it contiguously) */
 #define LEAD_START_MS 20.0
 #define LEAD_MIN_MS 2.0
 #define LEAD_MAX_MS 200.0
@@ -111,6 +112,7 @@ static void link_lost(usb_frames *u, ssize_t rc)
     u->have = 0;
     u->discard_left = 0;
     u->resyncing = false;
+    plat_sleep_ns(10 * PLAT_NS_PER_MS); /* a persistent failure must not spin */
 }
 
 static int usb_receive(drv_frames *fr, drv_frame *f, int timeout_ms)
@@ -431,7 +433,7 @@ static ssize_t ffs_read(usb_transport *bt, uint8_t *buf, size_t cap, int timeout
     }
     if (!a->pending) {
         if (!ffs_wait_enabled(t, timeout_ms)) return 0;
-        if (!aio_ep_submit(a, IOCB_CMD_PREAD, CHUNK)) return -errno;
+        if (!aio_ep_submit(a, IOCB_CMD_PREAD, FFS_READ)) return -errno;
     }
     long r = aio_ep_wait(a, timeout_ms);
     if (r == -EINPROGRESS) return 0;
@@ -634,7 +636,7 @@ drv_frames *drv_frames_usb_create(const drv_frames_usb_params *p, char *err, int
     int out_fd = open(path, O_RDWR | O_CLOEXEC);
     snprintf(path, sizeof path, "%s/ep2", p->ffs_dir);
     int in_fd = open(path, O_RDWR | O_CLOEXEC);
-    bool ok_out = aio_ep_init(&t->out, out_fd, CHUNK), ok_in = aio_ep_init(&t->in, in_fd, DRV_FRAMELINK_POSE_BYTES);
+    bool ok_out = aio_ep_init(&t->out, out_fd, FFS_READ), ok_in = aio_ep_init(&t->in, in_fd, DRV_FRAMELINK_POSE_BYTES);
     if (out_fd < 0 || in_fd < 0 || !ok_out || !ok_in) {
         set_err(err, errlen, "usb frames: %s: cannot open ep1/ep2 for asynchronous I/O: %s", p->ffs_dir,
                 strerror(errno));
