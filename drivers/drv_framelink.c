@@ -1,0 +1,667 @@
+/* drv_framelink: the frame wire protocol between host and board (one codec for both ends): frames host -> board,
+ * pose messages board -> host. Little-endian, versioned, CRC32-checked; byte layout in docs/framelink.md. */
+#include "drivers/drv_framelink.h"
+
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <string.h>
+#include <zlib.h>
+
+/* ---- little-endian primitives (explicit bytes: the wire layout never depends on the compiler's structs) ---- */
+
+static void put_u16(uint8_t *p, uint16_t v)
+{
+    p[0] = (uint8_t)v;
+    p[1] = (uint8_t)(v >> 8);
+}
+static void put_u32(uint8_t *p, uint32_t v)
+{
+    for (int i = 0; i < 4; i++) p[i] = (uint8_t)(v >> (8 * i));
+}
+static void put_u64(uint8_t *p, uint64_t v)
+{
+    for (int i = 0; i < 8; i++) p[i] = (uint8_t)(v >> (8 * i));
+}
+static void put_f32(uint8_t *p, float f)
+{
+    uint32_t v;
+    memcpy(&v, &f, 4);
+    put_u32(p, v);
+}
+static void put_f64(uint8_t *p, double d)
+{
+    uint64_t v;
+    memcpy(&v, &d, 8);
+    put_u64(p, v);
+}
+static uint16_t get_u16(const uint8_t *p) { return (uint16_t)(p[0] | (p[1] << 8)); }
+static uint32_t get_u32(const uint8_t *p)
+{
+    return (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) | ((uint32_t)p[3] << 24);
+}
+static uint64_t get_u64(const uint8_t *p) { return (uint64_t)get_u32(p) | ((uint64_t)get_u32(p + 4) << 32); }
+static float get_f32(const uint8_t *p)
+{
+    uint32_t v = get_u32(p);
+    float f;
+    memcpy(&f, &v, 4);
+    return f;
+}
+static double get_f64(const uint8_t *p)
+{
+    uint64_t v = get_u64(p);
+    double d;
+    memcpy(&d, &v, 8);
+    return d;
+}
+
+static uint32_t crc(const uint8_t *p, size_t n) { return (uint32_t)crc32_z(0, p, n); }
+
+static void put_pose(uint8_t *p, warp_pose a)
+{
+    const double v[7] = {a.q.w, a.q.x, a.q.y, a.q.z, a.p.x, a.p.y, a.p.z};
+    for (int i = 0; i < 7; i++) put_f64(p + 8 * i, v[i]);
+}
+static warp_pose get_pose(const uint8_t *p)
+{
+    warp_pose a;
+    a.q.w = get_f64(p);
+    a.q.x = get_f64(p + 8);
+    a.q.y = get_f64(p + 16);
+    a.q.z = get_f64(p + 24);
+    a.p.x = get_f64(p + 32);
+    a.p.y = get_f64(p + 40);
+    a.p.z = get_f64(p + 48);
+    return a;
+}
+
+/* ---- frame layout ---- */
+
+enum {
+    OFF_MAGIC = 0, OFF_VERSION = 4, OFF_HEADER_SIZE = 6, OFF_TOTAL = 8, OFF_PLANES = 12, OFF_SEQ = 16,
+    OFF_POSE_T = 24, OFF_POSE_SENT = 32, OFF_HOST_POSE_RX = 40, OFF_HOST_START = 48, OFF_HOST_END = 56,
+    OFF_HOST_SEND = 64, OFF_DEPTH_ENC = 72, OFF_N_OBJECTS = 74, OFF_N_PLANES = 76, OFF_RESERVED = 78,
+    OFF_SCENE_TIME = 80, OFF_EYES = 88, EYE_BYTES = 112, EYE_CAM = 56,
+};
+#define MAX_DIM 16384
+#define FRAG_BYTES 10
+
+static size_t header_bytes(int n_objects, int n_planes)
+{
+    return DRV_FRAMELINK_FIXED_BYTES + (size_t)n_objects * DRV_FRAMELINK_OBJECT_BYTES +
+           (size_t)n_planes * DRV_FRAMELINK_PLANE_DESC_BYTES + 4;
+}
+
+static int bytes_per_pixel(int format)
+{
+    switch (format) {
+    case DRV_FRAMELINK_FMT_RGBA8: return 4;
+    case DRV_FRAMELINK_FMT_F32: return 4;
+    case DRV_FRAMELINK_FMT_UNORM16: return 2;
+    case DRV_FRAMELINK_FMT_U16: return 2;
+    case DRV_FRAMELINK_FMT_VEC2F32: return 8;
+    default: return 0;
+    }
+}
+
+/* Which formats each plane type (DRV_PLANE_* bit index) may use. */
+static bool format_ok(int type, int format)
+{
+    switch (type) {
+    case 0: return format == DRV_FRAMELINK_FMT_RGBA8;
+    case 1: return format == DRV_FRAMELINK_FMT_F32 || format == DRV_FRAMELINK_FMT_UNORM16;
+    case 2: return format == DRV_FRAMELINK_FMT_U16;
+    case 3: return format == DRV_FRAMELINK_FMT_VEC2F32;
+    case 4: return format == DRV_FRAMELINK_FMT_FRAGMENTS;
+    default: return false;
+    }
+}
+
+static int plane_format(int type, const drv_framelink_tx *tx)
+{
+    switch (type) {
+    case 0: return DRV_FRAMELINK_FMT_RGBA8;
+    case 1: return tx && tx->depth_format ? tx->depth_format : DRV_FRAMELINK_FMT_F32;
+    case 2: return DRV_FRAMELINK_FMT_U16;
+    case 3: return DRV_FRAMELINK_FMT_VEC2F32;
+    default: return DRV_FRAMELINK_FMT_FRAGMENTS;
+    }
+}
+
+/* Width and height of plane `type` of eye e as allocated in f (0 x 0 when not allocated). */
+static void plane_dims(const drv_frame *f, int type, int e, int *w, int *h, bool *allocated)
+{
+    switch (type) {
+    case 0: *w = f->color[e].w, *h = f->color[e].h, *allocated = f->color[e].px != NULL; break;
+    case 1: *w = f->depth[e].w, *h = f->depth[e].h, *allocated = f->depth[e].px != NULL; break;
+    case 2: *w = f->ids[e].w, *h = f->ids[e].h, *allocated = f->ids[e].px != NULL; break;
+    case 3: *w = f->motion[e].w, *h = f->motion[e].h, *allocated = f->motion[e].px != NULL; break;
+    default:
+        *w = f->layers[e].w, *h = f->layers[e].h;
+        *allocated = f->layers[e].count != NULL && f->layers[e].frag != NULL;
+        break;
+    }
+}
+
+static size_t layers_eye_bytes(const warp_image_layers *l)
+{
+    size_t n = (size_t)l->w * (size_t)l->h, frags = 0;
+    for (size_t i = 0; i < n; i++) frags += l->count[i] < l->max_layers ? l->count[i] : (size_t)l->max_layers;
+    return n + frags * FRAG_BYTES;
+}
+
+/* The most fragments any pixel of either eye sends (the layers descriptor's parameter). */
+static int layers_deepest(const drv_frame *f)
+{
+    int m = 0;
+    for (int e = 0; e < 2; e++) {
+        const warp_image_layers *l = &f->layers[e];
+        for (size_t i = 0, n = (size_t)l->w * (size_t)l->h; i < n; i++) {
+            int c = l->count[i] < l->max_layers ? l->count[i] : l->max_layers;
+            if (c > m) m = c;
+        }
+    }
+    return m;
+}
+
+/* Plane payload sizes of f (both eyes), or false when f cannot be encoded. */
+static bool plan(const drv_frame *f, const drv_framelink_tx *tx, size_t sizes[DRV_FRAMELINK_MAX_PLANES],
+                 int *n_planes)
+{
+    if (!(f->planes & DRV_PLANE_COLOR) || (f->planes & ~0x1Fu)) return false;
+    if (f->n_objects < 0 || f->n_objects > DRV_MAX_OBJECTS) return false;
+    if ((unsigned)f->depth_encoding > WARP_DEPTH_REVERSED) return false;
+    if (tx && tx->depth_format && tx->depth_format != DRV_FRAMELINK_FMT_F32) {
+        if (tx->depth_format != DRV_FRAMELINK_FMT_UNORM16) return false;
+        /* Metres do not fit a unit interval: unorm16 carries window depth only. */
+        if ((f->planes & DRV_PLANE_DEPTH) && f->depth_encoding == WARP_DEPTH_LINEAR) return false;
+    }
+    *n_planes = 0;
+    for (int t = 0; t < DRV_FRAMELINK_MAX_PLANES; t++) {
+        sizes[t] = 0;
+        if (!(f->planes & (1u << t))) continue;
+        (*n_planes)++;
+        for (int e = 0; e < 2; e++) {
+            int w, h;
+            bool allocated;
+            plane_dims(f, t, e, &w, &h, &allocated);
+            if (!allocated || w != f->cam[e].width || h != f->cam[e].height || w <= 0 || h <= 0 || w > MAX_DIM ||
+                h > MAX_DIM)
+                return false;
+            if (t == 4)
+                sizes[t] += layers_eye_bytes(&f->layers[e]);
+            else
+                sizes[t] += (size_t)w * (size_t)h * (size_t)bytes_per_pixel(plane_format(t, tx));
+        }
+    }
+    return true;
+}
+
+size_t drv_framelink_size_ex(const drv_frame *f, const drv_framelink_tx *tx)
+{
+    size_t sizes[DRV_FRAMELINK_MAX_PLANES];
+    int n_planes;
+    if (!plan(f, tx, sizes, &n_planes)) return 0;
+    size_t total = header_bytes(f->n_objects, n_planes) + 4;
+    for (int t = 0; t < DRV_FRAMELINK_MAX_PLANES; t++) total += sizes[t];
+    return total > UINT32_MAX ? 0 : total;
+}
+
+size_t drv_framelink_size(const drv_frame *f) { return drv_framelink_size_ex(f, NULL); }
+
+static uint8_t *encode_plane(const drv_frame *f, int t, int format, int e, uint8_t *p)
+{
+    int w = f->cam[e].width, h = f->cam[e].height;
+    for (int y = 0; y < h; y++) {
+        for (int x = 0; x < w; x++) {
+            switch (t) {
+            case 0: {
+                warp_rgba8 c = WARP_AT(&f->color[e], x, y);
+                p[0] = c.r, p[1] = c.g, p[2] = c.b, p[3] = c.a;
+                p += 4;
+                break;
+            }
+            case 1: {
+                float d = WARP_AT(&f->depth[e], x, y);
+                if (format == DRV_FRAMELINK_FMT_UNORM16) {
+                    /* NaN (never valid depth) goes to far like a cleared depth buffer would hold. */
+                    double c = d >= 0.0f ? (d <= 1.0f ? d : 1.0) : (d < 0.0f ? 0.0 : 1.0);
+                    put_u16(p, (uint16_t)lround(c * 65535.0));
+                    p += 2;
+                } else {
+                    put_f32(p, d);
+                    p += 4;
+                }
+                break;
+            }
+            case 2: put_u16(p, WARP_AT(&f->ids[e], x, y)); p += 2; break;
+            case 3: {
+                warp_vec2f m = WARP_AT(&f->motion[e], x, y);
+                put_f32(p, m.x);
+                put_f32(p + 4, m.y);
+                p += 8;
+                break;
+            }
+            default: break;
+            }
+        }
+    }
+    if (t == 4) {
+        const warp_image_layers *l = &f->layers[e];
+        size_t n = (size_t)w * (size_t)h;
+        for (size_t i = 0; i < n; i++) *p++ = l->count[i] < l->max_layers ? l->count[i] : (uint8_t)l->max_layers;
+        for (size_t i = 0; i < n; i++) {
+            int c = l->count[i] < l->max_layers ? l->count[i] : l->max_layers;
+            for (int k = 0; k < c; k++) {
+                const warp_fragment *fr = &l->frag[i * (size_t)l->max_layers + (size_t)k];
+                put_f32(p, fr->z);
+                p[4] = fr->rgba.r, p[5] = fr->rgba.g, p[6] = fr->rgba.b, p[7] = fr->rgba.a;
+                put_u16(p + 8, fr->id);
+                p += FRAG_BYTES;
+            }
+        }
+    }
+    return p;
+}
+
+size_t drv_framelink_encode_ex(const drv_frame *f, const drv_framelink_tx *tx, uint8_t *buf, size_t cap)
+{
+    size_t sizes[DRV_FRAMELINK_MAX_PLANES];
+    int n_planes;
+    if (!plan(f, tx, sizes, &n_planes)) return 0;
+    size_t hdr = header_bytes(f->n_objects, n_planes), total = drv_framelink_size_ex(f, tx);
+    if (!total || total > cap) return 0;
+    memset(buf, 0, hdr);
+    put_u32(buf + OFF_MAGIC, DRV_FRAMELINK_MAGIC);
+    put_u16(buf + OFF_VERSION, DRV_FRAMELINK_VERSION);
+    put_u16(buf + OFF_HEADER_SIZE, (uint16_t)hdr);
+    put_u32(buf + OFF_TOTAL, (uint32_t)total);
+    put_u32(buf + OFF_PLANES, f->planes);
+    put_u64(buf + OFF_SEQ, f->seq);
+    put_u64(buf + OFF_POSE_T, (uint64_t)f->pose_t_ns);
+    if (tx) {
+        put_u64(buf + OFF_POSE_SENT, (uint64_t)tx->pose_sent_ns);
+        put_u64(buf + OFF_HOST_POSE_RX, (uint64_t)tx->host_pose_rx_ns);
+        put_u64(buf + OFF_HOST_START, (uint64_t)tx->host_render_start_ns);
+        put_u64(buf + OFF_HOST_END, (uint64_t)tx->host_render_end_ns);
+        put_u64(buf + OFF_HOST_SEND, (uint64_t)tx->host_send_ns);
+    }
+    put_u16(buf + OFF_DEPTH_ENC, (uint16_t)f->depth_encoding);
+    put_u16(buf + OFF_N_OBJECTS, (uint16_t)f->n_objects);
+    put_u16(buf + OFF_N_PLANES, (uint16_t)n_planes);
+    put_f64(buf + OFF_SCENE_TIME, f->scene_time);
+    for (int e = 0; e < 2; e++) {
+        uint8_t *p = buf + OFF_EYES + e * EYE_BYTES;
+        const warp_camera *c = &f->cam[e];
+        put_pose(p, f->eye_pose[e]);
+        put_u32(p + EYE_CAM, (uint32_t)c->width);
+        put_u32(p + EYE_CAM + 4, (uint32_t)c->height);
+        const double v[6] = {c->tan_left, c->tan_right, c->tan_up, c->tan_down, c->near_z, c->far_z};
+        for (int i = 0; i < 6; i++) put_f64(p + EYE_CAM + 8 + 8 * i, v[i]);
+    }
+    uint8_t *p = buf + DRV_FRAMELINK_FIXED_BYTES;
+    for (int i = 0; i < f->n_objects; i++, p += DRV_FRAMELINK_OBJECT_BYTES) put_pose(p, f->object_pose[i]);
+    uint32_t off = 0;
+    for (int t = 0; t < DRV_FRAMELINK_MAX_PLANES; t++) {
+        if (!(f->planes & (1u << t))) continue;
+        p[0] = (uint8_t)t;
+        p[1] = (uint8_t)plane_format(t, tx);
+        put_u16(p + 2, t == 4 ? (uint16_t)layers_deepest(f) : 0);
+        put_u32(p + 4, off);
+        put_u32(p + 8, (uint32_t)sizes[t]);
+        off += (uint32_t)sizes[t];
+        p += DRV_FRAMELINK_PLANE_DESC_BYTES;
+    }
+    put_u32(buf + hdr - 4, crc(buf, hdr - 4));
+    p = buf + hdr;
+    for (int t = 0; t < DRV_FRAMELINK_MAX_PLANES; t++) {
+        if (!(f->planes & (1u << t))) continue;
+        for (int e = 0; e < 2; e++) p = encode_plane(f, t, plane_format(t, tx), e, p);
+    }
+    put_u32(p, crc(buf + hdr, total - hdr - 4));
+    return total;
+}
+
+size_t drv_framelink_encode(const drv_frame *f, uint8_t *buf, size_t cap)
+{
+    return drv_framelink_encode_ex(f, NULL, buf, cap);
+}
+
+/* ---- decoding ---- */
+
+static drv_frame_err fail(char *detail, int len, drv_frame_err e, const char *fmt, ...)
+    __attribute__((format(printf, 4, 5)));
+static drv_frame_err fail(char *detail, int len, drv_frame_err e, const char *fmt, ...)
+{
+    if (detail && len > 0) {
+        va_list ap;
+        va_start(ap, fmt);
+        vsnprintf(detail, (size_t)len, fmt, ap);
+        va_end(ap);
+    }
+    return e;
+}
+
+size_t drv_framelink_find_magic(const uint8_t *buf, size_t len)
+{
+    uint8_t m[4];
+    put_u32(m, DRV_FRAMELINK_MAGIC);
+    for (size_t i = 0; i < len; i++) {
+        size_t n = len - i < 4 ? len - i : 4;
+        if (memcmp(buf + i, m, n) == 0) return i;
+    }
+    return len;
+}
+
+/* The header checks shared by peek and decode. */
+static drv_frame_err check_header(const uint8_t *buf, size_t len, size_t max_frame, size_t *need, char *detail,
+                                  int dlen)
+{
+    uint8_t m[4];
+    put_u32(m, DRV_FRAMELINK_MAGIC);
+    size_t n = len < 4 ? len : 4;
+    if (memcmp(buf, m, n) != 0) return fail(detail, dlen, DRV_FRAME_ERR_BAD_MAGIC, "no frame magic at the start");
+    *need = DRV_FRAMELINK_PREFIX_BYTES;
+    if (len < 6) return fail(detail, dlen, DRV_FRAME_ERR_TRUNCATED, "%zu bytes: no version yet", len);
+    unsigned version = get_u16(buf + OFF_VERSION);
+    if (version != DRV_FRAMELINK_VERSION)
+        return fail(detail, dlen, DRV_FRAME_ERR_BAD_VERSION, "version %u (this build reads %d)", version,
+                    DRV_FRAMELINK_VERSION);
+    if (len < DRV_FRAMELINK_PREFIX_BYTES)
+        return fail(detail, dlen, DRV_FRAME_ERR_TRUNCATED, "%zu bytes: header prefix incomplete", len);
+    size_t hdr = get_u16(buf + OFF_HEADER_SIZE);
+    if (hdr < header_bytes(0, 1) || hdr > DRV_FRAMELINK_MAX_HEADER)
+        return fail(detail, dlen, DRV_FRAME_ERR_BAD_SIZE, "header size %zu outside [%zu, %d]", hdr,
+                    header_bytes(0, 1), DRV_FRAMELINK_MAX_HEADER);
+    *need = hdr;
+    if (len < hdr) return fail(detail, dlen, DRV_FRAME_ERR_TRUNCATED, "%zu of %zu header bytes", len, hdr);
+    uint32_t want = get_u32(buf + hdr - 4), got = crc(buf, hdr - 4);
+    if (want != got)
+        return fail(detail, dlen, DRV_FRAME_ERR_CRC, "header CRC 0x%08x, computed 0x%08x", want, got);
+    size_t total = get_u32(buf + OFF_TOTAL);
+    if (total < hdr + 4) return fail(detail, dlen, DRV_FRAME_ERR_BAD_SIZE, "total size %zu < header %zu", total, hdr);
+    *need = total; /* also on TOO_LARGE: a stream receiver skips exactly this many bytes */
+    if (max_frame && total > max_frame)
+        return fail(detail, dlen, DRV_FRAME_ERR_TOO_LARGE, "frame of %zu bytes, limit %zu", total, max_frame);
+    *need = total;
+    return DRV_FRAME_OK;
+}
+
+drv_frame_err drv_framelink_peek(const uint8_t *buf, size_t len, size_t max_frame, size_t *total)
+{
+    size_t need = DRV_FRAMELINK_PREFIX_BYTES;
+    drv_frame_err e = check_header(buf, len, max_frame, &need, NULL, 0);
+    if (total) *total = need;
+    return e;
+}
+
+typedef struct {
+    int type, format, param;
+    size_t off, size;
+} plane_desc;
+
+/* Layers of one eye: counts within the allocation and the fragments adding up; returns the eye's bytes or 0. */
+static size_t layers_check(const uint8_t *p, size_t avail, int w, int h, int max_layers, int *deepest)
+{
+    size_t n = (size_t)w * (size_t)h, frags = 0;
+    if (avail < n) return 0;
+    for (size_t i = 0; i < n; i++) {
+        if (p[i] > max_layers) return 0;
+        if (p[i] > *deepest) *deepest = p[i];
+        frags += p[i];
+    }
+    size_t bytes = n + frags * FRAG_BYTES;
+    return bytes <= avail ? bytes : 0;
+}
+
+static void decode_plane(drv_frame *out, const plane_desc *d, int e, int w, int h, const uint8_t *p)
+{
+    for (int y = 0; y < h; y++) {
+        for (int x = 0; x < w; x++) {
+            switch (d->type) {
+            case 0: {
+                warp_rgba8 *c = &WARP_AT(&out->color[e], x, y);
+                c->r = p[0], c->g = p[1], c->b = p[2], c->a = p[3];
+                p += 4;
+                break;
+            }
+            case 1:
+                if (d->format == DRV_FRAMELINK_FMT_UNORM16) {
+                    WARP_AT(&out->depth[e], x, y) = (float)(get_u16(p) / 65535.0);
+                    p += 2;
+                } else {
+                    WARP_AT(&out->depth[e], x, y) = get_f32(p);
+                    p += 4;
+                }
+                break;
+            case 2: WARP_AT(&out->ids[e], x, y) = get_u16(p); p += 2; break;
+            case 3:
+                WARP_AT(&out->motion[e], x, y).x = get_f32(p);
+                WARP_AT(&out->motion[e], x, y).y = get_f32(p + 4);
+                p += 8;
+                break;
+            default: break;
+            }
+        }
+    }
+    if (d->type == 4) {
+        warp_image_layers *l = &out->layers[e];
+        size_t n = (size_t)w * (size_t)h;
+        const uint8_t *fp = p + n;
+        for (size_t i = 0; i < n; i++) {
+            l->count[i] = p[i];
+            for (int k = 0; k < p[i]; k++) {
+                warp_fragment *fr = &l->frag[i * (size_t)l->max_layers + (size_t)k];
+                fr->z = get_f32(fp);
+                fr->rgba.r = fp[4], fr->rgba.g = fp[5], fr->rgba.b = fp[6], fr->rgba.a = fp[7];
+                fr->id = get_u16(fp + 8);
+                fp += FRAG_BYTES;
+            }
+        }
+    }
+}
+
+drv_frame_err drv_framelink_decode_ex(const uint8_t *buf, size_t len, size_t max_frame, drv_frame *out,
+                                      drv_framelink_rx *rx, char *detail, int dl)
+{
+    size_t need;
+    drv_frame_err err = check_header(buf, len, max_frame, &need, detail, dl);
+    if (err) return err;
+    size_t hdr = get_u16(buf + OFF_HEADER_SIZE), total = get_u32(buf + OFF_TOTAL);
+    unsigned planes = get_u32(buf + OFF_PLANES);
+    int depth_enc = get_u16(buf + OFF_DEPTH_ENC), n_obj = get_u16(buf + OFF_N_OBJECTS);
+    int n_planes = get_u16(buf + OFF_N_PLANES);
+    if (n_obj > DRV_MAX_OBJECTS)
+        return fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE, "%d objects (at most %d)", n_obj, DRV_MAX_OBJECTS);
+    if (n_planes < 1 || n_planes > DRV_FRAMELINK_MAX_PLANES)
+        return fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE, "%d planes", n_planes);
+    if (hdr != header_bytes(n_obj, n_planes))
+        return fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE, "header size %zu but %d objects and %d planes need %zu", hdr,
+                    n_obj, n_planes, header_bytes(n_obj, n_planes));
+    if (get_u16(buf + OFF_RESERVED))
+        return fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "reserved header field set (a newer sender?)");
+    if (depth_enc > WARP_DEPTH_REVERSED)
+        return fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "unknown depth encoding %d", depth_enc);
+    int w[2], h[2];
+    for (int e = 0; e < 2; e++) {
+        const uint8_t *p = buf + OFF_EYES + e * EYE_BYTES + EYE_CAM;
+        uint32_t cw = get_u32(p), ch = get_u32(p + 4);
+        if (cw == 0 || ch == 0 || cw > MAX_DIM || ch > MAX_DIM)
+            return fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE, "eye %d is %ux%u", e, cw, ch);
+        w[e] = (int)cw, h[e] = (int)ch;
+    }
+
+    /* Plane descriptors: known types in ascending order, each once, formats the type allows, allocated on this
+     * side at the cameras' sizes, packed back to back and adding up to the payload. */
+    plane_desc pd[DRV_FRAMELINK_MAX_PLANES];
+    unsigned seen = 0;
+    size_t payload = total - hdr - 4, off = 0;
+    const uint8_t *dp = buf + DRV_FRAMELINK_FIXED_BYTES + (size_t)n_obj * DRV_FRAMELINK_OBJECT_BYTES;
+    for (int i = 0; i < n_planes; i++, dp += DRV_FRAMELINK_PLANE_DESC_BYTES) {
+        plane_desc *d = &pd[i];
+        d->type = dp[0], d->format = dp[1], d->param = get_u16(dp + 2);
+        d->off = get_u32(dp + 4), d->size = get_u32(dp + 8);
+        if (d->type >= DRV_FRAMELINK_MAX_PLANES || (seen >> d->type))
+            return fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "plane %d: type %d out of order or unknown", i,
+                        d->type);
+        seen |= 1u << d->type;
+        if (!format_ok(d->type, d->format))
+            return fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "plane type %d: format %d not supported", d->type,
+                        d->format);
+        if (d->type == 1 && d->format == DRV_FRAMELINK_FMT_UNORM16 && depth_enc == WARP_DEPTH_LINEAR)
+            return fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "unorm16 depth with linear encoding");
+        if (d->type != 4 && d->param)
+            return fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "plane type %d: parameter %d set", d->type, d->param);
+        if (get_u32(dp + 12))
+            return fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "plane type %d: reserved field set", d->type);
+        for (int e = 0; e < 2; e++) {
+            int aw, ah;
+            bool allocated;
+            plane_dims(out, d->type, e, &aw, &ah, &allocated);
+            if (!allocated)
+                return fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "plane type %d sent but not allocated here",
+                            d->type);
+            if (aw != w[e] || ah != h[e])
+                return fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE, "eye %d is %dx%d, allocated %dx%d", e, w[e], h[e],
+                            aw, ah);
+        }
+        if (d->off != off)
+            return fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE, "plane type %d at offset %zu, expected %zu", d->type,
+                        d->off, off);
+        if (d->type != 4) {
+            size_t want = ((size_t)w[0] * h[0] + (size_t)w[1] * h[1]) * (size_t)bytes_per_pixel(d->format);
+            if (d->size != want)
+                return fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE, "plane type %d: %zu bytes, %dx%d eyes need %zu",
+                            d->type, d->size, w[0], h[0], want);
+        }
+        if (d->size > payload - off)
+            return fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE, "plane type %d overruns the payload", d->type);
+        off += d->size;
+    }
+    if (seen != planes)
+        return fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "plane mask 0x%x but descriptors for 0x%x", planes, seen);
+    if (!(planes & DRV_PLANE_COLOR)) return fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "no colour plane");
+    if (off != payload)
+        return fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE, "planes add up to %zu bytes, payload is %zu", off, payload);
+    if (len < total) return fail(detail, dl, DRV_FRAME_ERR_TRUNCATED, "%zu of %zu bytes", len, total);
+    uint32_t want = get_u32(buf + total - 4), got = crc(buf + hdr, payload);
+    if (want != got) return fail(detail, dl, DRV_FRAME_ERR_CRC, "payload CRC 0x%08x, computed 0x%08x", want, got);
+    /* Layers: variable length, checked in full before anything is written. */
+    for (int i = 0; i < n_planes; i++) {
+        if (pd[i].type != 4) continue;
+        const uint8_t *p = buf + hdr + pd[i].off;
+        size_t left = pd[i].size;
+        int deepest = 0;
+        for (int e = 0; e < 2; e++) {
+            int ml = out->layers[e].max_layers;
+            size_t b = layers_check(p, left, w[e], h[e], ml, &deepest);
+            if (!b)
+                return fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE,
+                            "eye %d layers: counts above the %d allocated or fragments overrun the plane", e, ml);
+            p += b, left -= b;
+        }
+        if (left) return fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE, "layers plane has %zu bytes left over", left);
+        if (deepest != pd[i].param)
+            return fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE, "layers descriptor says %d deep, counts reach %d",
+                        pd[i].param, deepest);
+    }
+
+    /* All checks passed: write the frame. */
+    drv_framelink_tx tx;
+    tx.pose_sent_ns = (int64_t)get_u64(buf + OFF_POSE_SENT);
+    tx.host_pose_rx_ns = (int64_t)get_u64(buf + OFF_HOST_POSE_RX);
+    tx.host_render_start_ns = (int64_t)get_u64(buf + OFF_HOST_START);
+    tx.host_render_end_ns = (int64_t)get_u64(buf + OFF_HOST_END);
+    tx.host_send_ns = (int64_t)get_u64(buf + OFF_HOST_SEND);
+    tx.depth_format = DRV_FRAMELINK_FMT_F32;
+    for (int i = 0; i < n_planes; i++)
+        if (pd[i].type == 1) tx.depth_format = pd[i].format;
+    out->seq = get_u64(buf + OFF_SEQ);
+    out->pose_t_ns = (int64_t)get_u64(buf + OFF_POSE_T);
+    /* The host's render start on the board clock: the board's send time of the pose plus the host's delay
+     * between receiving it and starting (ignores the pose message's own transit, well under a millisecond). */
+    out->render_start_ns = tx.pose_sent_ns && tx.host_pose_rx_ns && tx.host_render_start_ns
+                               ? tx.pose_sent_ns + (tx.host_render_start_ns - tx.host_pose_rx_ns)
+                               : 0;
+    out->planes = planes;
+    out->depth_encoding = (warp_depth_encoding)depth_enc;
+    out->scene_time = get_f64(buf + OFF_SCENE_TIME);
+    for (int e = 0; e < 2; e++) {
+        const uint8_t *p = buf + OFF_EYES + e * EYE_BYTES;
+        out->eye_pose[e] = get_pose(p);
+        warp_camera *c = &out->cam[e];
+        c->width = w[e], c->height = h[e];
+        c->tan_left = get_f64(p + EYE_CAM + 8);
+        c->tan_right = get_f64(p + EYE_CAM + 16);
+        c->tan_up = get_f64(p + EYE_CAM + 24);
+        c->tan_down = get_f64(p + EYE_CAM + 32);
+        c->near_z = get_f64(p + EYE_CAM + 40);
+        c->far_z = get_f64(p + EYE_CAM + 48);
+    }
+    out->n_objects = n_obj;
+    for (int i = 0; i < n_obj; i++)
+        out->object_pose[i] = get_pose(buf + DRV_FRAMELINK_FIXED_BYTES + (size_t)i * DRV_FRAMELINK_OBJECT_BYTES);
+    for (int i = 0; i < n_planes; i++) {
+        const uint8_t *p = buf + hdr + pd[i].off;
+        for (int e = 0; e < 2; e++) {
+            decode_plane(out, &pd[i], e, w[e], h[e], p);
+            int deepest = 0;
+            p += pd[i].type == 4 ? layers_check(p, pd[i].size, w[e], h[e], out->layers[e].max_layers, &deepest)
+                                 : (size_t)w[e] * h[e] * (size_t)bytes_per_pixel(pd[i].format);
+        }
+    }
+    if (rx) {
+        rx->tx = tx;
+        rx->total_bytes = total;
+    }
+    if (detail && dl > 0) detail[0] = 0;
+    return DRV_FRAME_OK;
+}
+
+drv_frame_err drv_framelink_decode(const uint8_t *buf, size_t len, size_t max_frame, drv_frame *out)
+{
+    return drv_framelink_decode_ex(buf, len, max_frame, out, NULL, NULL, 0);
+}
+
+/* ---- pose messages ---- */
+
+size_t drv_framelink_pose_encode(const drv_framelink_pose *p, uint8_t *buf, size_t cap)
+{
+    if (cap < DRV_FRAMELINK_POSE_BYTES) return 0;
+    memset(buf, 0, DRV_FRAMELINK_POSE_BYTES);
+    put_u32(buf, DRV_FRAMELINK_POSE_MAGIC);
+    put_u16(buf + 4, DRV_FRAMELINK_VERSION);
+    put_u16(buf + 6, DRV_FRAMELINK_POSE_BYTES);
+    put_u32(buf + 8, p->seq);
+    put_u64(buf + 16, (uint64_t)p->board_t_ns);
+    put_u64(buf + 24, (uint64_t)p->target_t_ns);
+    put_pose(buf + 32, p->head);
+    put_pose(buf + 88, p->eye[0]);
+    put_pose(buf + 144, p->eye[1]);
+    put_u32(buf + 200, crc(buf, 200));
+    return DRV_FRAMELINK_POSE_BYTES;
+}
+
+static bool pose_ok(warp_pose a) { return warp_pose_isfinite(a) && fabs(warp_quat_norm(a.q) - 1.0) <= 1e-3; }
+
+drv_frame_err drv_framelink_pose_decode(const uint8_t *buf, size_t len, drv_framelink_pose *out)
+{
+    if (len < 4) return DRV_FRAME_ERR_TRUNCATED;
+    if (get_u32(buf) != DRV_FRAMELINK_POSE_MAGIC) return DRV_FRAME_ERR_BAD_MAGIC;
+    if (len < 8) return DRV_FRAME_ERR_TRUNCATED;
+    if (get_u16(buf + 4) != DRV_FRAMELINK_VERSION) return DRV_FRAME_ERR_BAD_VERSION;
+    if (get_u16(buf + 6) != DRV_FRAMELINK_POSE_BYTES) return DRV_FRAME_ERR_BAD_SIZE;
+    if (len < DRV_FRAMELINK_POSE_BYTES) return DRV_FRAME_ERR_TRUNCATED;
+    if (get_u32(buf + 200) != crc(buf, 200)) return DRV_FRAME_ERR_CRC;
+    drv_framelink_pose p;
+    p.seq = get_u32(buf + 8);
+    p.board_t_ns = (int64_t)get_u64(buf + 16);
+    p.target_t_ns = (int64_t)get_u64(buf + 24);
+    p.head = get_pose(buf + 32);
+    p.eye[0] = get_pose(buf + 88);
+    p.eye[1] = get_pose(buf + 144);
+    if (!pose_ok(p.head) || !pose_ok(p.eye[0]) || !pose_ok(p.eye[1])) return DRV_FRAME_ERR_BAD_POSE;
+    *out = p;
+    return DRV_FRAME_OK;
+}

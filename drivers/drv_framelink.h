@@ -1,0 +1,93 @@
+/* drv_framelink: the frame wire protocol between host and board (one codec for both ends): frames host -> board,
+ * pose messages board -> host. Little-endian, versioned, CRC32-checked; byte layout in docs/framelink.md. */
+#ifndef DRV_FRAMELINK_H
+#define DRV_FRAMELINK_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "drivers/drv_frames.h"
+#include "warp/warp_math.h"
+
+#define DRV_FRAMELINK_MAGIC 0x31465748u      /* "HWF1" as bytes on the wire */
+#define DRV_FRAMELINK_POSE_MAGIC 0x31505748u /* "HWP1" */
+#define DRV_FRAMELINK_VERSION 1
+/* Fixed part of the frame header (before object poses and plane descriptors) and its CRC'd whole. */
+#define DRV_FRAMELINK_FIXED_BYTES 312
+#define DRV_FRAMELINK_OBJECT_BYTES 56
+#define DRV_FRAMELINK_PLANE_DESC_BYTES 16
+#define DRV_FRAMELINK_MAX_PLANES 5
+#define DRV_FRAMELINK_MAX_HEADER                                                                                  \
+    (DRV_FRAMELINK_FIXED_BYTES + DRV_MAX_OBJECTS * DRV_FRAMELINK_OBJECT_BYTES +                                   \
+     DRV_FRAMELINK_MAX_PLANES * DRV_FRAMELINK_PLANE_DESC_BYTES + 4)
+/* Bytes peek needs before it can tell the header size (magic, version, header size, total size). */
+#define DRV_FRAMELINK_PREFIX_BYTES 12
+#define DRV_FRAMELINK_POSE_BYTES 204
+
+/* Plane types on the wire (the DRV_PLANE_* bit index) and their formats. */
+enum {
+    DRV_FRAMELINK_FMT_RGBA8 = 1,     /* colour: r, g, b, a bytes */
+    DRV_FRAMELINK_FMT_F32 = 2,       /* depth: float32 in the frame's depth encoding */
+    DRV_FRAMELINK_FMT_UNORM16 = 3,   /* depth: u16 window depth d * 65535 (STANDARD / REVERSED encodings only) */
+    DRV_FRAMELINK_FMT_U16 = 4,       /* object ids */
+    DRV_FRAMELINK_FMT_VEC2F32 = 5,   /* motion: x, y float32, pixels per second */
+    DRV_FRAMELINK_FMT_FRAGMENTS = 6, /* layers: u8 count per pixel, then the fragments (z f32, rgba8, id u16) */
+};
+
+/* What the sender adds to a drv_frame: host-clock timing for statistics and the encoding choices. */
+typedef struct {
+    int64_t pose_sent_ns;         /* board clock: board_t_ns of the pose message rendered for (echoed), 0 unknown */
+    int64_t host_pose_rx_ns;      /* host clock: when that pose message arrived */
+    int64_t host_render_start_ns; /* host clock */
+    int64_t host_render_end_ns;   /* host clock */
+    int64_t host_send_ns;         /* host clock: when the frame was handed to the transport */
+    int depth_format;             /* 0 or DRV_FRAMELINK_FMT_F32, or DRV_FRAMELINK_FMT_UNORM16 */
+} drv_framelink_tx;
+
+/* What a receiver learns beyond the drv_frame. */
+typedef struct {
+    drv_framelink_tx tx;          /* the sender's fields as sent */
+    size_t total_bytes;
+} drv_framelink_rx;
+
+/* Wire size of f (0 when f cannot be encoded: no colour, bad dims, too many objects, bad depth format). */
+size_t drv_framelink_size(const drv_frame *f);
+size_t drv_framelink_size_ex(const drv_frame *f, const drv_framelink_tx *tx);
+/* Encodes f into buf; returns the bytes written, 0 when it cannot be encoded or cap is too small. */
+size_t drv_framelink_encode(const drv_frame *f, uint8_t *buf, size_t cap);
+size_t drv_framelink_encode_ex(const drv_frame *f, const drv_framelink_tx *tx, uint8_t *buf, size_t cap);
+
+/* Header only, for byte streams. With len < the header it returns DRV_FRAME_ERR_TRUNCATED and *total = the bytes
+ * needed to decide (the header size once the prefix is in); DRV_FRAME_OK with *total = the whole frame's size once
+ * the header arrived and its CRC holds. Otherwise BAD_MAGIC, BAD_VERSION, BAD_SIZE, CRC, or TOO_LARGE (total >
+ * max_frame, max_frame 0 means no limit; *total is then the declared size, so a stream can skip the frame). */
+drv_frame_err drv_framelink_peek(const uint8_t *buf, size_t len, size_t max_frame, size_t *total);
+
+/* Decodes one frame into *out, whose planes the caller allocated (drv_frame_alloc): the sizes must match the
+ * cameras and the planes sent must be allocated. Never allocates; *out is untouched unless DRV_FRAME_OK.
+ * received_ns is left alone (the transport knows it); render_start_ns is mapped to the board clock through the
+ * echoed pose_sent_ns when known. Run drv_frame_validate() on the result. */
+drv_frame_err drv_framelink_decode(const uint8_t *buf, size_t len, size_t max_frame, drv_frame *out);
+/* The same, also returning the sender's fields (rx, may be NULL) and a message for logs (detail, may be NULL). */
+drv_frame_err drv_framelink_decode_ex(const uint8_t *buf, size_t len, size_t max_frame, drv_frame *out,
+                                      drv_framelink_rx *rx, char *detail, int detail_len);
+
+/* Index of the first possible frame start (the magic, or a prefix of it at the end) in buf, or len if none: how a
+ * byte-stream receiver resynchronises after garbage. */
+size_t drv_framelink_find_magic(const uint8_t *buf, size_t len);
+
+/* Board -> host: the head pose predicted for target_t_ns, sent at board_t_ns (both board clock). */
+typedef struct {
+    uint32_t seq;
+    int64_t board_t_ns;
+    int64_t target_t_ns;
+    warp_pose head;
+    warp_pose eye[2];
+} drv_framelink_pose;
+
+/* Always DRV_FRAMELINK_POSE_BYTES; returns 0 when cap is too small. */
+size_t drv_framelink_pose_encode(const drv_framelink_pose *p, uint8_t *buf, size_t cap);
+/* TRUNCATED, BAD_MAGIC, BAD_VERSION, BAD_SIZE, CRC, or BAD_POSE (non-finite or non-unit quaternion). */
+drv_frame_err drv_framelink_pose_decode(const uint8_t *buf, size_t len, drv_framelink_pose *out);
+
+#endif

@@ -1,0 +1,875 @@
+/* drv_frames_usb: host frames over USB, the board being a FunctionFS gadget (bulk OUT frames, bulk IN poses), and
+ * a mock whose simulated host talks the same framelink byte streams through socket pairs instead of endpoints. */
+#include "drivers/drv_frames_usb.h"
+
+#include <endian.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <linux/aio_abi.h>
+#include <linux/usb/functionfs.h>
+#include <math.h>
+#include <poll.h>
+#include <pthread.h>
+#include <stdarg.h>
+#include <stdatomic.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/eventfd.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
+#include "drivers/drv_framelink.h"
+#include "platform/plat_clock.h"
+#include "warp/warp_head.h"
+
+#define CHUNK (256 * 1024)        /* bytes per receive step: a multiple of every bulk max packet size */
+#define FFS_READ (64 * 1024)      /* bytes per FunctionFS read request (the kernel allocates it contiguously) */
+#define LEAD_START_MS 20.0
+#define LEAD_MIN_MS 2.0
+#define LEAD_MAX_MS 200.0
+
+/* ---- transport: the only piece the mock replaces ---- */
+
+typedef struct usb_transport usb_transport;
+struct usb_transport {
+    /* Up to cap bytes of the OUT stream within timeout_ms: bytes, 0 on timeout, -errno when the link failed. */
+    ssize_t (*read)(usb_transport *t, uint8_t *buf, size_t cap, int timeout_ms);
+    /* One message on the IN endpoint: len, 0 when the host did not take it in time, -errno. */
+    ssize_t (*write)(usb_transport *t, const uint8_t *buf, size_t len, int timeout_ms);
+    bool (*connected)(usb_transport *t);
+    void (*destroy)(usb_transport *t);
+};
+
+/* ---- the board side (shared by the gadget and the mock) ---- */
+
+typedef struct {
+    drv_frames base;
+    drv_frames_usb_params p;
+    usb_transport *t;
+    uint8_t *buf;              /* receive buffer: one frame plus one read */
+    size_t cap, have;
+    uint8_t *scratch;          /* oversize frames are read here and dropped */
+    size_t discard_left;
+    bool resyncing;            /* garbage after a reported rejection is skipped silently */
+    drv_frame_err first_err;
+
+    pthread_t pose_th;
+    bool pose_up;
+    atomic_bool stop;
+    _Atomic int64_t lead_ns;
+    pthread_mutex_t lock;      /* stats */
+    drv_frames_usb_stats st;
+    uint32_t pose_seq;
+
+    /* mock host */
+    struct mock_host *mock;
+} usb_frames;
+
+static void note(usb_frames *u, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+static void note(usb_frames *u, const char *fmt, ...)
+{
+    pthread_mutex_lock(&u->lock);
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(u->st.last_error, sizeof u->st.last_error, fmt, ap);
+    va_end(ap);
+    pthread_mutex_unlock(&u->lock);
+}
+
+static void drop(usb_frames *u, size_t n)
+{
+    if (n >= u->have) {
+        u->have = 0;
+        return;
+    }
+    memmove(u->buf, u->buf + n, u->have - n);
+    u->have -= n;
+}
+
+/* A rejected frame: counted, named in last_error; the stream resynchronises from the frame's second byte on. */
+static int reject(usb_frames *u, drv_frame_err e, size_t skip, bool resync, const char *detail)
+{
+    pthread_mutex_lock(&u->lock);
+    u->st.rejected[e]++;
+    snprintf(u->st.last_error, sizeof u->st.last_error, "usb frames: frame rejected: %s%s%s", drv_frame_err_str(e),
+             detail && detail[0] ? ": " : "", detail ? detail : "");
+    pthread_mutex_unlock(&u->lock);
+    drop(u, skip);
+    u->resyncing = resync;
+    return -(int)e;
+}
+
+static void link_lost(usb_frames *u, ssize_t rc)
+{
+    pthread_mutex_lock(&u->lock);
+    u->st.disconnects++;
+    snprintf(u->st.last_error, sizeof u->st.last_error, "usb frames: OUT endpoint: %s (partial frame dropped)",
+             strerror((int)-rc));
+    pthread_mutex_unlock(&u->lock);
+    u->have = 0;
+    u->discard_left = 0;
+    u->resyncing = false;
+    plat_sleep_ns(10 * PLAT_NS_PER_MS); /* a persistent failure must not spin */
+}
+
+static int usb_receive(drv_frames *fr, drv_frame *f, int timeout_ms)
+{
+    usb_frames *u = (usb_frames *)fr;
+    int64_t deadline = plat_now_ns() + (int64_t)timeout_ms * PLAT_NS_PER_MS;
+    for (;;) {
+        if (u->discard_left == 0 && u->have > 0) {
+            size_t k = drv_framelink_find_magic(u->buf, u->have);
+            if (k > 0) {
+                pthread_mutex_lock(&u->lock);
+                u->st.skipped_bytes += k;
+                pthread_mutex_unlock(&u->lock);
+                drop(u, k);
+                if (!u->resyncing) return reject(u, DRV_FRAME_ERR_BAD_MAGIC, 0, true, "garbage between frames");
+            }
+            size_t total = 0;
+            drv_frame_err e = drv_framelink_peek(u->buf, u->have, u->p.max_frame_bytes, &total);
+            if (e == DRV_FRAME_ERR_TOO_LARGE) {
+                /* A sound header for a frame too big to keep: skip exactly its bytes, never storing them. */
+                size_t in_buf = u->have < total ? u->have : total;
+                u->discard_left = total - in_buf;
+                pthread_mutex_lock(&u->lock);
+                u->st.discarded_bytes += in_buf;
+                pthread_mutex_unlock(&u->lock);
+                char d[80];
+                snprintf(d, sizeof d, "%zu bytes, limit %zu", total, u->p.max_frame_bytes);
+                return reject(u, e, in_buf, false, d);
+            }
+            if (e == DRV_FRAME_OK && u->have >= total) {
+                char detail[160];
+                drv_framelink_rx rx;
+                e = drv_framelink_decode_ex(u->buf, total, u->p.max_frame_bytes, f, &rx, detail, sizeof detail);
+                if (e != DRV_FRAME_OK) return reject(u, e, 1, true, detail);
+                f->received_ns = plat_now_ns();
+                drop(u, total);
+                u->resyncing = false;
+                e = drv_frame_validate(f);
+                if (e != DRV_FRAME_OK) return reject(u, e, 0, false, "content invalid");
+                if (rx.tx.pose_sent_ns > 0 && f->received_ns > rx.tx.pose_sent_ns) {
+                    /* The lead the next poses are predicted with: how long the host took to answer one. */
+                    double ms = (double)(f->received_ns - rx.tx.pose_sent_ns) * 1e-6;
+                    double lead = (double)atomic_load(&u->lead_ns) * 1e-6;
+                    lead = 0.9 * lead + 0.1 * (ms < LEAD_MIN_MS ? LEAD_MIN_MS : ms > LEAD_MAX_MS ? LEAD_MAX_MS : ms);
+                    atomic_store(&u->lead_ns, (int64_t)(lead * 1e6));
+                }
+                pthread_mutex_lock(&u->lock);
+                u->st.frames++;
+                pthread_mutex_unlock(&u->lock);
+                return 1;
+            }
+            if (e != DRV_FRAME_OK && e != DRV_FRAME_ERR_TRUNCATED) return reject(u, e, 1, true, "bad header");
+        }
+        int64_t left = deadline - plat_now_ns();
+        if (left <= 0) return 0;
+        uint8_t *dst;
+        size_t want;
+        if (u->discard_left) {
+            dst = u->scratch;
+            want = u->discard_left < CHUNK ? u->discard_left : CHUNK;
+        } else {
+            dst = u->buf + u->have;
+            want = u->cap - u->have < CHUNK ? u->cap - u->have : CHUNK;
+            if (want == 0) { /* cannot happen (frames fit the buffer); never spin on a full buffer */
+                drop(u, 1);
+                continue;
+            }
+        }
+        ssize_t n = u->t->read(u->t, dst, want, (int)((left + PLAT_NS_PER_MS - 1) / PLAT_NS_PER_MS));
+        if (n < 0) {
+            link_lost(u, n);
+            continue; /* the transport waits for the link up to the deadline */
+        }
+        if (n == 0) continue;
+        pthread_mutex_lock(&u->lock);
+        u->st.bytes += (uint64_t)n;
+        if (u->discard_left) u->st.discarded_bytes += (uint64_t)n;
+        pthread_mutex_unlock(&u->lock);
+        if (u->discard_left)
+            u->discard_left -= (size_t)n;
+        else
+            u->have += (size_t)n;
+    }
+}
+
+static unsigned usb_planes(drv_frames *fr) { return ((usb_frames *)fr)->p.planes; }
+
+static void *pose_thread(void *arg)
+{
+    usb_frames *u = arg;
+    plat_thread_set_name("hmdwarp-poses");
+    warp_head head = warp_head_default();
+    int64_t period = (int64_t)(1e9 / u->p.pose_rate_hz), next = plat_now_ns();
+    while (!atomic_load(&u->stop)) {
+        next += period;
+        int64_t now = plat_now_ns();
+        if (next < now) next = now; /* fell behind (host stalled a write): no burst to catch up */
+        plat_sleep_until_ns(next);
+        if (atomic_load(&u->stop)) break;
+        if (!u->t->connected(u->t)) continue;
+        drv_framelink_pose m;
+        m.board_t_ns = plat_now_ns();
+        m.target_t_ns = m.board_t_ns + atomic_load(&u->lead_ns);
+        if (!u->p.poses.predict(u->p.poses.ctx, m.target_t_ns, &m.head)) continue;
+        m.seq = ++u->pose_seq;
+        for (int e = 0; e < 2; e++) m.eye[e] = warp_head_eye_pose(&head, m.head, e);
+        uint8_t msg[DRV_FRAMELINK_POSE_BYTES];
+        drv_framelink_pose_encode(&m, msg, sizeof msg);
+        ssize_t rc = u->t->write(u->t, msg, sizeof msg, (int)(period / PLAT_NS_PER_MS) + 1);
+        pthread_mutex_lock(&u->lock);
+        if (rc == (ssize_t)sizeof msg)
+            u->st.poses_sent++;
+        else
+            u->st.poses_dropped++;
+        if (rc < 0)
+            snprintf(u->st.last_error, sizeof u->st.last_error, "usb frames: IN endpoint (poses): %s",
+                     strerror((int)-rc));
+        pthread_mutex_unlock(&u->lock);
+    }
+    return NULL;
+}
+
+static void mock_host_stop(struct mock_host *m);
+
+static void usb_destroy(drv_frames *fr)
+{
+    usb_frames *u = (usb_frames *)fr;
+    atomic_store(&u->stop, true);
+    if (u->pose_up) pthread_join(u->pose_th, NULL);
+    if (u->mock) mock_host_stop(u->mock);
+    if (u->t) u->t->destroy(u->t);
+    pthread_mutex_destroy(&u->lock);
+    free(u->buf);
+    free(u->scratch);
+    free(u);
+}
+
+static bool set_err(char *err, int errlen, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+static bool set_err(char *err, int errlen, const char *fmt, ...)
+{
+    if (err && errlen > 0) {
+        va_list ap;
+        va_start(ap, fmt);
+        vsnprintf(err, (size_t)errlen, fmt, ap);
+        va_end(ap);
+    }
+    return false;
+}
+
+static usb_frames *board_new(const drv_frames_usb_params *p, char *err, int errlen)
+{
+    if (!p->poses.predict || !(p->pose_rate_hz > 0) || p->eye_w <= 0 || p->eye_h <= 0 ||
+        !(p->planes & DRV_PLANE_COLOR) || p->max_frame_bytes < 1024) {
+        set_err(err, errlen, "usb frames: bad parameters (need a pose source, pose_rate_hz > 0, eye size, colour, "
+                             "max_frame_bytes >= 1024)");
+        return NULL;
+    }
+    usb_frames *u = calloc(1, sizeof *u);
+    if (!u) return NULL;
+    u->p = *p;
+    u->cap = p->max_frame_bytes + CHUNK;
+    u->buf = malloc(u->cap);
+    u->scratch = malloc(CHUNK);
+    if (!u->buf || !u->scratch) {
+        free(u->buf);
+        free(u->scratch);
+        set_err(err, errlen, "usb frames: cannot allocate a %zu byte receive buffer", u->cap);
+        free(u);
+        return NULL;
+    }
+    pthread_mutex_init(&u->lock, NULL);
+    atomic_init(&u->lead_ns, (int64_t)(LEAD_START_MS * 1e6));
+    atomic_init(&u->stop, false);
+    u->base.receive = usb_receive;
+    u->base.planes = usb_planes;
+    u->base.destroy = usb_destroy;
+    return u;
+}
+
+static bool board_start(usb_frames *u, char *err, int errlen)
+{
+    u->pose_up = pthread_create(&u->pose_th, NULL, pose_thread, u) == 0;
+    if (!u->pose_up) return set_err(err, errlen, "usb frames: cannot start the pose thread");
+    return true;
+}
+
+void drv_frames_usb_stats_get(drv_frames *fr, drv_frames_usb_stats *st)
+{
+    usb_frames *u = (usb_frames *)fr;
+    pthread_mutex_lock(&u->lock);
+    *st = u->st;
+    pthread_mutex_unlock(&u->lock);
+    st->connected = u->t->connected(u->t);
+    st->lead_ms = (double)atomic_load(&u->lead_ns) * 1e-6;
+}
+
+/* ---- FunctionFS transport ---- */
+
+/* Linux native AIO: FunctionFS endpoint files have no poll(), so timeouts and a clean shutdown need
+ * asynchronous reads and writes completed through an eventfd (as the kernel's ffs-aio example does). */
+static long aio_setup(unsigned n, aio_context_t *ctx) { return syscall(__NR_io_setup, n, ctx); }
+static long aio_destroy(aio_context_t ctx) { return syscall(__NR_io_destroy, ctx); }
+static long aio_submit(aio_context_t ctx, long n, struct iocb **io) { return syscall(__NR_io_submit, ctx, n, io); }
+static long aio_cancel(aio_context_t ctx, struct iocb *io, struct io_event *ev)
+{
+    return syscall(__NR_io_cancel, ctx, io, ev);
+}
+static long aio_getevents(aio_context_t ctx, long min, long max, struct io_event *ev, struct timespec *ts)
+{
+    return syscall(__NR_io_getevents, ctx, min, max, ev, ts);
+}
+
+typedef struct {
+    aio_context_t ctx;
+    int fd, efd;
+    struct iocb cb;
+    bool pending;
+    uint8_t *buf;          /* the I/O's own buffer: it outlives a timed-out call */
+    size_t len, off;       /* completed bytes not yet handed out (reads) */
+} aio_ep;
+
+static bool aio_ep_init(aio_ep *a, int fd, size_t bufsize)
+{
+    memset(a, 0, sizeof *a);
+    a->fd = fd;
+    a->efd = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
+    a->buf = malloc(bufsize);
+    if (a->efd < 0 || !a->buf || aio_setup(2, &a->ctx) < 0) return false;
+    return true;
+}
+
+/* Waits up to timeout_ms for the pending I/O: its result, or -EINPROGRESS. */
+static long aio_ep_wait(aio_ep *a, int timeout_ms)
+{
+    struct pollfd pfd = {a->efd, POLLIN, 0};
+    if (poll(&pfd, 1, timeout_ms) <= 0) return -EINPROGRESS;
+    uint64_t v;
+    if (read(a->efd, &v, sizeof v) < 0) return -EINPROGRESS;
+    struct io_event ev;
+    struct timespec zero = {0, 0};
+    if (aio_getevents(a->ctx, 1, 1, &ev, &zero) != 1) return -EINPROGRESS;
+    a->pending = false;
+    return (long)ev.res;
+}
+
+static void aio_ep_cancel(aio_ep *a)
+{
+    if (!a->pending) return;
+    struct io_event ev;
+    aio_cancel(a->ctx, &a->cb, &ev);
+    /* Cancelled or not, the request completes: wait for it so the buffer is free again. */
+    for (int i = 0; i < 20 && a->pending; i++) aio_ep_wait(a, 50);
+}
+
+static bool aio_ep_submit(aio_ep *a, unsigned opcode, size_t len)
+{
+    memset(&a->cb, 0, sizeof a->cb);
+    a->cb.aio_fildes = (uint32_t)a->fd;
+    a->cb.aio_lio_opcode = (uint16_t)opcode;
+    a->cb.aio_buf = (uint64_t)(uintptr_t)a->buf;
+    a->cb.aio_nbytes = len;
+    a->cb.aio_flags = IOCB_FLAG_RESFD;
+    a->cb.aio_resfd = (uint32_t)a->efd;
+    struct iocb *list[1] = {&a->cb};
+    if (aio_submit(a->ctx, 1, list) != 1) return false;
+    a->pending = true;
+    return true;
+}
+
+static void aio_ep_free(aio_ep *a)
+{
+    aio_ep_cancel(a);
+    if (a->ctx) aio_destroy(a->ctx);
+    if (a->efd >= 0) close(a->efd);
+    if (a->fd >= 0) close(a->fd);
+    free(a->buf);
+}
+
+typedef struct {
+    usb_transport base;
+    int ep0;
+    aio_ep out, in;
+    pthread_t ep0_th;
+    bool ep0_up;
+    atomic_bool stop;
+    pthread_mutex_t lock;
+    pthread_cond_t cond;
+    bool enabled;
+    usb_frames *owner;
+} ffs_transport;
+
+static bool ffs_wait_enabled(ffs_transport *t, int timeout_ms)
+{
+    pthread_mutex_lock(&t->lock);
+    if (!t->enabled && timeout_ms > 0) {
+        struct timespec ts;
+        clock_gettime(CLOCK_MONOTONIC, &ts);
+        int64_t ns = ts.tv_nsec + (int64_t)timeout_ms * PLAT_NS_PER_MS;
+        ts.tv_sec += ns / PLAT_NS_PER_S;
+        ts.tv_nsec = ns % PLAT_NS_PER_S;
+        while (!t->enabled && pthread_cond_timedwait(&t->cond, &t->lock, &ts) == 0) {
+        }
+    }
+    bool en = t->enabled;
+    pthread_mutex_unlock(&t->lock);
+    return en;
+}
+
+static ssize_t ffs_read(usb_transport *bt, uint8_t *buf, size_t cap, int timeout_ms)
+{
+    ffs_transport *t = (ffs_transport *)bt;
+    aio_ep *a = &t->out;
+    if (a->off < a->len) { /* the rest of a completed read that did not fit last time */
+        size_t n = a->len - a->off < cap ? a->len - a->off : cap;
+        memcpy(buf, a->buf + a->off, n);
+        a->off += n;
+        return (ssize_t)n;
+    }
+    if (!a->pending) {
+        if (!ffs_wait_enabled(t, timeout_ms)) return 0;
+        if (!aio_ep_submit(a, IOCB_CMD_PREAD, FFS_READ)) return -errno;
+    }
+    long r = aio_ep_wait(a, timeout_ms);
+    if (r == -EINPROGRESS) return 0;
+    if (r < 0) return r;
+    a->len = (size_t)r;
+    a->off = 0;
+    size_t n = a->len < cap ? a->len : cap;
+    memcpy(buf, a->buf, n);
+    a->off = n;
+    return (ssize_t)n;
+}
+
+static ssize_t ffs_write(usb_transport *bt, const uint8_t *buf, size_t len, int timeout_ms)
+{
+    ffs_transport *t = (ffs_transport *)bt;
+    aio_ep *a = &t->in;
+    if (a->pending && aio_ep_wait(a, 0) == -EINPROGRESS) aio_ep_cancel(a); /* a fresher pose replaces it */
+    if (a->pending) return 0;
+    if (!ffs_wait_enabled(t, 0) || len > DRV_FRAMELINK_POSE_BYTES) return 0;
+    memcpy(a->buf, buf, len);
+    if (!aio_ep_submit(a, IOCB_CMD_PWRITE, len)) return -errno;
+    long r = aio_ep_wait(a, timeout_ms);
+    if (r == -EINPROGRESS) return 0; /* stays queued until the host reads or the next pose replaces it */
+    return r;
+}
+
+static bool ffs_connected(usb_transport *bt) { return ffs_wait_enabled((ffs_transport *)bt, 0); }
+
+static const char *ffs_event_name(int type)
+{
+    static const char *const names[] = {"BIND", "UNBIND", "ENABLE", "DISABLE", "SETUP", "SUSPEND", "RESUME"};
+    return type >= 0 && type < 7 ? names[type] : "unknown";
+}
+
+static void *ep0_thread(void *arg)
+{
+    ffs_transport *t = arg;
+    plat_thread_set_name("hmdwarp-ep0");
+    while (!atomic_load(&t->stop)) {
+        struct pollfd pfd = {t->ep0, POLLIN, 0};
+        if (poll(&pfd, 1, 100) <= 0) continue;
+        struct usb_functionfs_event ev[4];
+        ssize_t n = read(t->ep0, ev, sizeof ev);
+        if (n < 0) {
+            if (errno == EINTR || errno == EAGAIN) continue;
+            note(t->owner, "usb frames: ep0: %s", strerror(errno));
+            plat_sleep_ns(100 * PLAT_NS_PER_MS);
+            continue;
+        }
+        for (size_t i = 0; i < (size_t)n / sizeof ev[0]; i++) {
+            switch (ev[i].type) {
+            case FUNCTIONFS_ENABLE:
+                pthread_mutex_lock(&t->lock);
+                t->enabled = true;
+                pthread_cond_broadcast(&t->cond);
+                pthread_mutex_unlock(&t->lock);
+                break;
+            case FUNCTIONFS_DISABLE:
+            case FUNCTIONFS_UNBIND:
+                pthread_mutex_lock(&t->lock);
+                if (t->enabled) {
+                    pthread_mutex_lock(&t->owner->lock);
+                    t->owner->st.disconnects++;
+                    snprintf(t->owner->st.last_error, sizeof t->owner->st.last_error, "usb frames: host %s",
+                             ev[i].type == FUNCTIONFS_DISABLE ? "disabled the function" : "unbound");
+                    pthread_mutex_unlock(&t->owner->lock);
+                }
+                t->enabled = false;
+                pthread_mutex_unlock(&t->lock);
+                break;
+            case FUNCTIONFS_SETUP:
+                /* No vendor control requests: stall the data phase in its direction. */
+                if (ev[i].u.setup.bRequestType & USB_DIR_IN) {
+                    if (write(t->ep0, NULL, 0) < 0) {
+                    }
+                } else if (read(t->ep0, NULL, 0) < 0) {
+                }
+                break;
+            default: /* BIND, SUSPEND, RESUME: nothing to do */
+                (void)ffs_event_name;
+                break;
+            }
+        }
+    }
+    return NULL;
+}
+
+static void ffs_destroy(usb_transport *bt)
+{
+    ffs_transport *t = (ffs_transport *)bt;
+    atomic_store(&t->stop, true);
+    if (t->ep0_up) pthread_join(t->ep0_th, NULL);
+    aio_ep_free(&t->out);
+    aio_ep_free(&t->in);
+    if (t->ep0 >= 0) close(t->ep0);
+    pthread_cond_destroy(&t->cond);
+    pthread_mutex_destroy(&t->lock);
+    free(t);
+}
+
+/* Descriptors: one vendor interface, bulk OUT ep1 (frames) and bulk IN ep2 (poses), full and high speed. */
+struct ffs_ep_pair {
+    struct usb_interface_descriptor intf;
+    struct usb_endpoint_descriptor_no_audio out, in;
+} __attribute__((packed));
+
+static struct ffs_ep_pair ep_pair(uint16_t maxpacket)
+{
+    struct ffs_ep_pair d;
+    memset(&d, 0, sizeof d);
+    d.intf.bLength = sizeof d.intf;
+    d.intf.bDescriptorType = USB_DT_INTERFACE;
+    d.intf.bNumEndpoints = 2;
+    d.intf.bInterfaceClass = USB_CLASS_VENDOR_SPEC;
+    d.intf.iInterface = 1;
+    d.out.bLength = sizeof d.out;
+    d.out.bDescriptorType = USB_DT_ENDPOINT;
+    d.out.bEndpointAddress = 1 | USB_DIR_OUT;
+    d.out.bmAttributes = USB_ENDPOINT_XFER_BULK;
+    d.out.wMaxPacketSize = htole16(maxpacket);
+    d.in = d.out;
+    d.in.bEndpointAddress = 2 | USB_DIR_IN;
+    return d;
+}
+
+static bool ffs_write_descriptors(int ep0, char *err, int errlen, const char *dir)
+{
+    struct {
+        struct usb_functionfs_descs_head_v2 head;
+        __le32 fs_count, hs_count;
+        struct ffs_ep_pair fs, hs;
+    } __attribute__((packed)) desc;
+    desc.head.magic = htole32(FUNCTIONFS_DESCRIPTORS_MAGIC_V2);
+    desc.head.length = htole32(sizeof desc);
+    desc.head.flags = htole32(FUNCTIONFS_HAS_FS_DESC | FUNCTIONFS_HAS_HS_DESC);
+    desc.fs_count = htole32(3);
+    desc.hs_count = htole32(3);
+    desc.fs = ep_pair(64);
+    desc.hs = ep_pair(512);
+    if (write(ep0, &desc, sizeof desc) != (ssize_t)sizeof desc)
+        return set_err(err, errlen, "usb frames: %s/ep0: writing the descriptors: %s", dir, strerror(errno));
+    static const char name[] = "hmdwarp frames";
+    struct {
+        struct usb_functionfs_strings_head head;
+        __le16 lang;
+        char str[sizeof name];
+    } __attribute__((packed)) strs;
+    strs.head.magic = htole32(FUNCTIONFS_STRINGS_MAGIC);
+    strs.head.length = htole32(sizeof strs);
+    strs.head.str_count = htole32(1);
+    strs.head.lang_count = htole32(1);
+    strs.lang = htole16(0x0409);
+    memcpy(strs.str, name, sizeof name);
+    if (write(ep0, &strs, sizeof strs) != (ssize_t)sizeof strs)
+        return set_err(err, errlen, "usb frames: %s/ep0: writing the strings: %s", dir, strerror(errno));
+    return true;
+}
+
+drv_frames *drv_frames_usb_create(const drv_frames_usb_params *p, char *err, int errlen)
+{
+    struct stat sb;
+    if (stat(p->ffs_dir, &sb) != 0 || !S_ISDIR(sb.st_mode)) {
+        set_err(err, errlen,
+                "usb frames: FunctionFS directory %s: %s (mount it first: board/gadget.sh start)", p->ffs_dir,
+                stat(p->ffs_dir, &sb) != 0 ? strerror(errno) : "not a directory");
+        return NULL;
+    }
+    usb_frames *u = board_new(p, err, errlen);
+    if (!u) return NULL;
+    u->base.name = "usb";
+    ffs_transport *t = calloc(1, sizeof *t);
+    if (!t) {
+        usb_destroy(&u->base);
+        return NULL;
+    }
+    t->ep0 = -1;
+    t->out.fd = t->in.fd = t->out.efd = t->in.efd = -1;
+    t->owner = u;
+    pthread_mutex_init(&t->lock, NULL);
+    pthread_condattr_t ca;
+    pthread_condattr_init(&ca);
+    pthread_condattr_setclock(&ca, CLOCK_MONOTONIC);
+    pthread_cond_init(&t->cond, &ca);
+    pthread_condattr_destroy(&ca);
+    t->base.read = ffs_read;
+    t->base.write = ffs_write;
+    t->base.connected = ffs_connected;
+    t->base.destroy = ffs_destroy;
+    u->t = &t->base;
+    char path[200];
+    snprintf(path, sizeof path, "%s/ep0", p->ffs_dir);
+    t->ep0 = open(path, O_RDWR | O_CLOEXEC);
+    if (t->ep0 < 0) {
+        set_err(err, errlen, "usb frames: cannot open %s: %s (is FunctionFS mounted there?)", path, strerror(errno));
+        goto fail;
+    }
+    if (!ffs_write_descriptors(t->ep0, err, errlen, p->ffs_dir)) goto fail;
+    /* ep1/ep2 exist once the descriptors are written. */
+    snprintf(path, sizeof path, "%s/ep1", p->ffs_dir);
+    int out_fd = open(path, O_RDWR | O_CLOEXEC);
+    snprintf(path, sizeof path, "%s/ep2", p->ffs_dir);
+    int in_fd = open(path, O_RDWR | O_CLOEXEC);
+    bool ok_out = aio_ep_init(&t->out, out_fd, FFS_READ), ok_in = aio_ep_init(&t->in, in_fd, DRV_FRAMELINK_POSE_BYTES);
+    if (out_fd < 0 || in_fd < 0 || !ok_out || !ok_in) {
+        set_err(err, errlen, "usb frames: %s: cannot open ep1/ep2 for asynchronous I/O: %s", p->ffs_dir,
+                strerror(errno));
+        goto fail;
+    }
+    t->ep0_up = pthread_create(&t->ep0_th, NULL, ep0_thread, t) == 0;
+    if (!t->ep0_up) {
+        set_err(err, errlen, "usb frames: cannot start the ep0 thread");
+        goto fail;
+    }
+    if (!board_start(u, err, errlen)) goto fail;
+    return &u->base;
+fail:
+    usb_destroy(&u->base);
+    return NULL;
+}
+
+/* ---- mock: socket pairs for the endpoints, a simulated host behind them ---- */
+
+typedef struct {
+    usb_transport base;
+    int out_fd, in_fd; /* board side: frames stream in, pose messages out */
+} sock_transport;
+
+static ssize_t sock_read(usb_transport *bt, uint8_t *buf, size_t cap, int timeout_ms)
+{
+    sock_transport *t = (sock_transport *)bt;
+    struct pollfd pfd = {t->out_fd, POLLIN, 0};
+    int r = poll(&pfd, 1, timeout_ms);
+    if (r < 0) return errno == EINTR ? 0 : -errno;
+    if (r == 0) return 0;
+    ssize_t n = read(t->out_fd, buf, cap);
+    if (n == 0) return -ESHUTDOWN; /* the mock host went away */
+    if (n < 0) return errno == EINTR || errno == EAGAIN ? 0 : -errno;
+    return n;
+}
+
+static ssize_t sock_write(usb_transport *bt, const uint8_t *buf, size_t len, int timeout_ms)
+{
+    sock_transport *t = (sock_transport *)bt;
+    struct pollfd pfd = {t->in_fd, POLLOUT, 0};
+    int r = poll(&pfd, 1, timeout_ms);
+    if (r <= 0) return r < 0 && errno != EINTR ? -errno : 0;
+    ssize_t n = send(t->in_fd, buf, len, MSG_NOSIGNAL | MSG_DONTWAIT);
+    if (n < 0) return errno == EAGAIN ? 0 : -errno;
+    return n;
+}
+
+static bool sock_connected(usb_transport *bt)
+{
+    (void)bt;
+    return true;
+}
+
+static void sock_destroy(usb_transport *bt)
+{
+    sock_transport *t = (sock_transport *)bt;
+    if (t->out_fd >= 0) close(t->out_fd);
+    if (t->in_fd >= 0) close(t->in_fd);
+    free(t);
+}
+
+struct mock_host {
+    drv_frames_sim_params hp;
+    drv_frames_usb_mock_params mp;
+    drv_frames *sim;
+    drv_frame frame;
+    int out_fd, in_fd; /* host side */
+    pthread_t th;
+    bool up;
+    atomic_bool stop;
+    bool have_pose, stalled;
+    drv_framelink_pose latest, used;
+    int64_t latest_rx_ns, used_rx_ns;
+    int64_t t_created;
+    uint8_t *buf;
+    size_t cap;
+};
+
+/* The simulated host's pose source: the newest pose message from the board. */
+static bool mock_predict(void *ctx, int64_t t_ns, warp_pose *head)
+{
+    (void)t_ns;
+    struct mock_host *m = ctx;
+    if (!m->have_pose) return false;
+    *head = m->latest.head;
+    m->used = m->latest;
+    m->used_rx_ns = m->latest_rx_ns;
+    return true;
+}
+
+static void mock_drain_poses(struct mock_host *m)
+{
+    uint8_t msg[512];
+    ssize_t n;
+    while ((n = recv(m->in_fd, msg, sizeof msg, MSG_DONTWAIT)) > 0) {
+        drv_framelink_pose p;
+        if (drv_framelink_pose_decode(msg, (size_t)n, &p) == DRV_FRAME_OK) {
+            m->latest = p;
+            m->latest_rx_ns = plat_now_ns();
+            m->have_pose = true;
+        }
+    }
+}
+
+/* Writes buf completely unless stopping; false when the board went away or we stop. */
+static bool mock_write_all(struct mock_host *m, const uint8_t *buf, size_t len)
+{
+    while (len > 0 && !atomic_load(&m->stop)) {
+        struct pollfd pfd = {m->out_fd, POLLOUT, 0};
+        if (poll(&pfd, 1, 20) <= 0) continue;
+        ssize_t n = send(m->out_fd, buf, len, MSG_NOSIGNAL | MSG_DONTWAIT);
+        if (n < 0) {
+            if (errno == EAGAIN || errno == EINTR) continue;
+            return false;
+        }
+        buf += n;
+        len -= (size_t)n;
+    }
+    return len == 0;
+}
+
+static void *mock_thread(void *arg)
+{
+    struct mock_host *m = arg;
+    plat_thread_set_name("hmdwarp-mockhost");
+    uint64_t k = 0;
+    while (!atomic_load(&m->stop)) {
+        mock_drain_poses(m);
+        int64_t start = plat_now_ns();
+        int rc = drv_frames_receive(m->sim, &m->frame, 20);
+        if (rc != 1) continue;
+        /* Echo the board's pose: its target time (pose_t_ns) and send time, as a real host does. */
+        m->frame.pose_t_ns = m->used.target_t_ns;
+        drv_framelink_tx tx = {.pose_sent_ns = m->used.board_t_ns, .host_pose_rx_ns = m->used_rx_ns,
+                               .host_render_start_ns = start, .host_render_end_ns = plat_now_ns()};
+        tx.host_send_ns = plat_now_ns();
+        size_t n = drv_framelink_encode_ex(&m->frame, &tx, m->buf, m->cap);
+        if (!n) continue;
+        k++;
+        size_t len = n;
+        if (m->mp.corrupt_every > 0 && k % (uint64_t)m->mp.corrupt_every == 0) m->buf[n - n / 3] ^= 0x5A;
+        if (m->mp.truncate_every > 0 && k % (uint64_t)m->mp.truncate_every == 0) len = n / 2;
+        double since = (double)(plat_now_ns() - m->t_created) * 1e-9;
+        if (!m->stalled && m->mp.stall_for_s > 0 && since >= m->mp.stall_at_s) {
+            /* Stop mid-frame, as a host whose renderer hangs would. */
+            m->stalled = true;
+            if (!mock_write_all(m, m->buf, len / 2)) break;
+            int64_t until = plat_now_ns() + (int64_t)(m->mp.stall_for_s * 1e9);
+            while (!atomic_load(&m->stop) && plat_now_ns() < until) plat_sleep_ns(10 * PLAT_NS_PER_MS);
+            if (!mock_write_all(m, m->buf + len / 2, len - len / 2)) break;
+            continue;
+        }
+        if (!mock_write_all(m, m->buf, len)) break;
+    }
+    return NULL;
+}
+
+static void mock_host_stop(struct mock_host *m)
+{
+    atomic_store(&m->stop, true);
+    if (m->up) pthread_join(m->th, NULL);
+    drv_frames_destroy(m->sim);
+    drv_frame_free(&m->frame);
+    if (m->out_fd >= 0) close(m->out_fd);
+    if (m->in_fd >= 0) close(m->in_fd);
+    free(m->buf);
+    free(m);
+}
+
+drv_frames *drv_frames_usb_create_mock(const drv_frames_sim_params *host, const drv_frames_usb_params *p,
+                                       const drv_frames_usb_mock_params *mp, char *err, int errlen)
+{
+    for (int e = 0; e < 2; e++)
+        if (host->cam[e].width != p->eye_w || host->cam[e].height != p->eye_h) {
+            set_err(err, errlen, "usb mock: host camera %dx%d differs from the board's eye %dx%d", host->cam[e].width,
+                    host->cam[e].height, p->eye_w, p->eye_h);
+            return NULL;
+        }
+    usb_frames *u = board_new(p, err, errlen);
+    if (!u) return NULL;
+    u->base.name = "usb-mock";
+    struct mock_host *m = calloc(1, sizeof *m);
+    sock_transport *t = calloc(1, sizeof *t);
+    int outp[2] = {-1, -1}, inp[2] = {-1, -1};
+    if (!m || !t) goto oom;
+    m->out_fd = m->in_fd = t->out_fd = t->in_fd = -1;
+    u->mock = m;
+    t->base.read = sock_read;
+    t->base.write = sock_write;
+    t->base.connected = sock_connected;
+    t->base.destroy = sock_destroy;
+    u->t = &t->base;
+    /* OUT: a byte stream, as bulk OUT reads are; IN: one message per packet, as bulk IN transfers are. */
+    if (socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, outp) || socketpair(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0, inp)) {
+        set_err(err, errlen, "usb mock: socketpair: %s", strerror(errno));
+        goto fail;
+    }
+    t->out_fd = outp[0], m->out_fd = outp[1];
+    t->in_fd = inp[0], m->in_fd = inp[1];
+    m->mp = mp ? *mp : (drv_frames_usb_mock_params){0};
+    m->hp = *host;
+    m->hp.poses.predict = mock_predict;
+    m->hp.poses.ctx = m;
+    m->hp.planes_wanted &= p->planes;
+    m->sim = drv_frames_sim_create(&m->hp);
+    if (!m->sim) {
+        set_err(err, errlen, "usb mock: cannot create the simulated host");
+        goto fail;
+    }
+    if (!drv_frame_alloc(&m->frame, p->eye_w, p->eye_h, drv_frames_planes(m->sim), 4)) goto oom;
+    m->frame.planes = drv_frames_planes(m->sim);
+    for (int e = 0; e < 2; e++) m->frame.cam[e] = host->cam[e];
+    m->frame.n_objects = DRV_MAX_OBJECTS; /* size the buffer for the largest header */
+    m->cap = drv_framelink_size(&m->frame);
+    m->frame.n_objects = 0;
+    if (m->frame.planes & DRV_PLANE_LAYERS) m->cap += (size_t)2 * p->eye_w * p->eye_h * 4 * 10;
+    m->buf = malloc(m->cap);
+    if (!m->buf) goto oom;
+    m->t_created = plat_now_ns();
+    atomic_init(&m->stop, false);
+    m->up = pthread_create(&m->th, NULL, mock_thread, m) == 0;
+    if (!m->up) {
+        set_err(err, errlen, "usb mock: cannot start the host thread");
+        goto fail;
+    }
+    if (!board_start(u, err, errlen)) goto fail;
+    return &u->base;
+oom:
+    set_err(err, errlen, "usb mock: out of memory");
+fail:
+    if (!u->mock && m) free(m);
+    if (!u->t && t) free(t);
+    usb_destroy(&u->base);
+    return NULL;
+}
