@@ -30,7 +30,7 @@ options:
   --vid HEX         idVendor (default $VID)
   --pid HEX         idProduct (default $PID)
   --serial STR      serial number string (default: /etc/machine-id prefix)
-  --ffs-dir DIR     FunctionFS mount point (default $FFS_DIR; board.ini [frames] ffs_dir must match)
+  --ffs-dir DIR     FunctionFS mount point (default $FFS_DIR; board.ini [frames] device must match)
   --config FILE     board.ini passed to hmdwarpd (default $CONFIG)
   --hmdwarpd PATH   hmdwarpd binary (default: $HMDWARPD from PATH)
   --no-daemon       do not start hmdwarpd (another process writes the descriptors); bind waits for them
@@ -116,7 +116,7 @@ start() {
 
     if [ "$DAEMON" -eq 1 ]; then
         command -v "$HMDWARPD" >/dev/null 2>&1 || die "hmdwarpd not found ('$HMDWARPD'; --hmdwarpd PATH)"
-        "$HMDWARPD" --config "$CONFIG" --set frames.backend=usb --set "frames.ffs_dir=$FFS_DIR" &
+        "$HMDWARPD" --config "$CONFIG" --set frames.backend=usb --set "frames.device=$FFS_DIR" &
         echo $! >"$PIDFILE"
     fi
     wait_descriptors

@@ -204,7 +204,7 @@ static void *pose_thread(void *arg)
 {
     usb_frames *u = arg;
     plat_thread_set_name("hmdwarp-poses");
-    warp_head head = warp_head_default();
+    warp_head head = u->p.head.ipd > 0 ? u->p.head : warp_head_default();
     int64_t period = (int64_t)(1e9 / u->p.pose_rate_hz), next = plat_now_ns();
     while (!atomic_load(&u->stop)) {
         next += period;

@@ -9,6 +9,7 @@
 
 #include "drivers/drv_frames.h"
 #include "drivers/drv_sim.h"
+#include "warp/warp_head.h"
 
 typedef struct {
     char ffs_dir[128];        /* FunctionFS mount, e.g. /dev/ffs-hmdwarp */
@@ -17,6 +18,7 @@ typedef struct {
     unsigned planes;          /* DRV_PLANE_* the caller allocates (drv_frames_planes reports them) */
     drv_pose_source poses;    /* predictions sent to the host */
     double pose_rate_hz;      /* pose messages per second */
+    warp_head head;           /* eye offsets (IPD) for the per-eye poses sent; all zero = warp_head_default() */
 } drv_frames_usb_params;
 
 /* The real gadget: writes the descriptors and strings to ffs_dir/ep0 (the gadget is bound afterwards, see

@@ -353,6 +353,8 @@ drv_vsync *drv_vsync_gpio_create_mock(double refresh_hz, int64_t t0_ns, const dr
     m->p = *mp;
     m->t0 = t0_ns;
     m->period = 1e9 / true_hz;
+    /* The panel is already running: edges from now on, not only from t0 (vsync k is at t0 + k periods). */
+    m->k = (int64_t)ceil((double)(plat_now_ns() - t0_ns) / m->period);
     m->rng = mp->seed * 0x9E3779B97F4A7C15ull + 1;
     return drv_vsync_edges_create(&m->base, refresh_hz, "gpio-mock");
 }

@@ -68,7 +68,9 @@ static void *worker_main(void *arg)
     if (w->prio > 0) plat_thread_set_realtime(w->prio);
     uint32_t seen = atomic_load(&w->wake);
     for (;;) {
-        while (atomic_load_explicit(&w->wake, memory_order_acquire) == seen) futex_wait(&w->wake, seen);
+        /* quit is checked too: a pool destroyed before this thread first read `wake` bumped it already. */
+        while (!atomic_load(&w->quit) && atomic_load_explicit(&w->wake, memory_order_acquire) == seen)
+            futex_wait(&w->wake, seen);
         seen = atomic_load_explicit(&w->wake, memory_order_acquire);
         if (atomic_load(&w->quit)) return NULL;
         uint64_t c = atomic_load_explicit(&w->claim, memory_order_acquire);

@@ -92,17 +92,9 @@ bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen)
 
     /* Devices. Scene time 0 lies a little in the future, after the simulated headset's rest at boot, so every
      * thread is up and the tracker has learned the gyro bias when the head starts moving. */
-    a->t0_ns = plat_now_ns() + 50 * PLAT_NS_PER_MS + (int64_t)(c->imu_rest_s * 1e9);
+    bool imu_simulated = strcmp(c->imu_backend, "sim") == 0 || strcmp(c->imu_device, "mock") == 0;
+    a->t0_ns = plat_now_ns() + 50 * PLAT_NS_PER_MS + (imu_simulated ? (int64_t)(c->imu_rest_s * 1e9) : 0);
     if (c->duration_s > 0) a->t_end_ns = a->t0_ns + (int64_t)(c->duration_s * 1e9);
-    sim_imu_params ip = sim_imu_default_params();
-    ip.rate_hz = c->imu_rate_hz;
-    ip.gyro_noise = c->gyro_noise;
-    ip.gyro_bias = warp_v3(c->gyro_bias[0], c->gyro_bias[1], c->gyro_bias[2]);
-    ip.accel_noise = c->accel_noise;
-    ip.seed = c->seed;
-    ip.t_start = -c->imu_rest_s;
-    a->imu = drv_imu_sim_create(&a->trace, &ip, a->t0_ns);
-    a->vsync = drv_vsync_sim_create(c->refresh_hz, a->t0_ns);
     drv_frames_sim_params sp;
     memset(&sp, 0, sizeof sp);
     sp.scene = a->scene;
@@ -117,10 +109,12 @@ bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen)
     sp.poses.ctx = a;
     /* The warps of this build use colour and depth; ids, motion and layers would be rendered for nothing. */
     sp.planes_wanted = DRV_PLANE_COLOR | DRV_PLANE_DEPTH;
-    a->frames = drv_frames_sim_create(&sp);
-    a->sim_host = true;
-    a->has_truth = true;
-    if (!a->imu || !a->vsync || !a->frames) return fail(err, errlen, "cannot create the %s%s", "simulated devices", "");
+    if (!rt_devices_open(a, &sp, err, errlen)) return false;
+    if (!rt_config_parse_axes(c->imu_axes, a->imu_map, a->imu_sign))
+        return fail(err, errlen, "[imu] axes = '%s': %s", c->imu_axes, "expected e.g. '-y +x +z'");
+    a->imu_remap = strcmp(c->imu_backend, "sim") != 0 &&
+                   !(a->imu_map[0] == 0 && a->imu_map[1] == 1 && a->imu_map[2] == 2 && a->imu_sign[0] > 0 &&
+                     a->imu_sign[1] > 0 && a->imu_sign[2] > 0);
     if (!rt_frameq_init(&a->fq, c->eye_w, c->eye_h, drv_frames_planes(a->frames), 4))
         return fail(err, errlen, "cannot allocate %s%s", "the frame slots", "");
 
@@ -227,7 +221,12 @@ static void *frames_thread(void *arg)
             atomic_fetch_add(&a->tel->frames_rejected[e], 1);
             continue;
         }
-        rt_hist_add(&a->tel->host_render_ms, (double)(slot->f.received_ns - slot->f.render_start_ns) * 1e-6);
+        /* A host that cannot place its render start on the board's clock sends 0. */
+        if (slot->f.render_start_ns)
+            rt_hist_add(&a->tel->host_render_ms, (double)(slot->f.received_ns - slot->f.render_start_ns) * 1e-6);
+        /* Through a mock the simulated host's scene time is not on the wire: it is the pose time on the
+         * simulated board's clock, which is what the accuracy evaluator re-renders. */
+        if (a->has_truth && !a->sim_host) slot->f.scene_time = (double)(slot->f.pose_t_ns - a->t0_ns) * 1e-9;
         atomic_fetch_add(&a->tel->frames_received, 1);
         rt_frameq_publish(&a->fq);
     }

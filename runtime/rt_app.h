@@ -10,6 +10,7 @@
 
 #include "drivers/drv_frames.h"
 #include "drivers/drv_imu.h"
+#include "drivers/drv_sim.h"
 #include "drivers/drv_vsync.h"
 #include "platform/plat_display.h"
 #include "platform/plat_workers.h"
@@ -126,6 +127,10 @@ void rt_app_request_stop(rt_app *a);
 /* Prints the run summary (see README "Reading the summary"). */
 void rt_app_summary(rt_app *a, FILE *out);
 void rt_app_free(rt_app *a);
+
+/* Opens the IMU, frames and vsync backends board.ini names (rt_devices.c); sp describes the simulated host,
+ * used by the sim backend and the mocks. Sets has_truth and sim_host. */
+bool rt_devices_open(rt_app *a, const drv_frames_sim_params *sp, char *err, int errlen);
 
 /* The compositor loop (rt_compositor.c). */
 void rt_compositor_run(rt_app *a);

@@ -114,7 +114,10 @@ void rt_compositor_run(rt_app *a)
     const int64_t eval_every = (int64_t)(c->eval_every_ms * 1e6);
     int64_t next_eval = a->t0_ns + eval_every;
     int64_t period = 0;
-    int64_t t_vs = drv_vsync_next(a->vsync, plat_now_ns() + 2 * PLAT_NS_PER_MS, &period);
+    /* The display starts at scene time 0 (after the simulated headset's rest at boot), whatever the vsync source. */
+    int64_t first = plat_now_ns() + 2 * PLAT_NS_PER_MS;
+    if (first < a->t0_ns - 1) first = a->t0_ns - 1;
+    int64_t t_vs = drv_vsync_next(a->vsync, first, &period);
     /* When to wake: the vsync minus the longest warp and the latest wake-up among the last WINDOW vsyncs, plus a
      * margin. A running maximum rather than an average: a miss costs a whole repeated frame, waking a little
      * early costs only that much latency (Monado's pacing likewise backs off at once and creeps back). */

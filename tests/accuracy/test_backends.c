@@ -1,0 +1,157 @@
+/* hmdwarpd with every device backend behind its mock: the simulated board's IMU, host and panel go through the
+ * real HID report decoding, I2C register maps, GPIO edge handling, framelink parsing and V4L2 layout, and the
+ * display keeps going through faults. Also: a wrong device gives one startup error naming the key and device. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <string.h>
+#include <cmocka.h>
+
+#include "runtime/rt_app.h"
+
+static void config(rt_config *c, const char *const *extra, size_t n_extra)
+{
+    rt_config_defaults(c);
+    rt_config_errors e = {0};
+    const char *sets[] = {"display.width=640", "display.height=360", "eye.width=320", "eye.height=360",
+                          "lens.scale=180", "lens.center=170 180", "sim.duration_s=1.5", "sim.eval_every_ms=0",
+                          "render.rt_priority=0", "sim.trace=slow", "sim.scene=near", "warp.method=rotation"};
+    for (size_t i = 0; i < sizeof sets / sizeof sets[0]; i++) assert_true(rt_config_set(c, sets[i], &e));
+    for (size_t i = 0; i < n_extra; i++) {
+        if (!rt_config_set(c, extra[i], &e)) fail_msg("%s: %s", extra[i], e.msg[0]);
+    }
+    if (!rt_config_validate(c, &e)) fail_msg("validate: %s", e.msg[0]);
+}
+
+static rt_app app;
+
+static void run(const char *const *extra, size_t n)
+{
+    rt_config c;
+    config(&c, extra, n);
+    char err[400];
+    if (!rt_app_init(&app, &c, err, sizeof err)) fail_msg("init: %s", err);
+    rt_app_run(&app);
+    rt_app_summary(&app, stdout);
+}
+
+static uint64_t rejected(void)
+{
+    uint64_t r = 0;
+    for (int e = 1; e < DRV_FRAME_ERR_COUNT; e++) r += app.tel->frames_rejected[e];
+    return r;
+}
+
+/* The run served the display and the tracker followed the true head through the mocked devices. */
+static void assert_nominal(void)
+{
+    rt_telemetry *t = app.tel;
+    assert_true(t->vsyncs >= 120 && t->vsyncs <= 145);
+    assert_true(t->frames_received >= 8);
+    assert_true(t->imu_samples >= 1000);
+    assert_true(t->method_count[RT_METHOD_ROTATION] > 100);
+    assert_true(drv_frames_planes(app.frames) & DRV_PLANE_DEPTH); /* the translation scene's depth crosses the link */
+    rt_fusion_state st;
+    assert_true(rt_fusion_latest(app.fusion, &st));
+    warp_quat truth = sim_trace_orientation(&app.trace, (double)(st.t_ns - app.t0_ns) * 1e-9);
+    assert_true(warp_quat_angle_between(truth, st.q) < 2.0 * WARP_PI / 180);
+}
+
+#define RUN(...)                                                                                                      \
+    do {                                                                                                              \
+        const char *const sets_[] = {__VA_ARGS__};                                                                   \
+        run(sets_, sizeof sets_ / sizeof sets_[0]);                                                                   \
+    } while (0)
+
+static void test_hid_usb_gpio(void **state)
+{
+    (void)state;
+    RUN("imu.backend=hid", "imu.device=mock", "frames.backend=usb", "frames.device=mock", "vsync.backend=gpio",
+        "vsync.chip=mock", "mock.vsync_jitter_us=150");
+    assert_nominal();
+    assert_int_equal(rejected(), 0);
+    drv_imu_stats is;
+    assert_true(drv_imu_stats_get(app.imu, &is));
+    assert_true(is.reports > 500 && is.bad_reports == 0 && is.connected);
+    drv_vsync_stats vs;
+    assert_true(drv_vsync_stats_get(app.vsync, &vs));
+    assert_true(vs.edges >= 120 && !vs.on_timer);
+    rt_app_free(&app);
+}
+
+static void test_i2c_v4l2_timer(void **state)
+{
+    (void)state;
+    RUN("imu.backend=i2c", "imu.device=mock", "imu.chip=mpu6050", "frames.backend=v4l2", "frames.device=mock",
+        "frames.format=yuyv", "frames.depth=true", "vsync.backend=timer");
+    assert_nominal();
+    assert_int_equal(rejected(), 0);
+    rt_app_free(&app);
+}
+
+static void test_faults_keep_the_display_going(void **state)
+{
+    (void)state;
+    /* The IMU is unplugged for 0.3 s, TE edges stop for 0.3 s, the host stalls for 0.4 s, every 5th frame is
+     * garbled and every 7th cut short: every vsync is still served, bad frames are rejected by reason, the IMU
+     * comes back. */
+    RUN("imu.backend=hid", "imu.device=mock", "frames.backend=usb", "frames.device=mock", "vsync.backend=gpio",
+        "vsync.chip=mock", "mock.corrupt_every=5", "mock.truncate_every=7", "mock.imu_unplug_at_s=0.4",
+        "mock.imu_unplug_for_s=0.3", "mock.edges_stop_at_s=0.5", "mock.edges_stop_for_s=0.3",
+        "mock.host_stall_at_s=0.6", "mock.host_stall_for_s=0.4");
+    rt_telemetry *t = app.tel;
+    assert_true(t->vsyncs >= 120 && t->vsyncs <= 145);
+    assert_true(t->frames_received >= 4);
+    assert_true(rejected() >= 2);
+    /* while the host stalled the last good frame kept being warped, further and further from its pose */
+    assert_true(rt_hist_pct(&t->frame_age_ms, 100) > 300);
+    assert_int_equal(t->imu_lost, 1);
+    assert_true(t->imu_stale > 0); /* the display held the last orientation meanwhile */
+    drv_imu_stats is;
+    assert_true(drv_imu_stats_get(app.imu, &is));
+    assert_true(is.reconnects == 1 && is.connected);
+    drv_vsync_stats vs;
+    assert_true(drv_vsync_stats_get(app.vsync, &vs));
+    assert_true(vs.fallbacks >= 1 && !vs.on_timer);
+    rt_app_free(&app);
+}
+
+/* A device that is not there: init fails with one message naming the key and the device. */
+static void expect_open_error(const char *const *sets, size_t n, const char *key, const char *device)
+{
+    rt_config c;
+    config(&c, sets, n);
+    char err[400] = "";
+    assert_false(rt_app_init(&app, &c, err, sizeof err));
+    print_message("%s\n", err);
+    assert_non_null(strstr(err, key));
+    assert_non_null(strstr(err, device));
+    rt_app_free(&app);
+}
+
+static void test_missing_devices_named(void **state)
+{
+    (void)state;
+    const char *hid[] = {"imu.backend=hid", "imu.device=/dev/hidraw97"};
+    expect_open_error(hid, 2, "[imu]", "/dev/hidraw97");
+    const char *i2c[] = {"imu.backend=i2c", "imu.device=/dev/i2c-97"};
+    expect_open_error(i2c, 2, "[imu]", "/dev/i2c-97");
+    const char *gpio[] = {"vsync.backend=gpio", "vsync.chip=gpiochip97"};
+    expect_open_error(gpio, 2, "[vsync]", "gpiochip97");
+    const char *usb[] = {"frames.backend=usb", "frames.device=/nonexistent/ffs"};
+    expect_open_error(usb, 2, "[frames]", "/nonexistent/ffs");
+    const char *v4l2[] = {"frames.backend=v4l2", "frames.device=/dev/video97"};
+    expect_open_error(v4l2, 2, "[frames]", "/dev/video97");
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_hid_usb_gpio),
+        cmocka_unit_test(test_i2c_v4l2_timer),
+        cmocka_unit_test(test_faults_keep_the_display_going),
+        cmocka_unit_test(test_missing_devices_named),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
