@@ -101,7 +101,11 @@ RUN_ARGS ?=
 run_set = $(if $(2),--set $(1)=$(2))
 RUN_OVERRIDES = $(call run_set,sim.scene,$(SCENE)) $(call run_set,sim.trace,$(TRACE)) \
                 $(call run_set,sim.duration_s,$(DURATION)) $(call run_set,warp.method,$(METHOD)) \
-                $(call run_set,render.renderer,$(RENDER))
+                $(call run_set,render.renderer,$(RENDER)) $(if $(filter mock,$(DEVICES)),$(MOCK_DEVICES))
+# DEVICES=mock: the simulated board's devices behind the real backends (HID reports, framelink over the USB
+# backend, TE edges through the GPIO estimator).
+MOCK_DEVICES = --set imu.backend=hid --set imu.device=mock --set frames.backend=usb --set frames.device=mock \
+               --set vsync.backend=gpio --set vsync.chip=mock
 run: deps
 	@$(MAKE) --no-print-directory $(BUILD)/hmdwarpd
 	$(BUILD)/hmdwarpd --config board/sim/board.ini $(RUN_OVERRIDES) $(RUN_ARGS)
@@ -120,9 +124,11 @@ asan: deps
 	  tests/run.sh $(ASAN_BUILD)/tests $(patsubst $(BUILD)/%,$(ASAN_BUILD)/%,$(TEST_BINS))
 
 install: $(PROGRAMS)
-	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/share/hmdwarp/boards/sim
+	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/share/hmdwarp/boards/sim $(DESTDIR)$(PREFIX)/share/doc/hmdwarp
 	install -m 0755 $(PROGRAMS) $(DESTDIR)$(PREFIX)/bin/
+	install -m 0755 board/gadget.sh $(DESTDIR)$(PREFIX)/bin/hmdwarp-gadget
 	install -m 0644 board/sim/board.ini $(DESTDIR)$(PREFIX)/share/hmdwarp/boards/sim/board.ini
+	install -m 0644 docs/*.md $(DESTDIR)$(PREFIX)/share/doc/hmdwarp/
 
 clean:
 	rm -rf build

@@ -12,6 +12,7 @@
 #include <string.h>
 
 #include "drivers/drv_framelink.h"
+#include "drivers/drv_frames_v4l2.h"
 #include "platform/plat_clock.h"
 #include "platform/plat_png.h"
 #include "platform/plat_workers.h"
@@ -29,6 +30,10 @@ typedef struct {
     const char *scene;
     const char *png;           /* printf pattern with one %d (frame index) or a plain file */
     const char *out_path;      /* --file / --stdout ("-") */
+    const char *v4l2_dev;      /* --v4l2: a V4L2 output device (HDMI/CSI path to the board's capture) */
+    const char *v4l2_format;
+    bool v4l2_depth;
+    bool synth_poses;          /* synthesise poses instead of reading the board's (implied by --file/--stdout) */
     int eye_w, eye_h;
     double fov[4], near_z;
     unsigned planes;
@@ -81,6 +86,12 @@ static void usage(FILE *f)
             "  --file PATH         write the frame stream to PATH; poses are synthesised (a slow head turn)\n"
             "  --stdout            the same on standard output\n"
             "  --synth-rate HZ     pose rate synthesised in file mode (default 90)\n"
+            "  --v4l2 DEV          write the frames to a V4L2 output device instead, in the in-band layout of\n"
+            "                      docs/v4l2-inband.md (HDMI/CSI capture on the board; vivid's loop in tests); poses\n"
+            "                      still come from the board over USB unless --synth-poses\n"
+            "  --v4l2-format FMT   yuyv, nv12, bgr32 or rgb24 (default yuyv)\n"
+            "  --v4l2-depth        pack the depth plane below the colour (board: [frames] depth = true)\n"
+            "  --synth-poses       synthesise poses (a slow head turn) instead of reading the board's\n"
             "Other:\n"
             "  -v, --verbose       per-frame lines\n"
             "  -h, --help          this text\n"
@@ -106,17 +117,18 @@ static unsigned parse_planes(const char *s)
 
 static bool parse_opts(int argc, char **argv, feed_opts *o)
 {
-    *o = (feed_opts){.vid = DEFAULT_VID, .pid = DEFAULT_PID, .wait_s = 30, .scene = "room", .eye_w = 720,
+    *o = (feed_opts){.v4l2_format = "yuyv", .vid = DEFAULT_VID, .pid = DEFAULT_PID, .wait_s = 30, .scene = "room", .eye_w = 720,
                      .eye_h = 800, .fov = {52, 48, 52, 52}, .near_z = 0.05,
                      .planes = DRV_PLANE_COLOR | DRV_PLANE_DEPTH, .rate_hz = 45, .synth_rate_hz = 90, .threads = 2};
     enum { O_DEVICE = 256, O_IFACE, O_WAIT, O_SCENE, O_PNG, O_EYE, O_FOV, O_NEAR, O_PLANES, O_DEPTH, O_THREADS,
-           O_RATE, O_FRAMES, O_DURATION, O_FILE, O_STDOUT, O_SYNTH };
+           O_RATE, O_FRAMES, O_DURATION, O_FILE, O_STDOUT, O_SYNTH, O_V4L2, O_V4L2_FMT, O_V4L2_DEPTH, O_SYNTH_POSES };
     static const struct option lo[] = {
         {"device", 1, 0, O_DEVICE}, {"interface", 1, 0, O_IFACE}, {"wait", 1, 0, O_WAIT}, {"scene", 1, 0, O_SCENE},
         {"png", 1, 0, O_PNG}, {"eye", 1, 0, O_EYE}, {"fov", 1, 0, O_FOV}, {"near", 1, 0, O_NEAR},
         {"planes", 1, 0, O_PLANES}, {"depth", 1, 0, O_DEPTH}, {"threads", 1, 0, O_THREADS}, {"rate", 1, 0, O_RATE},
         {"frames", 1, 0, O_FRAMES}, {"duration", 1, 0, O_DURATION}, {"file", 1, 0, O_FILE},
-        {"stdout", 0, 0, O_STDOUT}, {"synth-rate", 1, 0, O_SYNTH}, {"verbose", 0, 0, 'v'}, {"help", 0, 0, 'h'},
+        {"stdout", 0, 0, O_STDOUT}, {"synth-rate", 1, 0, O_SYNTH}, {"v4l2", 1, 0, O_V4L2},
+        {"v4l2-format", 1, 0, O_V4L2_FMT}, {"v4l2-depth", 0, 0, O_V4L2_DEPTH}, {"synth-poses", 0, 0, O_SYNTH_POSES}, {"verbose", 0, 0, 'v'}, {"help", 0, 0, 'h'},
         {0, 0, 0, 0}};
     int c;
     while ((c = getopt_long(argc, argv, "vh", lo, NULL)) != -1) {
@@ -156,6 +168,10 @@ static bool parse_opts(int argc, char **argv, feed_opts *o)
         case O_FILE: o->out_path = optarg; break;
         case O_STDOUT: o->out_path = "-"; break;
         case O_SYNTH: o->synth_rate_hz = atof(optarg); break;
+        case O_V4L2: o->v4l2_dev = optarg; break;
+        case O_V4L2_FMT: o->v4l2_format = optarg; break;
+        case O_V4L2_DEPTH: o->v4l2_depth = true; break;
+        case O_SYNTH_POSES: o->synth_poses = true; break;
         case 'v': o->verbose = true; break;
         case 'h': usage(stdout); exit(0);
         default: usage(stderr); return false;
@@ -266,18 +282,31 @@ static bool pose_take(pose_input *pi, int timeout_ms, drv_framelink_pose *p, int
     return ok;
 }
 
-/* ---- frame output: USB bulk OUT or a file. (A --v4l2 output plugs in here as a third sink.) ---- */
+/* ---- frame output: USB bulk OUT, a file, or a V4L2 output device ---- */
 
 typedef struct feed_sink feed_sink;
 struct feed_sink {
     const char *name;
-    bool (*write)(feed_sink *s, const uint8_t *buf, size_t len);
+    /* buf/len: the framelink encoding of f (NULL/0 for sinks that do not want it) */
+    bool (*write)(feed_sink *s, const drv_frame *f, const uint8_t *buf, size_t len);
     void (*close)(feed_sink *s);
     void *ctx;
+    bool wants_bytes;
 };
 
-static bool usb_sink_write(feed_sink *s, const uint8_t *buf, size_t len)
+static bool v4l2_sink_write(feed_sink *s, const drv_frame *f, const uint8_t *buf, size_t len)
 {
+    (void)buf;
+    (void)len;
+    int rc = drv_v4l2_output_write(s->ctx, f);
+    if (rc) fprintf(stderr, "hmdwarp-feed: writing a frame to the V4L2 output: %s\n", strerror(-rc));
+    return rc == 0;
+}
+static void v4l2_sink_close(feed_sink *s) { drv_v4l2_output_close(s->ctx); }
+
+static bool usb_sink_write(feed_sink *s, const drv_frame *f, const uint8_t *buf, size_t len)
+{
+    (void)f;
     pose_input *pi = s->ctx;
     while (len > 0 && !atomic_load(&g_stop)) {
         int n = 0, chunk = len > (1u << 24) ? 1 << 24 : (int)len;
@@ -293,8 +322,9 @@ static bool usb_sink_write(feed_sink *s, const uint8_t *buf, size_t len)
 }
 static void usb_sink_close(feed_sink *s) { (void)s; }
 
-static bool file_sink_write(feed_sink *s, const uint8_t *buf, size_t len)
+static bool file_sink_write(feed_sink *s, const drv_frame *f, const uint8_t *buf, size_t len)
 {
+    (void)f;
     if (fwrite(buf, 1, len, s->ctx) != len) {
         fprintf(stderr, "hmdwarp-feed: writing the stream: %s\n", strerror(errno));
         return false;
@@ -441,12 +471,24 @@ int main(int argc, char **argv)
     if (o.out_path) {
         FILE *fp = strcmp(o.out_path, "-") == 0 ? stdout : fopen(o.out_path, "wb");
         if (!fp) return fprintf(stderr, "hmdwarp-feed: %s: %s\n", o.out_path, strerror(errno)), 1;
-        sink = (feed_sink){"file", file_sink_write, file_sink_close, fp};
+        sink = (feed_sink){"file", file_sink_write, file_sink_close, fp, true};
         pi.th_up = pthread_create(&pi.th, NULL, synth_pose_thread, &pi) == 0;
     } else {
-        if (!usb_open(&o, &pi)) return 1;
-        sink = (feed_sink){"usb", usb_sink_write, usb_sink_close, &pi};
-        pi.th_up = pthread_create(&pi.th, NULL, usb_pose_thread, &pi) == 0;
+        if (o.v4l2_dev) {
+            char err[300];
+            drv_v4l2_output *vo =
+                drv_v4l2_output_open(o.v4l2_dev, o.v4l2_format, o.eye_w, o.eye_h, o.v4l2_depth, err, sizeof err);
+            if (!vo) return fprintf(stderr, "hmdwarp-feed: --v4l2 %s: %s\n", o.v4l2_dev, err), 1;
+            sink = (feed_sink){"v4l2", v4l2_sink_write, v4l2_sink_close, vo, false};
+        }
+        /* Poses come from the board over USB (also when the pixels go out over V4L2), unless synthesised. */
+        if (o.synth_poses) {
+            pi.th_up = pthread_create(&pi.th, NULL, synth_pose_thread, &pi) == 0;
+        } else {
+            if (!usb_open(&o, &pi)) return 1;
+            pi.th_up = pthread_create(&pi.th, NULL, usb_pose_thread, &pi) == 0;
+        }
+        if (!o.v4l2_dev) sink = (feed_sink){"usb", usb_sink_write, usb_sink_close, &pi, true};
     }
     if (!pi.th_up) return fprintf(stderr, "hmdwarp-feed: cannot start the pose thread\n"), 1;
 
@@ -498,13 +540,13 @@ int main(int argc, char **argv)
         tx.host_render_start_ns = start;
         tx.host_render_end_ns = plat_now_ns();
         tx.host_send_ns = plat_now_ns();
-        size_t n = drv_framelink_encode_ex(&f, &tx, buf, cap);
+        size_t n = sink.wants_bytes ? drv_framelink_encode_ex(&f, &tx, buf, cap) : 1;
         if (!n) {
             fprintf(stderr, "hmdwarp-feed: frame %llu cannot be encoded\n", (unsigned long long)f.seq);
             rc = 1;
             break;
         }
-        if (!sink.write(&sink, buf, n)) {
+        if (!sink.write(&sink, &f, sink.wants_bytes ? buf : NULL, sink.wants_bytes ? n : 0)) {
             rc = 1;
             break;
         }
