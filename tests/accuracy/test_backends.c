@@ -117,6 +117,44 @@ static void test_faults_keep_the_display_going(void **state)
     rt_app_free(&app);
 }
 
+static void test_every_combination(void **state)
+{
+    (void)state;
+    /* 3 IMUs x 3 frame sources x 3 vsync sources, short runs: every pairing starts, serves vsyncs, delivers
+     * frames and samples, and rejects nothing on a clean link. */
+    const char *imu[3][3] = {{"imu.backend=sim", "imu.device=", "imu.chip=auto"},
+                             {"imu.backend=hid", "imu.device=mock", "imu.chip=auto"},
+                             {"imu.backend=i2c", "imu.device=mock", "imu.chip=icm42688"}};
+    const char *frames[3][2] = {{"frames.backend=sim", "frames.device="},
+                                {"frames.backend=usb", "frames.device=mock"},
+                                {"frames.backend=v4l2", "frames.device=mock"}};
+    const char *vsync[3][2] = {{"vsync.backend=sim", "vsync.chip=gpiochip0"},
+                               {"vsync.backend=gpio", "vsync.chip=mock"},
+                               {"vsync.backend=timer", "vsync.chip=gpiochip0"}};
+    for (int i = 0; i < 3; i++)
+        for (int f = 0; f < 3; f++)
+            for (int v = 0; v < 3; v++) {
+                const char *sets[] = {imu[i][0],    imu[i][1],    imu[i][2],         frames[f][0],
+                                      frames[f][1], vsync[v][0],  vsync[v][1],       "sim.duration_s=0.4",
+                                      "sim.imu_rest_s=0.2", "sim.scene=room"};
+                rt_config c;
+                config(&c, sets, sizeof sets / sizeof sets[0]);
+                char err[400];
+                if (!rt_app_init(&app, &c, err, sizeof err)) fail_msg("%s %s %s: %s", imu[i][0], frames[f][0], vsync[v][0], err);
+                rt_app_run(&app);
+                rt_telemetry *t = app.tel;
+                print_message("%-16s %-19s %-18s vsyncs %3llu frames %3llu imu %4llu\n", imu[i][0], frames[f][0],
+                              vsync[v][0], (unsigned long long)t->vsyncs, (unsigned long long)t->frames_received,
+                              (unsigned long long)t->imu_samples);
+                assert_true(t->vsyncs >= 30 && t->vsyncs <= 40);
+                assert_true(t->frames_received >= 2);
+                assert_true(t->imu_samples >= 300);
+                assert_true(t->method_count[RT_METHOD_ROTATION] >= 20);
+                assert_int_equal(rejected(), 0);
+                rt_app_free(&app);
+            }
+}
+
 /* A device that is not there: init fails with one message naming the key and the device. */
 static void expect_open_error(const char *const *sets, size_t n, const char *key, const char *device)
 {
@@ -151,6 +189,7 @@ int main(void)
         cmocka_unit_test(test_hid_usb_gpio),
         cmocka_unit_test(test_i2c_v4l2_timer),
         cmocka_unit_test(test_faults_keep_the_display_going),
+        cmocka_unit_test(test_every_combination),
         cmocka_unit_test(test_missing_devices_named),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
