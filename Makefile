@@ -44,11 +44,14 @@ TOOLS := $(notdir $(wildcard tools/*))
 PROGRAMS := $(BUILD)/hmdwarpd $(addprefix $(BUILD)/,$(TOOLS))
 
 TEST_SRC := $(wildcard tests/unit/test_*.c tests/accuracy/test_*.c)
+# Hardware-in-the-loop helper programs (they run inside the test VM, see tests/hil/): one per .c file.
+HIL_SRC  := $(wildcard tests/hil/src/*.c)
+HIL_BINS := $(patsubst tests/hil/src/%.c,$(BUILD)/hil/%,$(HIL_SRC))
 TEST_SUPPORT_SRC := $(wildcard tests/support/*.c)
 TEST_BINS := $(patsubst tests/%.c,$(BUILD)/tests/%,$(TEST_SRC))
 
 .PHONY: all deps run test asan install clean
-all: $(PROGRAMS) $(TEST_BINS)
+all: $(PROGRAMS) $(TEST_BINS) $(HIL_BINS)
 .SECONDARY:
 
 # Quiet by default; `make V=1` shows the commands.
@@ -80,6 +83,11 @@ endef
 $(foreach l,$(LAYERS),$(eval $(call layer_rule,$(l))))
 
 $(BUILD)/hmdwarpd: $(BUILD)/obj/runtime/hmdwarpd_main.o $(LIBS)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_ALL)
+
+$(BUILD)/hil/%: $(BUILD)/obj/tests/hil/src/%.o $(LIBS)
+	@mkdir -p $(dir $@)
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_ALL)
 

@@ -32,6 +32,7 @@ static void usage(FILE *out)
             "  --trace NAME        shorthand for --set sim.trace=NAME\n"
             "  --method NAME       shorthand for --set warp.method=NAME (none, rotation, raytrace)\n"
             "  --csv FILE          shorthand for --set telemetry.csv=FILE (one row per vsync)\n"
+            "  --stats FILE        shorthand for --set telemetry.stats=FILE (summary as key=value lines)\n"
             "  --check-config      load and validate the configuration, print it, and exit (0 = valid)\n"
             "  --list              list simulated scenes and head-motion traces\n"
             "  --help              this text\n"
@@ -110,6 +111,9 @@ int main(int argc, char **argv)
         } else if (strcmp(a, "--csv") == 0 && v) {
             shorthand(&cfg, "telemetry.csv", v, &err);
             i++;
+        } else if (strcmp(a, "--stats") == 0 && v) {
+            shorthand(&cfg, "telemetry.stats", v, &err);
+            i++;
         } else {
             fprintf(stderr, "hmdwarpd: unknown or incomplete option '%s' (see --help)\n", a);
             return 2;
@@ -144,6 +148,17 @@ int main(int argc, char **argv)
     fflush(stdout);
     rt_app_run(&app);
     rt_app_summary(&app, stdout);
+    int rc = 0;
+    if (cfg.stats[0]) {
+        FILE *f = fopen(cfg.stats, "w");
+        if (f) {
+            rt_app_stats_kv(&app, f);
+            fclose(f);
+        } else {
+            fprintf(stderr, "hmdwarpd: [telemetry] stats = %s: cannot write\n", cfg.stats);
+            rc = 1;
+        }
+    }
     rt_app_free(&app);
-    return 0;
+    return rc;
 }

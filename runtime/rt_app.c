@@ -2,6 +2,7 @@
  * the run summary. hmdwarpd_main parses arguments; tests drive an instance directly. */
 #include "runtime/rt_app.h"
 
+#include <ctype.h>
 #include <errno.h>
 #include <math.h>
 #include <stdlib.h>
@@ -399,6 +400,86 @@ void rt_app_summary(rt_app *a, FILE *out)
         }
     }
     if (a->csv) fprintf(out, "per-vsync CSV                %s\n", c->csv);
+}
+
+void rt_app_stats_kv(rt_app *a, FILE *out)
+{
+    const rt_config *c = &a->cfg;
+    const rt_telemetry *t = a->tel;
+#define KV(k, fmt, v) fprintf(out, "%s=" fmt "\n", k, v)
+#define KVU(k, v) KV(k, "%llu", (unsigned long long)(v))
+    KV("board", "%s", c->board_name);
+    KV("imu_backend", "%s", a->imu ? a->imu->name : "");
+    KV("frames_backend", "%s", a->frames ? a->frames->name : "");
+    KV("vsync_backend", "%s", a->vsync ? a->vsync->name : "");
+    KVU("vsyncs", t->vsyncs);
+    KVU("missed", t->missed);
+    KVU("no_frame", t->no_frame);
+    KVU("no_buffer", t->no_buffer);
+    for (int m = 0; m < RT_METHOD_COUNT; m++) {
+        char k[64];
+        snprintf(k, sizeof k, "method_%s", rt_method_name((rt_method)m));
+        KVU(k, t->method_count[m]);
+    }
+    KV("warp_ms_p50", "%.3f", rt_hist_pct(&t->warp_ms[c->method], 50));
+    KV("warp_ms_p99", "%.3f", rt_hist_pct(&t->warp_ms[c->method], 99));
+    KV("m2p_ms_p50", "%.3f", rt_hist_pct(&t->m2p_ms, 50));
+    KV("m2p_ms_p99", "%.3f", rt_hist_pct(&t->m2p_ms, 99));
+    KV("frame_age_ms_p50", "%.3f", rt_hist_pct(&t->frame_age_ms, 50));
+    KV("frame_age_ms_max", "%.3f", rt_hist_pct(&t->frame_age_ms, 100));
+    KVU("frames_received", t->frames_received);
+    KVU("frames_shown", t->new_frames_shown);
+    KVU("frames_dropped", t->frames_dropped);
+    uint64_t rejected = 0;
+    for (int e = 1; e < DRV_FRAME_ERR_COUNT; e++) {
+        char k[64];
+        snprintf(k, sizeof k, "frames_rejected_%s", drv_frame_err_str((drv_frame_err)e));
+        for (char *p = k; *p; p++) /* "I/O error" -> i_o_error: shell-friendly keys */
+            *p = isalnum((unsigned char)*p) ? (char)tolower((unsigned char)*p) : '_';
+        KVU(k, t->frames_rejected[e]);
+        rejected += t->frames_rejected[e];
+    }
+    KVU("frames_rejected", rejected);
+    KVU("imu_samples", t->imu_samples);
+    KVU("imu_read_errors", t->imu_read_errors);
+    KVU("imu_lost", t->imu_lost);
+    KVU("imu_stale_vsyncs", t->imu_stale);
+    drv_imu_stats is;
+    if (a->imu && drv_imu_stats_get(a->imu, &is)) {
+        KVU("imu_reports", is.reports);
+        KVU("imu_bad_reports", is.bad_reports);
+        KVU("imu_reconnects", is.reconnects);
+        KV("imu_connected", "%d", is.connected);
+    }
+    drv_vsync_stats vs;
+    if (a->vsync && drv_vsync_stats_get(a->vsync, &vs)) {
+        KVU("vsync_edges", vs.edges);
+        KVU("vsync_spurious", vs.spurious);
+        KVU("vsync_missed_edges", vs.missed);
+        KVU("vsync_fallbacks", vs.fallbacks);
+        KV("vsync_on_timer", "%d", vs.on_timer);
+        KV("vsync_period_ns", "%lld", (long long)vs.period_ns);
+        KV("vsync_jitter_us", "%.1f", vs.jitter_us);
+    }
+    rt_fusion_state st;
+    if (rt_fusion_latest(a->fusion, &st)) {
+        KV("orientation_w", "%.6f", st.q.w);
+        if (a->has_truth) {
+            warp_quat truth = sim_trace_orientation(&a->trace, (double)(st.t_ns - a->t0_ns) * 1e-9);
+            KV("orientation_error_deg", "%.4f", warp_quat_angle_between(truth, st.q) * 180 / WARP_PI);
+        }
+    }
+    static const char *const names[RT_EVAL_METHODS] = {"none", "rotation", "raytrace"};
+    for (int m = 0; m < RT_EVAL_METHODS; m++)
+        if (a->eval[m].n) {
+            char k[64];
+            snprintf(k, sizeof k, "psnr_%s", names[m]);
+            KV(k, "%.3f", a->eval[m].psnr_sum / a->eval[m].n);
+            snprintf(k, sizeof k, "ssim_%s", names[m]);
+            KV(k, "%.5f", a->eval[m].ssim_sum / a->eval[m].n);
+        }
+#undef KV
+#undef KVU
 }
 
 void rt_app_free(rt_app *a)

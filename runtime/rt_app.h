@@ -126,6 +126,8 @@ void rt_app_run(rt_app *a);
 void rt_app_request_stop(rt_app *a);
 /* Prints the run summary (see README "Reading the summary"). */
 void rt_app_summary(rt_app *a, FILE *out);
+/* The summary as key=value lines, one per counter, for scripts (hardware-in-the-loop scenarios). */
+void rt_app_stats_kv(rt_app *a, FILE *out);
 void rt_app_free(rt_app *a);
 
 /* Opens the IMU, frames and vsync backends board.ini names (rt_devices.c); sp describes the simulated host,

@@ -137,6 +137,8 @@ static const keydef keys[] = {
      "mock TE edges: stop at this run time (0 = never)"},
     {"mock", "edges_stop_for_s", K_DOUBLE, F(mock_edges_stop_for_s), 0, 0, 1e6, NULL, "... for this long"},
     {"telemetry", "csv", K_STR, F(csv), S(csv), 0, 0, NULL, "write one CSV row per vsync to this file"},
+    {"telemetry", "stats", K_STR, F(stats), S(stats), 0, 0, NULL,
+     "write the run summary as key=value lines to this file at exit (for scripts)"},
 };
 #define NKEYS (int)(sizeof keys / sizeof keys[0])
 

@@ -75,6 +75,7 @@ typedef struct {
     double eval_every_ms;       /* accuracy sample period; 0 = off */
     /* [telemetry] */
     char csv[256];
+    char stats[256];            /* key=value summary written at exit (tests, hardware-in-the-loop scenarios) */
 } rt_config;
 
 void rt_config_defaults(rt_config *c);
