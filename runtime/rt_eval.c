@@ -61,7 +61,7 @@ void *rt_eval_thread(void *arg)
         if (ang > pe->angle_max) pe->angle_max = ang;
         if (mm > pe->pos_max) pe->pos_max = mm;
 
-        warp_view v = {*cam, r.src_eye, &src.color, &inv, 0, 0};
+        warp_view v = {.cam = *cam, .pose = r.src_eye, .color = &src.color, .inv_depth = &inv};
         warp_inverse_depth_from(cam, WARP_DEPTH_LINEAR, &src.depth, &inv, &v.inv_depth_min, &v.inv_depth_max);
 
         score(&a->eval[RT_EVAL_NONE], &src.color, &truth.color);

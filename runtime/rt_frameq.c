@@ -9,12 +9,20 @@
 warp_view rt_frame_view(const rt_frame *fr, int eye)
 {
     warp_view v;
+    memset(&v, 0, sizeof v);
     v.cam = fr->f.cam[eye];
     v.pose = fr->f.eye_pose[eye];
     v.color = &fr->f.color[eye];
     v.inv_depth = fr->has_depth ? &fr->inv_depth[eye] : NULL;
     v.inv_depth_min = fr->inv_min[eye];
     v.inv_depth_max = fr->inv_max[eye];
+    unsigned pl = fr->f.planes;
+    v.ids = pl & DRV_PLANE_IDS ? &fr->f.ids[eye] : NULL;
+    v.motion = pl & DRV_PLANE_MOTION ? &fr->f.motion[eye] : NULL;
+    v.layers = pl & DRV_PLANE_LAYERS ? &fr->f.layers[eye] : NULL;
+    v.n_objects = fr->f.n_objects;
+    v.object_pose = fr->f.object_pose;
+    v.time = fr->f.scene_time;
     return v;
 }
 

@@ -13,6 +13,13 @@ typedef struct {
     const warp_image_rgba8 *color;
     const warp_image_f32 *inv_depth; /* 1/z in 1/m per pixel, 0 = sky; NULL when the frame has no depth plane */
     float inv_depth_min, inv_depth_max; /* range over the image: the raytrace's search bounds */
+    /* Optional planes, NULL when the frame has none (a scene sends only what its effects need). */
+    const warp_image_u16 *ids;       /* object id per pixel, 0 = static scene (002 §3.2) */
+    const warp_image_vec2f *motion;  /* screen motion from object motion, pixels per second, camera held still */
+    const warp_image_layers *layers; /* transparent fragments per pixel, nearest first (000 §4.2) */
+    int n_objects;
+    const warp_pose *object_pose;    /* [id - 1]: world_from_object at render time */
+    double time;                     /* scene time the view shows, seconds (object-motion extrapolation) */
 } warp_view;
 
 /* Converts a depth plane in encoding `enc` into inverse depth and reports its range. Values that are NaN,

@@ -60,7 +60,7 @@ static void render_pair(const char *scene, warp_pose a, warp_pose b)
     assert_non_null(s);
     sim_render(s, 0.0, a, &F.cam, SIM_PLANE_COLOR | SIM_PLANE_DEPTH, &F.a);
     sim_render(s, 0.0, b, &F.cam, SIM_PLANE_COLOR, &F.b);
-    F.v = (warp_view){F.cam, a, &F.a.color, &F.inv, 0, 0};
+    F.v = (warp_view){.cam = F.cam, .pose = a, .color = &F.a.color, .inv_depth = &F.inv};
     assert_int_equal(warp_inverse_depth_from(&F.cam, WARP_DEPTH_LINEAR, &F.a.depth, &F.inv, &F.v.inv_depth_min,
                                              &F.v.inv_depth_max),
                      0);
