@@ -54,6 +54,9 @@ float warp_sample_f32(const warp_image_f32 *img, float x, float y);
 enum {
     WARP_MASK_FRINGE = 1, /* sampled outside the source image: clamped fill (003 §4.3) */
     WARP_MASK_EDGE = 2,   /* disocclusion: stretched across a depth edge (003 §4.4) */
+    WARP_MASK_HOLE = 4,   /* no source sample reached the pixel (forward warps) or the search did not converge
+                           * (iterative warps); a hole filler has written it, if one ran */
+    WARP_MASK_FILLED = 8, /* written by a hole filler */
 };
 
 #endif
