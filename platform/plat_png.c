@@ -101,3 +101,44 @@ bool plat_png_read(const char *path, warp_image_rgba8 *img, char *err, int errle
     }
     return true;
 }
+
+bool plat_png_read_u16(const char *path, uint16_t **px, int *w, int *h, char *err, int errlen)
+{
+    png_image pi;
+    memset(&pi, 0, sizeof pi);
+    pi.version = PNG_IMAGE_VERSION;
+    if (!png_image_begin_read_from_file(&pi, path)) return fail(err, errlen, "cannot read %s: %s", path, pi.message);
+    /* libpng's simplified API reads 16-bit files as linear data, exactly; an 8-bit file would be taken as sRGB
+     * and converted, which would corrupt depth values and object ids: refuse it. */
+    if (!(pi.format & PNG_FORMAT_FLAG_LINEAR)) {
+        png_image_free(&pi);
+        return fail(err, errlen, "cannot read %s: %s", path, "expected a 16-bit PNG (depth or id plane)");
+    }
+    pi.format = PNG_FORMAT_LINEAR_Y;
+    *px = malloc(PNG_IMAGE_SIZE(pi));
+    if (!*px) {
+        png_image_free(&pi);
+        return fail(err, errlen, "cannot read %s: %s", path, "out of memory");
+    }
+    if (!png_image_finish_read(&pi, NULL, *px, 0, NULL)) {
+        free(*px);
+        *px = NULL;
+        return fail(err, errlen, "cannot read %s: %s", path, pi.message);
+    }
+    *w = (int)pi.width;
+    *h = (int)pi.height;
+    return true;
+}
+
+bool plat_png_write_u16(const char *path, const uint16_t *px, int w, int h, char *err, int errlen)
+{
+    png_image pi;
+    memset(&pi, 0, sizeof pi);
+    pi.version = PNG_IMAGE_VERSION;
+    pi.width = (png_uint_32)w;
+    pi.height = (png_uint_32)h;
+    pi.format = PNG_FORMAT_LINEAR_Y;
+    if (!png_image_write_to_file(&pi, path, 0, px, 0, NULL))
+        return fail(err, errlen, "cannot write %s: %s", path, pi.message);
+    return true;
+}

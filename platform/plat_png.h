@@ -4,6 +4,7 @@
 #define PLAT_PNG_H
 
 #include <stdbool.h>
+#include <stdint.h>
 
 #include "warp/warp_image.h"
 
@@ -14,5 +15,11 @@ bool plat_png_write(const char *path, const warp_image_rgba8 *img, bool rgb_only
 bool plat_png_write_u8(const char *path, const warp_image_u8 *img, char *err, int errlen);
 /* Reads any PNG (grey, RGB, palette, 16-bit, with or without alpha) into a newly allocated RGBA8 image. */
 bool plat_png_read(const char *path, warp_image_rgba8 *img, char *err, int errlen);
+
+/* Reads a 16-bit PNG as 16-bit grey values, exactly (depth and object-id planes; 8-bit files are refused since
+ * libpng would treat them as sRGB). Allocates *px (w*h values, row-major); free() it. */
+bool plat_png_read_u16(const char *path, uint16_t **px, int *w, int *h, char *err, int errlen);
+/* Writes w*h 16-bit grey values as a 16-bit PNG. */
+bool plat_png_write_u16(const char *path, const uint16_t *px, int w, int h, char *err, int errlen);
 
 #endif

@@ -111,9 +111,34 @@ static void test_raw_sink(void **state)
     plat_swapchain_free(&sc);
 }
 
+static void test_png_u16_round_trip(void **state)
+{
+    (void)state;
+    uint16_t px[37 * 5];
+    for (int i = 0; i < 37 * 5; i++) px[i] = (uint16_t)(i * 353 + (i % 3) * 20000);
+    char err[300];
+    const char *path = "build/tests/u16.png";
+    assert_true(plat_png_write_u16(path, px, 37, 5, err, sizeof err));
+    uint16_t *back = NULL;
+    int w = 0, h = 0;
+    assert_true(plat_png_read_u16(path, &back, &w, &h, err, sizeof err));
+    assert_int_equal(w, 37);
+    assert_int_equal(h, 5);
+    assert_memory_equal(back, px, sizeof px); /* exact: depth and ids survive */
+    free(back);
+    /* an 8-bit PNG is refused with a message naming the file */
+    warp_image_rgba8 img;
+    assert_true(warp_image_rgba8_alloc(&img, 4, 4));
+    assert_true(plat_png_write(path, &img, true, err, sizeof err));
+    assert_false(plat_png_read_u16(path, &back, &w, &h, err, sizeof err));
+    assert_non_null(strstr(err, "16-bit"));
+    warp_image_free(&img);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_png_u16_round_trip),
         cmocka_unit_test(test_swapchain_next),
         cmocka_unit_test(test_png_round_trip),
         cmocka_unit_test(test_png_sink_writes_and_skips),
