@@ -50,7 +50,7 @@ HIL_BINS := $(patsubst tests/hil/src/%.c,$(BUILD)/hil/%,$(HIL_SRC))
 TEST_SUPPORT_SRC := $(wildcard tests/support/*.c)
 TEST_BINS := $(patsubst tests/%.c,$(BUILD)/tests/%,$(TEST_SRC))
 
-.PHONY: all deps run test asan install clean
+.PHONY: all deps run test asan install clean results
 all: $(PROGRAMS) $(TEST_BINS) $(HIL_BINS)
 .SECONDARY:
 
@@ -130,6 +130,12 @@ asan: deps
 	  LDFLAGS="-fsanitize=address,undefined" all
 	@ASAN_OPTIONS=detect_leaks=1:abort_on_error=0 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
 	  tests/run.sh $(ASAN_BUILD)/tests $(patsubst $(BUILD)/%,$(ASAN_BUILD)/%,$(TEST_BINS))
+
+# The table of every warp against ground truth (docs/warp-results.md).
+results: deps
+	@$(MAKE) --no-print-directory $(BUILD)/hmdwarp-warp
+	$(BUILD)/hmdwarp-warp --table docs/warp-results.md
+	@echo "results: docs/warp-results.md"
 
 install: $(PROGRAMS)
 	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/share/hmdwarp/boards/sim $(DESTDIR)$(PREFIX)/share/doc/hmdwarp

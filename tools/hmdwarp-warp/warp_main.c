@@ -1,0 +1,516 @@
+/* hmdwarp-warp: scores any warp of the catalogue on frames from the user's own renderer (PNG colour, PFM/raw/16-bit
+ * PNG depth, ids, motion, a view file with intrinsics and poses), or on the simulator's scenes; writes the result,
+ * its mask and, given the true target view, PSNR/SSIM/error-%. Also generates the results table in docs/. */
+#include <errno.h>
+#include <getopt.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#include "platform/plat_png.h"
+#include "sim/sim_scene.h"
+#include "warp/warp_metrics.h"
+#include "warp_catalogue.h"
+#include "warp_table.h"
+
+typedef struct {
+    const char *color, *depth, *ids, *motion, *view, *ref;
+    const char *depth_kind, *depth_encoding;
+    double depth_scale;
+    const char *warp, *params;
+    const char *out, *mask;
+    const char *sim, *write_inputs;
+    double sim_time, dst_time;
+    const char *table;
+    bool table_quick;
+} opts;
+
+static void usage(FILE *f)
+{
+    fprintf(f,
+            "usage: hmdwarp-warp [options]\n"
+            "Runs one warp of hmdwarp's catalogue on a rendered frame and scores it against the true target view.\n"
+            "\n"
+            "Input (your renderer's frame):\n"
+            "  --color FILE.png       source colour (8- or 16-bit PNG, any channels)\n"
+            "  --depth FILE           source depth: .pfm (1 channel float), .f32/.raw (float32 little-endian,\n"
+            "                         colour's size, rows top to bottom) or .png (16-bit grey)\n"
+            "  --depth-kind K         planar (view-space z, the default) or ray (distance along the pixel's ray)\n"
+            "  --depth-encoding E     linear (metres after --depth-scale, the default), standard (window depth 0 at\n"
+            "                         near .. 1 at far) or reversed (reversed-Z: 1 at near .. 0 at far); 16-bit PNG\n"
+            "                         window depth is divided by 65535\n"
+            "  --depth-scale S        multiply linear depth by S to get metres (e.g. 0.001 for millimetres)\n"
+            "  --ids FILE.png         object ids, 16-bit grey PNG, 0 = static scene (002 §3.2)\n"
+            "  --motion FILE.pfm      screen motion in pixels per second, 3-channel PFM (x, y, unused)\n"
+            "  --view FILE            intrinsics and the source and target poses (format: docs/hmdwarp-warp.md)\n"
+            "  --ref FILE.png         the true target view: prints PSNR, SSIM and error-pixel %% (002 §4)\n"
+            "Or the simulator:\n"
+            "  --sim SCENE            render the source and the truth of a simulated scene at the view file's poses\n"
+            "                         (camera and poses from --view); scenes: see hmdwarpd --list\n"
+            "  --time T               scene time of the source frame (object motion), seconds (default 0)\n"
+            "  --target-time T        scene time of the target view (default: the source's); per-object warps\n"
+            "                         extrapolate object poses to it\n"
+            "  --write-inputs DIR     with --sim: also write color.png, depth.pfm, ids.png, view.txt, truth.png there:\n"
+            "                         an example of every input format\n"
+            "Warp:\n"
+            "  --warp NAME            which warp (default rotation); --list shows them with their parameters\n"
+            "  --params K=V,K=V       the warp's knobs\n"
+            "  --list                 list the warps\n"
+            "Output:\n"
+            "  --out FILE.png         the warped image\n"
+            "  --mask FILE.png        its mask: 0 valid, 64 fringe (outside the source), 128 depth edge, 255 hole,\n"
+            "                         192 hole filled\n"
+            "Results table:\n"
+            "  --table FILE.md        run every warp on every scene of the catalogue's cases and write the table\n"
+            "  --quick                smaller images for the table (smoke runs)\n"
+            "  -h, --help             this text\n");
+}
+
+static bool parse(int argc, char **argv, opts *o)
+{
+    *o = (opts){.dst_time = NAN, .depth_kind = "planar", .depth_encoding = "linear", .depth_scale = 1, .warp = "rotation"};
+    enum { O_COLOR = 256, O_DEPTH, O_KIND, O_ENC, O_SCALE, O_IDS, O_MOTION, O_VIEW, O_REF, O_SIM, O_TIME, O_WRITE,
+           O_WARP, O_PARAMS, O_LIST, O_OUT, O_MASK, O_TABLE, O_QUICK, O_TTIME };
+    static const struct option lo[] = {
+        {"color", 1, 0, O_COLOR}, {"depth", 1, 0, O_DEPTH}, {"depth-kind", 1, 0, O_KIND},
+        {"depth-encoding", 1, 0, O_ENC}, {"depth-scale", 1, 0, O_SCALE}, {"ids", 1, 0, O_IDS},
+        {"motion", 1, 0, O_MOTION}, {"view", 1, 0, O_VIEW}, {"ref", 1, 0, O_REF}, {"sim", 1, 0, O_SIM},
+        {"time", 1, 0, O_TIME}, {"target-time", 1, 0, O_TTIME}, {"write-inputs", 1, 0, O_WRITE}, {"warp", 1, 0, O_WARP},
+        {"params", 1, 0, O_PARAMS}, {"list", 0, 0, O_LIST}, {"out", 1, 0, O_OUT}, {"mask", 1, 0, O_MASK},
+        {"table", 1, 0, O_TABLE}, {"quick", 0, 0, O_QUICK}, {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
+    int c;
+    while ((c = getopt_long(argc, argv, "h", lo, NULL)) != -1) {
+        switch (c) {
+        case O_COLOR: o->color = optarg; break;
+        case O_DEPTH: o->depth = optarg; break;
+        case O_KIND: o->depth_kind = optarg; break;
+        case O_ENC: o->depth_encoding = optarg; break;
+        case O_SCALE: o->depth_scale = atof(optarg); break;
+        case O_IDS: o->ids = optarg; break;
+        case O_MOTION: o->motion = optarg; break;
+        case O_VIEW: o->view = optarg; break;
+        case O_REF: o->ref = optarg; break;
+        case O_SIM: o->sim = optarg; break;
+        case O_TIME: o->sim_time = atof(optarg); break;
+        case O_TTIME: o->dst_time = atof(optarg); break;
+        case O_WRITE: o->write_inputs = optarg; break;
+        case O_WARP: o->warp = optarg; break;
+        case O_PARAMS: o->params = optarg; break;
+        case O_LIST:
+            for (const cat_warp *const *w = cat_all(); *w; w++)
+                printf("  %-16s %-10s %s%s\n", (*w)->name, (*w)->cite, (*w)->help,
+                       (*w)->needs & CAT_NEEDS_DEPTH ? " [depth]" : "");
+            exit(0);
+        case O_OUT: o->out = optarg; break;
+        case O_MASK: o->mask = optarg; break;
+        case O_TABLE: o->table = optarg; break;
+        case O_QUICK: o->table_quick = true; break;
+        case 'h': usage(stdout); exit(0);
+        default: usage(stderr); return false;
+        }
+    }
+    if (isnan(o->dst_time)) o->dst_time = o->sim_time;
+    if (optind < argc) {
+        fprintf(stderr, "hmdwarp-warp: unexpected argument '%s' (see --help)\n", argv[optind]);
+        return false;
+    }
+    return true;
+}
+
+/* ---- the view file ---- */
+
+typedef struct {
+    warp_camera cam;
+    warp_pose src, dst;
+} view_file;
+
+static bool read_pose(const char *rest, warp_pose *p)
+{
+    double v[7];
+    if (sscanf(rest, "%lf %lf %lf %lf %lf %lf %lf", &v[0], &v[1], &v[2], &v[3], &v[4], &v[5], &v[6]) != 7) return false;
+    warp_quat q = {v[0], v[1], v[2], v[3]};
+    if (!warp_quat_normalize(q, &p->q)) return false;
+    p->p = warp_v3(v[4], v[5], v[6]);
+    return true;
+}
+
+static bool load_view(const char *path, view_file *vf, char *err, int errlen)
+{
+    FILE *f = fopen(path, "r");
+    if (!f) return snprintf(err, (size_t)errlen, "%s: %s", path, strerror(errno)), false;
+    memset(vf, 0, sizeof *vf);
+    vf->cam.near_z = 0.05;
+    vf->cam.far_z = INFINITY;
+    bool have_src = false, have_dst = false, have_size = false, have_proj = false;
+    double fx = 0, fy = 0, cx = 0, cy = 0;
+    bool intr = false;
+    char line[512];
+    int n = 0;
+    while (fgets(line, sizeof line, f)) {
+        n++;
+        char *s = line + strspn(line, " \t");
+        if (*s == '#' || *s == '\n' || !*s) continue;
+        char key[32];
+        int used = 0;
+        if (sscanf(s, "%31s %n", key, &used) != 1) continue;
+        const char *rest = s + used;
+        bool ok = true;
+        if (strcmp(key, "size") == 0) {
+            ok = sscanf(rest, "%d %d", &vf->cam.width, &vf->cam.height) == 2;
+            have_size = ok;
+        } else if (strcmp(key, "tan") == 0) {
+            ok = sscanf(rest, "%lf %lf %lf %lf", &vf->cam.tan_left, &vf->cam.tan_right, &vf->cam.tan_up,
+                        &vf->cam.tan_down) == 4;
+            have_proj = ok;
+        } else if (strcmp(key, "intrinsics") == 0) {
+            ok = sscanf(rest, "%lf %lf %lf %lf", &fx, &fy, &cx, &cy) == 4 && fx > 0 && fy > 0;
+            have_proj = intr = ok;
+        } else if (strcmp(key, "near") == 0) {
+            ok = sscanf(rest, "%lf", &vf->cam.near_z) == 1;
+        } else if (strcmp(key, "far") == 0) {
+            ok = sscanf(rest, "%lf", &vf->cam.far_z) == 1; /* "inf" parses as infinity */
+        } else if (strcmp(key, "source") == 0) {
+            ok = have_src = read_pose(rest, &vf->src);
+        } else if (strcmp(key, "target") == 0) {
+            ok = have_dst = read_pose(rest, &vf->dst);
+        } else {
+            fclose(f);
+            return snprintf(err, (size_t)errlen, "%s:%d: unknown key '%s' (size, tan, intrinsics, near, far, source, "
+                            "target)", path, n, key), false;
+        }
+        if (!ok) {
+            fclose(f);
+            return snprintf(err, (size_t)errlen, "%s:%d: cannot read the values of '%s'", path, n, key), false;
+        }
+    }
+    fclose(f);
+    if (!have_size || !have_proj || !have_src || !have_dst)
+        return snprintf(err, (size_t)errlen, "%s: needs size, tan or intrinsics, source and target", path), false;
+    if (intr) {
+        /* Pixel-space intrinsics (y down) to the frustum tangents the warps use. */
+        vf->cam.tan_left = cx / fx;
+        vf->cam.tan_right = (vf->cam.width - cx) / fx;
+        vf->cam.tan_up = cy / fy;
+        vf->cam.tan_down = (vf->cam.height - cy) / fy;
+    }
+    const char *why = warp_camera_check(&vf->cam);
+    if (why) return snprintf(err, (size_t)errlen, "%s: camera: %s", path, why), false;
+    return true;
+}
+
+static void pose_line(FILE *f, const char *key, warp_pose p)
+{
+    fprintf(f, "%s %.17g %.17g %.17g %.17g  %.17g %.17g %.17g\n", key, p.q.w, p.q.x, p.q.y, p.q.z, p.p.x, p.p.y,
+            p.p.z);
+}
+
+/* ---- float images ---- */
+
+/* PFM: "Pf" (grey) or "PF" (RGB), width height, scale (negative = little endian), rows bottom to top. */
+static float *read_pfm(const char *path, int *w, int *h, int *channels, char *err, int errlen)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) return snprintf(err, (size_t)errlen, "%s: %s", path, strerror(errno)), NULL;
+    char magic[3] = {0};
+    double scale;
+    if (fscanf(f, "%2s %d %d %lf", magic, w, h, &scale) != 4 || (strcmp(magic, "Pf") && strcmp(magic, "PF")) ||
+        *w <= 0 || *h <= 0 || *w > 16384 || *h > 16384 || fgetc(f) == EOF) {
+        fclose(f);
+        return snprintf(err, (size_t)errlen, "%s: not a PFM file (expected Pf/PF, width, height, scale)", path), NULL;
+    }
+    *channels = magic[1] == 'F' ? 3 : 1;
+    size_t n = (size_t)*w * (size_t)*h * (size_t)*channels;
+    float *px = malloc(n * sizeof *px), *rows = malloc(n * sizeof *px);
+    if (!px || !rows || fread(rows, sizeof(float), n, f) != n) {
+        free(px);
+        free(rows);
+        fclose(f);
+        return snprintf(err, (size_t)errlen, "%s: truncated PFM data", path), NULL;
+    }
+    fclose(f);
+    bool big = scale > 0;
+    size_t row = (size_t)*w * (size_t)*channels;
+    for (int y = 0; y < *h; y++)
+        for (size_t i = 0; i < row; i++) {
+            float v = rows[(size_t)(*h - 1 - y) * row + i];
+            if (big) {
+                uint32_t u;
+                memcpy(&u, &v, 4);
+                u = __builtin_bswap32(u);
+                memcpy(&v, &u, 4);
+            }
+            px[(size_t)y * row + i] = v;
+        }
+    free(rows);
+    return px;
+}
+
+static bool write_pfm(const char *path, const float *px, int w, int h, int channels)
+{
+    FILE *f = fopen(path, "wb");
+    if (!f) return false;
+    fprintf(f, "%s\n%d %d\n-1.0\n", channels == 3 ? "PF" : "Pf", w, h);
+    size_t row = (size_t)w * (size_t)channels;
+    for (int y = h - 1; y >= 0; y--) fwrite(px + (size_t)y * row, sizeof(float), row, f);
+    return fclose(f) == 0;
+}
+
+static bool load_depth(const opts *o, const warp_camera *cam, warp_image_f32 *depth, warp_depth_encoding *enc,
+                       char *err, int errlen)
+{
+    int w = cam->width, h = cam->height, ch = 1;
+    float *px = NULL;
+    const char *ext = strrchr(o->depth, '.');
+    bool png16 = ext && strcmp(ext, ".png") == 0;
+    if (ext && strcmp(ext, ".pfm") == 0) {
+        px = read_pfm(o->depth, &w, &h, &ch, err, errlen);
+        if (!px) return false;
+    } else if (png16) {
+        uint16_t *u = NULL;
+        if (!plat_png_read_u16(o->depth, &u, &w, &h, err, errlen)) return false;
+        px = malloc(sizeof(float) * (size_t)w * (size_t)h);
+        if (px)
+            for (size_t i = 0; i < (size_t)w * (size_t)h; i++) px[i] = (float)u[i];
+        free(u);
+    } else {
+        FILE *f = fopen(o->depth, "rb");
+        if (!f) return snprintf(err, (size_t)errlen, "%s: %s", o->depth, strerror(errno)), false;
+        px = malloc(sizeof(float) * (size_t)w * (size_t)h);
+        size_t got = px ? fread(px, sizeof(float), (size_t)w * (size_t)h, f) : 0;
+        fclose(f);
+        if (got != (size_t)w * (size_t)h) {
+            free(px);
+            return snprintf(err, (size_t)errlen, "%s: expected %dx%d float32 values (the colour's size)", o->depth, w,
+                            h), false;
+        }
+    }
+    if (!px) return snprintf(err, (size_t)errlen, "out of memory"), false;
+    if (w != cam->width || h != cam->height || ch != 1) {
+        free(px);
+        return snprintf(err, (size_t)errlen, "%s: %dx%d, %d channels; expected %dx%d, 1 channel", o->depth, w, h, ch,
+                        cam->width, cam->height), false;
+    }
+    if (strcmp(o->depth_encoding, "linear") == 0)
+        *enc = WARP_DEPTH_LINEAR;
+    else if (strcmp(o->depth_encoding, "standard") == 0)
+        *enc = WARP_DEPTH_STANDARD;
+    else if (strcmp(o->depth_encoding, "reversed") == 0)
+        *enc = WARP_DEPTH_REVERSED;
+    else
+        return free(px), snprintf(err, (size_t)errlen, "--depth-encoding %s: linear, standard or reversed",
+                                  o->depth_encoding), false;
+    bool ray = strcmp(o->depth_kind, "ray") == 0;
+    if (!ray && strcmp(o->depth_kind, "planar") != 0)
+        return free(px), snprintf(err, (size_t)errlen, "--depth-kind %s: planar or ray", o->depth_kind), false;
+    if (ray && *enc != WARP_DEPTH_LINEAR)
+        return free(px), snprintf(err, (size_t)errlen, "--depth-kind ray needs --depth-encoding linear"), false;
+    if (!warp_image_f32_alloc(depth, w, h)) return free(px), snprintf(err, (size_t)errlen, "out of memory"), false;
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            double v = px[(size_t)y * w + x];
+            if (*enc == WARP_DEPTH_LINEAR) {
+                v *= o->depth_scale;
+                if (ray) {
+                    /* distance along the ray -> planar z: divide by the ray direction's length at z = 1 */
+                    double u, t;
+                    warp_camera_pixel_to_tan(cam, x + 0.5, y + 0.5, &u, &t);
+                    v /= sqrt(u * u + t * t + 1);
+                }
+            } else if (png16) {
+                v /= 65535.0;
+            }
+            WARP_AT(depth, x, y) = (float)v;
+        }
+    free(px);
+    return true;
+}
+
+/* ---- scoring and output ---- */
+
+static void mask_to_grey(const warp_image_u8 *m, warp_image_u8 *g)
+{
+    for (int y = 0; y < m->h; y++)
+        for (int x = 0; x < m->w; x++) {
+            uint8_t v = WARP_AT(m, x, y), o = 0;
+            if (v & WARP_MASK_FRINGE) o = 64;
+            if (v & WARP_MASK_EDGE) o = 128;
+            if (v & WARP_MASK_HOLE) o = (v & WARP_MASK_FILLED) ? 192 : 255;
+            WARP_AT(g, x, y) = o;
+        }
+}
+
+static int fail_msg(const char *msg)
+{
+    fprintf(stderr, "hmdwarp-warp: %s\n", msg);
+    return 1;
+}
+
+int main(int argc, char **argv)
+{
+    opts o;
+    if (!parse(argc, argv, &o)) return 2;
+    char err[512];
+    if (o.table) return warp_table_write(o.table, o.table_quick) ? 0 : 1;
+
+    const cat_warp *w = cat_find(o.warp);
+    if (!w) return fprintf(stderr, "hmdwarp-warp: unknown warp '%s' (see --list)\n", o.warp), 2;
+    if (!o.view) return fail_msg("--view FILE is required (intrinsics and poses; see docs/hmdwarp-warp.md)");
+    view_file vf;
+    if (!load_view(o.view, &vf, err, sizeof err)) return fail_msg(err);
+
+    warp_image_rgba8 color = {0}, ref = {0};
+    warp_image_f32 depth = {0}, inv = {0};
+    warp_image_u16 ids = {0};
+    warp_image_vec2f motion = {0};
+    sim_buffers sb, tb;
+    memset(&sb, 0, sizeof sb);
+    memset(&tb, 0, sizeof tb);
+    warp_view v = {.cam = vf.cam, .pose = vf.src, .time = o.sim_time};
+    warp_depth_encoding enc = WARP_DEPTH_LINEAR;
+    bool have_depth = false;
+
+    if (o.sim) {
+        const sim_scene *sc = sim_scene_find(o.sim);
+        if (!sc) return fprintf(stderr, "hmdwarp-warp: unknown scene '%s' (see hmdwarpd --list)\n", o.sim), 2;
+        unsigned planes = SIM_PLANE_COLOR | SIM_PLANE_DEPTH | SIM_PLANE_IDS | SIM_PLANE_MOTION | SIM_PLANE_LAYERS;
+        if (!sim_buffers_alloc(&sb, vf.cam.width, vf.cam.height, planes, 8) ||
+            !sim_buffers_alloc(&tb, vf.cam.width, vf.cam.height, SIM_PLANE_COLOR, 1))
+            return fail_msg("out of memory");
+        sim_render(sc, o.sim_time, vf.src, &vf.cam, planes, &sb);
+        sim_render(sc, o.dst_time, vf.dst, &vf.cam, SIM_PLANE_COLOR, &tb);
+        v.color = &sb.color;
+        depth = sb.depth;
+        have_depth = true;
+        v.ids = &sb.ids;
+        v.motion = &sb.motion;
+        v.layers = &sb.layers;
+        static warp_pose objs[64];
+        v.n_objects = sim_scene_object_count(sc) < 64 ? sim_scene_object_count(sc) : 64;
+        for (int i = 0; i < v.n_objects; i++) objs[i] = sim_scene_object_pose(sc, i + 1, o.sim_time);
+        v.object_pose = objs;
+        if (o.write_inputs) {
+            mkdir(o.write_inputs, 0755);
+            char p[600];
+            snprintf(p, sizeof p, "%s/color.png", o.write_inputs);
+            if (!plat_png_write(p, &sb.color, true, err, sizeof err)) return fail_msg(err);
+            snprintf(p, sizeof p, "%s/truth.png", o.write_inputs);
+            if (!plat_png_write(p, &tb.color, true, err, sizeof err)) return fail_msg(err);
+            float *d = malloc(sizeof(float) * (size_t)vf.cam.width * (size_t)vf.cam.height);
+            uint16_t *u = malloc(sizeof(uint16_t) * (size_t)vf.cam.width * (size_t)vf.cam.height);
+            if (!d || !u) return fail_msg("out of memory");
+            for (int y = 0; y < vf.cam.height; y++)
+                for (int x = 0; x < vf.cam.width; x++) {
+                    float z = WARP_AT(&sb.depth, x, y);
+                    d[(size_t)y * vf.cam.width + x] = isfinite(z) ? z : 1e30f; /* PFM readers choke on inf */
+                    u[(size_t)y * vf.cam.width + x] = WARP_AT(&sb.ids, x, y);
+                }
+            snprintf(p, sizeof p, "%s/depth.pfm", o.write_inputs);
+            if (!write_pfm(p, d, vf.cam.width, vf.cam.height, 1)) return fail_msg("cannot write depth.pfm");
+            snprintf(p, sizeof p, "%s/ids.png", o.write_inputs);
+            if (!plat_png_write_u16(p, u, vf.cam.width, vf.cam.height, err, sizeof err)) return fail_msg(err);
+            free(d);
+            free(u);
+            snprintf(p, sizeof p, "%s/view.txt", o.write_inputs);
+            FILE *f = fopen(p, "w");
+            if (!f) return fail_msg("cannot write view.txt");
+            fprintf(f, "# hmdwarp-warp view: right-handed, the camera looks down -Z, +Y up, +X right; poses are\n"
+                       "# world_from_eye: qw qx qy qz (unit quaternion) then position x y z in metres\n");
+            fprintf(f, "size %d %d\ntan %.17g %.17g %.17g %.17g\nnear %.17g\nfar inf\n", vf.cam.width, vf.cam.height,
+                    vf.cam.tan_left, vf.cam.tan_right, vf.cam.tan_up, vf.cam.tan_down, vf.cam.near_z);
+            pose_line(f, "source", vf.src);
+            pose_line(f, "target", vf.dst);
+            fclose(f);
+            printf("inputs written to %s (color.png, depth.pfm, ids.png, view.txt, truth.png)\n", o.write_inputs);
+        }
+    } else {
+        if (!o.color) return fail_msg("--color FILE.png (or --sim SCENE) is required");
+        if (!plat_png_read(o.color, &color, err, sizeof err)) return fail_msg(err);
+        if (color.w != vf.cam.width || color.h != vf.cam.height)
+            return fprintf(stderr, "hmdwarp-warp: %s is %dx%d, the view file says %dx%d\n", o.color, color.w, color.h,
+                           vf.cam.width, vf.cam.height), 1;
+        v.color = &color;
+        if (o.depth) {
+            if (!load_depth(&o, &vf.cam, &depth, &enc, err, sizeof err)) return fail_msg(err);
+            have_depth = true;
+        }
+        if (o.ids) {
+            uint16_t *u = NULL;
+            int iw, ih;
+            if (!plat_png_read_u16(o.ids, &u, &iw, &ih, err, sizeof err)) return fail_msg(err);
+            if (iw != vf.cam.width || ih != vf.cam.height || !warp_image_u16_alloc(&ids, iw, ih))
+                return free(u), fail_msg("--ids: size differs from the colour's");
+            for (int y = 0; y < ih; y++) memcpy(&WARP_AT(&ids, 0, y), u + (size_t)y * iw, sizeof(uint16_t) * iw);
+            free(u);
+            v.ids = &ids;
+        }
+        if (o.motion) {
+            int mw, mh, ch;
+            float *m = read_pfm(o.motion, &mw, &mh, &ch, err, sizeof err);
+            if (!m) return fail_msg(err);
+            if (mw != vf.cam.width || mh != vf.cam.height || ch != 3 || !warp_image_vec2f_alloc(&motion, mw, mh))
+                return free(m), fail_msg("--motion: expected a 3-channel PFM of the colour's size");
+            for (int y = 0; y < mh; y++)
+                for (int x = 0; x < mw; x++)
+                    WARP_AT(&motion, x, y) = (warp_vec2f){m[((size_t)y * mw + x) * 3], m[((size_t)y * mw + x) * 3 + 1]};
+            free(m);
+            v.motion = &motion;
+        }
+        if (o.ref && !plat_png_read(o.ref, &ref, err, sizeof err)) return fail_msg(err);
+    }
+    if (have_depth) {
+        if (!warp_image_f32_alloc(&inv, vf.cam.width, vf.cam.height)) return fail_msg("out of memory");
+        long bad = warp_inverse_depth_from(&vf.cam, enc, &depth, &inv, &v.inv_depth_min, &v.inv_depth_max);
+        if (bad) fprintf(stderr, "hmdwarp-warp: %ld depth values were NaN, negative or nearer than 'near': taken as sky\n", bad);
+        v.inv_depth = &inv;
+    }
+    if ((w->needs & CAT_NEEDS_DEPTH) && !v.inv_depth) return fail_msg("this warp needs --depth");
+    if ((w->needs & CAT_NEEDS_IDS) && !v.ids) return fail_msg("this warp needs --ids");
+    if ((w->needs & CAT_NEEDS_MOTION) && !v.motion) return fail_msg("this warp needs --motion");
+    if ((w->needs & CAT_NEEDS_LAYERS) && !v.layers) return fail_msg("this warp needs transparency layers (--sim only)");
+
+    warp_image_rgba8 out;
+    warp_image_u8 mask, grey;
+    if (!warp_image_rgba8_alloc(&out, vf.cam.width, vf.cam.height) ||
+        !warp_image_u8_alloc(&mask, vf.cam.width, vf.cam.height) ||
+        !warp_image_u8_alloc(&grey, vf.cam.width, vf.cam.height))
+        return fail_msg("out of memory");
+    warp_image_u8_fill(&mask, 0);
+    cat_stats st;
+    memset(&st, 0, sizeof st);
+    const char *why = w->run(&v, &vf.cam, vf.dst, o.dst_time, o.params, &out, &mask, &st);
+    if (why) return fprintf(stderr, "hmdwarp-warp: %s: %s\n", w->name, why), 1;
+    printf("warp %s (%s): %dx%d, fringe %ld px, holes %ld px", w->name, w->cite, out.w, out.h, st.fringe, st.holes);
+    if (st.primitives >= 0) printf(", primitives %ld", st.primitives);
+    if (st.samples >= 0) printf(", samples %ld", st.samples);
+    if (st.note[0]) printf(" (%s)", st.note);
+    printf("\n");
+    if (o.out && !plat_png_write(o.out, &out, true, err, sizeof err)) return fail_msg(err);
+    if (o.mask) {
+        mask_to_grey(&mask, &grey);
+        if (!plat_png_write_u8(o.mask, &grey, err, sizeof err)) return fail_msg(err);
+    }
+    const warp_image_rgba8 *truth = o.sim ? &tb.color : (ref.px ? &ref : NULL);
+    if (truth) {
+        if (truth->w != out.w || truth->h != out.h) return fail_msg("--ref: size differs from the output's");
+        printf("vs truth: PSNR %.2f dB, SSIM %.4f, error px %.3f %% (002 §4); away from fringes: PSNR %.2f dB\n",
+               warp_psnr(&out, truth, NULL, 0), warp_ssim(&out, truth, NULL, 0),
+               warp_error_pixel_percent(&out, truth, NULL, 0, 20), warp_psnr(&out, truth, &mask, WARP_MASK_FRINGE));
+    }
+    warp_image_free(&out);
+    warp_image_free(&mask);
+    warp_image_free(&grey);
+    warp_image_free(&inv);
+    if (o.sim) {
+        sim_buffers_free(&sb);
+        sim_buffers_free(&tb);
+    } else {
+        warp_image_free(&color);
+        warp_image_free(&depth);
+        warp_image_free(&ids);
+        warp_image_free(&motion);
+        warp_image_free(&ref);
+    }
+    return 0;
+}
