@@ -3,6 +3,7 @@
 #
 #   make                 build everything          make run     run hmdwarpd on the simulated board
 #   make test            unit + accuracy tests     make asan    the tests under ASan+UBSan
+#   make bench           accuracy vs time          make results every warp vs ground truth
 #   make install PREFIX=/usr DESTDIR=...           make clean
 #   make CROSS_COMPILE=aarch64-linux-gnu-          cross build for the board
 
@@ -39,8 +40,16 @@ MAINS := $(wildcard runtime/*_main.c tools/*/*_main.c)
 layer_src = $(filter-out %_main.c,$(wildcard $(1)/*.c))
 LIBS := $(foreach l,$(LAYERS),$(BUILD)/lib$(l).a)
 
-# Host-side tools: every folder tools/NAME builds $(BUILD)/NAME from all its .c files.
-TOOLS := $(notdir $(wildcard tools/*))
+# Host-side tools: every folder tools/NAME builds $(BUILD)/NAME from all its .c (and .cpp) files plus the shared
+# tools/common/ (the warp catalogue the tools and the bench share).
+TOOLS := $(filter-out common,$(notdir $(wildcard tools/*)))
+TOOLS_COMMON_OBJ := $(patsubst %.c,$(BUILD)/obj/%.o,$(wildcard tools/common/*.c))
+# The bench's peer, OpenCV's cv::remap: pkg-config when libopencv-dev is installed; otherwise Debian's much smaller
+# libopencv-imgproc-dev (what board/deps.sh installs), which ships no .pc file.
+OPENCV_CFLAGS := $(or $(shell $(PKG_CONFIG) --cflags opencv4 2>/dev/null),-I/usr/include/opencv4)
+OPENCV_LIBS   := $(or $(shell $(PKG_CONFIG) --libs opencv4 2>/dev/null),-lopencv_imgproc -lopencv_core)
+CXX := $(CROSS_COMPILE)g++
+TOOL_LIBS_hmdwarp-bench := $(OPENCV_LIBS) -lstdc++
 PROGRAMS := $(BUILD)/hmdwarpd $(addprefix $(BUILD)/,$(TOOLS))
 
 TEST_SRC := $(wildcard tests/unit/test_*.c tests/accuracy/test_*.c)
@@ -50,7 +59,7 @@ HIL_BINS := $(patsubst tests/hil/src/%.c,$(BUILD)/hil/%,$(HIL_SRC))
 TEST_SUPPORT_SRC := $(wildcard tests/support/*.c)
 TEST_BINS := $(patsubst tests/%.c,$(BUILD)/tests/%,$(TEST_SRC))
 
-.PHONY: all deps run test asan install clean results
+.PHONY: all deps run test asan install clean results bench
 all: $(PROGRAMS) $(TEST_BINS) $(HIL_BINS)
 .SECONDARY:
 
@@ -92,10 +101,17 @@ $(BUILD)/hil/%: $(BUILD)/obj/tests/hil/src/%.o $(LIBS)
 	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_ALL)
 
 define tool_rule
-$(BUILD)/$(1): $(patsubst %.c,$(BUILD)/obj/%.o,$(wildcard tools/$(1)/*.c)) $(LIBS)
+$(BUILD)/$(1): $(patsubst %.c,$(BUILD)/obj/%.o,$(wildcard tools/$(1)/*.c)) \
+               $(patsubst %.cpp,$(BUILD)/obj/%.o,$(wildcard tools/$(1)/*.cpp)) $(TOOLS_COMMON_OBJ) $(LIBS)
 	@$$(if $(Q),echo "  LD      $$@")
-	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -o $$@ $$^ $(LDLIBS_ALL)
+	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -o $$@ $$^ $(LDLIBS_ALL) $$(TOOL_LIBS_$(1))
 endef
+
+# C++ only for the OpenCV peer of the bench (OpenCV 4 has no C API).
+$(BUILD)/obj/%.o: %.cpp
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  CXX     $<")
+	$(Q)$(CXX) $(CPPFLAGS) -std=gnu++17 -Wall -Wextra -Werror $(CFLAGS) -MMD -MP $(OPENCV_CFLAGS) -c $< -o $@
 $(foreach t,$(TOOLS),$(eval $(call tool_rule,$(t))))
 
 TEST_SUPPORT_OBJ := $(patsubst %.c,$(BUILD)/obj/%.o,$(TEST_SUPPORT_SRC))
@@ -130,6 +146,12 @@ asan: deps
 	  LDFLAGS="-fsanitize=address,undefined" all
 	@ASAN_OPTIONS=detect_leaks=1:abort_on_error=0 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
 	  tests/run.sh $(ASAN_BUILD)/tests $(patsubst $(BUILD)/%,$(ASAN_BUILD)/%,$(TEST_BINS))
+
+# What accuracy costs in time: CSV, Markdown and plots into docs/bench/ (BENCH_ARGS=--quick for a smoke run).
+BENCH_ARGS ?=
+bench: deps
+	@$(MAKE) --no-print-directory $(BUILD)/hmdwarp-bench $(BUILD)/hmdwarpd
+	$(BUILD)/hmdwarp-bench $(BENCH_ARGS)
 
 # The table of every warp against ground truth (docs/warp-results.md).
 results: deps

@@ -3,11 +3,13 @@
 # As root it runs apt-get; otherwise it prints the exact command and fails, so `make run`/`make test` stop early.
 set -eu
 
-# Keep in step with the README's dependency list.
+# Keep in step with the README's dependency list. g++, libopencv-imgproc-dev and gnuplot-nox are for `make bench`
+# (OpenCV's cv::remap is the peer it measures against; gnuplot draws the plots).
 PKGS="gcc libc6-dev make pkg-config
 libinih-dev libpng-dev zlib1g-dev
 libhidapi-dev libusb-1.0-0-dev libgpiod-dev libi2c-dev linux-libc-dev
-libcmocka-dev"
+libcmocka-dev
+g++ libopencv-imgproc-dev gnuplot-nox"
 
 missing=""
 for p in $PKGS; do

@@ -12,7 +12,7 @@
 #include "platform/plat_png.h"
 #include "sim/sim_scene.h"
 #include "warp/warp_metrics.h"
-#include "warp_catalogue.h"
+#include "tools/common/cat_warps.h"
 #include "warp_table.h"
 
 typedef struct {

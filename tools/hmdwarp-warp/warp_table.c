@@ -9,7 +9,7 @@
 #include "sim/sim_scene.h"
 #include "warp/warp_metrics.h"
 #include "warp/warp_view.h"
-#include "warp_catalogue.h"
+#include "tools/common/cat_warps.h"
 
 /* One case per scene, chosen for the effect the scene exists for: the head moves between the source frame and the
  * target view by what a 45 Hz host frame plus latency (about 30-50 ms) sees at brisk head motion. */

@@ -1,7 +1,7 @@
 /* hmdwarp-warp's catalogue: every warp the tool (and the results table) can run, behind one signature, with its
  * knobs as name=value parameters and the planes it needs. */
-#ifndef HMDWARP_WARP_CATALOGUE_H
-#define HMDWARP_WARP_CATALOGUE_H
+#ifndef TOOLS_CAT_WARPS_H
+#define TOOLS_CAT_WARPS_H
 
 #include <stdbool.h>
 

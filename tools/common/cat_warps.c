@@ -1,6 +1,6 @@
 /* hmdwarp-warp's catalogue: every warp the tool (and the results table) can run, behind one signature, with its
  * knobs as name=value parameters and the planes it needs. */
-#include "warp_catalogue.h"
+#include "tools/common/cat_warps.h"
 
 #include <math.h>
 #include <stdio.h>
