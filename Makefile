@@ -52,14 +52,15 @@ CXX := $(CROSS_COMPILE)g++
 TOOL_LIBS_hmdwarp-bench := $(OPENCV_LIBS) -lstdc++
 PROGRAMS := $(BUILD)/hmdwarpd $(addprefix $(BUILD)/,$(TOOLS))
 
-TEST_SRC := $(wildcard tests/unit/test_*.c tests/accuracy/test_*.c)
+TEST_SRC := $(wildcard tests/unit/test_*.c tests/accuracy/test_*.c tests/stability/test_*.c)
+STABILITY_BINS := $(patsubst tests/%.c,$(BUILD)/tests/%,$(wildcard tests/stability/test_*.c))
 # Hardware-in-the-loop helper programs (they run inside the test VM, see tests/hil/): one per .c file.
 HIL_SRC  := $(wildcard tests/hil/src/*.c)
 HIL_BINS := $(patsubst tests/hil/src/%.c,$(BUILD)/hil/%,$(HIL_SRC))
 TEST_SUPPORT_SRC := $(wildcard tests/support/*.c)
 TEST_BINS := $(patsubst tests/%.c,$(BUILD)/tests/%,$(TEST_SRC))
 
-.PHONY: all deps run test asan install clean results bench
+.PHONY: all deps run test asan install clean results bench stability
 all: $(PROGRAMS) $(TEST_BINS) $(HIL_BINS)
 .SECONDARY:
 
@@ -137,6 +138,11 @@ run: deps
 test: deps
 	@$(MAKE) --no-print-directory all
 	@tests/run.sh $(BUILD)/tests $(TEST_BINS)
+
+# The numerical-stability suite alone (it is part of `make test` too).
+stability: deps
+	@$(MAKE) --no-print-directory $(STABILITY_BINS)
+	@tests/run.sh $(BUILD)/tests $(STABILITY_BINS)
 
 # Tests under AddressSanitizer + UndefinedBehaviorSanitizer, in their own build tree.
 ASAN_BUILD ?= build/asan

@@ -133,7 +133,10 @@ void warp_raytrace_rows(const warp_raytrace_setup *s, warp_image_rgba8 *dst, war
             /* ... and to the part that projects inside the source image, where the height map is known. */
             bool inside = lo <= hi && clip_axis(pix, ex, sw, &lo, &hi) && clip_axis(piy, ey, sh, &lo, &hi);
             if (!inside) {
-                double d = lo < dmin ? dmin : lo;
+                /* The clip moved lo to where the ray would enter the image, which may lie nearer than anything in
+                 * the frame; the fringe fill samples the ray within the frame's depth range (for an all-sky
+                 * frame exactly the rotation reprojection's clamped sample). */
+                double d = lo < dmin ? dmin : (lo > dmax ? dmax : lo);
                 out[x] = warp_sample_bilinear(v->color, (float)(pix + d * ex), (float)(piy + d * ey));
                 if (m) m[x] = WARP_MASK_FRINGE;
                 fringes++;
