@@ -10,7 +10,14 @@
 #include "warp/warp_camera.h"
 #include "warp/warp_lens.h"
 
-typedef enum { RT_METHOD_NONE = 0, RT_METHOD_ROTATION = 1, RT_METHOD_RAYTRACE = 2, RT_METHOD_COUNT } rt_method;
+/* The warps the compositor runs; AUTO is not a warp but [warp] method = auto: rt_select picks one per vsync. */
+typedef enum {
+    RT_METHOD_NONE = 0,
+    RT_METHOD_ROTATION = 1,
+    RT_METHOD_RAYTRACE = 2,
+    RT_METHOD_COUNT,
+    RT_METHOD_AUTO = RT_METHOD_COUNT
+} rt_method;
 const char *rt_method_name(rt_method m);
 
 typedef struct {
@@ -38,6 +45,7 @@ typedef struct {
     double lens_center[2];      /* left eye, pixels within its half of the panel; mirrored for the right eye */
     /* [warp] */
     rt_method method;
+    double pixel_budget;        /* auto: largest predicted error accepted from a cheaper warp, eye-buffer pixels */
     int raytrace_steps;
     int edge_fill;              /* warp_edge_fill */
     double edge_jump;

@@ -1,0 +1,102 @@
+/* rt_select: which warp each vsync runs: the cheapest one whose predicted error stays under a pixel budget, given
+ * the head motion the frame must bridge, the nearest depth in it (004 eqs. 5-7), its planes and the time left. */
+#include "runtime/rt_select.h"
+
+#include <math.h>
+
+const char *rt_select_why_str(rt_select_why w)
+{
+    static const char *const names[RT_WHY_COUNT] = {
+        "configured",    "no frame yet",          "no depth in the frame", "parallax under budget",
+        "parallax",      "transparent layers",    "object motion",         "held (hysteresis)",
+        "time budget",
+    };
+    return w >= 0 && w < RT_WHY_COUNT ? names[w] : "?";
+}
+
+rt_select_params rt_select_default_params(void)
+{
+    rt_select_params p = {0.5, 0.3, 45};
+    return p;
+}
+
+void rt_select_init(rt_select *s, const rt_select_params *p, const warp_camera *cam)
+{
+    s->p = *p;
+    s->cam = *cam;
+    s->current = RT_METHOD_ROTATION;
+    s->calm = 0;
+    s->last_px = 0;
+}
+
+double rt_select_parallax_px(const warp_camera *cam, double translation_m, double inv_depth_max)
+{
+    if (!(translation_m > 0) || !(inv_depth_max > 0)) return 0;
+    /* 004 eq. 5: the largest angle by which a translation T moves a point at distance >= d_min. */
+    double s = translation_m * inv_depth_max;
+    double phi = s >= 1 ? WARP_PI / 2 : asin(s);
+    /* 004 eq. 7 for an asymmetric frustum: a pinhole maps angle to pixels at f (1 + tan^2) along the radius, largest
+     * at the image corner; (V/2) cot(v/2) [(A^2 + 1) tan^2(v/2) + 1] is the symmetric special case. */
+    double f = fmax(warp_camera_pixels_per_tan_x(cam), warp_camera_pixels_per_tan_y(cam));
+    double tx = fmax(cam->tan_left, cam->tan_right), ty = fmax(cam->tan_up, cam->tan_down);
+    double a_max = f * (1 + tx * tx + ty * ty);
+    return a_max * phi; /* eq. 6 */
+}
+
+/* Methods by cost: a method "escalates" over another when it is more expensive (and more capable). */
+static int rank(rt_method m) { return m == RT_METHOD_NONE ? 0 : m == RT_METHOD_ROTATION ? 1 : 2; }
+
+rt_method rt_select_choose(rt_select *s, rt_method configured, const rt_select_input *in, rt_select_why *why)
+{
+    if (configured != RT_METHOD_AUTO) {
+        *why = RT_WHY_CONFIGURED;
+        return configured;
+    }
+    if (!in->have_frame) {
+        *why = RT_WHY_NO_FRAME;
+        return RT_METHOD_ROTATION;
+    }
+    if (!in->has_depth) {
+        /* Nothing but rotation can be done with colour alone; no state to keep. */
+        s->current = RT_METHOD_ROTATION;
+        s->calm = 0;
+        *why = RT_WHY_ROTATION_ONLY;
+        return RT_METHOD_ROTATION;
+    }
+    double px = rt_select_parallax_px(&s->cam, in->translation_m, in->inv_depth_max);
+    s->last_px = px;
+    rt_method want = px > s->p.pixel_budget ? RT_METHOD_RAYTRACE : RT_METHOD_ROTATION;
+    rt_select_why w = px > s->p.pixel_budget ? RT_WHY_PARALLAX : RT_WHY_PARALLAX_SMALL;
+    if (want == RT_METHOD_RAYTRACE && in->has_layers) w = RT_WHY_TRANSPARENCY;
+    if (want == RT_METHOD_RAYTRACE && in->objects_moving) w = RT_WHY_OBJECT_MOTION;
+
+    /* Escalate at once (an error now is visible now); de-escalate only after the prediction has stayed well under
+     * the budget for a while, so steady motion near the threshold does not flicker between warps. */
+    if (rank(want) > rank(s->current)) {
+        s->current = want;
+        s->calm = 0;
+    } else if (rank(want) < rank(s->current)) {
+        if (px < s->p.pixel_budget * (1 - s->p.hysteresis))
+            s->calm++;
+        else
+            s->calm = 0;
+        if (s->calm >= s->p.hold_vsyncs) {
+            s->current = want;
+            s->calm = 0;
+        } else {
+            w = RT_WHY_HELD;
+        }
+    } else {
+        s->calm = 0;
+    }
+    rt_method m = s->current;
+    /* Short of time: the cheaper warp now beats a missed vsync (which would show a stale frame unwarped). The state
+     * keeps the preferred method, so the next vsync with time to spare returns to it. */
+    if (m == RT_METHOD_RAYTRACE && in->cost_ns[RT_METHOD_RAYTRACE] > 0 &&
+        in->cost_ns[RT_METHOD_RAYTRACE] > in->time_left_ns) {
+        m = RT_METHOD_ROTATION;
+        w = RT_WHY_TIME_BUDGET;
+    }
+    *why = w;
+    return m;
+}
