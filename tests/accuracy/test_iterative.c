@@ -4,6 +4,7 @@
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
+#include <stdio.h>
 #include <string.h>
 #include <cmocka.h>
 
@@ -185,11 +186,313 @@ static void test_pure_rotation_matches_reprojection(void **state)
     assert_true(agree > (long)W * H * 99 / 100);
 }
 
+
+/* ---- near: translation and disocclusion ---- */
+
+static const warp_pose *near_a(void)
+{
+    static warp_pose a;
+    a = eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
+    return &a;
+}
+/* a 4 cm sideways lean with a 1.5 degree turn, as test_warp_accuracy's raytrace case */
+static warp_pose near_b(void) { return eye_at(1.5 * D2R, -3 * D2R, 0, warp_v3(0.04, 1.61, -0.01)); }
+
+static double psnr_excl(const warp_image_rgba8 *out, const warp_image_u8 *mask, uint8_t excl)
+{
+    return warp_psnr(out, &F.b.color, mask, excl);
+}
+
+static void test_near_translation(void **state)
+{
+    (void)state;
+    warp_pose a = *near_a(), b = near_b();
+    render_pair("near", a, 0.0, b, 0.0);
+    warp_iter_params p = warp_iter_default_params();
+    warp_iter_stats st = run(&p, NULL, &F.out, &F.mask);
+    double conv = warp_psnr(&F.out, &F.b.color, &F.mask, WARP_MASK_FRINGE | WARP_MASK_HOLE);
+    double err = warp_error_pixel_percent(&F.out, &F.b.color, &F.mask, WARP_MASK_FRINGE | WARP_MASK_HOLE, 20);
+    /* the rotation warp on the same pixels: what ignoring depth costs */
+    warp_mat3 hm = warp_reproject_homography(&F.v, &F.cam, b.q);
+    warp_reproject_rows(&F.v, &hm, &F.out2, &F.mask2, 0, H);
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) WARP_AT(&F.excl, x, y) = WARP_AT(&F.mask, x, y) | WARP_AT(&F.mask2, x, y);
+    double rot = psnr_excl(&F.out2, &F.excl, 0xff), it = psnr_excl(&F.out, &F.excl, 0xff);
+    print_stats("near N8 T4 L1 pca", &st, conv);
+    print_message("  converged px: %.2f %% error px; rotation warp there %.2f dB vs %.2f dB\n", err, rot, it);
+    assert_true(conv > 32.0);
+    assert_true(err < 3.0);
+    assert_true(it > rot + 5.0);
+    assert_true(pct(st.converged, st.pixels) > 90.0);
+    /* the near objects against the far wall open disocclusions that a single layer cannot fill */
+    assert_true(st.holes > st.pixels / 200 && st.holes < st.pixels * 6 / 100);
+    /* a sign error in the translation (warping to the mirrored lean) must fail the threshold */
+    warp_iter_target good = F.tgt;
+    F.tgt.pose.p = warp_v3_sub(warp_v3_scale(a.p, 2.0), b.p);
+    run(&p, NULL, &F.out2, &F.mask2);
+    double wrong = warp_psnr(&F.out2, &F.b.color, &F.mask2, WARP_MASK_FRINGE | WARP_MASK_HOLE);
+    print_message("  mirrored translation: %.2f dB\n", wrong);
+    assert_true(wrong < 24.0);
+    F.tgt = good;
+}
+
+/* 001 §3.4 / §4.2: multi-layer warping beats single-layer warping on disocclusions, and beats filling the single
+ * layer's holes by dilation or by the approximate fallback. */
+static void test_multilayer_beats_single_layer(void **state)
+{
+    (void)state;
+    render_pair("near", *near_a(), 0.0, near_b(), 0.0);
+    warp_iter_params p = warp_iter_default_params();
+    warp_iter_stats s1 = run(&p, NULL, &F.out2, &F.mask2); /* keeps L = 1's holes in mask2 */
+    double one = psnr_excl(&F.out2, &F.mask2, WARP_MASK_FRINGE);
+    p.layers = 2;
+    warp_iter_stats s2 = run(&p, &F.layer_bg, &F.out, &F.mask);
+    double two = psnr_excl(&F.out, &F.mask, WARP_MASK_FRINGE);
+    /* score on the disocclusions alone: the pixels the single layer left as holes */
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++)
+            WARP_AT(&F.excl, x, y) = (uint8_t)((WARP_AT(&F.mask2, x, y) & WARP_MASK_HOLE) ? 0 : 1);
+    double two_dis = psnr_excl(&F.out, &F.excl, 1);
+    double two_dis_err = warp_error_pixel_percent(&F.out, &F.b.color, &F.excl, 1, 20);
+    print_stats("near L=1", &s1, one);
+    print_stats("near L=2 (background layer)", &s2, two);
+    p.layers = 1;
+    p.dilate = true;
+    warp_iter_stats sd = run(&p, NULL, &F.out, &F.mask);
+    double dil = psnr_excl(&F.out, &F.mask, WARP_MASK_FRINGE);
+    double dil_dis = psnr_excl(&F.out, &F.excl, 1);
+    double dil_dis_err = warp_error_pixel_percent(&F.out, &F.b.color, &F.excl, 1, 20);
+    print_stats("near L=1 + dilation", &sd, dil);
+    p.dilate = false;
+    p.approximate = true;
+    warp_iter_stats sa = run(&p, NULL, &F.out, &F.mask);
+    double apx = psnr_excl(&F.out, &F.mask, WARP_MASK_FRINGE);
+    double apx_dis = psnr_excl(&F.out, &F.excl, 1);
+    print_stats("near L=1 + AWOC", &sa, apx);
+    print_message("  on the L=1 holes: L=2 %.2f dB (%.1f %% error px), dilation %.2f dB (%.1f %%), AWOC %.2f dB\n",
+                  two_dis, two_dis_err, dil_dis, dil_dis_err, apx_dis);
+    assert_true(s2.holes * 10 < s1.holes);
+    assert_true(s2.converged_layer[1] > 0);
+    assert_true(two > one + 5.0);
+    assert_true(two > dil + 2.0 && two > apx + 2.0);
+    assert_true(two_dis > dil_dis + 2.0 && two_dis > apx_dis + 2.0);
+    assert_true(two_dis_err < dil_dis_err);
+}
+
+/* A depth-peeled layer is empty wherever nothing is hidden: cross-layer seeding (001 Fig. 6) lets a search that
+ * runs into its empty texels continue from the layer above instead of dying there. */
+static void test_peeled_layer_cross_layer_seeding(void **state)
+{
+    (void)state;
+    render_pair("near", *near_a(), 0.0, near_b(), 0.0);
+    warp_iter_params p = warp_iter_default_params();
+    warp_iter_stats s1 = run(&p, NULL, &F.out, &F.mask);
+    p.layers = 2;
+    warp_iter_stats sc = run(&p, &F.layer_peel, &F.out, &F.mask);
+    double cross = psnr_excl(&F.out, &F.mask, WARP_MASK_FRINGE);
+    p.cross_layer = false;
+    warp_iter_stats sn = run(&p, &F.layer_peel, &F.out2, &F.mask2);
+    double plain = psnr_excl(&F.out2, &F.mask2, WARP_MASK_FRINGE);
+    print_stats("near L=2 peeled, cross-layer", &sc, cross);
+    print_stats("near L=2 peeled, per layer", &sn, plain);
+    assert_true(sc.cross_layer > 0 && sn.cross_layer == 0);
+    assert_true(sc.holes * 10 < s1.holes && sn.holes * 10 < s1.holes);
+    assert_true(sc.holes < sn.holes);
+    assert_true(sc.seeds < sn.seeds); /* the fallback bound is tight where the peeled layer is empty */
+}
+
+/* 001 Table 2: the tight motion bound beats the global bound when N is small (same N and T). */
+static void test_tight_bound_beats_global_at_small_n(void **state)
+{
+    (void)state;
+    render_pair("near", *near_a(), 0.0, near_b(), 0.0);
+    static const char *const names[] = {"global", "tight", "pca"};
+    for (int n = 1; n <= 8; n *= 2) {
+        double ps[3];
+        long holes[3];
+        for (int b = 0; b < 3; b++) {
+            warp_iter_params p = warp_iter_default_params();
+            p.seeds = n;
+            p.iters = 3;
+            p.bound = (warp_iter_bound)b;
+            warp_iter_stats st = run(&p, NULL, &F.out, &F.mask);
+            ps[b] = psnr_excl(&F.out, &F.mask, WARP_MASK_FRINGE);
+            holes[b] = st.holes;
+            char name[48];
+            snprintf(name, sizeof name, "near N=%d T=3 %s", n, names[b]);
+            print_stats(name, &st, ps[b]);
+        }
+        if (n <= 2) {
+            for (int b = 1; b < 3; b++) {
+                assert_true(holes[b] * 10 < holes[0] * 9); /* at least 10 % fewer non-convergent pixels */
+                assert_true(ps[b] > ps[0] + 0.5);
+            }
+        }
+    }
+}
+
+/* 001 Fig. 11: more fixed-point iterations converge more pixels. */
+static void test_more_iterations_converge_more(void **state)
+{
+    (void)state;
+    render_pair("near", *near_a(), 0.0, near_b(), 0.0);
+    long prev = -1, first = 0;
+    for (int t = 1; t <= 8; t *= 2) {
+        warp_iter_params p = warp_iter_default_params();
+        p.iters = t;
+        warp_iter_stats st = run(&p, NULL, &F.out, &F.mask);
+        char name[32];
+        snprintf(name, sizeof name, "near T=%d", t);
+        print_stats(name, &st, psnr_excl(&F.out, &F.mask, WARP_MASK_FRINGE));
+        assert_true(st.converged > prev);
+        assert_true(st.iterations <= (long)t * st.seeds);
+        if (t == 1) first = st.converged;
+        prev = st.converged;
+    }
+    assert_true(prev > first + (long)W * H / 4);
+}
+
+/* Holes closed from converged neighbours (001 Fig. 8) and the approximate fallback (001 §5, AWOC). */
+static void test_dilation_and_approximate_fill(void **state)
+{
+    (void)state;
+    render_pair("near", *near_a(), 0.0, near_b(), 0.0);
+    warp_iter_params p = warp_iter_default_params();
+    warp_iter_stats s0 = run(&p, NULL, &F.out2, &F.mask2);
+    double none = psnr_excl(&F.out2, &F.mask2, WARP_MASK_FRINGE);
+    p.dilate = true;
+    warp_iter_stats sd = run(&p, NULL, &F.out, &F.mask);
+    double dil = psnr_excl(&F.out, &F.mask, WARP_MASK_FRINGE);
+    long filled = 0, open = 0;
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            uint8_t m = WARP_AT(&F.mask, x, y);
+            filled += (m & (WARP_MASK_HOLE | WARP_MASK_FILLED)) == (WARP_MASK_HOLE | WARP_MASK_FILLED);
+            open += m == WARP_MASK_HOLE;
+            /* only holes are written by the fill; everything else is the plain warp's */
+            if (!(WARP_AT(&F.mask2, x, y) & WARP_MASK_HOLE)) {
+                warp_rgba8 c1 = WARP_AT(&F.out, x, y), c2 = WARP_AT(&F.out2, x, y);
+                assert_true(c1.r == c2.r && c1.g == c2.g && c1.b == c2.b);
+            }
+        }
+    print_stats("near dilation r=2", &sd, dil);
+    assert_int_equal(sd.holes, s0.holes);
+    assert_int_equal(filled, sd.dilated);
+    assert_int_equal(open, sd.holes - sd.dilated);
+    assert_true(sd.dilated > sd.holes / 2);
+    assert_true(dil > none + 3.0);
+    p.dilate = false;
+    p.approximate = true;
+    warp_iter_stats sa = run(&p, NULL, &F.out, &F.mask);
+    assert_int_equal(sa.approximated, sa.holes); /* AWOC writes every non-convergent pixel */
+    assert_true(psnr_excl(&F.out, &F.mask, WARP_MASK_FRINGE) > none + 3.0);
+    p.dilate = true;
+    warp_iter_stats sb = run(&p, NULL, &F.out, &F.mask);
+    print_stats("near AWOC + dilation", &sb, psnr_excl(&F.out, &F.mask, WARP_MASK_FRINGE));
+    assert_int_equal(sb.dilated + sb.approximated, sb.holes);
+}
+
+/* ---- movers: object motion ---- */
+
+/* Scores the pixels of the translating sphere (id 7) and the slowly spinning box (id 8) in the truth, away from
+ * fringes and holes. (The fast spinners' Lambert shading changes as they turn: no warp can follow that.) */
+static double object_psnr(const warp_image_rgba8 *out, const warp_image_u8 *mask, double *err)
+{
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            int id = WARP_AT(&F.b.ids, x, y);
+            bool o = id == 7 || id == 8;
+            WARP_AT(&F.excl, x, y) = (uint8_t)((WARP_AT(mask, x, y) & (WARP_MASK_FRINGE | WARP_MASK_HOLE)) | (o ? 0 : 0x80));
+        }
+    *err = warp_error_pixel_percent(out, &F.b.color, &F.excl, 0xff, 20);
+    return warp_psnr(out, &F.b.color, &F.excl, 0xff);
+}
+
+static void test_movers_object_motion(void **state)
+{
+    (void)state;
+    /* t = 2 s: the sphere passes the middle of its swing at full speed (1.6 m/s); 0.1 s later it is ~7 px on */
+    warp_pose a = eye_at(0, 0, 0, warp_v3(0, 1.6, 0)), b = eye_at(1 * D2R, 0, 0, warp_v3(0.02, 1.6, 0));
+    render_pair("movers", a, 2.0, b, 2.1);
+    warp_iter_params p = warp_iter_default_params();
+    double e_exact, e_plane, e_static;
+    warp_iter_stats se = run(&p, NULL, &F.out, &F.mask);
+    double exact = object_psnr(&F.out, &F.mask, &e_exact);
+    print_stats("movers exact poses, L=1", &se, exact);
+    /* with the room behind the movers as a second layer, what they uncover is filled too */
+    p.layers = 2;
+    warp_iter_stats s2 = run(&p, &F.layer_bg, &F.out, &F.mask);
+    double whole2 = psnr_excl(&F.out, &F.mask, WARP_MASK_FRINGE);
+    print_stats("movers exact poses, L=2", &s2, whole2);
+    p.layers = 1;
+    F.tgt.object_pose = NULL; /* the screen-motion plane, extrapolated */
+    warp_iter_stats sp = run(&p, NULL, &F.out, &F.mask);
+    double plane = object_psnr(&F.out, &F.mask, &e_plane);
+    print_stats("movers motion plane, L=1", &sp, plane);
+    F.v.motion = NULL; /* no object motion at all: a broken warp's view */
+    warp_iter_stats ss = run(&p, NULL, &F.out, &F.mask);
+    double stat = object_psnr(&F.out, &F.mask, &e_static);
+    double whole_static = psnr_excl(&F.out, &F.mask, WARP_MASK_FRINGE);
+    print_stats("movers objects static, L=1", &ss, stat);
+    print_message("  objects: exact %.2f dB / %.1f %% error px, plane %.2f / %.1f %%, static %.2f / %.1f %%; "
+                  "whole image L=2 %.2f dB vs static %.2f dB\n",
+                  exact, e_exact, plane, e_plane, stat, e_static, whole2, whole_static);
+    assert_true(exact > 23.5 && plane > 23.5);
+    assert_true(stat < 20.0);
+    assert_true(e_exact < 8.0 && e_plane < 8.0 && e_static > 20.0);
+    assert_true(se.holes > 0 && ss.holes == 0); /* moving objects uncover the room behind them */
+    assert_true(s2.holes * 4 < se.holes);
+    assert_true(whole2 > whole_static + 1.0);
+}
+
+/* ---- bad input ---- */
+
+static void test_bad_input_is_rejected(void **state)
+{
+    (void)state;
+    render_pair("near", *near_a(), 0.0, near_b(), 0.0);
+    warp_iter_params p = warp_iter_default_params();
+    warp_iter_stats st = {0};
+    p.layers = 2; /* no extra layer given */
+    assert_non_null(warp_iter_run(&F.ctx, &F.v, NULL, 0, &F.tgt, &p, &F.out, &F.mask, &st));
+    p.layers = 4; /* more than the context holds */
+    assert_non_null(warp_iter_run(&F.ctx, &F.v, &F.layer_bg, 3, &F.tgt, &p, &F.out, &F.mask, &st));
+    p = warp_iter_default_params();
+    p.seeds = 0;
+    assert_non_null(warp_iter_run(&F.ctx, &F.v, NULL, 0, &F.tgt, &p, &F.out, &F.mask, &st));
+    p = warp_iter_default_params();
+    p.tol = NAN;
+    assert_non_null(warp_iter_run(&F.ctx, &F.v, NULL, 0, &F.tgt, &p, &F.out, &F.mask, &st));
+    p = warp_iter_default_params();
+    warp_view nodepth = F.v;
+    nodepth.inv_depth = NULL;
+    assert_non_null(warp_iter_run(&F.ctx, &nodepth, NULL, 0, &F.tgt, &p, &F.out, &F.mask, &st));
+    warp_iter_target bad = F.tgt;
+    bad.pose.p.x = NAN;
+    assert_non_null(warp_iter_run(&F.ctx, &F.v, NULL, 0, &bad, &p, &F.out, &F.mask, &st));
+    bad = F.tgt;
+    bad.cam.width = W / 2;
+    assert_non_null(warp_iter_run(&F.ctx, &F.v, NULL, 0, &bad, &p, &F.out, &F.mask, &st));
+    assert_int_equal(st.pixels, 0); /* nothing ran */
+    /* NaN depth texels are empty, not poison: the warp still runs and leaves no NaN position behind */
+    WARP_AT(&F.inv, 10, 10) = NAN;
+    assert_null(warp_iter_run(&F.ctx, &F.v, NULL, 0, &F.tgt, &p, &F.out, &F.mask, &st));
+    assert_true(st.converged > st.pixels * 9 / 10);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_identity_pose),
         cmocka_unit_test(test_pure_rotation_matches_reprojection),
+        cmocka_unit_test(test_near_translation),
+        cmocka_unit_test(test_multilayer_beats_single_layer),
+        cmocka_unit_test(test_peeled_layer_cross_layer_seeding),
+        cmocka_unit_test(test_tight_bound_beats_global_at_small_n),
+        cmocka_unit_test(test_more_iterations_converge_more),
+        cmocka_unit_test(test_dilation_and_approximate_fill),
+        cmocka_unit_test(test_movers_object_motion),
+        cmocka_unit_test(test_bad_input_is_rejected),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
