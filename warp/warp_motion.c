@@ -217,10 +217,10 @@ warp_motion_box warp_motion_mip_query(const warp_motion_mip *mip, double x0, dou
     int ix1 = fx1 < 0 ? 0 : (fx1 > w - 1 ? w - 1 : (int)fx1);
     int iy1 = fy1 < 0 ? 0 : (fy1 > h - 1 ? h - 1 : (int)fy1);
     int span = ix1 - ix0 > iy1 - iy0 ? ix1 - ix0 : iy1 - iy0;
-    /* smallest level whose texels are at least `span + 1` wide: then the footprint covers <= 2 texels per axis,
-     * and the four corner texels cover it (001 §3.3: level ceil(log2 max(a, b))) */
+    /* smallest level whose texels are at least `span` wide: span + 1 consecutive texels then fall in at most two
+     * of its texels per axis, and the four corner texels cover them (001 §3.3: level ceil(log2 max(a, b))) */
     int l = 0;
-    while (l < mip->levels - 1 && (1 << l) < span + 1) l++;
+    while (l < mip->levels - 1 && (1 << l) < span) l++;
     int ax = ix0 >> l, ay = iy0 >> l, bx = ix1 >> l, by = iy1 >> l;
     const warp_motion_box *lv = mip->lvl[l];
     const size_t lw = (size_t)mip->w[l];

@@ -445,6 +445,54 @@ static void test_movers_object_motion(void **state)
     assert_true(whole2 > whole_static + 1.0);
 }
 
+/* ---- the min-max motion mipmap (001 §3.3) ---- */
+
+/* A query must bound every motion a bilinear lookup in its rectangle can return: brute force on random rectangles
+ * of the near scene's motion, in the PCA-rotated coordinates. */
+static void test_mip_bound_is_conservative(void **state)
+{
+    (void)state;
+    render_pair("near", *near_a(), 0.0, near_b(), 0.0);
+    warp_iter_params p = warp_iter_default_params();
+    assert_null(warp_iter_prepare(&F.ctx, &F.v, NULL, 0, &F.tgt, &p));
+    const warp_motion_buffer *m = &F.ctx.motion[0];
+    const warp_motion_mip *mip = &F.ctx.mip[0];
+    assert_true(mip->theta != 0.0); /* a sideways lean: the principal axis is not the image axis */
+    uint64_t seed = 12345;
+    int tight = 0;
+    for (int k = 0; k < 3000; k++) {
+        double r[4];
+        for (int i = 0; i < 4; i++) {
+            seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+            r[i] = (double)(seed >> 40) / (double)(1ull << 24);
+        }
+        double sz = k % 3 == 0 ? 80 : (k % 3 == 1 ? 12 : 3);
+        double x0 = r[0] * (W + 20) - 10, y0 = r[1] * (H + 20) - 10, x1 = x0 + r[2] * sz, y1 = y0 + r[3] * sz;
+        warp_motion_box q = warp_motion_mip_query(mip, x0, y0, x1, y1);
+        int ix0 = (int)floor(x0 - 0.5), iy0 = (int)floor(y0 - 0.5), ix1 = (int)floor(x1 - 0.5) + 1,
+            iy1 = (int)floor(y1 - 0.5) + 1;
+        ix0 = ix0 < 0 ? 0 : (ix0 > W - 1 ? W - 1 : ix0), ix1 = ix1 < 0 ? 0 : (ix1 > W - 1 ? W - 1 : ix1);
+        iy0 = iy0 < 0 ? 0 : (iy0 > H - 1 ? H - 1 : iy0), iy1 = iy1 < 0 ? 0 : (iy1 > H - 1 ? H - 1 : iy1);
+        warp_motion_box bf = {{INFINITY, INFINITY}, {-INFINITY, -INFINITY}};
+        for (int y = iy0; y <= iy1; y++)
+            for (int x = ix0; x <= ix1; x++) {
+                const warp_motion_texel *t = &m->px[(size_t)y * W + (size_t)x];
+                if (!(t->d >= 0)) continue;
+                double a, b;
+                warp_motion_rotate(mip->c, mip->s, t->x, t->y, &a, &b);
+                assert_true(a >= q.lo[0] && a <= q.hi[0] && b >= q.lo[1] && b <= q.hi[1]);
+                if (a < bf.lo[0]) bf.lo[0] = (float)a;
+                if (a > bf.hi[0]) bf.hi[0] = (float)a;
+                if (b < bf.lo[1]) bf.lo[1] = (float)b;
+                if (b > bf.hi[1]) bf.hi[1] = (float)b;
+            }
+        /* and it is a real tightening: often much narrower than the global bound */
+        warp_motion_box g = warp_motion_mip_global(mip);
+        tight += (q.hi[0] - q.lo[0]) < 0.5f * (g.hi[0] - g.lo[0]);
+    }
+    assert_true(tight > 1000);
+}
+
 /* ---- bad input ---- */
 
 static void test_bad_input_is_rejected(void **state)
@@ -492,6 +540,7 @@ int main(void)
         cmocka_unit_test(test_more_iterations_converge_more),
         cmocka_unit_test(test_dilation_and_approximate_fill),
         cmocka_unit_test(test_movers_object_motion),
+        cmocka_unit_test(test_mip_bound_is_conservative),
         cmocka_unit_test(test_bad_input_is_rejected),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
