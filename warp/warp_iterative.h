@@ -47,8 +47,8 @@ typedef struct {
     int pca_samples;    /* motion vectors sampled for the PCA (001 §3.3: 64) */
 } warp_iter_params;
 
-/* N 8, T 4, L 1, PCA bound with 3 tightening steps, tol 0.05 px, early exit, cross-layer seeding, dilation
- * radius 2, no approximate fill, 64 PCA samples. */
+/* N 8, T 4, L 1, PCA bound with 3 tightening steps, tol 0.05 px, early exit, cross-layer seeding, no dilation
+ * (radius 2 when turned on), no approximate fill, 64 PCA samples. */
 warp_iter_params warp_iter_default_params(void);
 
 typedef struct {
@@ -100,9 +100,10 @@ typedef struct {
 const char *warp_iter_prepare(warp_iter_ctx *c, const warp_view *src, const warp_iter_layer *extra, int n_extra,
                               const warp_iter_target *dst, const warp_iter_params *p);
 
-/* Searches rows [y0, y1) of the target (001 Fig. 2, backward depth warping) and writes dst; mask gets
- * WARP_MASK_FRINGE, or WARP_MASK_HOLE where no search converged (colour transparent black unless the approximate
- * fill wrote it: then WARP_MASK_HOLE | WARP_MASK_FILLED). Adds to *st (may be NULL). Rows are independent. */
+/* After a successful prepare: searches rows [y0, y1) of the target (001 Fig. 2, backward depth warping) and writes
+ * dst; mask (may be NULL) gets WARP_MASK_FRINGE, or WARP_MASK_HOLE where no search converged (colour transparent
+ * black unless the approximate fill wrote it: then WARP_MASK_HOLE | WARP_MASK_FILLED). Adds to *st (may be NULL;
+ * one per thread). Rows are independent: threads may split them. Allocation-free. */
 void warp_iter_rows(warp_iter_ctx *c, warp_image_rgba8 *dst, warp_image_u8 *mask, int y0, int y1,
                     warp_iter_stats *st);
 
