@@ -18,7 +18,7 @@ warp_holes_params warp_holes_default_params(void)
         .depth_tolerance = 0.05f,
         .max_levels = 9,
         .kernel = 4,
-        .level_bias = 0,
+        .level_bias = -1, /* the doubling border search overestimates the distance by up to 2x */
         .depth_aware = true,
         .empty = {0, 0, 0, 255},
     };
@@ -99,13 +99,14 @@ void warp_holes_free(warp_holes_ctx *c)
 {
     for (int l = 0; l < MAX_LEVELS; l++) free(c->lvl[l]);
     free(c->c0);
+    free(c->row_prev), free(c->row_next), free(c->col_prev), free(c->col_next), free(c->near_row);
     memset(c, 0, sizeof *c);
 }
 
 bool warp_holes_init(warp_holes_ctx *c, int w, int h, int max_levels)
 {
     memset(c, 0, sizeof *c);
-    if (w <= 0 || h <= 0 || w > 32768 || h > 32768 || max_levels < 1 || max_levels > MAX_LEVELS) return false;
+    if (w <= 0 || h <= 0 || w > 32767 || h > 32767 || max_levels < 1 || max_levels > MAX_LEVELS) return false;
     c->w = w, c->h = h;
     int lw = w, lh = h, n = 0;
     for (; n < max_levels; n++) {
@@ -122,8 +123,11 @@ bool warp_holes_init(warp_holes_ctx *c, int w, int h, int max_levels)
         lw = (lw + 1) / 2, lh = (lh + 1) / 2;
     }
     c->max_levels = n;
+    size_t n16 = (size_t)w * (size_t)h * sizeof(int16_t);
     c->c0 = malloc((size_t)w * (size_t)h * sizeof *c->c0);
-    if (!c->c0) {
+    c->row_prev = malloc(n16), c->row_next = malloc(n16), c->col_prev = malloc(n16), c->col_next = malloc(n16);
+    c->near_row = malloc((size_t)h * sizeof(int16_t));
+    if (!c->c0 || !c->row_prev || !c->row_next || !c->col_prev || !c->col_next || !c->near_row) {
         warp_holes_free(c);
         return false;
     }
@@ -186,6 +190,42 @@ static void pull_level(warp_holes_ctx *c, int l, const warp_holes_params *p)
         }
 }
 
+static void build_tables(warp_holes_ctx *c)
+{
+    int w = c->w, h = c->h;
+    const warp_holes_cell *l0 = c->lvl[0];
+    for (int y = 0; y < h; y++) {
+        size_t r = (size_t)y * (size_t)w;
+        int16_t last = -1;
+        for (int x = 0; x < w; x++) c->row_prev[r + x] = last = l0[r + x].wt > 0 ? (int16_t)x : last;
+        last = -1;
+        for (int x = w - 1; x >= 0; x--) c->row_next[r + x] = last = l0[r + x].wt > 0 ? (int16_t)x : last;
+    }
+    for (int x = 0; x < w; x++) {
+        int16_t last = -1;
+        for (int y = 0; y < h; y++) {
+            size_t i = (size_t)y * (size_t)w + (size_t)x;
+            c->col_prev[i] = last = l0[i].wt > 0 ? (int16_t)y : last;
+        }
+        last = -1;
+        for (int y = h - 1; y >= 0; y--) {
+            size_t i = (size_t)y * (size_t)w + (size_t)x;
+            c->col_next[i] = last = l0[i].wt > 0 ? (int16_t)y : last;
+        }
+    }
+    /* nearest non-empty row: two sweeps over "row has a valid pixel" (its row_prev at the last column) */
+    int16_t last = -1;
+    for (int y = 0; y < h; y++) {
+        if (c->row_prev[(size_t)y * (size_t)w + (size_t)(w - 1)] >= 0) last = (int16_t)y;
+        c->near_row[y] = last;
+    }
+    last = -1;
+    for (int y = h - 1; y >= 0; y--) {
+        if (c->row_prev[(size_t)y * (size_t)w + (size_t)(w - 1)] >= 0) last = (int16_t)y;
+        if (last >= 0 && (c->near_row[y] < 0 || last - y < y - c->near_row[y])) c->near_row[y] = last;
+    }
+}
+
 const char *warp_holes_prepare(warp_holes_ctx *c, const warp_image_rgba8 *dst, const warp_image_u8 *mask,
                                const warp_image_f32 *inv_depth, const warp_epipole *e, const warp_holes_params *p,
                                warp_holes_stats *st)
@@ -230,6 +270,7 @@ const char *warp_holes_prepare(warp_holes_ctx *c, const warp_image_rgba8 *dst, c
             }
             cell->inv = z;
         }
+    build_tables(c);
     c->levels = 1;
     if (p->method == WARP_HOLES_LOWPASS) {
         for (int l = 1; l < p->max_levels; l++) {
@@ -304,38 +345,37 @@ static const hit *pick_far(const warp_holes_ctx *c, const hit *fwd, const hit *b
     return fwd->inv < back->inv ? fwd : back;
 }
 
-/* Fallback when a line search finds nothing: the nearest valid pixel along the row and the column, unbounded. */
-static bool nearest_axis(const warp_holes_ctx *c, int x, int y, int *ox, int *oy, long *steps)
+/* The valid pixels bounding (x, y) on its row and column: [0] left, [1] right, [2] up, [3] down; dist 0 = none. */
+static void bounds(const warp_holes_ctx *c, int x, int y, int bx[4], int by[4], int dist[4])
 {
-    static const int d[4][2] = {{-1, 0}, {1, 0}, {0, -1}, {0, 1}};
-    int best = -1;
+    size_t i = (size_t)y * (size_t)c->w + (size_t)x;
+    int v[4] = {c->row_prev[i], c->row_next[i], c->col_prev[i], c->col_next[i]};
     for (int k = 0; k < 4; k++) {
-        int px = x, py = y;
-        for (int n = 1;; n++) {
-            px += d[k][0], py += d[k][1];
-            if (px < 0 || py < 0 || px >= c->w || py >= c->h || (best >= 0 && n >= best)) break;
-            (*steps)++;
-            if (valid_at(c, px, py)) {
-                best = n, *ox = px, *oy = py;
-                break;
-            }
-        }
+        bx[k] = k < 2 ? v[k] : x;
+        by[k] = k < 2 ? y : v[k];
+        dist[k] = v[k] < 0 ? 0 : abs(k < 2 ? v[k] - x : v[k] - y);
     }
-    if (best >= 0) return true;
-    /* Nothing on this row or column: any valid pixel, nearest first in scan order of rows outward. */
-    for (int r = 1; r < (c->w > c->h ? c->w : c->h); r++)
-        for (int k = -1; k <= 1; k += 2) {
-            int py = y + k * r;
-            if (py < 0 || py >= c->h) continue;
-            for (int px = 0; px < c->w; px++) {
-                (*steps)++;
-                if (valid_at(c, px, py)) {
-                    *ox = px, *oy = py;
-                    return true;
-                }
-            }
-        }
-    return false;
+}
+
+/* Fallback when a line search finds nothing: the nearest valid pixel on the row or the column, else on the nearest
+ * row that has any. Constant time (tables of prepare). */
+static bool nearest_axis(const warp_holes_ctx *c, int x, int y, int *ox, int *oy)
+{
+    int bx[4], by[4], dist[4], best = -1;
+    bounds(c, x, y, bx, by, dist);
+    for (int k = 0; k < 4; k++)
+        if (dist[k] && (best < 0 || dist[k] < dist[best])) best = k;
+    if (best >= 0) {
+        *ox = bx[best], *oy = by[best];
+        return true;
+    }
+    int r = c->near_row[y];
+    if (r < 0) return false; /* no valid pixel anywhere */
+    size_t i = (size_t)r * (size_t)c->w + (size_t)x;
+    int a = c->row_prev[i], b = c->row_next[i];
+    *ox = a < 0 ? b : (b < 0 ? a : (x - a <= b - x ? a : b));
+    *oy = r;
+    return true;
 }
 
 static inline warp_rgba8 c0_at(const warp_holes_ctx *c, int x, int y)
@@ -358,21 +398,11 @@ static warp_rgba8 from_acc(const float a[4])
 /* Rubber sheet: interpolation between the bounding valid pixels of the row and of the column. */
 static bool rubber(const warp_holes_ctx *c, int x, int y, warp_rgba8 *out, long *steps)
 {
-    static const int d[4][2] = {{-1, 0}, {1, 0}, {0, -1}, {0, 1}};
-    int bx[4] = {0}, by[4] = {0}, dist[4];
-    for (int k = 0; k < 4; k++) {
-        dist[k] = 0;
-        int px = x, py = y;
-        for (int n = 1; n <= c->p.max_search; n++) {
-            px += d[k][0], py += d[k][1];
-            if (px < 0 || py < 0 || px >= c->w || py >= c->h) break;
-            (*steps)++;
-            if (valid_at(c, px, py)) {
-                bx[k] = px, by[k] = py, dist[k] = n;
-                break;
-            }
-        }
-    }
+    int bx[4], by[4], dist[4];
+    bounds(c, x, y, bx, by, dist);
+    for (int k = 0; k < 4; k++)
+        if (dist[k] > c->p.max_search) dist[k] = 0;
+    *steps += 4; /* table lookups, not scans */
     float acc[4] = {0, 0, 0, 0}, wsum = 0;
     for (int axis = 0; axis < 2; axis++) {
         int a = 2 * axis, b = a + 1;
@@ -495,7 +525,7 @@ void warp_holes_fill_rows(const warp_holes_ctx *c, warp_image_rgba8 *dst, warp_i
             if (!done) {
                 int fx = 0, fy = 0;
                 fell_back = true;
-                if (nearest_axis(c, x, y, &fx, &fy, &steps)) col = c0_at(c, fx, fy);
+                if (nearest_axis(c, x, y, &fx, &fy)) col = c0_at(c, fx, fy);
             }
             fallbacks += fell_back;
             WARP_AT(dst, x, y) = col;

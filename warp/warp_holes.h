@@ -54,12 +54,13 @@ typedef struct {
     float depth_tolerance; /* relative inverse-depth difference below which two pixels count as one surface */
     int max_levels;        /* low-pass: pyramid levels including the full-resolution one (<= the ctx's) */
     int kernel;            /* low-pass pull kernel: 2 = 2x2 box, 4 = 4x4 binomial [1 3 3 1]^2 */
-    int level_bias;        /* low-pass: added to the level the border distance calls for (more = blurrier) */
+    int level_bias;        /* low-pass: added to the level the border distance calls for (more = blurrier; the
+                            * level is at least 1) */
     bool depth_aware;      /* low-pass: the depth tests of 000 §5.2 (false = a plain push-pull, for comparison) */
     warp_rgba8 empty;      /* written where no valid pixel exists at all (an image that is all hole) */
 } warp_holes_params;
 
-/* Epipolar far search, max_search 1024, depth_tolerance 0.05, 9 levels, 4x4 kernel, bias 0, depth aware, black. */
+/* Epipolar far search, max_search 1024, depth_tolerance 0.05, 9 levels, 4x4 kernel, bias -1, depth aware, black. */
 warp_holes_params warp_holes_default_params(void);
 
 typedef struct {
@@ -81,11 +82,14 @@ typedef struct {
     int lw[16], lh[16];          /* level sizes */
     warp_holes_cell *lvl[16];    /* level 0 = the warped image itself; [1..] only for the low-pass method */
     warp_rgba8 *c0;              /* valid colours of level 0, copied exactly (w * h) */
+    /* Nearest valid pixel at or before / after each pixel on its row (x) and column (y), -1 = none (w * h each);
+     * and per row the nearest row holding any valid pixel: O(1) rubber sheets and fallbacks. */
+    int16_t *row_prev, *row_next, *col_prev, *col_next, *near_row;
     warp_holes_params p;         /* of the last prepare */
     double ex, ey, ew;           /* homogeneous epipole (see warp_epipole_direction) */
 } warp_holes_ctx;
 
-/* Allocates scratch for w x h images with up to max_levels pyramid levels (1..16). False on bad size / no memory
+/* Allocates scratch for w x h images (at most 32767 each way) with up to max_levels pyramid levels (1..16). False on bad size / no memory
  * (the ctx is then zeroed; warp_holes_free is safe on it). */
 bool warp_holes_init(warp_holes_ctx *c, int w, int h, int max_levels);
 void warp_holes_free(warp_holes_ctx *c);
