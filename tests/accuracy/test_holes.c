@@ -383,6 +383,10 @@ static void test_bad_input(void **state)
     p.kernel = 4;
     p.max_levels = 12; /* more than the scratch has */
     assert_non_null(warp_holes_fill(&F.ctx, &F.out, &F.out_mask, &F.inv, &F.epi, &p, &st));
+    p.max_levels = 9;
+    p.level_bias = 1000;
+    assert_non_null(warp_holes_fill(&F.ctx, &F.out, &F.out_mask, &F.inv, &F.epi, &p, &st));
+    p.level_bias = 0;
     p.method = (warp_holes_method)42;
     assert_non_null(warp_holes_fill(&F.ctx, &F.out, &F.out_mask, &F.inv, &F.epi, &p, &st));
     warp_epipole nan_e = F.epi;
@@ -390,6 +394,12 @@ static void test_bad_input(void **state)
     p = params(WARP_HOLES_EPIPOLAR_FAR);
     assert_non_null(warp_holes_fill(&F.ctx, &F.out, &F.out_mask, &F.inv, &nan_e, &p, &st));
     assert_memory_equal(F.out.px, F.warped.px, (size_t)F.out.stride * H * sizeof *F.out.px);
+    /* a huge search budget is only bounded by the image */
+    p.max_search = 0x7fffffff;
+    assert_null(warp_holes_fill(&F.ctx, &F.out, &F.out_mask, &F.inv, &F.epi, &p, &st));
+    assert_int_equal(st.filled, F.n_hidden + F.n_outside);
+    warp_image_rgba8_copy(&F.out, &F.warped);
+    memcpy(F.out_mask.px, F.mask.px, (size_t)F.mask.stride * H);
     /* depth is optional for the methods that do not use it */
     p.method = WARP_HOLES_RUBBER_SHEET;
     assert_null(warp_holes_fill(&F.ctx, &F.out, &F.out_mask, NULL, &F.epi, &p, &st));
