@@ -487,6 +487,7 @@ static bool lowpass(const warp_holes_ctx *c, int x, int y, warp_rgba8 *out, bool
 void warp_holes_fill_rows(const warp_holes_ctx *c, warp_image_rgba8 *dst, warp_image_u8 *mask, int y0, int y1,
                           warp_holes_stats *st)
 {
+    if (c->levels < 1) return; /* not prepared: no snapshot to fill from */
     if (y0 < 0) y0 = 0;
     if (y1 > c->h) y1 = c->h;
     long holes = 0, steps = 0, fallbacks = 0;

@@ -103,7 +103,7 @@ const char *warp_holes_prepare(warp_holes_ctx *c, const warp_image_rgba8 *dst, c
                                const warp_image_f32 *inv_depth, const warp_epipole *e, const warp_holes_params *p,
                                warp_holes_stats *st);
 /* Fills the hole pixels of rows [y0, y1) of dst and sets WARP_MASK_FILLED on them (HOLE stays set); valid pixels
- * are not touched. Reads only the snapshot, so threads may split the rows. Adds to *st (may be NULL). */
+ * are not touched. Reads only the snapshot, so threads may split the rows; does nothing before a successful prepare. Adds to *st (may be NULL). */
 void warp_holes_fill_rows(const warp_holes_ctx *c, warp_image_rgba8 *dst, warp_image_u8 *mask, int y0, int y1,
                           warp_holes_stats *st);
 /* prepare + all rows: the one-call entry point. *st (may be NULL) is zeroed first. */
