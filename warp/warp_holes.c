@@ -241,7 +241,8 @@ const char *warp_holes_prepare(warp_holes_ctx *c, const warp_image_rgba8 *dst, c
     if (p->max_search < 1) return "hole fill: max_search must be >= 1";
     if (!(p->depth_tolerance >= 0)) return "hole fill: depth_tolerance must be >= 0";
     if (p->level_bias < -MAX_LEVELS || p->level_bias > MAX_LEVELS) return "hole fill: level_bias outside -16..16";
-    if (p->method == WARP_HOLES_LOWPASS && (p->kernel != 2 && p->kernel != 4)) return "hole fill: kernel must be 2 or 4";
+    if (p->method == WARP_HOLES_LOWPASS && (p->kernel != 2 && p->kernel != 4))
+        return "hole fill: kernel must be 2 or 4";
     if (p->method == WARP_HOLES_LOWPASS && (p->max_levels < 2 || p->max_levels > c->max_levels))
         return "hole fill: max_levels outside 2..the scratch's levels";
     if ((unsigned)p->method > WARP_HOLES_RUBBER_SHEET) return "hole fill: unknown method";

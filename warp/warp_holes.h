@@ -89,8 +89,8 @@ typedef struct {
     double ex, ey, ew;           /* homogeneous epipole (see warp_epipole_direction) */
 } warp_holes_ctx;
 
-/* Allocates scratch for w x h images (at most 32767 each way) with up to max_levels pyramid levels (1..16). False on bad size / no memory
- * (the ctx is then zeroed; warp_holes_free is safe on it). */
+/* Allocates scratch for w x h images (at most 32767 each way) with up to max_levels pyramid levels (1..16).
+ * False on bad size / no memory (the ctx is then zeroed; warp_holes_free is safe on it). */
 bool warp_holes_init(warp_holes_ctx *c, int w, int h, int max_levels);
 void warp_holes_free(warp_holes_ctx *c);
 
@@ -103,7 +103,8 @@ const char *warp_holes_prepare(warp_holes_ctx *c, const warp_image_rgba8 *dst, c
                                const warp_image_f32 *inv_depth, const warp_epipole *e, const warp_holes_params *p,
                                warp_holes_stats *st);
 /* Fills the hole pixels of rows [y0, y1) of dst and sets WARP_MASK_FILLED on them (HOLE stays set); valid pixels
- * are not touched. Reads only the snapshot, so threads may split the rows; does nothing before a successful prepare. Adds to *st (may be NULL). */
+ * are not touched. Reads only the snapshot, so threads may split the rows; does nothing before a successful
+ * prepare. Adds to *st (may be NULL). */
 void warp_holes_fill_rows(const warp_holes_ctx *c, warp_image_rgba8 *dst, warp_image_u8 *mask, int y0, int y1,
                           warp_holes_stats *st);
 /* prepare + all rows: the one-call entry point. *st (may be NULL) is zeroed first. */

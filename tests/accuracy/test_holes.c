@@ -246,7 +246,8 @@ static void test_near_sideways(void **state)
     score wrong_bg = fill_and_score(&p, KIND_HIDDEN);
     p = params(WARP_HOLES_EPIPOLAR_FAR);
     score wrong_far = fill_and_score(&p, KIND_HIDDEN);
-    print_message("  flipped epipole: stretch-background %.2f dB, epipolar-far %.2f dB\n", wrong_bg.psnr, wrong_far.psnr);
+    print_message("  flipped epipole: stretch-background %.2f dB, epipolar-far %.2f dB\n", wrong_bg.psnr,
+                  wrong_far.psnr);
     assert_true(wrong_bg.psnr < s[I_BACKGROUND].psnr - 5.0);
     assert_true(fabs(wrong_far.psnr - s[I_FAR].psnr) < 0.5);
 }
