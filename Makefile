@@ -12,10 +12,20 @@ ifeq ($(origin CC),default)
 CC := $(CROSS_COMPILE)gcc
 endif
 AR := $(CROSS_COMPILE)ar
+ifneq ($(CROSS_COMPILE),)
+# Cross build: Debian's multiarch -dev packages (board/deps-cross.sh) put their .pc files under the triplet, and
+# every cross build gets its own build tree so native and board objects never mix.
+TRIPLET := $(patsubst %-,%,$(CROSS_COMPILE))
+PKG_CONFIG ?= env PKG_CONFIG_LIBDIR=/usr/lib/$(TRIPLET)/pkgconfig:/usr/share/pkgconfig PKG_CONFIG_SYSROOT_DIR= pkg-config
+BUILD ?= build/$(TRIPLET)
+else
 PKG_CONFIG ?= pkg-config
 BUILD ?= build
+endif
 PREFIX ?= /usr/local
 DESTDIR ?=
+SYSCONFDIR ?= /etc
+BOARD ?= sim
 
 # Libraries every program links (Debian packages named in board/deps.sh).
 PKGS      := inih libpng zlib hidapi-hidraw libusb-1.0 libgpiod

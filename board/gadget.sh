@@ -17,13 +17,15 @@ WAIT_S=10
 
 usage() {
     cat <<EOF
-usage: board/gadget.sh [options] start|stop|status
+usage: board/gadget.sh [options] start|stop|status|setup|bind
 
   start   load libcomposite, create the configfs gadget "$GADGET" with an ffs.$GADGET function,
           mount FunctionFS at the ffs dir, start hmdwarpd (it writes the USB descriptors to ep0),
           wait until it has, then bind the UDC
   stop    unbind, stop hmdwarpd, unmount FunctionFS and remove the gadget (safe to repeat)
   status  show the gadget, its UDC and whether hmdwarpd runs
+  setup   only the first half of start: the gadget and the FunctionFS mount (systemd: ExecStartPre)
+  bind    only the second half: wait for the descriptors hmdwarpd wrote, bind the UDC (systemd: ExecStartPost)
 
 options:
   --udc NAME        UDC to bind (default: the first in /sys/class/udc, e.g. dummy_udc.0 in tests)
@@ -35,6 +37,7 @@ options:
   --hmdwarpd PATH   hmdwarpd binary (default: $HMDWARPD from PATH)
   --no-daemon       do not start hmdwarpd (another process writes the descriptors); bind waits for them
   --wait S          seconds to wait for the descriptors before giving up (default $WAIT_S)
+  --owner USER      mount FunctionFS owned by USER (the unprivileged service user, e.g. hmdwarp)
   -h, --help        this text
 
 Needs root, configfs (CONFIG_USB_CONFIGFS_F_FS) and a UDC driver (or dummy_hcd for tests).
@@ -45,6 +48,7 @@ die() { echo "gadget.sh: $*" >&2; exit 1; }
 
 DAEMON=1
 ACTION=
+OWNER=
 while [ $# -gt 0 ]; do
     case "$1" in
         --udc) UDC=$2; shift 2 ;;
@@ -56,8 +60,9 @@ while [ $# -gt 0 ]; do
         --hmdwarpd) HMDWARPD=$2; shift 2 ;;
         --no-daemon) DAEMON=0; shift ;;
         --wait) WAIT_S=$2; shift 2 ;;
+        --owner) OWNER=$2; shift 2 ;;
         -h|--help) usage; exit 0 ;;
-        start|stop|status) ACTION=$1; shift ;;
+        start|stop|status|setup|bind) ACTION=$1; shift ;;
         *) usage >&2; die "unknown argument '$1'" ;;
     esac
 done
@@ -78,7 +83,7 @@ wait_descriptors() {
     done
 }
 
-start() {
+do_setup() {
     [ "$(id -u)" -eq 0 ] || die "must run as root"
     modprobe libcomposite 2>/dev/null || true
     mountpoint -q "$CONFIGFS" || mount -t configfs none "$CONFIGFS"
@@ -112,17 +117,35 @@ start() {
     ln -s "$G/functions/ffs.$GADGET" "$G/configs/c.1/"
 
     mkdir -p "$FFS_DIR"
-    mountpoint -q "$FFS_DIR" || mount -t functionfs "$GADGET" "$FFS_DIR"
+    opts=
+    if [ -n "$OWNER" ]; then
+        opts="-o uid=$(id -u "$OWNER"),gid=$(id -g "$OWNER")"
+    fi
+    # shellcheck disable=SC2086
+    mountpoint -q "$FFS_DIR" || mount -t functionfs $opts "$GADGET" "$FFS_DIR"
+    echo "$UDC" >"/run/hmdwarp-gadget.udc"
+    trap - EXIT
+}
 
+do_bind() {
+    [ -d "$G" ] || die "gadget $GADGET is not set up (board/gadget.sh setup first)"
+    [ -n "$UDC" ] || UDC=$(cat /run/hmdwarp-gadget.udc 2>/dev/null || true)
+    [ -n "$UDC" ] || die "no UDC to bind (--udc NAME)"
+    wait_descriptors
+    echo "$UDC" >"$G/UDC"
+    echo "gadget.sh: $GADGET bound to $UDC ($VID:$PID), FunctionFS at $FFS_DIR"
+}
+
+start() {
+    do_setup
+    trap 'echo "gadget.sh: start failed half way; board/gadget.sh stop cleans up" >&2' EXIT
     if [ "$DAEMON" -eq 1 ]; then
         command -v "$HMDWARPD" >/dev/null 2>&1 || die "hmdwarpd not found ('$HMDWARPD'; --hmdwarpd PATH)"
         "$HMDWARPD" --config "$CONFIG" --set frames.backend=usb --set "frames.device=$FFS_DIR" &
         echo $! >"$PIDFILE"
     fi
-    wait_descriptors
-    echo "$UDC" >"$G/UDC"
+    do_bind
     trap - EXIT
-    echo "gadget.sh: $GADGET bound to $UDC ($VID:$PID), FunctionFS at $FFS_DIR"
 }
 
 stop() {
@@ -148,6 +171,7 @@ stop() {
         rmdir "$G/strings/0x409" 2>/dev/null || true
         rmdir "$G"
     fi
+    rm -f /run/hmdwarp-gadget.udc
     echo "gadget.sh: $GADGET removed"
 }
 
@@ -167,6 +191,8 @@ status() {
 
 case "$ACTION" in
     start) start ;;
+    setup) DAEMON=0; do_setup ;;
+    bind) DAEMON=0; do_bind ;;
     stop) stop ;;
     status) status ;;
 esac
