@@ -116,14 +116,16 @@ static inline bool collinear(float a, float b, float c, float eps, float *rel)
     return false;
 }
 
-static void pixel_tests(warp_grid *g, const warp_image_f32 *d, float eps)
+static long pixel_tests(warp_grid *g, const warp_image_f32 *d, float eps)
 {
     const int w = g->w, h = g->h;
+    long bad = 0;
     for (int y = 0; y < h; y++)
         for (int x = 0; x < w; x++) {
             uint8_t b = 0;
             float k = 0, r;
             float c = dat(d, x, y);
+            bad += !(isfinite(c) && c >= 0); /* fails every test below: a discontinuity on all sides */
             bool hx = x > 0 && x + 1 < w, hy = y > 0 && y + 1 < h;
             /* A test with a neighbour outside the image passes: there is no evidence of an edge there. */
             if (!hx || collinear(dat(d, x - 1, y), c, dat(d, x + 1, y), eps, &r)) b |= WARP_GRID_PX_H, k = hx ? fmaxf(k, r) : k;
@@ -133,6 +135,7 @@ static void pixel_tests(warp_grid *g, const warp_image_f32 *d, float eps)
             g->px[(size_t)y * w + x] = b;
             g->pxcurv[(size_t)y * w + x] = k;
         }
+    return bad;
 }
 
 static inline uint8_t pxb(const warp_grid *g, int x, int y) { return g->px[(size_t)y * g->w + x]; }
@@ -430,7 +433,7 @@ const char *warp_grid_build(warp_grid *g, const warp_view *src, const warp_grid_
         !(p->didyk_baseline_m > 0))
         return "grid parameters are not valid";
     const warp_image_f32 *d = src->inv_depth;
-    pixel_tests(g, d, p->collinear_eps);
+    long bad = pixel_tests(g, d, p->collinear_eps);
     pair_bits(g);
     build_tree(g, d, p->strategy);
     g->strategy = p->strategy;
@@ -461,6 +464,7 @@ const char *warp_grid_build(warp_grid *g, const warp_view *src, const warp_grid_
         st->cells_1px += one;
         st->triangles += 2 * g->n_cells;
         st->discontinuous_vertices += disc;
+        st->bad_depth += bad;
     }
     return NULL;
 }

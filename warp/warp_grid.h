@@ -46,6 +46,7 @@ typedef struct {
     long cells_1px;         /* of which single pixels (the discontinuity cost) */
     long triangles;         /* 2 per cell: what a GPU would draw */
     long discontinuous_vertices; /* cell corners that took their depth from the cell's own pixels (§5.1) */
+    long bad_depth;         /* build: NaN, infinite or negative inverse depths (their cells are dropped: holes) */
     long triangles_drawn;   /* warp: triangles rasterised (clipped or behind the eye ones excluded) */
     long fragments;         /* warp: pixel samples that passed the z test */
     long linear_samples, nearest_samples; /* warp: texture filter chosen per fragment (§5.1) */

@@ -232,6 +232,39 @@ static void test_vertex_depth_and_filter(void **state)
     assert_true(err[0] < didyk / 2);
 }
 
+static void test_bad_input(void **state)
+{
+    (void)state;
+    warp_pose a = eye_at(0, 0, 0, warp_v3(0, 1.6, 0));
+    warp_pose b = eye_at(0, 0, 0, warp_v3(0.02, 1.6, 0));
+    render_pair("near", a, b);
+    warp_grid_params p = warp_grid_default_params();
+    warp_view nodepth = F.v;
+    nodepth.inv_depth = NULL;
+    assert_non_null(warp_grid_build(&F.g, &nodepth, &p, NULL));
+    p.tile = 16; /* the grid was allocated for 32 */
+    assert_non_null(warp_grid_build(&F.g, &F.v, &p, NULL));
+    p = warp_grid_default_params();
+    p.max_error = NAN;
+    assert_non_null(warp_grid_build(&F.g, &F.v, &p, NULL));
+    warp_grid bad;
+    assert_false(warp_grid_alloc(&bad, W, H, 24)); /* not a power of two */
+    /* NaN and infinite inverse depths that bypassed warp_inverse_depth_from: the cells touching them are dropped
+     * (holes, filled), nothing else changes, nothing crashes */
+    p = warp_grid_default_params();
+    warp_grid_stats st0 = {0}, st1 = {0};
+    grid(b, &p, &F.out2, &F.mask2, &st0);
+    WARP_AT(&F.inv, 100, 100) = NAN;
+    WARP_AT(&F.inv, 200, 50) = INFINITY;
+    grid(b, &p, &F.out, &F.mask, &st1);
+    double q = warp_psnr(&F.out, &F.out2, NULL, 0);
+    print_message("NaN/Inf depth: %ld holes (clean: %ld), %.2f dB vs the clean warp\n", st1.holes, st0.holes, q);
+    assert_true(st1.holes >= st0.holes && st1.holes < st0.holes + 50);
+    assert_int_equal(st0.bad_depth, 0);
+    assert_int_equal(st1.bad_depth, 2);
+    assert_true(q > 35.0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -241,6 +274,7 @@ int main(void)
         cmocka_unit_test(test_pure_rotation_matches_reprojection),
         cmocka_unit_test(test_translation_quality_and_sign),
         cmocka_unit_test(test_vertex_depth_and_filter),
+        cmocka_unit_test(test_bad_input),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

@@ -234,6 +234,32 @@ static void test_knobs(void **state)
     assert_true(st1.early_exits > 1000);
 }
 
+static void test_bad_input(void **state)
+{
+    (void)state;
+    warp_pose a = eye_at(0, 0, 0, warp_v3(0, 1.6, 0));
+    warp_pose b = eye_at(0, 0, 0, warp_v3(0.03, 1.6, 0));
+    render_pair(a, b);
+    warp_transparency_params p = warp_transparency_default_params();
+    warp_transparency_setup s;
+    warp_view nolayers = F.v;
+    nolayers.layers = NULL;
+    assert_non_null(warp_transparency_prepare(&s, &nolayers, &F.t, &F.cam, b, &p));
+    p.thickness = NAN;
+    assert_non_null(warp_transparency_prepare(&s, &F.v, &F.t, &F.cam, b, &p));
+    p = warp_transparency_default_params();
+    /* corrupt fragments (NaN, negative, infinite z) are counted by the tree build and skipped by the rays */
+    int hit = 0;
+    for (int i = 0; i < W * H && hit < 3; i++)
+        if (F.glass.layers.count[i] > 0) F.glass.layers.frag[(size_t)i * MAXL].z = hit == 0 ? NAN : hit == 1 ? -1.0f : INFINITY, hit++;
+    assert_int_equal(warp_minmax_build(&F.t, &F.glass.layers), 3);
+    warp_transparency_stats st = {0};
+    hybrid(b, &p, &F.out, &st);
+    double q = warp_psnr(&F.out, &F.truth.color, NULL, 0);
+    print_message("3 corrupt fragments: %.2f dB, %ld rays hit\n", q, st.rays_hit);
+    assert_true(q > 30.0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -241,6 +267,7 @@ int main(void)
         cmocka_unit_test(test_identity_and_pure_rotation),
         cmocka_unit_test(test_abuffer_beats_preblended),
         cmocka_unit_test(test_knobs),
+        cmocka_unit_test(test_bad_input),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
