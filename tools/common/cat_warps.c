@@ -7,7 +7,9 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "warp/warp_grid.h"
 #include "warp/warp_holes.h"
+#include "warp/warp_transparency.h"
 #include "warp/warp_iterative.h"
 #include "warp/warp_raytrace.h"
 #include "warp/warp_reproject.h"
@@ -192,6 +194,104 @@ static const char *run_iterative(const warp_view *src, const warp_camera *dst_ca
     return why;
 }
 
+/* ---- 000: adaptive grid warping and A-buffer transparency ---- */
+
+static const char *grid_params(const char *params, warp_grid_params *g, int *fill)
+{
+    bool bad = false;
+    *g = warp_grid_default_params();
+    g->strategy = (warp_grid_strategy)(int)cat_param(params, "strategy", g->strategy, &bad);
+    g->tile = (int)cat_param(params, "tile", g->tile, &bad);
+    g->max_error = (float)cat_param(params, "max_error", g->max_error, &bad);
+    g->filter = (warp_grid_filter)(int)cat_param(params, "filter", g->filter, &bad);
+    *fill = (int)cat_param(params, "fill", 0, &bad);
+    /* a real hole filler replaces the grid's own row stretch */
+    if (*fill) g->fill_holes = false;
+    if (bad) return "grid: a parameter value is not a number";
+    if (g->strategy < WARP_GRID_DIDYK || g->strategy > WARP_GRID_IRREGULAR)
+        return "grid: strategy must be 0 (Didyk), 1 (cross), 2 (partial cross) or 3 (irregular)";
+    return NULL;
+}
+
+static const char *run_grid(const warp_view *src, const warp_camera *dst_cam, warp_pose dst_pose, double dst_time,
+                            const char *params, warp_image_rgba8 *dst, warp_image_u8 *mask, cat_stats *st)
+{
+    (void)dst_time;
+    const char *why = cat_check_params(params, "strategy tile max_error filter fill");
+    if (why) return why;
+    warp_grid_params gp;
+    int fill;
+    if ((why = grid_params(params, &gp, &fill))) return why;
+    warp_grid g;
+    warp_image_f32 zb;
+    if (!warp_grid_alloc(&g, src->color->w, src->color->h, gp.tile)) return "grid: bad tile or out of memory";
+    if (!warp_image_f32_alloc(&zb, dst->w, dst->h)) return warp_grid_free(&g), "out of memory";
+    warp_grid_stats gs;
+    memset(&gs, 0, sizeof gs);
+    why = warp_grid_run(&g, src, dst_cam, dst_pose, &gp, dst, &zb, mask, &gs);
+    if (!why) {
+        st->primitives = gs.cells;
+        st->samples = gs.fragments;
+        snprintf(st->note, sizeof st->note, "%s, %ld 1-px cells", warp_grid_strategy_name(gp.strategy), gs.cells_1px);
+        why = fill_holes(fill, src, dst_cam, dst_pose, &zb, dst, mask, st);
+        count_mask(mask, st);
+    }
+    warp_image_free(&zb);
+    warp_grid_free(&g);
+    return why;
+}
+
+static const char *run_transparency(const warp_view *src, const warp_camera *dst_cam, warp_pose dst_pose,
+                                    double dst_time, const char *params, warp_image_rgba8 *dst, warp_image_u8 *mask,
+                                    cat_stats *st)
+{
+    (void)dst_time;
+    const char *why = cat_check_params(params, "opacity thickness strategy tile max_error filter fill");
+    if (why) return why;
+    if (!src->layers) return "transparency: the frame has no A-buffer layers";
+    warp_grid_params gp;
+    int fill;
+    if ((why = grid_params(params, &gp, &fill))) return why;
+    warp_transparency_params tp = warp_transparency_default_params();
+    bool bad = false;
+    tp.opacity_threshold = (float)cat_param(params, "opacity", tp.opacity_threshold, &bad);
+    tp.thickness = (float)cat_param(params, "thickness", tp.thickness, &bad);
+    if (bad) return "transparency: a parameter value is not a number";
+    /* The host's colour has the fragments blended in; the hybrid warp wants the opaque G-buffer colour (000 §5):
+     * recover it, as a receiver of such a frame would. */
+    warp_image_rgba8 opaque;
+    warp_grid g;
+    warp_minmax_tree t;
+    warp_image_f32 zb;
+    if (!warp_image_rgba8_alloc(&opaque, src->color->w, src->color->h)) return "out of memory";
+    bool ok = warp_grid_alloc(&g, src->color->w, src->color->h, gp.tile) &&
+              warp_minmax_alloc(&t, src->color->w, src->color->h) && warp_image_f32_alloc(&zb, dst->w, dst->h);
+    if (ok) {
+        warp_transparency_unblend(src->color, src->layers, &opaque);
+        warp_view v = *src;
+        v.color = &opaque;
+        warp_grid_stats gs;
+        warp_transparency_stats ts;
+        memset(&gs, 0, sizeof gs);
+        memset(&ts, 0, sizeof ts);
+        why = warp_transparency_run(&g, &t, &v, dst_cam, dst_pose, &gp, &tp, dst, &zb, mask, &gs, &ts);
+        if (!why) {
+            st->primitives = gs.cells;
+            st->samples = ts.nodes + ts.fragment_tests;
+            snprintf(st->note, sizeof st->note, "%ld rays hit fragments", ts.rays_hit);
+            why = fill_holes(fill, src, dst_cam, dst_pose, &zb, dst, mask, st);
+            count_mask(mask, st);
+        }
+    } else {
+        why = "out of memory";
+    }
+    warp_image_free(&opaque);
+    warp_image_free(&zb);
+    warp_grid_free(&g);
+    warp_minmax_free(&t);
+    return why;
+}
+
 static const cat_warp w_none = {"none", "-", "the source frame as rendered (no warp)", 0, run_none};
 static const cat_warp w_rotation = {"rotation", "003 §3.4", "rotation reprojection with clamped fringe fill", 0,
                                     run_rotation};
@@ -204,7 +304,17 @@ static const cat_warp w_iterative = {"iterative", "001 §3",
                                      "(global|tight|PCA) dilate=0|1 awoc=0|1 fill=0..5",
                                      CAT_NEEDS_DEPTH, run_iterative};
 
-static const cat_warp *const catalogue[] = {&w_none, &w_rotation, &w_raytrace, &w_iterative, NULL};
+static const cat_warp w_grid = {"grid", "000 §4.1",
+                                "adaptive grid warp; strategy=3 (0 Didyk, 1 cross, 2 partial, 3 irregular) tile=32 "
+                                "max_error=0.02 filter=0|1|2 (adaptive|linear|nearest) fill=0..5",
+                                CAT_NEEDS_DEPTH, run_grid};
+static const cat_warp w_transparency = {"transparency", "000 §5.3",
+                                        "grid for the opaque surface + A-buffer ray casting; opacity=0.99 "
+                                        "thickness=0.02 and the grid's knobs",
+                                        CAT_NEEDS_DEPTH | CAT_NEEDS_LAYERS, run_transparency};
+
+static const cat_warp *const catalogue[] = {&w_none, &w_rotation, &w_raytrace, &w_iterative, &w_grid,
+                                            &w_transparency, NULL};
 
 const cat_warp *const *cat_all(void) { return catalogue; }
 

@@ -184,6 +184,7 @@ static const knob_set knobs[] = {
     {"raytrace", {"steps=16", "steps=64", "steps=512", "steps=512,refine=0", NULL}},
     {"iterative", {"seeds=1,bound=0", "seeds=1,bound=1", "seeds=4,bound=1", "seeds=8,bound=2,fill=2",
                    "seeds=8,iters=8,bound=2,dilate=1,awoc=1", NULL}},
+    {"grid", {"strategy=0", "strategy=1", "strategy=2", "strategy=3", "strategy=3,fill=2", NULL}},
 };
 
 static int knob_list(const char *warp, const char *out[8])
