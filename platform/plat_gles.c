@@ -112,10 +112,15 @@ static const char fs_raytrace[] =
     "uniform int u_max_steps, u_refine, u_fill_far, u_levels;\n"
     "uniform float u_jump;\n"
     "uniform ivec2 u_lvl_off[16];\n"
+    "uniform int u_count;     /* diagnostics: output the search's depth samples instead of colour */\n"
     "layout(location = 0) out vec4 o;\n"
     "const float FRINGE = 1.0, EDGE = 2.0;\n"
     "float g_pix, g_piy, g_ex, g_ey, g_hi, g_lo, g_dd;\n"
-    "int g_n;\n"
+    "int g_n, g_samples = 0;\n"
+    "vec4 result(vec3 c, float flag) {\n"
+    "    if (u_count != 0) c = vec3(float(g_samples & 255), float((g_samples >> 8) & 255), 0.0) / 255.0;\n"
+    "    return vec4(c, flag / 255.0);\n"
+    "}\n"
     "float inv_at(vec2 p) {\n"
     "    vec2 f = clamp(p - 0.5, vec2(0.0), vec2(u_size - 1));\n"
     "    ivec2 i0 = ivec2(f);\n"
@@ -160,7 +165,7 @@ static const char fs_raytrace[] =
     "    vec3 b = u_h * vec3(gl_FragCoord.xy, 1.0);\n"
     "    float sw = float(u_size.x), sh = float(u_size.y);\n"
     "    if (!(b.z > 1e-9 * (abs(b.x) + abs(b.y) + abs(b.z)))) {\n"
-    "        o = vec4(bilinear(vec2(b.x > 0.0 ? sw : 0.0, b.y > 0.0 ? sh : 0.0)).rgb, FRINGE / 255.0);\n"
+    "        o = result(bilinear(vec2(b.x > 0.0 ? sw : 0.0, b.y > 0.0 ? sh : 0.0)).rgb, FRINGE);\n"
     "        return;\n"
     "    }\n"
     "    g_pix = b.x / b.z; g_piy = b.y / b.z;\n"
@@ -171,7 +176,7 @@ static const char fs_raytrace[] =
     "    bool inside = lo <= hi && clip_axis(g_pix, g_ex, sw, lo, hi) && clip_axis(g_piy, g_ey, sh, lo, hi);\n"
     "    if (!inside) {\n"
     "        float d = lo < u_drange.x ? u_drange.x : lo;\n"
-    "        o = vec4(bilinear(at(d)).rgb, FRINGE / 255.0);\n"
+    "        o = result(bilinear(at(d)).rgb, FRINGE);\n"
     "        return;\n"
     "    }\n"
     "    bool near_clipped = hi < hi0;\n"
@@ -203,7 +208,7 @@ static const char fs_raytrace[] =
     "                }\n"
     "                if (lvl > 0) { lvl--; continue; }\n"
     "            }\n"
-    "            db = dk(k); sb = inv_at(at(db)); fb = sb - db;\n"
+    "            db = dk(k); sb = inv_at(at(db)); fb = sb - db; g_samples++;\n"
     "            if (fb >= 0.0) { hit = true; break; }\n"
     "            da = db; fa = fb; sa = sb; prev_exact = true;\n"
     "            k++;\n"
@@ -238,7 +243,7 @@ static const char fs_raytrace[] =
     "        if (near_d - far_d > u_jump * near_d && (da - far_d) / (near_d - far_d) < 0.5) flag = EDGE;\n"
     "    }\n"
     "    vec4 c = flag == EDGE && u_fill_far != 0 ? far_texel(hp) : bilinear(hp);\n"
-    "    o = vec4(c.rgb, flag / 255.0);\n"
+    "    o = result(c.rgb, flag);\n"
     "}\n";
 
 /* ---- state ---- */
@@ -269,7 +274,8 @@ typedef struct {
 
 enum { L_SRC, L_MESH, L_VP, L_FLIP, L_VPH, L_ROWS, L_CELLW, L_SRCSIZE };
 enum { P_IN, P_INSIZE };
-enum { R_COLOR, R_DEPTH, R_PYR, R_H, R_A, R_DRANGE, R_SIZE, R_STEPS, R_REFINE, R_FILL, R_LEVELS, R_JUMP, R_OFF };
+enum { R_COLOR, R_DEPTH, R_PYR, R_H, R_A, R_DRANGE, R_SIZE, R_STEPS, R_REFINE, R_FILL, R_LEVELS, R_JUMP, R_OFF,
+       R_COUNT };
 
 struct plat_gles {
     plat_egl *egl;
@@ -283,6 +289,7 @@ struct plat_gles {
     int lvl_x[PLAT_GLES_MAX_LEVELS], lvl_y[PLAT_GLES_MAX_LEVELS];
     int atlas_w, atlas_h;
     bool gpu_pyramid;
+    bool count_samples;
     float *cpu_scratch, *cpu_level; /* CPU pyramid build */
     /* timing */
     int timing;
@@ -561,6 +568,8 @@ const char *plat_gles_timing_method(const plat_gles *g)
 
 bool plat_gles_gpu_pyramid(const plat_gles *g) { return g->gpu_pyramid; }
 
+void plat_gles_count_samples(plat_gles *g, bool on) { g->count_samples = on; }
+
 /* ---- create / destroy ---- */
 
 plat_gles *plat_gles_create(plat_egl *egl, const plat_gles_params *p, char *err, int errlen)
@@ -591,7 +600,7 @@ plat_gles *plat_gles_create(plat_egl *egl, const plat_gles_params *p, char *err,
     static const char *const pyr_u[] = {"u_in", "u_in_size", NULL};
     static const char *const rt_u[] = {"u_color", "u_depth", "u_pyr", "u_h", "u_a", "u_drange", "u_size",
                                        "u_max_steps", "u_refine", "u_fill_far", "u_levels", "u_jump", "u_lvl_off",
-                                       NULL};
+                                       "u_count", NULL};
     if (!link(&g->lens, fs_lens, "lens", lens_u, err, errlen)) goto fail;
     glGenVertexArrays(1, &g->vao);
     if (!p->to_window) {
@@ -804,6 +813,7 @@ void plat_gles_raytrace(plat_gles *g, int eye, const warp_raytrace_setup *s)
         off[2 * l + 1] = g->lvl_y[l];
     }
     glUniform2iv(pr->loc[R_OFF], PLAT_GLES_MAX_LEVELS, off);
+    glUniform1i(pr->loc[R_COUNT], g->count_samples);
     glBindFramebuffer(GL_FRAMEBUFFER, r->inter_fbo);
     glViewport(0, 0, s->dst_w < g->p.src_w ? s->dst_w : g->p.src_w, s->dst_h < g->p.src_h ? s->dst_h : g->p.src_h);
     glDrawArrays(GL_TRIANGLES, 0, 3);

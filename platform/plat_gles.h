@@ -40,7 +40,7 @@ plat_gles *plat_gles_create(plat_egl *egl, const plat_gles_params *p, char *err,
 void plat_gles_destroy(plat_gles *g); /* context current */
 
 /* Per host frame: uploads one eye's colour and, when inv_depth is not NULL (params.depth), its inverse depth,
- * range [inv_min, inv_max], then builds that eye's depth pyramid. Sizes must be src_w x src_h. */
+ * then builds that eye's depth pyramid. Sizes must be src_w x src_h. False on bad sizes or a GL error. */
 bool plat_gles_upload(plat_gles *g, int eye, const warp_image_rgba8 *color, const warp_image_f32 *inv_depth);
 
 /* Per vsync. The raytrace of 003 §3.5 for one eye into its eye-space intermediate (colour; the fringe / edge
@@ -73,6 +73,10 @@ bool plat_gles_gpu_pyramid(const plat_gles *g);
  * the level's block of bilinear cells) into dst (at least the level's size). */
 bool plat_gles_read_raytrace(plat_gles *g, int eye, warp_image_rgba8 *rgb, warp_image_u8 *mask);
 bool plat_gles_read_pyramid(plat_gles *g, int eye, int level, warp_image_f32 *dst);
+/* Diagnostics: when on, the raytrace writes the number of search steps each ray sampled depth at (low byte in red,
+ * high in green; the first sample and the refinement not counted, as in warp_raytrace_stats.steps) instead of
+ * its colour: how much the pyramid saves over the CPU's one sample per source pixel. */
+void plat_gles_count_samples(plat_gles *g, bool on);
 
 /* The pyramid's geometry and its CPU reference. Level 0 cell (x, y) holds the largest inverse depth among the
  * texels a bilinear sample in that cell reads: (x..x+1, y..y+1), clamped to the image; level L cell (x, y) the

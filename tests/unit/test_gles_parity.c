@@ -291,6 +291,32 @@ static void test_raytrace_parity(void **state)
     assert_int_equal(unmatched, 0);
 }
 
+static void test_pyramid_skips_empty_space(void **state)
+{
+    (void)state;
+    /* A lean in the room: rays cross long stretches of open space before reaching the walls. */
+    warp_pose a = eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
+    source("room", a);
+    warp_raytrace_params rp = warp_raytrace_default_params();
+    warp_raytrace_setup s;
+    assert_null(warp_raytrace_prepare(&s, &F.view, &F.cam, eye_at(2 * D2R, -3 * D2R, 0, warp_v3(0.25, 1.62, -0.3)), &rp));
+    warp_raytrace_stats st = {0};
+    warp_raytrace_rows(&s, &F.rt_cpu, NULL, 0, H, &st);
+    plat_gles_count_samples(F.g, true);
+    plat_gles_raytrace(F.g, 0, &s);
+    assert_true(plat_gles_read_raytrace(F.g, 0, &F.rt_gpu, NULL));
+    plat_gles_count_samples(F.g, false);
+    double gpu = 0;
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) gpu += WARP_AT(&F.rt_gpu, x, y).r + 256.0 * WARP_AT(&F.rt_gpu, x, y).g;
+    double cpu = (double)st.steps / (double)st.rays;
+    gpu /= (double)W * H;
+    print_message("depth samples per ray: CPU linear search %.2f steps, GLES with the pyramid %.2f samples\n", cpu,
+                  gpu);
+    assert_true(cpu > 4.0);
+    assert_true(gpu < cpu / 2);
+}
+
 static void test_raytrace_then_lens_parity(void **state)
 {
     (void)state;
@@ -412,6 +438,7 @@ int main(void)
         cmocka_unit_test(test_egl_llvmpipe_detected),
         cmocka_unit_test(test_rotation_parity),
         cmocka_unit_test(test_raytrace_parity),
+        cmocka_unit_test(test_pyramid_skips_empty_space),
         cmocka_unit_test(test_raytrace_then_lens_parity),
         cmocka_unit_test(test_pyramid_matches_cpu),
         cmocka_unit_test(test_pass_timing),
