@@ -510,6 +510,9 @@ static bool collect(plat_gles *g, qslot *s)
             glGetQueryObjectuiv(s->q[i], GL_QUERY_RESULT, &v);
             ns = v;
         }
+        /* llvmpipe sometimes answers a raw timestamp (seconds since boot) for a query begun before any work:
+         * nothing in one vsync takes a second, so such a frame is dropped like a disjoint one. */
+        if (ns > 1000000000ull) disjoint = 1;
         t.ms[s->pass[i]] += (double)ns * 1e-6;
         t.valid[s->pass[i]] = true;
     }
@@ -850,6 +853,14 @@ void plat_gles_lens(plat_gles *g, int eye, const warp_mesh *m, bool from_raytrac
     glViewport(m->vp_x, win_y, m->vp_w, m->vp_h);
     glDrawArrays(GL_TRIANGLES, 0, 3);
     pass_end(g);
+}
+
+void plat_gles_clear(plat_gles *g)
+{
+    glBindFramebuffer(GL_FRAMEBUFFER, g->p.to_window ? 0 : g->panel_fbo);
+    glViewport(0, 0, g->p.panel_w, g->p.panel_h);
+    glClearColor(0, 0, 0, 1);
+    glClear(GL_COLOR_BUFFER_BIT);
 }
 
 bool plat_gles_read(plat_gles *g, warp_image_rgba8 *dst, char *err, int errlen)

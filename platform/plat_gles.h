@@ -50,6 +50,8 @@ void plat_gles_raytrace(plat_gles *g, int eye, const warp_raytrace_setup *s);
  * between the mesh's vertices exactly as warp_mesh_resample does, then one bilinear sample per channel with
  * clamp-to-edge (the 003 §4.3 fringe fill). Source: the uploaded frame, or the raytrace output. */
 void plat_gles_lens(plat_gles *g, int eye, const warp_mesh *m, bool from_raytrace);
+/* Clears the panel to black (no frame yet). */
+void plat_gles_clear(plat_gles *g);
 /* Reads the panel image into dst (panel-sized); waits for the GPU. False on a GL error (err filled). */
 bool plat_gles_read(plat_gles *g, warp_image_rgba8 *dst, char *err, int errlen);
 /* Closes one vsync's timing and collects finished timer queries (never waits for the GPU). */

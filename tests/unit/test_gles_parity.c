@@ -390,7 +390,7 @@ static void test_pass_timing(void **state)
         }
         gpu_lens(F.g, true);
         if (plat_gles_times_latest(F.g, &t)) {
-            assert_true(t.seq > seq);
+            assert_true(t.seq >= seq); /* a new result or the same one again, never an older */
             seq = t.seq;
         }
     }
