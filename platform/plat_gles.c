@@ -919,3 +919,46 @@ bool plat_gles_read_pyramid(plat_gles *g, int eye, int level, warp_image_f32 *ds
     free(buf);
     return glGetError() == GL_NO_ERROR;
 }
+
+bool plat_gles_bench(plat_gles *g, const warp_image_rgba8 *color, const warp_image_f32 *inv,
+                     const warp_raytrace_setup *const rt[2], const warp_mesh *const mesh[2], int reps,
+                     plat_gles_times *mean)
+{
+    memset(mean, 0, sizeof *mean);
+    if (g->timing == TIMING_OFF || reps < 1 || g->p.to_window) return false;
+    warp_image_rgba8 out;
+    if (!warp_image_rgba8_alloc(&out, g->p.panel_w, g->p.panel_h)) return false;
+    char err[200];
+    bool ok = true;
+    int counted[PLAT_GLES_PASSES] = {0};
+    uint64_t seq = g->latest.seq;
+    /* two vsyncs more than asked: the first is warm-up (shader compilation, first touches) and results arrive a
+     * vsync late, so vsyncs 1..reps are the ones counted */
+    for (int r = 0; r <= reps + 1 && ok; r++) {
+        for (int e = 0; e < 2 && ok; e++) ok = plat_gles_upload(g, e, color, g->p.depth ? inv : NULL);
+        for (int e = 0; e < 2; e++) {
+            bool traced = rt && g->p.depth && inv;
+            if (traced) plat_gles_raytrace(g, e, rt[e]);
+            plat_gles_lens(g, e, mesh[e], traced);
+        }
+        ok = ok && plat_gles_read(g, &out, err, sizeof err);
+        plat_gles_end_frame(g);
+        /* the readback waited for the GPU: the previous vsync's queries are in */
+        if (r >= 2 && g->latest.seq != seq) {
+            seq = g->latest.seq;
+            for (int p = 0; p < PLAT_GLES_PASSES; p++)
+                if (g->latest.valid[p]) {
+                    mean->ms[p] += g->latest.ms[p];
+                    counted[p]++;
+                }
+        }
+    }
+    for (int p = 0; p < PLAT_GLES_PASSES; p++)
+        if (counted[p]) {
+            mean->ms[p] /= counted[p];
+            mean->valid[p] = true;
+        }
+    mean->seq = seq;
+    warp_image_free(&out);
+    return ok;
+}

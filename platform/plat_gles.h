@@ -70,6 +70,17 @@ const char *plat_gles_timing_method(const plat_gles *g);
 /* Whether the pyramid is built on the GPU (false: on the CPU, uploaded). */
 bool plat_gles_gpu_pyramid(const plat_gles *g);
 
+/* A benchmark of every pass at this renderer's sizes (e.g. panel 2880x1600, eyes 1440x1600 for the reference
+ * headset): `reps` vsyncs, each uploading both eyes' colour (and inverse depth when inv is not NULL: the pyramid
+ * too), raytracing both eyes with rt[e] when rt is not NULL (else the rotation mesh as it is), the lens pass of
+ * both eyes through mesh[e], and the readback. Writes the mean GPU milliseconds per pass and vsync to mean
+ * (valid: the pass ran and was timed). Needs params.timing. Allocates (not for the vsync path). A bench tool
+ * calls plat_egl_open_offscreen, plat_gles_create, warp_mesh_init/update, warp_raytrace_prepare, then this, and
+ * prints mean.ms[p] under plat_gles_pass_name(p) next to the CPU path's times. */
+bool plat_gles_bench(plat_gles *g, const warp_image_rgba8 *color, const warp_image_f32 *inv,
+                     const warp_raytrace_setup *const rt[2], const warp_mesh *const mesh[2], int reps,
+                     plat_gles_times *mean);
+
 /* Tests and diagnostics: the raytrace output of one eye (colour into rgb, may be NULL; mask values
  * WARP_MASK_FRINGE / WARP_MASK_EDGE into mask, may be NULL), and pyramid level `level` (max inverse depth over
  * the level's block of bilinear cells) into dst (at least the level's size). */

@@ -409,6 +409,29 @@ static void test_pass_timing(void **state)
     assert_string_equal(plat_gles_timing_method(F.g_cpu_pyr), "off");
 }
 
+static void test_bench(void **state)
+{
+    (void)state;
+    source("near", eye_at(0, 0, 0, warp_v3(0, 1.6, 0)));
+    warp_raytrace_params rp = warp_raytrace_default_params();
+    warp_raytrace_setup s;
+    assert_null(warp_raytrace_prepare(&s, &F.view, &F.cam, eye_at(0.02, 0, 0, warp_v3(0.02, 1.6, 0)), &rp));
+    const warp_raytrace_setup *rt[2] = {&s, &s};
+    const warp_mesh *m[2] = {&F.mesh[0], &F.mesh[1]};
+    plat_gles_times t;
+    assert_true(plat_gles_bench(F.g, &F.src.color, &F.inv, rt, m, 3, &t));
+    print_message("bench %dx%d per eye:", W, H);
+    for (int p = 0; p < PLAT_GLES_PASSES; p++) {
+        assert_true(t.valid[p]);
+        assert_true(t.ms[p] >= 0 && t.ms[p] < 10000);
+        print_message(" %s %.3f ms", plat_gles_pass_name((plat_gles_pass)p), t.ms[p]);
+    }
+    print_message("\n");
+    assert_true(t.ms[PLAT_GLES_RAYTRACE] > 0);
+    /* an untimed renderer cannot bench */
+    assert_false(plat_gles_bench(F.g_cpu_pyr, &F.src.color, &F.inv, rt, m, 3, &t));
+}
+
 static void test_kms_without_drm_device(void **state)
 {
     (void)state;
@@ -442,6 +465,7 @@ int main(void)
         cmocka_unit_test(test_raytrace_then_lens_parity),
         cmocka_unit_test(test_pyramid_matches_cpu),
         cmocka_unit_test(test_pass_timing),
+        cmocka_unit_test(test_bench),
         cmocka_unit_test(test_kms_without_drm_device),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
