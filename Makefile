@@ -28,7 +28,7 @@ SYSCONFDIR ?= /etc
 BOARD ?= sim
 
 # Libraries every program links (Debian packages named in board/deps.sh).
-PKGS      := inih libpng zlib hidapi-hidraw libusb-1.0 libgpiod
+PKGS      := inih libpng zlib hidapi-hidraw libusb-1.0 libgpiod egl glesv2 gbm libdrm
 TEST_PKGS := cmocka
 
 OPT      ?= -O2

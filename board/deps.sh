@@ -9,6 +9,8 @@ PKGS="gcc libc6-dev make pkg-config
 libinih-dev libpng-dev zlib1g-dev
 libhidapi-dev libusb-1.0-0-dev libgpiod-dev libi2c-dev linux-libc-dev
 libcmocka-dev
+libegl-dev libgles-dev libgbm-dev libdrm-dev libegl-mesa0 libgl1-mesa-dri
+libsystemd-dev
 g++ libopencv-imgproc-dev gnuplot-nox"
 
 missing=""

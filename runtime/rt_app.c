@@ -42,6 +42,99 @@ static void names_list(const char *const *names, char *buf, size_t len)
     }
 }
 
+bool rt_render_choose(const char *setting, const char *gl_renderer, const char *egl_err, bool kms, char *why,
+                      int whylen)
+{
+    size_t n = (size_t)whylen;
+    if (strcmp(setting, "cpu") == 0) {
+        snprintf(why, n, "renderer = cpu");
+        return false;
+    }
+    if (strcmp(setting, "gles") == 0) {
+        if (gl_renderer)
+            snprintf(why, n, "renderer = gles%s", plat_egl_renderer_is_software(gl_renderer)
+                                                      ? " (forced onto a software rasterizer)"
+                                                      : "");
+        else
+            snprintf(why, n, "renderer = gles, but no EGL: %s", egl_err ? egl_err : "unknown error");
+        return true;
+    }
+    if (!gl_renderer) {
+        snprintf(why, n, "auto: no usable EGL / OpenGL ES 3 (%s)", egl_err ? egl_err : "unknown error");
+        return kms;
+    }
+    if (!plat_egl_renderer_is_software(gl_renderer)) {
+        snprintf(why, n, "auto: EGL offers a hardware GPU");
+        return true;
+    }
+    if (kms) {
+        snprintf(why, n, "auto: only a software rasterizer, but output = kms needs GLES");
+        return true;
+    }
+    snprintf(why, n, "auto: EGL offers only a software rasterizer (%s); the CPU path is faster there and vsync "
+                     "comes first",
+             gl_renderer);
+    return false;
+}
+
+/* Opens EGL and the GLES renderer when [render] renderer and [display] output call for them. */
+static bool render_init(rt_app *a, char *err, int errlen)
+{
+    const rt_config *c = &a->cfg;
+    const bool kms = strcmp(c->output, "kms") == 0;
+    const bool forced = strcmp(c->renderer, "gles") == 0;
+    char eerr[300] = "";
+    if (strcmp(c->renderer, "cpu") != 0 || kms) {
+        if (kms) {
+            plat_egl_kms_params kp = {c->kms_device, c->kms_connector, 0, 0, 0};
+            if (!rt_config_parse_mode(c->kms_mode, &kp.mode_w, &kp.mode_h, &kp.mode_hz))
+                return fail(err, errlen, "[display] kms_mode = '%s': %s", c->kms_mode, "expected auto, WxH or WxH@Hz");
+            if (kp.mode_w == 0) {
+                kp.mode_w = c->panel_w;
+                kp.mode_h = c->panel_h;
+            }
+            a->egl = plat_egl_open_kms(&kp, eerr, sizeof eerr);
+            if (!a->egl) return fail(err, errlen, "[display] output = kms: %s%s", eerr, "");
+            int mw, mh;
+            plat_egl_kms_mode(a->egl, &mw, &mh, NULL, NULL);
+            if (mw != c->panel_w || mh != c->panel_h) {
+                char m[64];
+                snprintf(m, sizeof m, "%dx%d, the panel is %dx%d", mw, mh, c->panel_w, c->panel_h);
+                return fail(err, errlen, "[display] output = kms: the mode is %s%s", m, "");
+            }
+        } else {
+            a->egl = plat_egl_open_offscreen(eerr, sizeof eerr);
+        }
+    }
+    a->use_gles = rt_render_choose(c->renderer, a->egl ? plat_egl_renderer(a->egl) : NULL, eerr, kms, a->render_why,
+                                   sizeof a->render_why);
+    if (a->use_gles && !a->egl) return fail(err, errlen, "[render] renderer = gles: %s%s", eerr, "");
+    if (!a->use_gles) {
+        plat_egl_close(a->egl);
+        a->egl = NULL;
+        return true;
+    }
+    a->gles_depth = c->method == RT_METHOD_RAYTRACE;
+    plat_gles_params gp = {c->panel_w, c->panel_h, c->eye_w, c->eye_h, a->mesh[0].cols, a->mesh[0].rows,
+                           a->gles_depth, kms, true, false};
+    a->gles = plat_gles_create(a->egl, &gp, eerr, sizeof eerr);
+    if (!a->gles) {
+        if (forced || kms) return fail(err, errlen, "[render] renderer = %s: %s", c->renderer, eerr);
+        /* auto on a GPU whose driver cannot run our shaders: the CPU path still works */
+        snprintf(a->render_why, sizeof a->render_why, "auto: the GPU (%.60s) cannot run the GLES renderer: %.140s",
+                 plat_egl_renderer(a->egl), eerr);
+        plat_egl_close(a->egl);
+        a->egl = NULL;
+        a->use_gles = false;
+        return true;
+    }
+    a->gles_ms = calloc(PLAT_GLES_PASSES, sizeof *a->gles_ms);
+    if (!a->gles_ms) return fail(err, errlen, "%s%s", "out of memory", "");
+    /* The compositor thread makes the context current for itself. */
+    plat_egl_release(a->egl);
+    return true;
+}
+
 bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen)
 {
     memset(a, 0, sizeof *a);
@@ -72,6 +165,7 @@ bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen)
     }
     if (!plat_swapchain_init(&a->sc, 3, c->panel_w, c->panel_h))
         return fail(err, errlen, "cannot allocate the swapchain (%s%s)", "[display] width/height", "");
+    if (!render_init(a, err, errlen)) return false;
     a->workers = plat_workers_create(c->threads - 1, c->rt_priority);
     if (!a->workers) return fail(err, errlen, "cannot start %s%s", "compositor worker threads", "");
     a->rt_params = warp_raytrace_default_params();
@@ -302,11 +396,16 @@ void rt_app_summary(rt_app *a, FILE *out)
     double secs = (double)t->vsyncs / c->refresh_hz;
     fprintf(out, "\nhmdwarpd summary — board '%s', scene '%s', head motion '%s', %.1f s\n", c->board_name, c->scene,
             c->trace, secs);
-    fprintf(out, "  renderer                   cpu (%s kernel, %d threads, %s%s), warp method %s\n",
-            warp_resample_kernel(), plat_workers_threads(a->workers),
-            a->realtime ? "SCHED_FIFO" : "normal priority (not permitted to use SCHED_FIFO)",
-            a->realtime ? (a->memory_locked ? ", memory locked" : ", memory not locked") : "",
-            rt_method_name(c->method));
+    if (a->use_gles)
+        fprintf(out, "  renderer                   gles: %s (%s; %s), warp method %s\n", plat_egl_renderer(a->egl),
+                plat_egl_version(a->egl), a->realtime ? "SCHED_FIFO" : "normal priority", rt_method_name(c->method));
+    else
+        fprintf(out, "  renderer                   cpu (%s kernel, %d threads, %s%s), warp method %s\n",
+                warp_resample_kernel(), plat_workers_threads(a->workers),
+                a->realtime ? "SCHED_FIFO" : "normal priority (not permitted to use SCHED_FIFO)",
+                a->realtime ? (a->memory_locked ? ", memory locked" : ", memory not locked") : "",
+                rt_method_name(c->method));
+    fprintf(out, "  renderer chosen            %s\n", a->render_why);
     fprintf(out, "  panel                      %dx%d at %.0f Hz, eye buffers %dx%d, lens mesh %dx%d\n", c->panel_w,
             c->panel_h, c->refresh_hz, c->eye_w, c->eye_h, c->mesh_n, c->mesh_n);
     fprintf(out, "display\n");
@@ -318,6 +417,28 @@ void rt_app_summary(rt_app *a, FILE *out)
             snprintf(buf, sizeof buf, "warp time (%s)", rt_method_name((rt_method)m));
             pct_line(out, buf, &t->warp_ms[m]);
         }
+    if (a->use_gles) {
+        fprintf(out, "  GPU time per pass          %s, depth pyramid on the %s%s\n", plat_gles_timing_method(a->gles),
+                plat_gles_gpu_pyramid(a->gles) ? "GPU" : "CPU", a->gles_depth ? "" : " (not used)");
+        for (int p = 0; p < PLAT_GLES_PASSES; p++)
+            if (a->gles_ms[p].count) {
+                snprintf(buf, sizeof buf, "  gles %s", plat_gles_pass_name((plat_gles_pass)p));
+                pct_line(out, buf, &a->gles_ms[p]);
+            }
+        if (a->gles_errors)
+            fprintf(out, "  GLES errors                %llu; last: %s\n", (unsigned long long)a->gles_errors,
+                    a->gles_last_error);
+        if (plat_egl_is_kms(a->egl)) {
+            uint64_t flips, failed;
+            int mw, mh;
+            double hz;
+            const char *conn;
+            plat_egl_flip_stats(a->egl, &flips, &failed);
+            plat_egl_kms_mode(a->egl, &mw, &mh, &hz, &conn);
+            fprintf(out, "  KMS output                 %s %dx%d@%.0f: %llu page flips, %llu failed\n", conn, mw, mh, hz,
+                    (unsigned long long)flips, (unsigned long long)failed);
+        }
+    }
     if (a->raytrace_fallbacks)
         fprintf(out, "  raytrace fallbacks         %llu vsyncs used rotation: the frame had no depth\n",
                 (unsigned long long)a->raytrace_fallbacks);
@@ -412,6 +533,19 @@ void rt_app_stats_kv(rt_app *a, FILE *out)
     KV("imu_backend", "%s", a->imu ? a->imu->name : "");
     KV("frames_backend", "%s", a->frames ? a->frames->name : "");
     KV("vsync_backend", "%s", a->vsync ? a->vsync->name : "");
+    KV("renderer", "%s", a->use_gles ? "gles" : "cpu");
+    KV("gl_renderer", "%s", a->use_gles ? plat_egl_renderer(a->egl) : "");
+    KV("renderer_reason", "%s", a->render_why);
+    if (a->use_gles) {
+        for (int p = 0; p < PLAT_GLES_PASSES; p++) {
+            char k[64];
+            snprintf(k, sizeof k, "gles_%s_ms_p50", plat_gles_pass_name((plat_gles_pass)p));
+            KV(k, "%.3f", rt_hist_pct(&a->gles_ms[p], 50));
+            snprintf(k, sizeof k, "gles_%s_ms_p99", plat_gles_pass_name((plat_gles_pass)p));
+            KV(k, "%.3f", rt_hist_pct(&a->gles_ms[p], 99));
+        }
+        KVU("gles_errors", a->gles_errors);
+    }
     KVU("vsyncs", t->vsyncs);
     KVU("missed", t->missed);
     KVU("no_frame", t->no_frame);
@@ -488,6 +622,9 @@ void rt_app_free(rt_app *a)
     drv_frames_destroy(a->frames);
     drv_vsync_destroy(a->vsync);
     plat_display_destroy(a->display);
+    if (a->gles && plat_egl_make_current(a->egl)) plat_gles_destroy(a->gles);
+    plat_egl_close(a->egl);
+    free(a->gles_ms);
     if (a->workers) plat_workers_destroy(a->workers);
     for (int e = 0; e < 2; e++) {
         warp_mesh_free(&a->mesh[e]);

@@ -13,6 +13,8 @@
 #include "drivers/drv_sim.h"
 #include "drivers/drv_vsync.h"
 #include "platform/plat_display.h"
+#include "platform/plat_egl.h"
+#include "platform/plat_gles.h"
 #include "platform/plat_workers.h"
 #include "runtime/rt_config.h"
 #include "runtime/rt_frameq.h"
@@ -98,6 +100,21 @@ typedef struct {
     bool memory_locked;         /* mlockall succeeded */
     uint64_t raytrace_fallbacks; /* raytrace requested but the frame had no depth */
 
+    /* renderer ([render] renderer, rt_render_choose) */
+    bool use_gles;
+    char render_why[256];       /* why this renderer was chosen, for the summary */
+    plat_egl *egl;              /* EGL display + context (GLES only) */
+    plat_gles *gles;
+    bool gles_depth;            /* the GLES resources include depth, pyramid and raytrace */
+    const rt_frame *gles_frame; /* the frame whose planes are in the GLES textures */
+    uint64_t gles_frame_seq;
+    uint64_t gles_errors;       /* failed uploads, readbacks or page flips */
+    char gles_last_error[200];
+    rt_hist *gles_ms;           /* [PLAT_GLES_PASSES] GPU time per pass and vsync (compositor thread) */
+    uint64_t gles_times_seq;
+    double gles_gpu_ms;         /* newest complete frame's GPU time, all passes */
+    int64_t gles_submit_ns;     /* when the last vsync's GL work was all submitted */
+
     /* telemetry */
     rt_telemetry *tel;
     rt_ring csv_ring;
@@ -133,6 +150,14 @@ void rt_app_free(rt_app *a);
 /* Opens the IMU, frames and vsync backends board.ini names (rt_devices.c); sp describes the simulated host,
  * used by the sim backend and the mocks. Sets has_truth and sim_host. */
 bool rt_devices_open(rt_app *a, const drv_frames_sim_params *sp, char *err, int errlen);
+
+/* Decides the renderer from [render] renderer (`setting`: auto, cpu, gles), the GL_RENDERER string of the context
+ * EGL gave (NULL when it gave none; egl_err then says why) and whether the output is KMS. Returns true for GLES
+ * and writes the reason in one line to why. auto picks GLES on a hardware GPU and the CPU path when only a
+ * software rasterizer (llvmpipe) or no EGL is there: there the CPU path is faster, and vsync comes first. With
+ * KMS output GLES is the only way to the panel. A forced gles without EGL returns true: the caller fails. */
+bool rt_render_choose(const char *setting, const char *gl_renderer, const char *egl_err, bool kms, char *why,
+                      int whylen);
 
 /* The compositor loop (rt_compositor.c). */
 void rt_compositor_run(rt_app *a);

@@ -14,7 +14,8 @@
 static const char *const method_names[] = {"none", "rotation", "raytrace", "auto", NULL};
 static const char *const edge_fill_names[] = {"far", "linear", NULL};
 static const char *const sink_names[] = {"null", "png", "raw", NULL};
-static const char *const renderer_names[] = {"cpu", NULL};
+static const char *const renderer_names[] = {"auto", "cpu", "gles", NULL};
+static const char *const output_names[] = {"offscreen", "kms", NULL};
 static const char *const imu_names[] = {"sim", "hid", "i2c", NULL};
 static const char *const frames_names[] = {"sim", "usb", "v4l2", NULL};
 static const char *const vsync_names[] = {"sim", "gpio", "timer", NULL};
@@ -51,7 +52,16 @@ static const keydef keys[] = {
      "where panel images go: null, png (snapshots) or raw (RGBA8 stream)"},
     {"display", "sink_every", K_INT, F(sink_every), 0, 1, 1000000, NULL, "write every Nth vsync (png/raw sinks)"},
     {"display", "sink_path", K_STR, F(sink_path), S(sink_path), 0, 0, NULL, "directory for png/raw sink output"},
-    {"render", "renderer", K_CHOICE, F(renderer), S(renderer), 0, 0, renderer_names, "warp backend"},
+    {"display", "output", K_CHOICE, F(output), S(output), 0, 0, output_names,
+     "offscreen (images go to the sink) or kms (the panel through DRM/KMS page flips; needs the GLES renderer)"},
+    {"display", "kms_device", K_STR, F(kms_device), S(kms_device), 0, 0, NULL, "DRM card node for output = kms"},
+    {"display", "kms_connector", K_STR, F(kms_connector), S(kms_connector), 0, 0, NULL,
+     "connector for output = kms: auto (first connected) or a name like HDMI-A-1, DSI-1"},
+    {"display", "kms_mode", K_STR, F(kms_mode), S(kms_mode), 0, 0, NULL,
+     "mode for output = kms: auto (the panel's width x height) or WxH or WxH@Hz; it must match the panel"},
+    {"render", "renderer", K_CHOICE, F(renderer), S(renderer), 0, 0, renderer_names,
+     "warp backend: gles (EGL + OpenGL ES 3), cpu, or auto (gles on a hardware GPU, cpu when EGL offers only a "
+     "software rasterizer such as llvmpipe or nothing)"},
     {"render", "threads", K_INT, F(threads), 0, 1, 16, NULL, "compositor threads (the vsync thread included)"},
     {"render", "rt_priority", K_INT, F(rt_priority), 0, 0, 99, NULL,
      "SCHED_FIFO priority for the compositor when permitted (0 = normal scheduling)"},
@@ -156,7 +166,11 @@ void rt_config_defaults(rt_config *c)
     snprintf(c->sink, sizeof c->sink, "null");
     c->sink_every = 90;
     snprintf(c->sink_path, sizeof c->sink_path, "build/frames");
-    snprintf(c->renderer, sizeof c->renderer, "cpu");
+    snprintf(c->output, sizeof c->output, "offscreen");
+    snprintf(c->kms_device, sizeof c->kms_device, "/dev/dri/card0");
+    snprintf(c->kms_connector, sizeof c->kms_connector, "auto");
+    snprintf(c->kms_mode, sizeof c->kms_mode, "auto");
+    snprintf(c->renderer, sizeof c->renderer, "auto");
     c->threads = 2;
     c->rt_priority = 10;
     c->eye_w = 1440;
@@ -456,6 +470,17 @@ warp_lens rt_config_lens(const rt_config *c, int eye)
     return lens;
 }
 
+bool rt_config_parse_mode(const char *s, int *w, int *h, double *hz)
+{
+    *w = *h = 0;
+    *hz = 0;
+    if (strcmp(s, "auto") == 0) return true;
+    char tail[8] = "";
+    int n = sscanf(s, "%dx%d@%lf%7s", w, h, hz, tail);
+    if (n == 2 && !strchr(s, '@')) return *w > 0 && *h > 0;
+    return n == 3 && *w > 0 && *h > 0 && *hz > 0;
+}
+
 bool rt_config_parse_axes(const char *s, int map[3], int sign[3])
 {
     int n = 0, used = 0;
@@ -502,6 +527,13 @@ bool rt_config_validate(const rt_config *c, rt_config_errors *err)
     if ((strcmp(c->imu_backend, "i2c") == 0 && strlen(c->imu_device) > 63) ||
         (strcmp(c->frames_backend, "v4l2") == 0 && strlen(c->frames_device) > 63))
         add_error(err, "device path longer than 63 characters (%s%s)", c->imu_device, "");
+    if (strcmp(c->output, "kms") == 0 && strcmp(c->renderer, "cpu") == 0)
+        add_error(err, "[display] output = kms: needs [render] renderer = gles or auto (the CPU path has no KMS "
+                       "output)");
+    int mw, mh;
+    double mhz;
+    if (!rt_config_parse_mode(c->kms_mode, &mw, &mh, &mhz))
+        add_error(err, "[display] kms_mode = '%s': expected auto, WxH or WxH@Hz (e.g. 2880x1600@90)", c->kms_mode);
     if (c->host_rate_hz > c->refresh_hz * 2)
         add_error(err, "[sim] host_rate_hz = %g: more than twice the display rate makes no sense", c->host_rate_hz);
     return (err ? err->count : 0) == before;

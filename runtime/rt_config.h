@@ -29,8 +29,12 @@ typedef struct {
     char sink[16];              /* null | png | raw */
     int sink_every;
     char sink_path[256];
+    char output[16];            /* offscreen | kms */
+    char kms_device[128];       /* DRM card node */
+    char kms_connector[32];     /* auto | HDMI-A-1 | DSI-1 | ... */
+    char kms_mode[32];          /* auto (= panel size) | WxH | WxH@Hz */
     /* [render] */
-    char renderer[16];          /* cpu */
+    char renderer[16];          /* auto | cpu | gles */
     int threads;                /* compositor threads, caller included */
     int rt_priority;            /* SCHED_FIFO priority of the compositor when permitted; 0 = normal */
     /* [eye]: the host's eye buffers (left eye; the right eye is its mirror image) */
@@ -103,6 +107,9 @@ bool rt_config_load_string(rt_config *c, const char *text, const char *name, rt_
 bool rt_config_set(rt_config *c, const char *assignment, rt_config_errors *err);
 /* Cross-key checks (camera, lens folding over the viewport, sizes). */
 bool rt_config_validate(const rt_config *c, rt_config_errors *err);
+
+/* Parses a [display] kms_mode: "auto" gives 0 x 0 at 0 Hz, "WxH" any refresh (hz 0), "WxH@Hz". */
+bool rt_config_parse_mode(const char *s, int *w, int *h, double *hz);
 
 /* Parses a mounting string ("-y +x +z": head axis i = sign[i] * IMU axis map[i]). */
 bool rt_config_parse_axes(const char *s, int map[3], int sign[3]);

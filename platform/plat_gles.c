@@ -1,0 +1,964 @@
+/* plat_gles: the warp on the GPU with OpenGL ES 3.0 (GLSL ES 3.00): host frame upload, the min-max depth pyramid,
+ * the height-map raytrace with its edge fills, and the lens pass through the distortion mesh; per-pass GPU times. */
+#include "platform/plat_gles.h"
+
+#include <EGL/egl.h>
+#include <GLES3/gl3.h>
+#include <GLES2/gl2ext.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "platform/plat_clock.h"
+
+/* ---- shaders (GLSL ES 3.00: nothing beyond what V3D and Mali-class GPUs run) ---- */
+
+/* One triangle covering the viewport; no vertex buffer (gl_VertexID). */
+static const char vs_full[] =
+    "#version 300 es\n"
+    "void main() {\n"
+    "    vec2 p = vec2(float((gl_VertexID & 1) << 2) - 1.0, float((gl_VertexID & 2) << 1) - 1.0);\n"
+    "    gl_Position = vec4(p, 0.0, 1.0);\n"
+    "}\n";
+
+/* The lens pass. Same interpolation as warp_mesh_resample (warp_mesh.h): rows evenly spread over the viewport,
+ * columns cell_w apart, bilinear between the cell's four vertices, vertical first. The vertex positions are in an
+ * RG32F texture, texel (i*3 + c, j) = source position of vertex (i, j) for channel c. */
+static const char fs_lens[] =
+    "#version 300 es\n"
+    "precision highp float;\n"
+    "precision highp int;\n"
+    "uniform highp sampler2D u_src;\n"
+    "uniform highp sampler2D u_mesh;\n"
+    "uniform ivec2 u_vp;      /* viewport origin on the panel (x from the left, y from the top) */\n"
+    "uniform int u_flip_h;    /* 0: window row = panel row; else the window height (GL row 0 at the bottom) */\n"
+    "uniform int u_vp_h, u_rows, u_cell_w;\n"
+    "uniform vec2 u_src_size;\n"
+    "layout(location = 0) out vec4 o;\n"
+    "vec2 pos(int i, int j, int c, float fx, float ty) {\n"
+    "    vec2 p00 = texelFetch(u_mesh, ivec2(i * 3 + c, j), 0).xy;\n"
+    "    vec2 p10 = texelFetch(u_mesh, ivec2(i * 3 + 3 + c, j), 0).xy;\n"
+    "    vec2 p01 = texelFetch(u_mesh, ivec2(i * 3 + c, j + 1), 0).xy;\n"
+    "    vec2 p11 = texelFetch(u_mesh, ivec2(i * 3 + 3 + c, j + 1), 0).xy;\n"
+    "    vec2 l = p00 + (p01 - p00) * ty, r = p10 + (p11 - p10) * ty;\n"
+    "    return l + (r - l) * fx;\n"
+    "}\n"
+    "void main() {\n"
+    "    ivec2 f = ivec2(gl_FragCoord.xy);\n"
+    "    int x = f.x - u_vp.x;\n"
+    "    int y = (u_flip_h != 0 ? u_flip_h - 1 - f.y : f.y) - u_vp.y;\n"
+    "    float gy = (float(y) + 0.5) * float(u_rows - 1) / float(u_vp_h);\n"
+    "    int j = min(int(gy), u_rows - 2);\n"
+    "    float ty = gy - float(j);\n"
+    "    int i = x / u_cell_w;\n"
+    "    float fx = (float(x - i * u_cell_w) + 0.5) / float(u_cell_w);\n"
+    "    vec2 inv = 1.0 / u_src_size;\n"
+    "    float r = texture(u_src, pos(i, j, 0, fx, ty) * inv).r;\n"
+    "    float g = texture(u_src, pos(i, j, 1, fx, ty) * inv).g;\n"
+    "    float b = texture(u_src, pos(i, j, 2, fx, ty) * inv).b;\n"
+    "    o = vec4(r, g, b, 1.0);\n"
+    "}\n";
+
+/* Pyramid level 0: the largest inverse depth a bilinear sample in each cell can see. */
+static const char fs_pyr0[] =
+    "#version 300 es\n"
+    "precision highp float;\n"
+    "precision highp int;\n"
+    "uniform highp sampler2D u_in;\n"
+    "uniform ivec2 u_in_size;\n"
+    "layout(location = 0) out vec4 o;\n"
+    "void main() {\n"
+    "    ivec2 c = ivec2(gl_FragCoord.xy);\n"
+    "    ivec2 d = min(c + 1, u_in_size - 1);\n"
+    "    float m = max(max(texelFetch(u_in, c, 0).r, texelFetch(u_in, ivec2(d.x, c.y), 0).r),\n"
+    "                  max(texelFetch(u_in, ivec2(c.x, d.y), 0).r, texelFetch(u_in, d, 0).r));\n"
+    "    o = vec4(m, 0.0, 0.0, 1.0);\n"
+    "}\n";
+
+/* Pyramid level L > 0 from level L-1: 2x2 maximum, sizes rounded up. */
+static const char fs_pyrn[] =
+    "#version 300 es\n"
+    "precision highp float;\n"
+    "precision highp int;\n"
+    "uniform highp sampler2D u_in;\n"
+    "uniform ivec2 u_in_size;\n"
+    "layout(location = 0) out vec4 o;\n"
+    "void main() {\n"
+    "    ivec2 c = ivec2(gl_FragCoord.xy) * 2;\n"
+    "    ivec2 d = min(c + 1, u_in_size - 1);\n"
+    "    float m = max(max(texelFetch(u_in, c, 0).r, texelFetch(u_in, ivec2(d.x, c.y), 0).r),\n"
+    "                  max(texelFetch(u_in, ivec2(c.x, d.y), 0).r, texelFetch(u_in, d, 0).r));\n"
+    "    o = vec4(m, 0.0, 0.0, 1.0);\n"
+    "}\n";
+
+/* The raytrace of warp_raytrace.c, line for line where it decides anything (the same step grid, bracketing,
+ * Illinois refinement and edge test), with one difference in how it walks: before taking the next step it asks
+ * the pyramid whether the surface anywhere in the block of cells the ray is crossing comes as near as the ray
+ * gets there; when not, every step inside that block is skipped at once (and the next, larger, block is tried).
+ * Skipping is conservative (one step of margin at the block's exit) and the bracketing samples are recomputed
+ * exactly, so the hit is the one the CPU's linear search finds; only empty space is skipped (000 §5.3). */
+static const char fs_raytrace[] =
+    "#version 300 es\n"
+    "precision highp float;\n"
+    "precision highp int;\n"
+    "uniform highp sampler2D u_color;\n"
+    "uniform highp sampler2D u_depth;\n"
+    "uniform highp sampler2D u_pyr;\n"
+    "uniform mat3 u_h;\n"
+    "uniform vec3 u_a;\n"
+    "uniform vec2 u_drange;\n"
+    "uniform ivec2 u_size;\n"
+    "uniform int u_max_steps, u_refine, u_fill_far, u_levels;\n"
+    "uniform float u_jump;\n"
+    "uniform ivec2 u_lvl_off[16];\n"
+    "uniform int u_count;     /* diagnostics: output the search's depth samples instead of colour */\n"
+    "layout(location = 0) out vec4 o;\n"
+    "const float FRINGE = 1.0, EDGE = 2.0;\n"
+    "float g_pix, g_piy, g_ex, g_ey, g_hi, g_lo, g_dd;\n"
+    "int g_n, g_samples = 0;\n"
+    "vec4 result(vec3 c, float flag) {\n"
+    "    if (u_count != 0) c = vec3(float(g_samples & 255), float((g_samples >> 8) & 255), 0.0) / 255.0;\n"
+    "    return vec4(c, flag / 255.0);\n"
+    "}\n"
+    "float inv_at(vec2 p) {\n"
+    "    vec2 f = clamp(p - 0.5, vec2(0.0), vec2(u_size - 1));\n"
+    "    ivec2 i0 = ivec2(f);\n"
+    "    ivec2 i1 = min(i0 + 1, u_size - 1);\n"
+    "    vec2 a = f - vec2(i0);\n"
+    "    float d00 = texelFetch(u_depth, i0, 0).r, d10 = texelFetch(u_depth, ivec2(i1.x, i0.y), 0).r;\n"
+    "    float d01 = texelFetch(u_depth, ivec2(i0.x, i1.y), 0).r, d11 = texelFetch(u_depth, i1, 0).r;\n"
+    "    float top = d00 + (d10 - d00) * a.x, bot = d01 + (d11 - d01) * a.x;\n"
+    "    return top + (bot - top) * a.y;\n"
+    "}\n"
+    "vec4 bilinear(vec2 p) { return texture(u_color, p / vec2(u_size)); }\n"
+    "vec4 far_texel(vec2 p) {\n"
+    "    ivec2 b0 = ivec2(floor(p - 0.5));\n"
+    "    ivec2 bi = clamp(b0, ivec2(0), u_size - 1);\n"
+    "    float best = 3.0e38;\n"
+    "    for (int j = 0; j < 2; j++)\n"
+    "        for (int i = 0; i < 2; i++) {\n"
+    "            ivec2 q = clamp(b0 + ivec2(i, j), ivec2(0), u_size - 1);\n"
+    "            float d = texelFetch(u_depth, q, 0).r;\n"
+    "            if (d < best) { best = d; bi = q; }\n"
+    "        }\n"
+    "    return texelFetch(u_color, bi, 0);\n"
+    "}\n"
+    "bool clip_axis(float p, float e, float size, inout float lo, inout float hi) {\n"
+    "    if (abs(e) < 1e-12) return p >= 0.0 && p <= size;\n"
+    "    float d0 = (0.0 - p) / e, d1 = (size - p) / e;\n"
+    "    if (d0 > d1) { float t = d0; d0 = d1; d1 = t; }\n"
+    "    if (d0 > lo) lo = d0;\n"
+    "    if (d1 < hi) hi = d1;\n"
+    "    return lo <= hi;\n"
+    "}\n"
+    "float dk(int k) { return k >= g_n ? g_lo : g_hi - g_dd * float(k); }\n"
+    "vec2 at(float d) { return vec2(g_pix + d * g_ex, g_piy + d * g_ey); }\n"
+    "/* First step index >= k whose sample may lie outside block [b0, b1) of cells along one axis. */\n"
+    "int axis_exit(int k, float s, float v, int b0, int b1, int size) {\n"
+    "    float lim = float(g_n + 2);\n"
+    "    if (v > 0.0 && b1 < size) return k + int(min(ceil((float(b1) + 0.5 - s) / v), lim));\n"
+    "    if (v < 0.0 && b0 > 0) return k + int(min(floor((s - float(b0) - 0.5) / -v), lim)) + 1;\n"
+    "    return g_n + 2;\n"
+    "}\n"
+    "void main() {\n"
+    "    vec3 b = u_h * vec3(gl_FragCoord.xy, 1.0);\n"
+    "    float sw = float(u_size.x), sh = float(u_size.y);\n"
+    "    if (!(b.z > 1e-9 * (abs(b.x) + abs(b.y) + abs(b.z)))) {\n"
+    "        o = result(bilinear(vec2(b.x > 0.0 ? sw : 0.0, b.y > 0.0 ? sh : 0.0)).rgb, FRINGE);\n"
+    "        return;\n"
+    "    }\n"
+    "    g_pix = b.x / b.z; g_piy = b.y / b.z;\n"
+    "    g_ex = u_a.x - u_a.z * g_pix; g_ey = u_a.y - u_a.z * g_piy;\n"
+    "    float hi = u_drange.y, lo = u_drange.x;\n"
+    "    if (u_a.z > 0.0 && 1.0 / u_a.z < hi) hi = 1.0 / u_a.z;\n"
+    "    float hi0 = hi;\n"
+    "    bool inside = lo <= hi && clip_axis(g_pix, g_ex, sw, lo, hi) && clip_axis(g_piy, g_ey, sh, lo, hi);\n"
+    "    if (!inside) {\n"
+    "        float d = clamp(lo, u_drange.x, u_drange.y); /* the CPU rule: within the frame's depth range */\n"
+    "        o = result(bilinear(at(d)).rgb, FRINGE);\n"
+    "        return;\n"
+    "    }\n"
+    "    bool near_clipped = hi < hi0;\n"
+    "    float len = abs(hi - lo) * sqrt(g_ex * g_ex + g_ey * g_ey);\n"
+    "    g_n = clamp(int(ceil(len)), 1, u_max_steps);\n"
+    "    g_hi = hi; g_lo = lo; g_dd = (hi - lo) / float(g_n);\n"
+    "    float flag = 0.0;\n"
+    "    float da = hi, sa = inv_at(at(da)), fa = sa - da;\n"
+    "    float db = da, sb = sa, fb = fa;\n"
+    "    if (fa >= 0.0) {\n"
+    "        if (near_clipped) flag = FRINGE;\n"
+    "    } else {\n"
+    "        int k = 1, lvl = min(1, u_levels - 1);\n"
+    "        bool hit = false, prev_exact = true;\n"
+    "        vec2 v = vec2(-g_dd * g_ex, -g_dd * g_ey); /* sample movement per step */\n"
+    "        for (int it = 0; it < 16384 && k <= g_n; it++) {\n"
+    "            vec2 s = at(dk(k));\n"
+    "            ivec2 cell = clamp(ivec2(floor(s - 0.5)), ivec2(0), u_size - 1);\n"
+    "            ivec2 blk = cell >> lvl;\n"
+    "            int kx = axis_exit(k, s.x, v.x, blk.x << lvl, (blk.x + 1) << lvl, u_size.x);\n"
+    "            int ky = axis_exit(k, s.y, v.y, blk.y << lvl, (blk.y + 1) << lvl, u_size.y);\n"
+    "            int klast = min(min(kx, ky), g_n + 1) - 2; /* last step surely inside the block */\n"
+    "            if (klast >= k) {\n"
+    "                float m = texelFetch(u_pyr, u_lvl_off[lvl] + blk, 0).r;\n"
+    "                if (m < dk(klast)) {\n"
+    "                    k = klast + 1; prev_exact = false;\n"
+    "                    lvl = min(lvl + 1, u_levels - 1);\n"
+    "                    continue;\n"
+    "                }\n"
+    "                if (lvl > 0) { lvl--; continue; }\n"
+    "            }\n"
+    "            db = dk(k); sb = inv_at(at(db)); fb = sb - db; g_samples++;\n"
+    "            if (fb >= 0.0) { hit = true; break; }\n"
+    "            da = db; fa = fb; sa = sb; prev_exact = true;\n"
+    "            k++;\n"
+    "        }\n"
+    "        if (!hit) {\n"
+    "            flag = FRINGE;\n"
+    "            da = g_lo;\n"
+    "        } else {\n"
+    "            if (!prev_exact) { da = dk(k - 1); sa = inv_at(at(da)); fa = sa - da; }\n"
+    "            int side = 0;\n"
+    "            float epx = sqrt(g_ex * g_ex + g_ey * g_ey);\n"
+    "            for (int it = 0; it < u_refine && abs(db - da) * epx > 1.0 / 64.0; it++) {\n"
+    "                float dm = da + (db - da) * (-fa) / (fb - fa);\n"
+    "                float fm = inv_at(at(dm)) - dm;\n"
+    "                if (fm < 0.0) {\n"
+    "                    da = dm; fa = fm;\n"
+    "                    if (side == -1) fb *= 0.5;\n"
+    "                    side = -1;\n"
+    "                } else {\n"
+    "                    db = dm; fb = fm;\n"
+    "                    if (side == 1) fa *= 0.5;\n"
+    "                    side = 1;\n"
+    "                }\n"
+    "            }\n"
+    "            if (u_refine > 0) da = fb - fa != 0.0 ? da + (db - da) * (-fa) / (fb - fa) : db;\n"
+    "            else da = db;\n"
+    "        }\n"
+    "    }\n"
+    "    vec2 hp = at(da);\n"
+    "    if (flag == 0.0) {\n"
+    "        float near_d = max(sa, sb), far_d = min(sa, sb);\n"
+    "        if (near_d - far_d > u_jump * near_d && (da - far_d) / (near_d - far_d) < 0.5) flag = EDGE;\n"
+    "    }\n"
+    "    vec4 c = flag == EDGE && u_fill_far != 0 ? far_texel(hp) : bilinear(hp);\n"
+    "    o = result(c.rgb, flag);\n"
+    "}\n";
+
+/* ---- state ---- */
+
+enum { TIMING_OFF, TIMING_QUERY, TIMING_FINISH };
+#define QSLOTS 4
+#define QPER 24
+
+typedef struct {
+    GLuint q[QPER];
+    int pass[QPER];
+    int n;
+    bool pending;
+} qslot;
+
+typedef struct {
+    GLuint color, depth;             /* host frame: RGBA8, R32F */
+    GLuint mesh;                     /* RG32F vertex source positions */
+    GLuint inter, inter_fbo;         /* raytrace output, RGBA8 */
+    GLuint lvl[PLAT_GLES_MAX_LEVELS], lvl_fbo[PLAT_GLES_MAX_LEVELS]; /* pyramid levels (GPU build) */
+    GLuint atlas, atlas_fbo;         /* every level side by side: what the raytrace reads */
+} eye_res;
+
+typedef struct {
+    GLuint prog;
+    GLint loc[24];
+} program;
+
+enum { L_SRC, L_MESH, L_VP, L_FLIP, L_VPH, L_ROWS, L_CELLW, L_SRCSIZE };
+enum { P_IN, P_INSIZE };
+enum { R_COLOR, R_DEPTH, R_PYR, R_H, R_A, R_DRANGE, R_SIZE, R_STEPS, R_REFINE, R_FILL, R_LEVELS, R_JUMP, R_OFF,
+       R_COUNT };
+
+struct plat_gles {
+    plat_egl *egl;
+    plat_gles_params p;
+    program lens, pyr0, pyrn, rt;
+    GLuint vao;
+    GLuint panel, panel_fbo;
+    eye_res eye[2];
+    int levels;
+    int lvl_w[PLAT_GLES_MAX_LEVELS], lvl_h[PLAT_GLES_MAX_LEVELS];
+    int lvl_x[PLAT_GLES_MAX_LEVELS], lvl_y[PLAT_GLES_MAX_LEVELS];
+    int atlas_w, atlas_h;
+    bool gpu_pyramid;
+    bool count_samples;
+    float *cpu_scratch, *cpu_level; /* CPU pyramid build */
+    /* timing */
+    int timing;
+    qslot slots[QSLOTS];
+    int cur;
+    int active;      /* pass being timed, -1 none */
+    int64_t t_begin; /* glFinish mode */
+    double acc[PLAT_GLES_PASSES];
+    bool acc_valid[PLAT_GLES_PASSES];
+    plat_gles_times latest;
+    PFNGLGETQUERYOBJECTUI64VEXTPROC get_u64;
+};
+
+const char *plat_gles_pass_name(plat_gles_pass p)
+{
+    static const char *const n[PLAT_GLES_PASSES] = {"upload", "pyramid", "raytrace", "lens", "readback"};
+    return p >= 0 && p < PLAT_GLES_PASSES ? n[p] : "?";
+}
+
+#if defined(__GNUC__)
+__attribute__((format(printf, 3, 4)))
+#endif
+static bool failf(char *err, int errlen, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(err, (size_t)errlen, fmt, ap);
+    va_end(ap);
+    return false;
+}
+
+/* ---- pyramid geometry and CPU reference ---- */
+
+int plat_gles_pyramid_levels(int w, int h)
+{
+    int n = 1;
+    while ((w > 1 || h > 1) && n < PLAT_GLES_MAX_LEVELS) {
+        w = (w + 1) / 2;
+        h = (h + 1) / 2;
+        n++;
+    }
+    return n;
+}
+
+void plat_gles_pyramid_level_size(int w, int h, int level, int *lw, int *lh)
+{
+    for (int l = 0; l < level; l++) {
+        w = (w + 1) / 2;
+        h = (h + 1) / 2;
+    }
+    *lw = w;
+    *lh = h;
+}
+
+static inline float max4(float a, float b, float c, float d)
+{
+    float m = a > b ? a : b, n = c > d ? c : d;
+    return m > n ? m : n;
+}
+
+/* One reduction step from (w, h) values in `in` (row stride w) into out (stride ow). */
+static void reduce(const float *in, int w, int h, int step, float *out, int ow, int oh)
+{
+    for (int y = 0; y < oh; y++)
+        for (int x = 0; x < ow; x++) {
+            int x0 = x * step, y0 = y * step;
+            int x1 = x0 + 1 < w ? x0 + 1 : w - 1, y1 = y0 + 1 < h ? y0 + 1 : h - 1;
+            out[(size_t)y * ow + x] = max4(in[(size_t)y0 * w + x0], in[(size_t)y0 * w + x1], in[(size_t)y1 * w + x0],
+                                           in[(size_t)y1 * w + x1]);
+        }
+}
+
+void plat_gles_pyramid_cpu(const warp_image_f32 *inv, int level, warp_image_f32 *out, float *scratch)
+{
+    int w = inv->w, h = inv->h;
+    /* level 0 into scratch (dense rows), then halve in place: each output cell lies at or before its inputs */
+    for (int y = 0; y < h; y++) {
+        const float *r0 = &WARP_AT(inv, 0, y), *r1 = &WARP_AT(inv, 0, y + 1 < h ? y + 1 : y);
+        for (int x = 0; x < w; x++) {
+            int x1 = x + 1 < w ? x + 1 : x;
+            scratch[(size_t)y * w + x] = max4(r0[x], r0[x1], r1[x], r1[x1]);
+        }
+    }
+    for (int l = 1; l <= level; l++) {
+        int ow = (w + 1) / 2, oh = (h + 1) / 2;
+        reduce(scratch, w, h, 2, scratch, ow, oh);
+        w = ow;
+        h = oh;
+    }
+    for (int y = 0; y < h; y++) memcpy(&WARP_AT(out, 0, y), scratch + (size_t)y * w, sizeof(float) * (size_t)w);
+}
+
+/* ---- GL helpers ---- */
+
+static GLuint compile(GLenum type, const char *src, const char *name, char *err, int errlen)
+{
+    GLuint s = glCreateShader(type);
+    glShaderSource(s, 1, &src, NULL);
+    glCompileShader(s);
+    GLint ok = 0;
+    glGetShaderiv(s, GL_COMPILE_STATUS, &ok);
+    if (!ok) {
+        char log[600] = "";
+        glGetShaderInfoLog(s, sizeof log, NULL, log);
+        failf(err, errlen, "GLES: shader %s does not compile: %s", name, log);
+        glDeleteShader(s);
+        return 0;
+    }
+    return s;
+}
+
+static bool link(program *pr, const char *fs, const char *name, const char *const *uniforms, char *err, int errlen)
+{
+    GLuint v = compile(GL_VERTEX_SHADER, vs_full, "fullscreen vertex", err, errlen);
+    GLuint f = v ? compile(GL_FRAGMENT_SHADER, fs, name, err, errlen) : 0;
+    if (!f) {
+        if (v) glDeleteShader(v);
+        return false;
+    }
+    pr->prog = glCreateProgram();
+    glAttachShader(pr->prog, v);
+    glAttachShader(pr->prog, f);
+    glLinkProgram(pr->prog);
+    glDeleteShader(v);
+    glDeleteShader(f);
+    GLint ok = 0;
+    glGetProgramiv(pr->prog, GL_LINK_STATUS, &ok);
+    if (!ok) {
+        char log[600] = "";
+        glGetProgramInfoLog(pr->prog, sizeof log, NULL, log);
+        return failf(err, errlen, "GLES: program %s does not link: %s", name, log);
+    }
+    for (int i = 0; uniforms[i]; i++) pr->loc[i] = glGetUniformLocation(pr->prog, uniforms[i]);
+    return true;
+}
+
+static GLuint texture(GLenum ifmt, int w, int h, GLenum filter)
+{
+    GLuint t;
+    glGenTextures(1, &t);
+    glBindTexture(GL_TEXTURE_2D, t);
+    glTexStorage2D(GL_TEXTURE_2D, 1, ifmt, w, h);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, (GLint)filter);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, (GLint)filter);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    return t;
+}
+
+static bool fbo_for(GLuint tex, GLuint *fbo)
+{
+    glGenFramebuffers(1, fbo);
+    glBindFramebuffer(GL_FRAMEBUFFER, *fbo);
+    glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, tex, 0);
+    return glCheckFramebufferStatus(GL_FRAMEBUFFER) == GL_FRAMEBUFFER_COMPLETE;
+}
+
+static const char *gl_err_str(GLenum e)
+{
+    switch (e) {
+    case GL_INVALID_ENUM: return "GL_INVALID_ENUM";
+    case GL_INVALID_VALUE: return "GL_INVALID_VALUE";
+    case GL_INVALID_OPERATION: return "GL_INVALID_OPERATION";
+    case GL_INVALID_FRAMEBUFFER_OPERATION: return "GL_INVALID_FRAMEBUFFER_OPERATION";
+    case GL_OUT_OF_MEMORY: return "GL_OUT_OF_MEMORY";
+    default: return "GL error";
+    }
+}
+
+/* ---- timing ---- */
+
+static void pass_begin(plat_gles *g, plat_gles_pass p)
+{
+    g->active = -1;
+    if (g->timing == TIMING_QUERY) {
+        qslot *s = &g->slots[g->cur];
+        if (s->n >= QPER) return;
+        glBeginQuery(GL_TIME_ELAPSED_EXT, s->q[s->n]);
+        s->pass[s->n] = p;
+        g->active = p;
+    } else if (g->timing == TIMING_FINISH) {
+        glFinish();
+        g->t_begin = plat_now_ns();
+        g->active = p;
+    }
+}
+
+static void pass_end(plat_gles *g)
+{
+    if (g->active < 0) return;
+    if (g->timing == TIMING_QUERY) {
+        glEndQuery(GL_TIME_ELAPSED_EXT);
+        g->slots[g->cur].n++;
+    } else {
+        glFinish();
+        g->acc[g->active] += (double)(plat_now_ns() - g->t_begin) * 1e-6;
+        g->acc_valid[g->active] = true;
+    }
+    g->active = -1;
+}
+
+/* Reads a finished slot into latest; false while its last query is not available. */
+static bool collect(plat_gles *g, qslot *s)
+{
+    GLuint avail = 0;
+    glGetQueryObjectuiv(s->q[s->n - 1], GL_QUERY_RESULT_AVAILABLE, &avail);
+    if (!avail) return false;
+    GLint disjoint = 0;
+    glGetIntegerv(GL_GPU_DISJOINT_EXT, &disjoint);
+    plat_gles_times t;
+    memset(&t, 0, sizeof t);
+    for (int i = 0; i < s->n; i++) {
+        GLuint64 ns = 0;
+        if (g->get_u64) {
+            g->get_u64(s->q[i], GL_QUERY_RESULT, &ns);
+        } else {
+            GLuint v = 0;
+            glGetQueryObjectuiv(s->q[i], GL_QUERY_RESULT, &v);
+            ns = v;
+        }
+        /* llvmpipe sometimes answers a raw timestamp (seconds since boot) for a query begun before any work:
+         * nothing in one vsync takes a second, so such a frame is dropped like a disjoint one. */
+        if (ns > 1000000000ull) disjoint = 1;
+        t.ms[s->pass[i]] += (double)ns * 1e-6;
+        t.valid[s->pass[i]] = true;
+    }
+    s->pending = false;
+    s->n = 0;
+    /* A disjoint event (frequency change, power state) makes the numbers meaningless: drop them. */
+    if (disjoint) return true;
+    t.seq = g->latest.seq + 1;
+    g->latest = t;
+    return true;
+}
+
+void plat_gles_end_frame(plat_gles *g)
+{
+    if (g->timing == TIMING_QUERY) {
+        qslot *s = &g->slots[g->cur];
+        s->pending = s->n > 0;
+        /* oldest first */
+        for (int k = 1; k <= QSLOTS; k++) {
+            qslot *o = &g->slots[(g->cur + k) % QSLOTS];
+            if (o->pending && !collect(g, o)) break;
+        }
+        g->cur = (g->cur + 1) % QSLOTS;
+        qslot *n = &g->slots[g->cur];
+        if (n->pending) {
+            /* Four frames behind: drop rather than wait (the pass times come late, never the vsync). */
+            n->pending = false;
+        }
+        n->n = 0;
+    } else if (g->timing == TIMING_FINISH) {
+        bool any = false;
+        for (int p = 0; p < PLAT_GLES_PASSES; p++) any |= g->acc_valid[p];
+        if (any) {
+            uint64_t seq = g->latest.seq + 1;
+            memcpy(g->latest.ms, g->acc, sizeof g->acc);
+            memcpy(g->latest.valid, g->acc_valid, sizeof g->acc_valid);
+            g->latest.seq = seq;
+        }
+        memset(g->acc, 0, sizeof g->acc);
+        memset(g->acc_valid, 0, sizeof g->acc_valid);
+    }
+}
+
+bool plat_gles_times_latest(const plat_gles *g, plat_gles_times *t)
+{
+    *t = g->latest;
+    return g->timing != TIMING_OFF && g->latest.seq > 0;
+}
+
+const char *plat_gles_timing_method(const plat_gles *g)
+{
+    return g->timing == TIMING_QUERY ? "timer queries (EXT_disjoint_timer_query)"
+           : g->timing == TIMING_FINISH ? "glFinish bracketing"
+                                        : "off";
+}
+
+bool plat_gles_gpu_pyramid(const plat_gles *g) { return g->gpu_pyramid; }
+
+void plat_gles_count_samples(plat_gles *g, bool on) { g->count_samples = on; }
+
+/* ---- create / destroy ---- */
+
+plat_gles *plat_gles_create(plat_egl *egl, const plat_gles_params *p, char *err, int errlen)
+{
+    if (p->panel_w <= 0 || p->panel_h <= 0 || p->src_w <= 0 || p->src_h <= 0 || p->mesh_cols < 2 ||
+        p->mesh_rows < 2) {
+        failf(err, errlen, "GLES: bad sizes (panel %dx%d, source %dx%d, mesh %dx%d)", p->panel_w, p->panel_h,
+              p->src_w, p->src_h, p->mesh_cols, p->mesh_rows);
+        return NULL;
+    }
+    GLint max_tex = 0;
+    glGetIntegerv(GL_MAX_TEXTURE_SIZE, &max_tex);
+    if (p->mesh_cols * 3 > max_tex || p->panel_w > max_tex || p->panel_h > max_tex || 2 * p->src_w > max_tex) {
+        failf(err, errlen, "GLES: textures up to %d pixels on a side; the panel is %dx%d, the mesh %d wide", max_tex,
+              p->panel_w, p->panel_h, p->mesh_cols * 3);
+        return NULL;
+    }
+    plat_gles *g = calloc(1, sizeof *g);
+    if (!g) {
+        failf(err, errlen, "GLES: out of memory");
+        return NULL;
+    }
+    g->egl = egl;
+    g->p = *p;
+    g->active = -1;
+    static const char *const lens_u[] = {"u_src", "u_mesh", "u_vp", "u_flip_h", "u_vp_h", "u_rows", "u_cell_w",
+                                         "u_src_size", NULL};
+    static const char *const pyr_u[] = {"u_in", "u_in_size", NULL};
+    static const char *const rt_u[] = {"u_color", "u_depth", "u_pyr", "u_h", "u_a", "u_drange", "u_size",
+                                       "u_max_steps", "u_refine", "u_fill_far", "u_levels", "u_jump", "u_lvl_off",
+                                       "u_count", NULL};
+    if (!link(&g->lens, fs_lens, "lens", lens_u, err, errlen)) goto fail;
+    glGenVertexArrays(1, &g->vao);
+    if (!p->to_window) {
+        g->panel = texture(GL_RGBA8, p->panel_w, p->panel_h, GL_NEAREST);
+        if (!fbo_for(g->panel, &g->panel_fbo)) {
+            failf(err, errlen, "GLES: the %dx%d RGBA8 panel framebuffer is incomplete", p->panel_w, p->panel_h);
+            goto fail;
+        }
+    }
+    g->gpu_pyramid = !p->cpu_pyramid && plat_egl_has_extension(egl, "GL_EXT_color_buffer_float");
+    if (p->depth) {
+        if (!link(&g->rt, fs_raytrace, "raytrace", rt_u, err, errlen)) goto fail;
+        if (g->gpu_pyramid && (!link(&g->pyr0, fs_pyr0, "pyramid level 0", pyr_u, err, errlen) ||
+                               !link(&g->pyrn, fs_pyrn, "pyramid reduction", pyr_u, err, errlen)))
+            goto fail;
+        g->levels = plat_gles_pyramid_levels(p->src_w, p->src_h);
+        int y = 0;
+        for (int l = 0; l < g->levels; l++) {
+            plat_gles_pyramid_level_size(p->src_w, p->src_h, l, &g->lvl_w[l], &g->lvl_h[l]);
+            /* level 0 at the origin, level 1 to its right, the rest stacked below level 1 */
+            g->lvl_x[l] = l == 0 ? 0 : p->src_w;
+            g->lvl_y[l] = l == 0 ? 0 : y;
+            if (l > 0) y += g->lvl_h[l];
+        }
+        g->atlas_w = p->src_w + (g->levels > 1 ? g->lvl_w[1] : 0);
+        g->atlas_h = y > p->src_h ? y : p->src_h;
+        if (!g->gpu_pyramid) {
+            g->cpu_scratch = malloc(sizeof(float) * (size_t)p->src_w * (size_t)p->src_h);
+            g->cpu_level = malloc(sizeof(float) * (size_t)p->src_w * (size_t)p->src_h);
+            if (!g->cpu_scratch || !g->cpu_level) {
+                failf(err, errlen, "GLES: out of memory");
+                goto fail;
+            }
+        }
+    }
+    for (int e = 0; e < 2; e++) {
+        eye_res *r = &g->eye[e];
+        r->color = texture(GL_RGBA8, p->src_w, p->src_h, GL_LINEAR);
+        r->mesh = texture(GL_RG32F, p->mesh_cols * 3, p->mesh_rows, GL_NEAREST);
+        if (!p->depth) continue;
+        r->depth = texture(GL_R32F, p->src_w, p->src_h, GL_NEAREST);
+        r->inter = texture(GL_RGBA8, p->src_w, p->src_h, GL_LINEAR);
+        if (!fbo_for(r->inter, &r->inter_fbo)) {
+            failf(err, errlen, "GLES: the raytrace framebuffer is incomplete");
+            goto fail;
+        }
+        r->atlas = texture(GL_R32F, g->atlas_w, g->atlas_h, GL_NEAREST);
+        if (g->gpu_pyramid) {
+            if (!fbo_for(r->atlas, &r->atlas_fbo)) {
+                failf(err, errlen, "GLES: R32F is not renderable here although EXT_color_buffer_float is offered");
+                goto fail;
+            }
+            for (int l = 0; l < g->levels; l++) {
+                r->lvl[l] = texture(GL_R32F, g->lvl_w[l], g->lvl_h[l], GL_NEAREST);
+                if (!fbo_for(r->lvl[l], &r->lvl_fbo[l])) {
+                    failf(err, errlen, "GLES: pyramid level %d framebuffer is incomplete", l);
+                    goto fail;
+                }
+            }
+        }
+    }
+    if (p->timing) {
+        if (plat_egl_has_extension(egl, "GL_EXT_disjoint_timer_query")) {
+            g->timing = TIMING_QUERY;
+            g->get_u64 = (PFNGLGETQUERYOBJECTUI64VEXTPROC)eglGetProcAddress("glGetQueryObjectui64vEXT");
+            for (int s = 0; s < QSLOTS; s++) glGenQueries(QPER, g->slots[s].q);
+        } else {
+            g->timing = TIMING_FINISH;
+        }
+    }
+    glBindFramebuffer(GL_FRAMEBUFFER, 0);
+    GLenum ge = glGetError();
+    if (ge != GL_NO_ERROR) {
+        failf(err, errlen, "GLES: setting up the renderer failed (%s)", gl_err_str(ge));
+        goto fail;
+    }
+    return g;
+fail:
+    plat_gles_destroy(g);
+    return NULL;
+}
+
+void plat_gles_destroy(plat_gles *g)
+{
+    if (!g) return;
+    GLuint progs[4] = {g->lens.prog, g->pyr0.prog, g->pyrn.prog, g->rt.prog};
+    for (int i = 0; i < 4; i++)
+        if (progs[i]) glDeleteProgram(progs[i]);
+    if (g->vao) glDeleteVertexArrays(1, &g->vao);
+    if (g->panel_fbo) glDeleteFramebuffers(1, &g->panel_fbo);
+    if (g->panel) glDeleteTextures(1, &g->panel);
+    for (int e = 0; e < 2; e++) {
+        eye_res *r = &g->eye[e];
+        GLuint tex[5] = {r->color, r->depth, r->mesh, r->inter, r->atlas};
+        GLuint fbo[2] = {r->inter_fbo, r->atlas_fbo};
+        for (int i = 0; i < 5; i++)
+            if (tex[i]) glDeleteTextures(1, &tex[i]);
+        for (int i = 0; i < 2; i++)
+            if (fbo[i]) glDeleteFramebuffers(1, &fbo[i]);
+        for (int l = 0; l < PLAT_GLES_MAX_LEVELS; l++) {
+            if (r->lvl_fbo[l]) glDeleteFramebuffers(1, &r->lvl_fbo[l]);
+            if (r->lvl[l]) glDeleteTextures(1, &r->lvl[l]);
+        }
+    }
+    if (g->timing == TIMING_QUERY)
+        for (int s = 0; s < QSLOTS; s++) glDeleteQueries(QPER, g->slots[s].q);
+    free(g->cpu_scratch);
+    free(g->cpu_level);
+    free(g);
+}
+
+/* ---- passes ---- */
+
+static void bind_tex(int unit, GLuint tex)
+{
+    glActiveTexture(GL_TEXTURE0 + (GLenum)unit);
+    glBindTexture(GL_TEXTURE_2D, tex);
+}
+
+static void build_pyramid(plat_gles *g, int eye, const warp_image_f32 *inv)
+{
+    eye_res *r = &g->eye[eye];
+    if (!g->gpu_pyramid) {
+        glBindTexture(GL_TEXTURE_2D, r->atlas);
+        glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
+        for (int l = 0; l < g->levels; l++) {
+            warp_image_f32 out = {g->lvl_w[l], g->lvl_h[l], g->lvl_w[l], g->cpu_level};
+            plat_gles_pyramid_cpu(inv, l, &out, g->cpu_scratch);
+            glTexSubImage2D(GL_TEXTURE_2D, 0, g->lvl_x[l], g->lvl_y[l], g->lvl_w[l], g->lvl_h[l], GL_RED, GL_FLOAT,
+                            g->cpu_level);
+        }
+        return;
+    }
+    glBindVertexArray(g->vao);
+    for (int l = 0; l < g->levels; l++) {
+        const program *pr = l == 0 ? &g->pyr0 : &g->pyrn;
+        glUseProgram(pr->prog);
+        bind_tex(0, l == 0 ? r->depth : r->lvl[l - 1]);
+        glUniform1i(pr->loc[P_IN], 0);
+        glUniform2i(pr->loc[P_INSIZE], l == 0 ? g->p.src_w : g->lvl_w[l - 1], l == 0 ? g->p.src_h : g->lvl_h[l - 1]);
+        glBindFramebuffer(GL_FRAMEBUFFER, r->lvl_fbo[l]);
+        glViewport(0, 0, g->lvl_w[l], g->lvl_h[l]);
+        glDrawArrays(GL_TRIANGLES, 0, 3);
+    }
+    /* Into the atlas the raytrace reads (a shader cannot pick one of several samplers by a computed index). */
+    glBindFramebuffer(GL_DRAW_FRAMEBUFFER, r->atlas_fbo);
+    for (int l = 0; l < g->levels; l++) {
+        glBindFramebuffer(GL_READ_FRAMEBUFFER, r->lvl_fbo[l]);
+        glBlitFramebuffer(0, 0, g->lvl_w[l], g->lvl_h[l], g->lvl_x[l], g->lvl_y[l], g->lvl_x[l] + g->lvl_w[l],
+                          g->lvl_y[l] + g->lvl_h[l], GL_COLOR_BUFFER_BIT, GL_NEAREST);
+    }
+    glBindFramebuffer(GL_FRAMEBUFFER, 0);
+}
+
+bool plat_gles_upload(plat_gles *g, int eye, const warp_image_rgba8 *color, const warp_image_f32 *inv_depth)
+{
+    if (eye < 0 || eye > 1 || color->w != g->p.src_w || color->h != g->p.src_h) return false;
+    if (inv_depth && (!g->p.depth || inv_depth->w != g->p.src_w || inv_depth->h != g->p.src_h)) return false;
+    eye_res *r = &g->eye[eye];
+    pass_begin(g, PLAT_GLES_UPLOAD);
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+    glPixelStorei(GL_UNPACK_ROW_LENGTH, color->stride);
+    glBindTexture(GL_TEXTURE_2D, r->color);
+    glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, color->w, color->h, GL_RGBA, GL_UNSIGNED_BYTE, color->px);
+    if (inv_depth) {
+        glPixelStorei(GL_UNPACK_ROW_LENGTH, inv_depth->stride);
+        glBindTexture(GL_TEXTURE_2D, r->depth);
+        glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, inv_depth->w, inv_depth->h, GL_RED, GL_FLOAT, inv_depth->px);
+    }
+    glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
+    pass_end(g);
+    if (inv_depth) {
+        pass_begin(g, PLAT_GLES_PYRAMID);
+        build_pyramid(g, eye, inv_depth);
+        pass_end(g);
+    }
+    return glGetError() == GL_NO_ERROR;
+}
+
+void plat_gles_raytrace(plat_gles *g, int eye, const warp_raytrace_setup *s)
+{
+    if (!g->p.depth || eye < 0 || eye > 1) return;
+    eye_res *r = &g->eye[eye];
+    const program *pr = &g->rt;
+    pass_begin(g, PLAT_GLES_RAYTRACE);
+    glUseProgram(pr->prog);
+    glBindVertexArray(g->vao);
+    bind_tex(0, r->color);
+    bind_tex(1, r->depth);
+    bind_tex(2, r->atlas);
+    glUniform1i(pr->loc[R_COLOR], 0);
+    glUniform1i(pr->loc[R_DEPTH], 1);
+    glUniform1i(pr->loc[R_PYR], 2);
+    /* GLSL matrices are column-major: column c holds h.m[0..2][c]. */
+    GLfloat h[9];
+    for (int c = 0; c < 3; c++)
+        for (int rr = 0; rr < 3; rr++) h[c * 3 + rr] = (GLfloat)s->h.m[rr][c];
+    glUniformMatrix3fv(pr->loc[R_H], 1, GL_FALSE, h);
+    glUniform3f(pr->loc[R_A], (GLfloat)s->ax, (GLfloat)s->ay, (GLfloat)s->aw);
+    glUniform2f(pr->loc[R_DRANGE], s->src->inv_depth_min, s->src->inv_depth_max);
+    glUniform2i(pr->loc[R_SIZE], g->p.src_w, g->p.src_h);
+    glUniform1i(pr->loc[R_STEPS], s->p.max_steps);
+    glUniform1i(pr->loc[R_REFINE], s->p.refine_iters);
+    glUniform1i(pr->loc[R_FILL], s->p.edge_fill == WARP_EDGE_FILL_FAR);
+    glUniform1i(pr->loc[R_LEVELS], g->levels);
+    glUniform1f(pr->loc[R_JUMP], s->p.edge_jump);
+    GLint off[2 * PLAT_GLES_MAX_LEVELS] = {0};
+    for (int l = 0; l < g->levels; l++) {
+        off[2 * l] = g->lvl_x[l];
+        off[2 * l + 1] = g->lvl_y[l];
+    }
+    glUniform2iv(pr->loc[R_OFF], PLAT_GLES_MAX_LEVELS, off);
+    glUniform1i(pr->loc[R_COUNT], g->count_samples);
+    glBindFramebuffer(GL_FRAMEBUFFER, r->inter_fbo);
+    glViewport(0, 0, s->dst_w < g->p.src_w ? s->dst_w : g->p.src_w, s->dst_h < g->p.src_h ? s->dst_h : g->p.src_h);
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+    pass_end(g);
+}
+
+void plat_gles_lens(plat_gles *g, int eye, const warp_mesh *m, bool from_raytrace)
+{
+    if (eye < 0 || eye > 1 || m->cols != g->p.mesh_cols || m->rows != g->p.mesh_rows) return;
+    if (from_raytrace && !g->p.depth) return;
+    eye_res *r = &g->eye[eye];
+    const program *pr = &g->lens;
+    pass_begin(g, PLAT_GLES_LENS);
+    glBindTexture(GL_TEXTURE_2D, r->mesh);
+    glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+    glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, m->cols * 3, m->rows, GL_RG, GL_FLOAT, m->src);
+    glUseProgram(pr->prog);
+    glBindVertexArray(g->vao);
+    bind_tex(0, from_raytrace ? r->inter : r->color);
+    bind_tex(1, r->mesh);
+    glUniform1i(pr->loc[L_SRC], 0);
+    glUniform1i(pr->loc[L_MESH], 1);
+    /* Window rows: the FBO keeps panel row y at GL row y (glReadPixels then returns the panel top row first); a
+     * KMS framebuffer scans out GL's top row first, so there the panel is drawn upside down in GL terms. */
+    int win_y = g->p.to_window ? g->p.panel_h - (m->vp_y + m->vp_h) : m->vp_y;
+    glUniform2i(pr->loc[L_VP], m->vp_x, m->vp_y);
+    glUniform1i(pr->loc[L_FLIP], g->p.to_window ? g->p.panel_h : 0);
+    glUniform1i(pr->loc[L_VPH], m->vp_h);
+    glUniform1i(pr->loc[L_ROWS], m->rows);
+    glUniform1i(pr->loc[L_CELLW], m->cell_w);
+    glUniform2f(pr->loc[L_SRCSIZE], (GLfloat)g->p.src_w, (GLfloat)g->p.src_h);
+    glBindFramebuffer(GL_FRAMEBUFFER, g->p.to_window ? 0 : g->panel_fbo);
+    glViewport(m->vp_x, win_y, m->vp_w, m->vp_h);
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+    pass_end(g);
+}
+
+void plat_gles_clear(plat_gles *g)
+{
+    glBindFramebuffer(GL_FRAMEBUFFER, g->p.to_window ? 0 : g->panel_fbo);
+    glViewport(0, 0, g->p.panel_w, g->p.panel_h);
+    glClearColor(0, 0, 0, 1);
+    glClear(GL_COLOR_BUFFER_BIT);
+}
+
+bool plat_gles_read(plat_gles *g, warp_image_rgba8 *dst, char *err, int errlen)
+{
+    if (g->p.to_window) return failf(err, errlen, "GLES: the panel is on a window surface, nothing to read back");
+    if (dst->w != g->p.panel_w || dst->h != g->p.panel_h)
+        return failf(err, errlen, "GLES: readback into %dx%d, panel is %dx%d", dst->w, dst->h, g->p.panel_w,
+                     g->p.panel_h);
+    pass_begin(g, PLAT_GLES_READBACK);
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, g->panel_fbo);
+    glPixelStorei(GL_PACK_ALIGNMENT, 4);
+    glPixelStorei(GL_PACK_ROW_LENGTH, dst->stride);
+    glReadPixels(0, 0, dst->w, dst->h, GL_RGBA, GL_UNSIGNED_BYTE, dst->px);
+    glPixelStorei(GL_PACK_ROW_LENGTH, 0);
+    pass_end(g);
+    GLenum e = glGetError();
+    if (e != GL_NO_ERROR) return failf(err, errlen, "GLES: rendering or readback failed (%s)", gl_err_str(e));
+    return true;
+}
+
+bool plat_gles_read_raytrace(plat_gles *g, int eye, warp_image_rgba8 *rgb, warp_image_u8 *mask)
+{
+    if (!g->p.depth || eye < 0 || eye > 1) return false;
+    int w = g->p.src_w, h = g->p.src_h;
+    warp_rgba8 *buf = malloc(sizeof *buf * (size_t)w * (size_t)h);
+    if (!buf) return false;
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, g->eye[eye].inter_fbo);
+    glPixelStorei(GL_PACK_ROW_LENGTH, 0);
+    glReadPixels(0, 0, w, h, GL_RGBA, GL_UNSIGNED_BYTE, buf);
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            warp_rgba8 v = buf[(size_t)y * w + x];
+            if (rgb) WARP_AT(rgb, x, y) = (warp_rgba8){v.r, v.g, v.b, 255};
+            if (mask) WARP_AT(mask, x, y) = v.a;
+        }
+    free(buf);
+    return glGetError() == GL_NO_ERROR;
+}
+
+bool plat_gles_read_pyramid(plat_gles *g, int eye, int level, warp_image_f32 *dst)
+{
+    if (!g->p.depth || eye < 0 || eye > 1 || level < 0 || level >= g->levels) return false;
+    if (!g->gpu_pyramid) {
+        /* the atlas is not renderable without EXT_color_buffer_float; the CPU built it anyway */
+        return false;
+    }
+    int w = g->lvl_w[level], h = g->lvl_h[level];
+    /* RGBA + FLOAT is the read format every float colour buffer supports (GLES 3.0 §4.3.2) */
+    float *buf = malloc(sizeof(float) * 4 * (size_t)w * (size_t)h);
+    if (!buf) return false;
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, g->eye[eye].atlas_fbo);
+    glPixelStorei(GL_PACK_ROW_LENGTH, 0);
+    glReadPixels(g->lvl_x[level], g->lvl_y[level], w, h, GL_RGBA, GL_FLOAT, buf);
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) WARP_AT(dst, x, y) = buf[((size_t)y * w + x) * 4];
+    free(buf);
+    return glGetError() == GL_NO_ERROR;
+}
+
+bool plat_gles_bench(plat_gles *g, const warp_image_rgba8 *color, const warp_image_f32 *inv,
+                     const warp_raytrace_setup *const rt[2], const warp_mesh *const mesh[2], int reps,
+                     plat_gles_times *mean)
+{
+    memset(mean, 0, sizeof *mean);
+    if (g->timing == TIMING_OFF || reps < 1 || g->p.to_window) return false;
+    warp_image_rgba8 out;
+    if (!warp_image_rgba8_alloc(&out, g->p.panel_w, g->p.panel_h)) return false;
+    char err[200];
+    bool ok = true;
+    int counted[PLAT_GLES_PASSES] = {0};
+    uint64_t seq = g->latest.seq;
+    /* two vsyncs more than asked: the first is warm-up (shader compilation, first touches) and results arrive a
+     * vsync late, so vsyncs 1..reps are the ones counted */
+    for (int r = 0; r <= reps + 1 && ok; r++) {
+        for (int e = 0; e < 2 && ok; e++) ok = plat_gles_upload(g, e, color, g->p.depth ? inv : NULL);
+        for (int e = 0; e < 2; e++) {
+            bool traced = rt && g->p.depth && inv;
+            if (traced) plat_gles_raytrace(g, e, rt[e]);
+            plat_gles_lens(g, e, mesh[e], traced);
+        }
+        ok = ok && plat_gles_read(g, &out, err, sizeof err);
+        plat_gles_end_frame(g);
+        /* the readback waited for the GPU: the previous vsync's queries are in */
+        if (r >= 2 && g->latest.seq != seq) {
+            seq = g->latest.seq;
+            for (int p = 0; p < PLAT_GLES_PASSES; p++)
+                if (g->latest.valid[p]) {
+                    mean->ms[p] += g->latest.ms[p];
+                    counted[p]++;
+                }
+        }
+    }
+    for (int p = 0; p < PLAT_GLES_PASSES; p++)
+        if (counted[p]) {
+            mean->ms[p] /= counted[p];
+            mean->valid[p] = true;
+        }
+    mean->seq = seq;
+    warp_image_free(&out);
+    return ok;
+}

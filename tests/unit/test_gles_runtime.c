@@ -1,0 +1,214 @@
+/* The GLES renderer inside the runtime: how `renderer = auto|cpu|gles` decides (llvmpipe -> cpu, a hardware GPU ->
+ * gles), the [render]/[display] keys, the KMS error without a DRM device, and a short GLES run on the simulated
+ * board whose summary names the renderer, the reason and the per-pass GPU times. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <cmocka.h>
+
+#include "runtime/rt_app.h"
+
+static void test_choose(void **state)
+{
+    (void)state;
+    char why[256];
+    const char *llvm = "llvmpipe (LLVM 15.0.6, 256 bits)";
+    assert_false(rt_render_choose("cpu", llvm, NULL, false, why, sizeof why));
+    assert_string_equal(why, "renderer = cpu");
+    /* auto: software rasterizer -> the CPU path, and the summary says why */
+    assert_false(rt_render_choose("auto", llvm, NULL, false, why, sizeof why));
+    assert_non_null(strstr(why, "software rasterizer (llvmpipe"));
+    /* auto: a hardware GPU -> GLES */
+    assert_true(rt_render_choose("auto", "V3D 4.2", NULL, false, why, sizeof why));
+    assert_string_equal(why, "auto: EGL offers a hardware GPU");
+    assert_true(rt_render_choose("auto", "Mali-G31 (Panfrost)", NULL, false, why, sizeof why));
+    /* auto without EGL -> CPU, naming the EGL error */
+    assert_false(rt_render_choose("auto", NULL, "EGL (surfaceless): no display", false, why, sizeof why));
+    assert_non_null(strstr(why, "EGL (surfaceless): no display"));
+    /* forced gles runs even on llvmpipe (make run RENDER=gles) */
+    assert_true(rt_render_choose("gles", llvm, NULL, false, why, sizeof why));
+    assert_non_null(strstr(why, "forced onto a software rasterizer"));
+    assert_true(rt_render_choose("gles", "V3D 7.1", NULL, false, why, sizeof why));
+    assert_string_equal(why, "renderer = gles");
+    /* KMS output has no CPU path */
+    assert_true(rt_render_choose("auto", llvm, NULL, true, why, sizeof why));
+    assert_true(rt_render_choose("auto", NULL, "no DRM device", true, why, sizeof why));
+}
+
+static void test_config_keys(void **state)
+{
+    (void)state;
+    rt_config c;
+    rt_config_defaults(&c);
+    assert_string_equal(c.renderer, "auto");
+    assert_string_equal(c.output, "offscreen");
+    assert_string_equal(c.kms_device, "/dev/dri/card0");
+    rt_config_errors e = {0};
+    assert_true(rt_config_set(&c, "render.renderer=gles", &e));
+    assert_true(rt_config_set(&c, "render.renderer=cpu", &e));
+    assert_false(rt_config_set(&c, "render.renderer=vulkan", &e));
+    assert_true(e.count > 0);
+    assert_non_null(strstr(e.msg[0], "renderer"));
+    e.count = 0;
+    assert_false(rt_config_set(&c, "display.output=hdmi", &e));
+    e.count = 0;
+    assert_true(rt_config_set(&c, "display.output=kms", &e));
+    /* cpu cannot drive KMS */
+    assert_false(rt_config_validate(&c, &e));
+    assert_non_null(strstr(e.msg[e.count - 1], "output = kms"));
+    e.count = 0;
+    assert_true(rt_config_set(&c, "render.renderer=auto", &e));
+    assert_true(rt_config_validate(&c, &e));
+    int w, h;
+    double hz;
+    assert_true(rt_config_parse_mode("auto", &w, &h, &hz) && w == 0 && h == 0 && hz == 0);
+    assert_true(rt_config_parse_mode("2880x1600", &w, &h, &hz) && w == 2880 && h == 1600 && hz == 0);
+    assert_true(rt_config_parse_mode("2880x1600@90", &w, &h, &hz) && w == 2880 && hz == 90);
+    assert_false(rt_config_parse_mode("2880x1600@", &w, &h, &hz));
+    assert_false(rt_config_parse_mode("2880x", &w, &h, &hz));
+    assert_false(rt_config_parse_mode("wide", &w, &h, &hz));
+    assert_false(rt_config_parse_mode("2880x1600@90Hz", &w, &h, &hz));
+    assert_true(rt_config_set(&c, "display.kms_mode=big", &e));
+    e.count = 0;
+    assert_false(rt_config_validate(&c, &e));
+    assert_non_null(strstr(e.msg[0], "kms_mode"));
+}
+
+static void small_config(rt_config *c, const char *renderer, const char *method)
+{
+    rt_config_defaults(c);
+    rt_config_errors e = {0};
+    const char *sets[] = {"display.width=192", "display.height=96", "eye.width=96", "eye.height=96",
+                          "lens.scale=54", "lens.center=51 48", "sim.duration_s=0.4", "sim.eval_every_ms=0",
+                          "render.rt_priority=0", "sim.scene=near", "sim.host_threads=1", "lens.mesh=16"};
+    for (size_t i = 0; i < sizeof sets / sizeof sets[0]; i++) assert_true(rt_config_set(c, sets[i], &e));
+    char buf[64];
+    snprintf(buf, sizeof buf, "render.renderer=%s", renderer);
+    assert_true(rt_config_set(c, buf, &e));
+    snprintf(buf, sizeof buf, "warp.method=%s", method);
+    assert_true(rt_config_set(c, buf, &e));
+    if (!rt_config_validate(c, &e)) fail_msg("config: %s", e.msg[0]);
+}
+
+static rt_app app;
+
+static void test_kms_without_drm_device(void **state)
+{
+    (void)state;
+    rt_config c;
+    small_config(&c, "auto", "rotation");
+    rt_config_errors e = {0};
+    assert_true(rt_config_set(&c, "display.output=kms", &e));
+    assert_true(rt_config_set(&c, "display.kms_device=/nonexistent/dri/card0", &e));
+    char err[300];
+    assert_false(rt_app_init(&app, &c, err, sizeof err));
+    print_message("%s\n", err);
+    assert_string_equal(err, "[display] output = kms: no DRM device: /nonexistent/dri/card0: No such file or directory");
+    rt_app_free(&app);
+    FILE *probe = fopen("/dev/dri/card0", "r");
+    if (probe) {
+        fclose(probe);
+        return; /* a machine with a display controller: the default device exists */
+    }
+    assert_true(rt_config_set(&c, "display.kms_device=/dev/dri/card0", &e));
+    assert_false(rt_app_init(&app, &c, err, sizeof err));
+    assert_string_equal(err, "[display] output = kms: no DRM device: /dev/dri/card0: No such file or directory");
+    rt_app_free(&app);
+}
+
+static char *stats_text(void)
+{
+    char *buf = NULL;
+    size_t len = 0;
+    FILE *f = open_memstream(&buf, &len);
+    assert_non_null(f);
+    rt_app_stats_kv(&app, f);
+    fclose(f);
+    return buf;
+}
+
+static char *summary_text(void)
+{
+    char *buf = NULL;
+    size_t len = 0;
+    FILE *f = open_memstream(&buf, &len);
+    assert_non_null(f);
+    rt_app_summary(&app, f);
+    fclose(f);
+    return buf;
+}
+
+static void test_gles_run_on_llvmpipe(void **state)
+{
+    (void)state;
+    rt_config c;
+    small_config(&c, "gles", "raytrace");
+    char err[300];
+    if (!rt_app_init(&app, &c, err, sizeof err)) fail_msg("init: %s", err);
+    assert_true(app.use_gles);
+    rt_app_run(&app);
+    rt_telemetry *t = app.tel;
+    print_message("vsyncs %llu, raytrace %llu, gles errors %llu\n", (unsigned long long)t->vsyncs,
+                  (unsigned long long)t->method_count[RT_METHOD_RAYTRACE], (unsigned long long)app.gles_errors);
+    assert_true(t->method_count[RT_METHOD_RAYTRACE] > 0);
+    assert_int_equal(app.gles_errors, 0);
+    assert_true(app.gles_ms[PLAT_GLES_RAYTRACE].count > 0);
+    assert_true(app.gles_ms[PLAT_GLES_LENS].count > 0);
+    assert_true(app.gles_ms[PLAT_GLES_PYRAMID].count > 0); /* built for new frames */
+    /* something was drawn: the image on screen is not all black */
+    int idx = app.sc.on_screen;
+    assert_true(idx >= 0);
+    long lit = 0;
+    for (int y = 0; y < app.sc.img[idx].h; y++)
+        for (int x = 0; x < app.sc.img[idx].w; x++) lit += WARP_AT(&app.sc.img[idx], x, y).g > 10;
+    assert_true(lit > 192 * 96 / 2);
+    char *kv = stats_text(), *sum = summary_text();
+    assert_non_null(strstr(kv, "renderer=gles\n"));
+    assert_non_null(strstr(kv, "gl_renderer=llvmpipe"));
+    assert_non_null(strstr(kv, "renderer_reason=renderer = gles (forced onto a software rasterizer)\n"));
+    assert_non_null(strstr(kv, "gles_raytrace_ms_p50="));
+    assert_null(strstr(kv, "gles_raytrace_ms_p50=nan"));
+    assert_non_null(strstr(sum, "renderer                   gles: llvmpipe"));
+    assert_non_null(strstr(sum, "gles raytrace"));
+    free(kv);
+    free(sum);
+    rt_app_free(&app);
+}
+
+static void test_auto_picks_cpu_on_llvmpipe(void **state)
+{
+    (void)state;
+    rt_config c;
+    small_config(&c, "auto", "rotation");
+    rt_config_errors e = {0};
+    assert_true(rt_config_set(&c, "sim.duration_s=0.1", &e));
+    char err[300];
+    if (!rt_app_init(&app, &c, err, sizeof err)) fail_msg("init: %s", err);
+    assert_false(app.use_gles);
+    assert_null(app.egl); /* not kept open for nothing */
+    rt_app_run(&app);
+    char *kv = stats_text(), *sum = summary_text();
+    assert_non_null(strstr(kv, "renderer=cpu\n"));
+    assert_non_null(strstr(kv, "renderer_reason=auto: EGL offers only a software rasterizer (llvmpipe"));
+    assert_null(strstr(kv, "gles_"));
+    assert_non_null(strstr(sum, "renderer                   cpu ("));
+    assert_non_null(strstr(sum, "renderer chosen            auto: EGL offers only a software rasterizer"));
+    free(kv);
+    free(sum);
+    rt_app_free(&app);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_choose),
+        cmocka_unit_test(test_config_keys),
+        cmocka_unit_test(test_kms_without_drm_device),
+        cmocka_unit_test(test_gles_run_on_llvmpipe),
+        cmocka_unit_test(test_auto_picks_cpu_on_llvmpipe),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
