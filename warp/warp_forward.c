@@ -128,8 +128,8 @@ bool warp_fwd_scratch_alloc(warp_fwd_scratch *s, int src_w, int src_h, int dst_w
     s->zbuf = malloc(nd * sizeof *s->zbuf);
     s->rank = malloc(nd * sizeof *s->rank);
     s->bin_of = malloc(nd * sizeof *s->bin_of);
-    if (!s->x2 || !s->y2 || !s->d2 || !s->jac || !s->order || !s->binned || !s->bin_start || !s->bin_fill || !s->bin_key || !s->zbuf || !s->rank ||
-        !s->bin_of) {
+    if (!s->x2 || !s->y2 || !s->d2 || !s->jac || !s->order || !s->binned || !s->bin_start || !s->bin_fill ||
+        !s->bin_key || !s->zbuf || !s->rank || !s->bin_of) {
         warp_fwd_scratch_free(s);
         return false;
     }

@@ -133,7 +133,8 @@ static void test_warp_equation_and_epipole(void **state)
         warp_pose b = {warp_quat_mul(a.q, warp_quat_from_ypr(test_rng_uniform(&r, -0.2, 0.2),
                                                              test_rng_uniform(&r, -0.2, 0.2), 0)),
                        warp_v3_add(a.p, warp_v3(test_rng_uniform(&r, -0.1, 0.1), 0, test_rng_uniform(&r, -0.1, 0.1)))};
-        warp_vec3 pe = warp_v3(test_rng_uniform(&r, -0.5, 0.5), test_rng_uniform(&r, -0.4, 0.4), -test_rng_uniform(&r, 0.5, 5));
+        warp_vec3 pe = warp_v3(test_rng_uniform(&r, -0.5, 0.5), test_rng_uniform(&r, -0.4, 0.4),
+                               -test_rng_uniform(&r, 0.5, 5));
         warp_vec3 pw = warp_pose_apply(a, pe), pb = warp_pose_apply(warp_pose_inverse(b), pw);
         double x1, y1, d1, x2, y2, d2, wx, wy, wd;
         assert_true(warp_camera_project(&F.cam, pe, &x1, &y1, &d1));
@@ -314,7 +315,8 @@ static void test_splats_vs_truth(void **state)
         holes[k] = st.fwd.holes - st.fwd.fringe;
         psnr[k] = warp_psnr(&F.out, &F.b.color, &F.mask, 0xff);
         double err = warp_error_pixel_percent(&F.out, &F.b.color, &F.mask, 0xff, 20);
-        print_message("%-11s %.2f dB, %.2f %% error px, %ld interior holes, %ld primitives, %ld fragments, %ld culled\n",
+        print_message("%-11s %.2f dB, %.2f %% error px, %ld interior holes, %ld primitives, %ld fragments, "
+                      "%ld culled\n",
                       names[k], psnr[k], err, holes[k], st.primitives, st.fragments, st.culled);
         assert_true(psnr[k] > 26.0);
         assert_true(st.primitives > W * H / 2);
@@ -363,8 +365,8 @@ static void test_sheets8_fixes_sheets4_errors(void **state)
     long e4 = visibility_errors(F.zref, F.sc.zbuf);
     splat(b, WARP_SPLAT_POINT, WARP_FWD_SHEETS8, 3, &F.out2, NULL, &s8);
     long e8 = visibility_errors(F.zref, F.sc.zbuf);
-    print_message("wire on the epipole's row: visibility errors 4 sheets %ld, 8 sheets %ld (%d / %d sheets)\n", e4, e8,
-                  s4.fwd.sheets, s8.fwd.sheets);
+    print_message("wire on the epipole's row: visibility errors 4 sheets %ld, 8 sheets %ld (%d / %d sheets)\n", e4,
+                  e8, s4.fwd.sheets, s8.fwd.sheets);
     assert_int_equal(s4.fwd.sheets, 4);
     assert_int_equal(s8.fwd.sheets, 8);
     assert_true(e4 > 100);

@@ -210,7 +210,8 @@ static void test_per_object_beats_whole_frame(void **state)
     assert_true(pe > pw + 4.0);
     assert_true(ee < ew / 2);
     /* Moving the objects the wrong way must do worse than not moving them. */
-    for (int i = 0; i < F.n; i++) F.prev_obj[i] = warp_object_pose_extrapolate(F.dst_obj[i], t1, F.src_obj[i], t0, t1 - 2 * dt);
+    for (int i = 0; i < F.n; i++)
+        F.prev_obj[i] = warp_object_pose_extrapolate(F.dst_obj[i], t1, F.src_obj[i], t0, t1 - 2 * dt);
     run(b, F.prev_obj, WARP_SPLAT_QUAD, &F.out, &F.mask, NULL);
     or_masks(&F.both, &F.mask, &F.mask2);
     double pb, eb;
