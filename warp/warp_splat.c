@@ -1,0 +1,262 @@
+/* warp_splat: reconstruction of forward-warped samples (002 §3.3): square point splats sized from the warp's
+ * Jacobian, quadrilateral splats (the Jacobian image of the pixel) and a mesh of the source pixels that is not
+ * connected across depth discontinuities or object borders. Runs on the samples warp_forward maps. */
+#include "warp/warp_splat.h"
+
+#include <math.h>
+#include <string.h>
+
+warp_splat_params warp_splat_default_params(warp_splat_kind kind)
+{
+    warp_splat_params p = {kind, WARP_FWD_ZBUFFER, 1, 4, 8.0f, 0.1f};
+    return p;
+}
+
+typedef struct {
+    const warp_view *v;
+    warp_fwd_scratch *sc;
+    warp_image_rgba8 *dst;
+    bool ztest;
+    long fragments, writes, rejects;
+} draw_ctx;
+
+/* One covered target pixel: the depth test (z-buffer mode; ties go to the later sample, as the painter's order
+ * would) or a plain overwrite (sheet order). */
+static inline void fragment(draw_ctx *c, int i, int j, float d, warp_rgba8 col)
+{
+    int32_t t = j * c->sc->dst_w + i;
+    c->fragments++;
+    if (c->ztest && d < c->sc->zbuf[t]) {
+        c->rejects++;
+        return;
+    }
+    WARP_AT(c->dst, i, j) = col;
+    c->sc->zbuf[t] = d;
+    c->writes++;
+}
+
+/* Pixels whose centres lie in [lo, hi): the half-open rule keeps abutting splats from sharing pixels. */
+static inline void span(double lo, double hi, int n, int *a, int *b)
+{
+    double fa = ceil(lo - 0.5), fb = ceil(hi - 0.5);
+    *a = fa < 0 ? 0 : (fa > n ? n : (int)fa);
+    *b = fb < 0 ? 0 : (fb > n ? n : (int)fb);
+}
+
+static void point_splat(draw_ctx *c, const warp_splat_params *p, int32_t k)
+{
+    const float *j = &c->sc->jac[4 * k];
+    double ext = fmax(fabs(j[0]) + fabs(j[1]), fabs(j[2]) + fabs(j[3]));
+    /* ceil (002 §3.3) so that splats never leave cracks; the small slack keeps an exact 1:1 warp at size 1 */
+    double sz = isfinite(ext) ? ceil(ext - 1e-3) : p->max_size;
+    if (sz < p->min_size) sz = p->min_size;
+    if (sz > p->max_size) sz = p->max_size;
+    double cx = c->sc->x2[k], cy = c->sc->y2[k];
+    int x0, x1, y0, y1;
+    span(cx - sz * 0.5, cx + sz * 0.5, c->sc->dst_w, &x0, &x1);
+    span(cy - sz * 0.5, cy + sz * 0.5, c->sc->dst_h, &y0, &y1);
+    warp_rgba8 col = WARP_AT(c->v->color, k % c->v->color->w, k / c->v->color->w);
+    float d = c->sc->d2[k];
+    for (int y = y0; y < y1; y++)
+        for (int x = x0; x < x1; x++) fragment(c, x, y, d, col);
+}
+
+/* Returns false when the quad degenerated and a 1-pixel point was drawn instead. */
+static bool quad_splat(draw_ctx *c, const warp_splat_params *p, int32_t k)
+{
+    const float *j = &c->sc->jac[4 * k];
+    /* half-axes: the images of the pixel's half-width steps (x +- 1/2, y +- 1/2) under J */
+    double ax = 0.5 * j[0], ay = 0.5 * j[2], bx = 0.5 * j[1], by = 0.5 * j[3];
+    double ex = fabs(ax) + fabs(bx), ey = fabs(ay) + fabs(by);
+    double lim = 0.5 * p->max_extent;
+    if (!(ex <= lim && ey <= lim)) {
+        double s = lim / fmax(ex, ey);
+        if (!isfinite(s)) s = 0;
+        ax *= s, ay *= s, bx *= s, by *= s, ex *= s, ey *= s;
+    }
+    double det = ax * by - bx * ay;
+    double cx = c->sc->x2[k], cy = c->sc->y2[k];
+    warp_rgba8 col = WARP_AT(c->v->color, k % c->v->color->w, k / c->v->color->w);
+    float d = c->sc->d2[k];
+    if (!(fabs(det) > 1e-4)) {
+        int x = (int)floor(cx), y = (int)floor(cy);
+        if (x >= 0 && y >= 0 && x < c->sc->dst_w && y < c->sc->dst_h) fragment(c, x, y, d, col);
+        return false;
+    }
+    int x0, x1, y0, y1;
+    span(cx - ex, cx + ex + 1e-9, c->sc->dst_w, &x0, &x1);
+    span(cy - ey, cy + ey + 1e-9, c->sc->dst_h, &y0, &y1);
+    for (int y = y0; y < y1; y++) {
+        double dy = y + 0.5 - cy;
+        for (int x = x0; x < x1; x++) {
+            double dx = x + 0.5 - cx;
+            /* coordinates in the (a, b) frame: inside when both are in [-1, 1) */
+            double al = (by * dx - bx * dy) / det, be = (ax * dy - ay * dx) / det;
+            if (al >= -1 && al < 1 && be >= -1 && be < 1) fragment(c, x, y, d, col);
+        }
+    }
+    return true;
+}
+
+typedef struct {
+    double x, y;
+    float d;
+    warp_rgba8 c;
+} vtx;
+
+static inline double edge(const vtx *a, const vtx *b, double px, double py)
+{
+    return (b->x - a->x) * (py - a->y) - (b->y - a->y) * (px - a->x);
+}
+
+/* Returns false when the triangle is culled. */
+static bool triangle(draw_ctx *c, const warp_splat_params *p, const vtx *a, const vtx *b, const vtx *t)
+{
+    double area = edge(a, b, t->x, t->y);
+    if (!(fabs(area) > 1e-9)) return false;
+    double minx = fmin(a->x, fmin(b->x, t->x)), maxx = fmax(a->x, fmax(b->x, t->x));
+    double miny = fmin(a->y, fmin(b->y, t->y)), maxy = fmax(a->y, fmax(b->y, t->y));
+    if (maxx - minx > p->max_extent || maxy - miny > p->max_extent) return false;
+    int x0, x1, y0, y1;
+    /* inclusive bounds: a pixel centre exactly on a vertex (the 1:1 warp) belongs to the triangle */
+    span(minx, maxx + 1e-6, c->sc->dst_w, &x0, &x1);
+    span(miny, maxy + 1e-6, c->sc->dst_h, &y0, &y1);
+    const double eps = -1e-7 * fabs(area), inv = 1.0 / area;
+    for (int y = y0; y < y1; y++) {
+        double py = y + 0.5;
+        for (int x = x0; x < x1; x++) {
+            double px = x + 0.5;
+            double w0 = edge(b, t, px, py) * inv, w1 = edge(t, a, px, py) * inv, w2 = edge(a, b, px, py) * inv;
+            if (w0 * fabs(area) < eps || w1 * fabs(area) < eps || w2 * fabs(area) < eps) continue;
+            /* target inverse depth is affine in target screen space over a planar triangle */
+            float d = (float)(w0 * a->d + w1 * b->d + w2 * t->d);
+            warp_rgba8 col;
+            col.r = (uint8_t)fmin(255, fmax(0, w0 * a->c.r + w1 * b->c.r + w2 * t->c.r + 0.5));
+            col.g = (uint8_t)fmin(255, fmax(0, w0 * a->c.g + w1 * b->c.g + w2 * t->c.g + 0.5));
+            col.b = (uint8_t)fmin(255, fmax(0, w0 * a->c.b + w1 * b->c.b + w2 * t->c.b + 0.5));
+            col.a = (uint8_t)fmin(255, fmax(0, w0 * a->c.a + w1 * b->c.a + w2 * t->c.a + 0.5));
+            fragment(c, x, y, d, col);
+        }
+    }
+    return true;
+}
+
+/* Whether the three source samples belong to one surface: all mapped, one object, no depth edge between them. */
+static bool connected(const draw_ctx *c, const warp_splat_params *p, int32_t k0, int32_t k1, int32_t k2)
+{
+    const warp_fwd_scratch *sc = c->sc;
+    if (!(sc->x2[k0] == sc->x2[k0]) || !(sc->x2[k1] == sc->x2[k1]) || !(sc->x2[k2] == sc->x2[k2])) return false;
+    const warp_image_f32 *di = c->v->inv_depth;
+    int w = c->v->color->w;
+    float d0 = WARP_AT(di, k0 % w, k0 / w), d1 = WARP_AT(di, k1 % w, k1 / w), d2 = WARP_AT(di, k2 % w, k2 / w);
+    float mx = fmaxf(d0, fmaxf(d1, d2)), mn = fminf(d0, fminf(d1, d2));
+    if (mx - mn > p->edge_jump * mx) return false;
+    if (c->v->ids) {
+        const warp_image_u16 *id = c->v->ids;
+        uint16_t i0 = WARP_AT(id, k0 % w, k0 / w);
+        if (WARP_AT(id, k1 % w, k1 / w) != i0 || WARP_AT(id, k2 % w, k2 / w) != i0) return false;
+    }
+    return true;
+}
+
+static vtx vertex(const draw_ctx *c, int32_t k)
+{
+    vtx v = {c->sc->x2[k], c->sc->y2[k], c->sc->d2[k], WARP_AT(c->v->color, k % c->v->color->w, k / c->v->color->w)};
+    return v;
+}
+
+void warp_splat_draw(const warp_fwd_setup *s, warp_fwd_scratch *sc, const warp_splat_params *p,
+                     warp_image_rgba8 *dst, warp_splat_stats *st)
+{
+    draw_ctx c = {s->src, sc, dst, p->vis == WARP_FWD_ZBUFFER, 0, 0, 0};
+    const int w = s->src->color->w, h = s->src->color->h, n = w * h;
+    long prims = 0, culled = 0;
+    for (int q = 0; q < n; q++) {
+        int32_t k = sc->order[q];
+        if (p->kind == WARP_SPLAT_MESH) {
+            /* The cell whose top-left corner is this pixel: triangles (00, 10, 01) and (10, 11, 01). */
+            int x = k % w, y = k / w;
+            if (x + 1 >= w || y + 1 >= h) continue;
+            int32_t k10 = k + 1, k01 = k + w, k11 = k + w + 1;
+            if (connected(&c, p, k, k10, k01)) {
+                vtx a = vertex(&c, k), b = vertex(&c, k10), t = vertex(&c, k01);
+                if (triangle(&c, p, &a, &b, &t))
+                    prims++;
+                else
+                    culled++;
+            } else {
+                culled++;
+            }
+            if (connected(&c, p, k10, k11, k01)) {
+                vtx a = vertex(&c, k10), b = vertex(&c, k11), t = vertex(&c, k01);
+                if (triangle(&c, p, &a, &b, &t))
+                    prims++;
+                else
+                    culled++;
+            } else {
+                culled++;
+            }
+            continue;
+        }
+        if (!(sc->x2[k] == sc->x2[k])) continue; /* behind the target eye */
+        /* a splat centred far outside cannot reach in */
+        float m = (float)(p->kind == WARP_SPLAT_QUAD ? p->max_extent : p->max_size);
+        if (sc->x2[k] < -m || sc->y2[k] < -m || sc->x2[k] > sc->dst_w + m || sc->y2[k] > sc->dst_h + m) continue;
+        prims++;
+        if (p->kind == WARP_SPLAT_QUAD) {
+            if (!quad_splat(&c, p, k)) culled++;
+        } else {
+            point_splat(&c, p, k);
+        }
+    }
+    if (p->kind == WARP_SPLAT_MESH) {
+        /* Samples cut off from every triangle (slivers between depth edges, the last column and row) still show
+         * as points where nothing else landed, as a 1-pixel forward warp would draw them. */
+        for (int q = 0; q < n; q++) {
+            int32_t k = sc->order[q];
+            float x = sc->x2[k], y = sc->y2[k];
+            if (!(x >= 0 && y >= 0 && x < (float)sc->dst_w && y < (float)sc->dst_h)) continue;
+            int i = (int)x, j = (int)y;
+            if (i >= sc->dst_w || j >= sc->dst_h || sc->zbuf[j * sc->dst_w + i] >= 0) continue;
+            fragment(&c, i, j, sc->d2[k], WARP_AT(s->src->color, k % w, k / w));
+            prims++;
+        }
+    }
+    if (st) {
+        st->primitives += prims;
+        st->culled += culled;
+        st->fragments += c.fragments;
+        st->fwd.writes += c.writes;
+        st->fwd.depth_rejects += c.rejects;
+    }
+}
+
+const char *warp_splat_run(const warp_view *src, const warp_camera *dst_cam, warp_pose dst_pose,
+                           const warp_splat_params *p, warp_fwd_scratch *sc, warp_image_rgba8 *dst,
+                           warp_image_u8 *mask, warp_splat_stats *st)
+{
+    if (p->kind != WARP_SPLAT_POINT && p->kind != WARP_SPLAT_QUAD && p->kind != WARP_SPLAT_MESH)
+        return "unknown splat kind";
+    if (p->min_size < 1 || p->max_size < p->min_size) return "point splat sizes must satisfy 1 <= min <= max";
+    if (!(p->max_extent >= 1)) return "splat extent must be at least 1 pixel";
+    warp_forward_params fp = warp_forward_default_params();
+    fp.vis = p->vis;
+    fp.edge_jump = p->edge_jump;
+    warp_fwd_setup s;
+    const char *err = warp_forward_prepare(&s, src, dst_cam, dst_pose, &fp);
+    if (err) return err;
+    if (sc->src_w != src->color->w || sc->src_h != src->color->h || sc->dst_w != dst_cam->width ||
+        sc->dst_h != dst_cam->height)
+        return "scratch was allocated for other image sizes";
+    if (dst->w != dst_cam->width || dst->h != dst_cam->height) return "target image differs from target camera";
+    if (mask && (mask->w != dst->w || mask->h != dst->h)) return "mask differs from target image";
+    warp_splat_stats local;
+    memset(&local, 0, sizeof local);
+    warp_forward_map_rows(&s, sc, p->kind != WARP_SPLAT_MESH, 0, src->color->h, &local.fwd);
+    local.fwd.sheets = warp_forward_order(&s, p->vis, sc);
+    warp_forward_clear(sc);
+    warp_splat_draw(&s, sc, p, dst, &local);
+    warp_forward_finish_rows(&s, sc, dst, mask, 0, dst->h, &local.fwd);
+    if (st) *st = local;
+    return NULL;
+}
