@@ -4,6 +4,8 @@
 
 #include <math.h>
 
+#include "warp/warp_forward.h"
+
 const char *rt_select_why_str(rt_select_why w)
 {
     static const char *const names[RT_WHY_COUNT] = {
@@ -32,15 +34,10 @@ void rt_select_init(rt_select *s, const rt_select_params *p, const warp_camera *
 double rt_select_parallax_px(const warp_camera *cam, double translation_m, double inv_depth_max)
 {
     if (!(translation_m > 0) || !(inv_depth_max > 0)) return 0;
-    /* 004 eq. 5: the largest angle by which a translation T moves a point at distance >= d_min. */
-    double s = translation_m * inv_depth_max;
-    double phi = s >= 1 ? WARP_PI / 2 : asin(s);
-    /* 004 eq. 7 for an asymmetric frustum: a pinhole maps angle to pixels at f (1 + tan^2) along the radius, largest
-     * at the image corner; (V/2) cot(v/2) [(A^2 + 1) tan^2(v/2) + 1] is the symmetric special case. */
-    double f = fmax(warp_camera_pixels_per_tan_x(cam), warp_camera_pixels_per_tan_y(cam));
-    double tx = fmax(cam->tan_left, cam->tan_right), ty = fmax(cam->tan_up, cam->tan_down);
-    double a_max = f * (1 + tx * tx + ty * ty);
-    return a_max * phi; /* eq. 6 */
+    /* 004 eqs. 5-7 (warp_forward); a translation reaching the nearest surface has no bound: say "a lot" but stay
+     * finite for the hysteresis arithmetic. */
+    double p = warp_fwd_pixel_bound_camera(cam, translation_m, 1.0 / inv_depth_max);
+    return isfinite(p) ? p : 1e6;
 }
 
 /* Methods by cost: a method "escalates" over another when it is more expensive (and more capable). */

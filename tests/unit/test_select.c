@@ -36,7 +36,7 @@ static void test_bound_matches_004(void **state)
     /* no translation, or all sky: no parallax */
     assert_true(rt_select_parallax_px(&c, 0, 2) == 0);
     assert_true(rt_select_parallax_px(&c, 0.05, 0) == 0);
-    /* T beyond d_min saturates, never NaN */
+    /* T beyond d_min has no bound: a large finite number, never NaN */
     assert_true(isfinite(rt_select_parallax_px(&c, 10, 10)));
 }
 
