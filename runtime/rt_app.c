@@ -114,7 +114,8 @@ static bool render_init(rt_app *a, char *err, int errlen)
         a->egl = NULL;
         return true;
     }
-    a->gles_depth = c->method == RT_METHOD_RAYTRACE;
+    /* the GPU path runs transparency and object warps as its raytrace (no GLES pass for them yet) */
+    a->gles_depth = c->method != RT_METHOD_NONE && c->method != RT_METHOD_ROTATION;
     plat_gles_params gp = {c->panel_w, c->panel_h, c->eye_w, c->eye_h, a->mesh[0].cols, a->mesh[0].rows,
                            a->gles_depth, kms, true, false};
     a->gles = plat_gles_create(a->egl, &gp, eerr, sizeof eerr);
@@ -172,11 +173,27 @@ bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen)
     a->rt_params.max_steps = c->raytrace_steps;
     a->rt_params.edge_fill = (warp_edge_fill)c->edge_fill;
     a->rt_params.edge_jump = (float)c->edge_jump;
-    if (c->method == RT_METHOD_RAYTRACE)
-        for (int e = 0; e < 2; e++)
-            if (!warp_image_rgba8_alloc(&a->inter[e], c->eye_w, c->eye_h) ||
-                !warp_planar3_alloc(&a->inter_planar[e], c->eye_w, c->eye_h))
-                return fail(err, errlen, "cannot allocate %s%s", "raytrace buffers", "");
+    const bool depth_warps = c->method != RT_METHOD_NONE && c->method != RT_METHOD_ROTATION;
+    a->can_transparency = c->method == RT_METHOD_TRANSPARENCY || c->method == RT_METHOD_AUTO;
+    a->can_objects = c->method == RT_METHOD_OBJECTS || c->method == RT_METHOD_AUTO;
+    for (int e = 0; e < 2 && depth_warps; e++) {
+        bool ok = warp_image_rgba8_alloc(&a->inter[e], c->eye_w, c->eye_h) &&
+                  warp_planar3_alloc(&a->inter_planar[e], c->eye_w, c->eye_h) &&
+                  warp_image_u8_alloc(&a->wmask[e], c->eye_w, c->eye_h);
+        if (ok && a->can_transparency)
+            ok = warp_grid_alloc(&a->grid[e], c->eye_w, c->eye_h, warp_grid_default_params().tile) &&
+                 warp_minmax_alloc(&a->abuf[e], c->eye_w, c->eye_h) &&
+                 warp_image_f32_alloc(&a->zb[e], c->eye_w, c->eye_h);
+        if (ok && a->can_objects) {
+            a->objs[e] = calloc(1, sizeof *a->objs[e]);
+            ok = a->objs[e] && warp_fwd_scratch_alloc(&a->fwd[e], c->eye_w, c->eye_h, c->eye_w, c->eye_h) &&
+                 warp_holes_init(&a->holes[e], c->eye_w, c->eye_h, 12);
+        }
+        if (!ok) return fail(err, errlen, "cannot allocate %s%s", "the depth warps' buffers", "");
+    }
+    rt_select_params selp = rt_select_default_params();
+    selp.pixel_budget = c->pixel_budget;
+    rt_select_init(&a->sel, &selp, &a->eye_cam[0]);
 
     a->fusion = calloc(1, sizeof *a->fusion);
     a->tel = rt_telemetry_create();
@@ -203,7 +220,8 @@ bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen)
     sp.poses.predict = predict_for_host;
     sp.poses.ctx = a;
     /* The warps of this build use colour and depth; ids, motion and layers would be rendered for nothing. */
-    sp.planes_wanted = DRV_PLANE_COLOR | DRV_PLANE_DEPTH;
+    sp.planes_wanted = DRV_PLANE_COLOR | DRV_PLANE_DEPTH | (a->can_objects ? DRV_PLANE_IDS : 0) |
+                       (a->can_transparency ? DRV_PLANE_LAYERS : 0);
     if (!rt_devices_open(a, &sp, err, errlen)) return false;
     if (!rt_config_parse_axes(c->imu_axes, a->imu_map, a->imu_sign))
         return fail(err, errlen, "[imu] axes = '%s': %s", c->imu_axes, "expected e.g. '-y +x +z'");
@@ -297,6 +315,10 @@ static drv_frame_err prepare_frame(rt_frame *s)
             if (bad) return DRV_FRAME_ERR_BAD_DEPTH;
         }
         warp_planar3_from_rgba_rows(&s->planar[eye], &s->f.color[eye], 0, s->f.color[eye].h);
+        /* The host blended its transparent fragments into the colour; the transparency warp moves them on their
+         * own, over the surface behind them: recover that once per frame, here, off the vsync path. */
+        if ((s->f.planes & DRV_PLANE_LAYERS) && s->opaque[eye].px)
+            warp_transparency_unblend(&s->f.color[eye], &s->f.layers[eye], &s->opaque[eye]);
     }
     return DRV_FRAME_OK;
 }
@@ -442,6 +464,17 @@ void rt_app_summary(rt_app *a, FILE *out)
     if (a->raytrace_fallbacks)
         fprintf(out, "  raytrace fallbacks         %llu vsyncs used rotation: the frame had no depth\n",
                 (unsigned long long)a->raytrace_fallbacks);
+    if (a->plane_fallbacks)
+        fprintf(out, "  depth-warp fallbacks       %llu vsyncs used the raytrace: the frame lacked layers or ids\n",
+                (unsigned long long)a->plane_fallbacks);
+    if (c->method == RT_METHOD_AUTO) {
+        fprintf(out, "  warp selection (auto)      budget %.2f px (004 eqs. 5-7 bound of ignoring translation); why:\n",
+                c->pixel_budget);
+        for (int w = 0; w < RT_WHY_COUNT; w++)
+            if (t->select_why[w])
+                fprintf(out, "    %-24s %llu vsyncs\n", rt_select_why_str((rt_select_why)w),
+                        (unsigned long long)t->select_why[w]);
+    }
     drv_vsync_stats vs;
     if (drv_vsync_stats_get(a->vsync, &vs))
         fprintf(out, "  vsync source               %s: edges %llu, spurious %llu, missed %llu, timer fallbacks %llu%s, "
@@ -561,6 +594,15 @@ void rt_app_stats_kv(rt_app *a, FILE *out)
     KV("m2p_ms_p99", "%.3f", rt_hist_pct(&t->m2p_ms, 99));
     KV("frame_age_ms_p50", "%.3f", rt_hist_pct(&t->frame_age_ms, 50));
     KV("frame_age_ms_max", "%.3f", rt_hist_pct(&t->frame_age_ms, 100));
+    for (int w = 0; w < RT_WHY_COUNT; w++) {
+        static const char *const keys[RT_WHY_COUNT] = {"configured", "no_frame", "rotation_only", "parallax_small",
+                                                       "parallax", "transparency", "object_motion", "held",
+                                                       "time_budget"};
+        char k[64];
+        snprintf(k, sizeof k, "select_%s", keys[w]);
+        KVU(k, t->select_why[w]);
+    }
+    KVU("method_switches", t->method_switches);
     KVU("frames_received", t->frames_received);
     KVU("frames_shown", t->new_frames_shown);
     KVU("frames_dropped", t->frames_dropped);
@@ -630,6 +672,13 @@ void rt_app_free(rt_app *a)
         warp_mesh_free(&a->mesh[e]);
         warp_image_free(&a->inter[e]);
         warp_planar3_free(&a->inter_planar[e]);
+        warp_image_free(&a->wmask[e]);
+        warp_image_free(&a->zb[e]);
+        if (a->grid[e].w) warp_grid_free(&a->grid[e]);
+        warp_minmax_free(&a->abuf[e]);
+        warp_fwd_scratch_free(&a->fwd[e]);
+        if (a->objs[e]) warp_holes_free(&a->holes[e]);
+        free(a->objs[e]);
     }
     plat_swapchain_free(&a->sc);
     rt_frameq_free(&a->fq);

@@ -26,7 +26,13 @@
 #include "warp/warp_head.h"
 #include "warp/warp_lens.h"
 #include "warp/warp_mesh.h"
+#include "warp/warp_forward.h"
+#include "warp/warp_grid.h"
+#include "warp/warp_holes.h"
+#include "warp/warp_objects.h"
 #include "warp/warp_raytrace.h"
+#include "warp/warp_transparency.h"
+#include "runtime/rt_select.h"
 
 /* Older than this, the newest IMU state is not extrapolated: the device is gone or stalled (prediction off). */
 #define RT_IMU_STALE_NS (150 * 1000000LL)
@@ -99,6 +105,21 @@ typedef struct {
     bool realtime;              /* compositor got SCHED_FIFO */
     bool memory_locked;         /* mlockall succeeded */
     uint64_t raytrace_fallbacks; /* raytrace requested but the frame had no depth */
+    uint64_t plane_fallbacks;    /* transparency / objects requested but the frame lacked layers / ids */
+    /* auto selection (rt_select) and the further depth warps, allocated when the method may use them */
+    rt_select sel;
+    bool can_transparency, can_objects;
+    warp_grid grid[2];
+    warp_minmax_tree abuf[2];
+    warp_image_f32 zb[2];          /* warped opaque inverse depth (transparency) */
+    warp_image_u8 wmask[2];        /* the depth warps' masks (holes, fringe) */
+    warp_fwd_scratch fwd[2];
+    warp_objects_setup *objs[2];
+    warp_holes_ctx holes[2];
+    warp_pose obj_prev[DRV_MAX_OBJECTS], obj_cur[DRV_MAX_OBJECTS], obj_at[DRV_MAX_OBJECTS];
+    double obj_prev_t, obj_cur_t;  /* pose times of the two newest frames, seconds on the board clock */
+    int obj_n;
+    bool obj_two;                  /* two frames' object poses known: extrapolation possible */
 
     /* renderer ([render] renderer, rt_render_choose) */
     bool use_gles;

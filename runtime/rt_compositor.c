@@ -24,6 +24,8 @@ typedef struct {
     warp_view views[2]; /* the raytrace setups point at these */
     warp_raytrace_setup rts[2];
     int bands;
+    rt_method method;   /* depth_task: which further warp */
+    warp_pose eyes[2];
 } job;
 
 static void resample_task(void *ctx, int task)
@@ -53,6 +55,33 @@ static void raytrace_task(void *ctx, int task)
     warp_planar3_from_rgba_rows(&a->inter_planar[e], &a->inter[e], y0, y1);
 }
 
+/* The warps that need a whole eye at once (they rasterise or splat): one task per eye, into eye space, holes
+ * filled, then deinterleaved for the lens pass. */
+static void depth_task(void *ctx, int e)
+{
+    job *j = ctx;
+    rt_app *a = j->a;
+    const rt_frame *fr = j->frame;
+    warp_image_u8 *m = &a->wmask[e];
+    warp_image_u8_fill(m, 0);
+    if (j->method == RT_METHOD_TRANSPARENCY) {
+        warp_grid_params gp = warp_grid_default_params();
+        warp_transparency_params tp = warp_transparency_default_params();
+        warp_transparency_run(&a->grid[e], &a->abuf[e], &j->views[e], &fr->f.cam[e], j->eyes[e], &gp, &tp,
+                              &a->inter[e], &a->zb[e], m, NULL, NULL);
+    } else {
+        warp_splat_params sp = warp_splat_default_params(WARP_SPLAT_MESH);
+        warp_objects_run(a->objs[e], &j->views[e], &fr->f.cam[e], j->eyes[e], a->obj_two ? a->obj_at : NULL, &sp,
+                         &a->fwd[e], &a->inter[e], m, NULL);
+        /* Disocclusions the splats left: the depth-aware low-pass fill (000 §5.2) from the warped depth. */
+        warp_image_f32 zb = {fr->f.cam[e].width, fr->f.cam[e].height, fr->f.cam[e].width, a->fwd[e].zbuf};
+        warp_holes_params hp = warp_holes_default_params();
+        warp_epipole ep = warp_epipole_from_poses(&fr->f.cam[e], j->eyes[e], fr->f.eye_pose[e]);
+        warp_holes_fill(&a->holes[e], &a->inter[e], m, &zb, &ep, &hp, NULL);
+    }
+    warp_planar3_from_rgba_rows(&a->inter_planar[e], &a->inter[e], 0, a->inter[e].h);
+}
+
 static void run_resample(rt_app *a, job *j)
 {
     for (int e = 0; e < 2; e++) {
@@ -66,6 +95,27 @@ static void run_resample(rt_app *a, job *j)
 static rt_method compose(rt_app *a, job *j, const rt_frame *frame, const warp_pose eyes[2], rt_method method)
 {
     j->frame = frame;
+    /* The further depth warps need their planes; without them the raytrace is the next best. */
+    if ((method == RT_METHOD_TRANSPARENCY && (!(frame->f.planes & DRV_PLANE_LAYERS) || !a->can_transparency)) ||
+        (method == RT_METHOD_OBJECTS && (!(frame->f.planes & DRV_PLANE_IDS) || !a->can_objects))) {
+        a->plane_fallbacks++;
+        method = RT_METHOD_RAYTRACE;
+    }
+    if ((method == RT_METHOD_TRANSPARENCY || method == RT_METHOD_OBJECTS) && frame->has_depth) {
+        j->method = method;
+        for (int e = 0; e < 2; e++) {
+            j->views[e] = rt_frame_view(frame, e);
+            j->eyes[e] = eyes[e];
+        }
+        plat_workers_run(a->workers, 2, depth_task, j);
+        for (int e = 0; e < 2; e++) {
+            warp_mesh_update(&a->mesh[e], &frame->f.cam[e], warp_quat_identity());
+            j->src[e] = &a->inter_planar[e];
+        }
+        run_resample(a, j);
+        return method;
+    }
+    if (method == RT_METHOD_TRANSPARENCY || method == RT_METHOD_OBJECTS) method = RT_METHOD_RAYTRACE;
     if (method == RT_METHOD_RAYTRACE && !frame->has_depth) {
         /* The host sent no depth (a rotation-only scene): nothing to raytrace against. */
         a->raytrace_fallbacks++;
@@ -109,6 +159,8 @@ static rt_method compose_gles(rt_app *a, job *j, const rt_frame *frame, const wa
 {
     plat_gles *g = a->gles;
     char err[200];
+    /* no GLES pass for the A-buffer and object warps yet: the raytrace is the GPU's depth warp */
+    if (method == RT_METHOD_TRANSPARENCY || method == RT_METHOD_OBJECTS) method = RT_METHOD_RAYTRACE;
     if (method == RT_METHOD_RAYTRACE && !frame->has_depth) {
         a->raytrace_fallbacks++;
         method = RT_METHOD_ROTATION;
@@ -178,6 +230,30 @@ static void gles_times(rt_app *a)
     a->gles_gpu_ms = total;
 }
 
+/* Keeps the object poses of the two newest frames (002 §3.2: extrapolation needs two) and whether any object
+ * moved between them. */
+static bool track_objects(rt_app *a, const rt_frame *fr)
+{
+    int n = fr->f.n_objects < DRV_MAX_OBJECTS ? fr->f.n_objects : DRV_MAX_OBJECTS;
+    if (!(fr->f.planes & DRV_PLANE_IDS) || n <= 0) {
+        a->obj_two = false;
+        a->obj_n = 0;
+        return false;
+    }
+    bool had = a->obj_n == n;
+    memcpy(a->obj_prev, a->obj_cur, sizeof(warp_pose) * (size_t)n);
+    a->obj_prev_t = a->obj_cur_t;
+    memcpy(a->obj_cur, fr->f.object_pose, sizeof(warp_pose) * (size_t)n);
+    a->obj_cur_t = (double)fr->f.pose_t_ns * 1e-9;
+    a->obj_n = n;
+    a->obj_two = had && a->obj_cur_t > a->obj_prev_t;
+    bool moving = false;
+    for (int i = 0; a->obj_two && i < n && !moving; i++)
+        moving = warp_v3_norm(warp_v3_sub(a->obj_cur[i].p, a->obj_prev[i].p)) > 1e-4 ||
+                 warp_quat_angle_between(a->obj_cur[i].q, a->obj_prev[i].q) > 1e-3;
+    return moving;
+}
+
 static void clear_image(warp_image_rgba8 *img)
 {
     for (int y = 0; y < img->h; y++) memset(&WARP_AT(img, 0, y), 0, sizeof(warp_rgba8) * (size_t)img->w);
@@ -206,6 +282,11 @@ void rt_compositor_run(rt_app *a)
         lates[i] = 0;
     }
     int64_t warp_est = period / 2, late_est = 0;
+    /* auto: what each method has been costing (rises at once, decays slowly; an estimate not refreshed decays
+     * too, by 1/512 per vsync, so a warp once too slow is tried again after some ten seconds) */
+    rt_method prev_used = RT_METHOD_COUNT;
+    double cost_ns[RT_METHOD_COUNT] = {0};
+    bool objects_moving = false;
     uint64_t vsync_no = 0, last_seq = 0;
     job j;
     memset(&j, 0, sizeof j);
@@ -231,6 +312,7 @@ void rt_compositor_run(rt_app *a)
             if (last_seq && frame->f.seq > last_seq + 1) tel->frames_dropped += frame->f.seq - last_seq - 1;
             last_seq = frame->f.seq;
             tel->new_frames_shown++;
+            if (a->can_objects) objects_moving = track_objects(a, frame);
         }
 
         int idx = plat_swapchain_next(&a->sc);
@@ -245,7 +327,35 @@ void rt_compositor_run(rt_app *a)
         warp_pose head = warp_head_pose_from_orientation(&a->head, q);
         warp_pose eyes[2] = {warp_head_eye_pose(&a->head, head, 0), warp_head_eye_pose(&a->head, head, 1)};
 
-        rt_method used = c->method;
+        rt_method want = c->method;
+        if (want == RT_METHOD_AUTO) {
+            rt_select_input in;
+            memset(&in, 0, sizeof in);
+            in.have_frame = frame != NULL;
+            if (frame) {
+                in.has_depth = frame->has_depth;
+                in.inv_depth_max = frame->inv_max[0] > frame->inv_max[1] ? frame->inv_max[0] : frame->inv_max[1];
+                in.has_layers = a->can_transparency && (frame->f.planes & DRV_PLANE_LAYERS);
+                in.objects_moving = a->can_objects && objects_moving && a->obj_two;
+                for (int e = 0; e < 2; e++) {
+                    double t = warp_v3_norm(warp_v3_sub(eyes[e].p, frame->f.eye_pose[e].p));
+                    if (t > in.translation_m) in.translation_m = t;
+                }
+            }
+            /* What a warp may take is a frame, not what is left now: the wake-up time follows the warps actually
+             * run (warp_est), so after choosing a dearer warp the compositor wakes earlier from the next vsync on. */
+            in.time_left_ns = (double)(period - margin_ns - late_est);
+            memcpy(in.cost_ns, cost_ns, sizeof cost_ns);
+            rt_select_why why;
+            want = rt_select_choose(&a->sel, RT_METHOD_AUTO, &in, &why);
+            tel->select_why[why]++;
+        }
+        if (want == RT_METHOD_OBJECTS && a->obj_two) {
+            double tp = (double)t_photon * 1e-9;
+            for (int i = 0; i < a->obj_n; i++)
+                a->obj_at[i] = warp_object_pose_extrapolate(a->obj_prev[i], a->obj_prev_t, a->obj_cur[i], a->obj_cur_t, tp);
+        }
+        rt_method used = want;
         if (idx < 0) {
             tel->no_buffer++; /* every image is still being read: show the previous one again */
         } else if (!frame) {
@@ -257,11 +367,12 @@ void rt_compositor_run(rt_app *a)
                 if (!plat_egl_present(a->egl, err, sizeof err)) a->gles_errors++;
             }
         } else if (gles) {
-            used = compose_gles(a, &j, frame, eyes, c->method, &a->sc.img[idx]);
+            used = compose_gles(a, &j, frame, eyes, want, &a->sc.img[idx]);
         } else {
             j.out = &a->sc.img[idx];
-            used = compose(a, &j, frame, eyes, c->method);
+            used = compose(a, &j, frame, eyes, want);
         }
+        if (used == RT_METHOD_AUTO) used = RT_METHOD_ROTATION; /* no frame: nothing was warped */
         int64_t t_done = plat_now_ns();
         int64_t dur = t_done - t_start;
         if (gles) {
@@ -301,6 +412,16 @@ void rt_compositor_run(rt_app *a)
             next_eval += eval_every;
         }
 
+        if (frame && idx >= 0) {
+            if (prev_used != RT_METHOD_COUNT && used != prev_used) tel->method_switches++;
+            prev_used = used;
+            double d = (double)dur;
+            for (int m = 0; m < RT_METHOD_COUNT; m++)
+                if (m == (int)used)
+                    cost_ns[m] = d > cost_ns[m] ? d : cost_ns[m] + (d - cost_ns[m]) / 8;
+                else
+                    cost_ns[m] -= cost_ns[m] / 512;
+        }
         durs[vsync_no % WINDOW] = dur;
         lates[vsync_no % WINDOW] = t_start > wake ? t_start - wake : 0;
         warp_est = late_est = 0;

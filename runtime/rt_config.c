@@ -11,7 +11,7 @@
 
 #include "warp/warp_head.h"
 
-static const char *const method_names[] = {"none", "rotation", "raytrace", "auto", NULL};
+static const char *const method_names[] = {"none", "rotation", "raytrace", "transparency", "objects", "auto", NULL};
 static const char *const edge_fill_names[] = {"far", "linear", NULL};
 static const char *const sink_names[] = {"null", "png", "raw", NULL};
 static const char *const renderer_names[] = {"auto", "cpu", "gles", NULL};
@@ -80,8 +80,8 @@ static const keydef keys[] = {
     {"lens", "center", K_DLIST, F(lens_center), 2, -100000, 100000, NULL,
      "left eye's lens centre x y in pixels within its half of the panel (mirrored for the right eye)"},
     {"warp", "method", K_ENUM, F(method), 0, 0, 0, method_names,
-     "none (lens only), rotation (003 §3.4), raytrace (003 §3.5) or auto (the cheapest warp whose predicted error "
-     "stays under pixel_budget, per vsync)"},
+     "none (lens only), rotation (003 §3.4), raytrace (003 §3.5), transparency (000 §5.3), objects (002 §3.2) or "
+     "auto (per vsync, the cheapest warp whose predicted error stays under pixel_budget)"},
     {"warp", "pixel_budget", K_DOUBLE, F(pixel_budget), 0, 0.01, 100, NULL,
      "auto: largest on-screen error in eye-buffer pixels accepted from a cheaper warp (004 eqs. 5-7 bound)"},
     {"warp", "raytrace_steps", K_INT, F(raytrace_steps), 0, 1, 100000, NULL, "raytrace step budget per ray"},
@@ -511,8 +511,6 @@ bool rt_config_validate(const rt_config *c, rt_config_errors *err)
     warp_lens lens = rt_config_lens(c, WARP_EYE_LEFT);
     const char *lw = warp_lens_check(&lens, c->panel_w / 2, c->panel_h, buf, sizeof buf);
     if (lw) add_error(err, "[lens]: %s", lw);
-    if (c->method == RT_METHOD_AUTO) /* INTEGRATION-PENDING: the compositor does not select yet */
-        add_error(err, "[warp] method = auto: not wired into the compositor yet");
     int map[3], sign[3];
     if (!rt_config_parse_axes(c->imu_axes, map, sign))
         add_error(err, "[imu] axes = '%s': expected three signed axes using each of x, y, z once, e.g. '-y +x +z'",

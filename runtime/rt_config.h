@@ -15,6 +15,8 @@ typedef enum {
     RT_METHOD_NONE = 0,
     RT_METHOD_ROTATION = 1,
     RT_METHOD_RAYTRACE = 2,
+    RT_METHOD_TRANSPARENCY = 3, /* opaque surface by the adaptive grid + A-buffer ray casting (000 §5.3) */
+    RT_METHOD_OBJECTS = 4,      /* per-object forward warp with extrapolated object poses (002 §3.2) */
     RT_METHOD_COUNT,
     RT_METHOD_AUTO = RT_METHOD_COUNT
 } rt_method;

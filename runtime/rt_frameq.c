@@ -20,6 +20,8 @@ warp_view rt_frame_view(const rt_frame *fr, int eye)
     v.ids = pl & DRV_PLANE_IDS ? &fr->f.ids[eye] : NULL;
     v.motion = pl & DRV_PLANE_MOTION ? &fr->f.motion[eye] : NULL;
     v.layers = pl & DRV_PLANE_LAYERS ? &fr->f.layers[eye] : NULL;
+    /* with layers the warps want the opaque surface's colour: the fragments are warped on their own */
+    if (v.layers && fr->opaque[eye].px) v.color = &fr->opaque[eye];
     v.n_objects = fr->f.n_objects;
     v.object_pose = fr->f.object_pose;
     v.time = fr->f.scene_time;
@@ -35,6 +37,7 @@ bool rt_frameq_init(rt_frameq *q, int w, int h, unsigned planes, int max_layers)
         for (int e = 0; ok && e < 2; e++) {
             ok = warp_planar3_alloc(&s->planar[e], w, h);
             if (ok && (planes & DRV_PLANE_DEPTH)) ok = warp_image_f32_alloc(&s->inv_depth[e], w, h);
+            if (ok && (planes & DRV_PLANE_LAYERS)) ok = warp_image_rgba8_alloc(&s->opaque[e], w, h);
         }
         if (!ok) {
             rt_frameq_free(q);
@@ -54,6 +57,7 @@ void rt_frameq_free(rt_frameq *q)
         for (int e = 0; e < 2; e++) {
             warp_image_free(&q->slot[i].inv_depth[e]);
             warp_planar3_free(&q->slot[i].planar[e]);
+            warp_image_free(&q->slot[i].opaque[e]);
         }
     }
 }

@@ -17,6 +17,7 @@ typedef struct {
     warp_image_f32 inv_depth[2];
     float inv_min[2], inv_max[2];
     warp_planar3 planar[2];
+    warp_image_rgba8 opaque[2]; /* with layers: the colour behind the transparent fragments (unblended) */
     bool has_depth;
 } rt_frame;
 

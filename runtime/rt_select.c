@@ -41,7 +41,15 @@ double rt_select_parallax_px(const warp_camera *cam, double translation_m, doubl
 }
 
 /* Methods by cost: a method "escalates" over another when it is more expensive (and more capable). */
-static int rank(rt_method m) { return m == RT_METHOD_NONE ? 0 : m == RT_METHOD_ROTATION ? 1 : 2; }
+static int rank(rt_method m)
+{
+    switch (m) {
+    case RT_METHOD_NONE: return 0;
+    case RT_METHOD_ROTATION: return 1;
+    case RT_METHOD_RAYTRACE: return 2;
+    default: return 3; /* transparency, objects: the depth warps that also handle what raytrace cannot */
+    }
+}
 
 rt_method rt_select_choose(rt_select *s, rt_method configured, const rt_select_input *in, rt_select_why *why)
 {
@@ -64,8 +72,15 @@ rt_method rt_select_choose(rt_select *s, rt_method configured, const rt_select_i
     s->last_px = px;
     rt_method want = px > s->p.pixel_budget ? RT_METHOD_RAYTRACE : RT_METHOD_ROTATION;
     rt_select_why w = px > s->p.pixel_budget ? RT_WHY_PARALLAX : RT_WHY_PARALLAX_SMALL;
-    if (want == RT_METHOD_RAYTRACE && in->has_layers) w = RT_WHY_TRANSPARENCY;
-    if (want == RT_METHOD_RAYTRACE && in->objects_moving) w = RT_WHY_OBJECT_MOTION;
+    /* Moving objects need their own matrices whatever the head does (002 §3.2); transparent layers need their own
+     * warp once the head translates enough to move them against the surface behind (000 §5.3). */
+    if (in->objects_moving) {
+        want = RT_METHOD_OBJECTS;
+        w = RT_WHY_OBJECT_MOTION;
+    } else if (want == RT_METHOD_RAYTRACE && in->has_layers) {
+        want = RT_METHOD_TRANSPARENCY;
+        w = RT_WHY_TRANSPARENCY;
+    }
 
     /* Escalate at once (an error now is visible now); de-escalate only after the prediction has stayed well under
      * the budget for a while, so steady motion near the threshold does not flicker between warps. */
@@ -89,9 +104,9 @@ rt_method rt_select_choose(rt_select *s, rt_method configured, const rt_select_i
     rt_method m = s->current;
     /* Short of time: the cheaper warp now beats a missed vsync (which would show a stale frame unwarped). The state
      * keeps the preferred method, so the next vsync with time to spare returns to it. */
-    if (m == RT_METHOD_RAYTRACE && in->cost_ns[RT_METHOD_RAYTRACE] > 0 &&
-        in->cost_ns[RT_METHOD_RAYTRACE] > in->time_left_ns) {
-        m = RT_METHOD_ROTATION;
+    /* Step down the ladder (objects/transparency -> raytrace -> rotation) until the estimate fits. */
+    while (m != RT_METHOD_ROTATION && in->cost_ns[m] > 0 && in->cost_ns[m] > in->time_left_ns) {
+        m = rank(m) == 3 ? RT_METHOD_RAYTRACE : RT_METHOD_ROTATION;
         w = RT_WHY_TIME_BUDGET;
     }
     *why = w;

@@ -33,6 +33,8 @@ typedef struct {
     rt_hist late_ms;       /* warp finish relative to the vsync deadline (negative = early), shifted by +50 ms */
     uint64_t frames_dropped; /* frames that arrived but were replaced before any vsync showed them */
     uint64_t imu_stale;      /* vsyncs warped to the last known orientation: no IMU sample for too long */
+    uint64_t select_why[16]; /* auto: how often each rt_select_why reason decided */
+    uint64_t method_switches; /* vsyncs whose warp differed from the previous vsync's */
     /* frames thread */
     _Atomic uint64_t frames_received;
     _Atomic uint64_t frames_rejected[DRV_FRAME_ERR_COUNT];

@@ -88,12 +88,92 @@ static void test_raytrace_without_depth_falls_back(void **state)
     rt_app_free(&app);
 }
 
+/* ---- auto selection (rt_select in the compositor) ---- */
+
+static void auto_config(rt_config *c, const char *scene)
+{
+    small_config(c, scene, "auto");
+    rt_config_errors e = {0};
+    /* a slower panel, so the depth warps fit the frame time on this 2-core machine: the choice is what is tested */
+    const char *sets[] = {"display.refresh_hz=30", "sim.host_rate_hz=15", "sim.trace=translate",
+                          "sim.eval_every_ms=0", "display.width=320", "display.height=180", "eye.width=160",
+                          "eye.height=180", "lens.scale=90", "lens.center=85 90"};
+    for (size_t i = 0; i < sizeof sets / sizeof sets[0]; i++) assert_true(rt_config_set(c, sets[i], &e));
+    assert_true(rt_config_validate(c, &e));
+}
+
+static void test_auto_rotation_only_scene_never_pays_for_depth(void **state)
+{
+    (void)state;
+    rt_config c;
+    auto_config(&c, "room");
+    run(&c);
+    rt_telemetry *t = app.tel;
+    for (int m = RT_METHOD_RAYTRACE; m < RT_METHOD_COUNT; m++) assert_int_equal(t->method_count[m], 0);
+    assert_int_equal(app.sim_plane_renders[1] + app.sim_plane_renders[2] + app.sim_plane_renders[4], 0);
+    assert_true(t->select_why[RT_WHY_ROTATION_ONLY] > 0);
+    assert_int_equal(t->select_why[RT_WHY_PARALLAX], 0);
+    rt_app_free(&app);
+}
+
+static void test_auto_translation_escalates_and_is_stable(void **state)
+{
+    (void)state;
+    rt_config c;
+    auto_config(&c, "near");
+    run(&c);
+    rt_telemetry *t = app.tel;
+    print_message("near: rotation %llu raytrace %llu, why parallax %llu small %llu held %llu time %llu, switches %llu\n",
+                  (unsigned long long)t->method_count[RT_METHOD_ROTATION],
+                  (unsigned long long)t->method_count[RT_METHOD_RAYTRACE],
+                  (unsigned long long)t->select_why[RT_WHY_PARALLAX],
+                  (unsigned long long)t->select_why[RT_WHY_PARALLAX_SMALL],
+                  (unsigned long long)t->select_why[RT_WHY_HELD], (unsigned long long)t->select_why[RT_WHY_TIME_BUDGET],
+                  (unsigned long long)t->method_switches);
+    /* the near object and the head's translation call for the depth warp, and it runs */
+    assert_true(t->select_why[RT_WHY_PARALLAX] + t->select_why[RT_WHY_HELD] > 0);
+    assert_true(t->method_count[RT_METHOD_RAYTRACE] > t->method_count[RT_METHOD_ROTATION]);
+    /* steady motion: no flicker between warps (the first escalation, perhaps a time-budget step or two) */
+    assert_true(t->method_switches <= 6);
+    rt_app_free(&app);
+}
+
+static void test_auto_transparency_scene_uses_its_warp(void **state)
+{
+    (void)state;
+    rt_config c;
+    auto_config(&c, "glass");
+    run(&c);
+    rt_telemetry *t = app.tel;
+    assert_true(app.sim_plane_renders[4] > 0); /* the host sends layers for this scene */
+    assert_true(t->select_why[RT_WHY_TRANSPARENCY] > 0);
+    assert_true(t->method_count[RT_METHOD_TRANSPARENCY] > 0);
+    rt_app_free(&app);
+}
+
+static void test_auto_moving_objects_use_object_warp(void **state)
+{
+    (void)state;
+    rt_config c;
+    auto_config(&c, "movers");
+    run(&c);
+    rt_telemetry *t = app.tel;
+    assert_true(app.sim_plane_renders[2] > 0); /* ids */
+    assert_true(t->select_why[RT_WHY_OBJECT_MOTION] > 0);
+    assert_true(t->method_count[RT_METHOD_OBJECTS] > 0);
+    rt_app_free(&app);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_rotation_only_scene),
         cmocka_unit_test(test_depth_scene_raytrace),
         cmocka_unit_test(test_raytrace_without_depth_falls_back),
+        cmocka_unit_test(test_auto_rotation_only_scene_never_pays_for_depth),
+        cmocka_unit_test(test_auto_translation_escalates_and_is_stable),
+        cmocka_unit_test(test_auto_transparency_scene_uses_its_warp),
+        cmocka_unit_test(test_auto_moving_objects_use_object_warp),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
