@@ -429,7 +429,12 @@ void rt_compositor_run(rt_app *a)
             if (durs[i] > warp_est) warp_est = durs[i];
             if (lates[i] > late_est) late_est = lates[i];
         }
+        /* Plan within one period. A scheduler that wakes us later than a quarter period (a loaded VM) is noise no
+         * wake-up time can absorb; and neither estimate may go negative, or the loop below would pick a vsync
+         * that has already passed and serve it again. */
+        if (late_est > period / 4) late_est = period / 4;
         if (warp_est + late_est > period - margin_ns) warp_est = period - margin_ns - late_est;
+        if (warp_est < 0) warp_est = 0;
 
         vsync_no++;
         /* Half a period on: an estimated phase (GPIO TE line) may move the vsync just served a few µs later, and
@@ -438,8 +443,12 @@ void rt_compositor_run(rt_app *a)
         /* Overran a whole period: the vsyncs in between were not served. */
         int64_t now = plat_now_ns();
         if (next - warp_est - late_est - margin_ns < now) {
-            int64_t later = drv_vsync_next(a->vsync, now + warp_est, &period);
-            uint64_t skipped = period > 0 ? (uint64_t)((later - next) / period) : 0;
+            /* the first vsync we can still make, and never one at or before the vsync just served */
+            int64_t after = now + warp_est + margin_ns;
+            if (after < t_vs + period / 2) after = t_vs + period / 2;
+            int64_t later = drv_vsync_next(a->vsync, after, &period);
+            if (later < next) later = next;
+            uint64_t skipped = period > 0 ? (uint64_t)((later - next + period / 2) / period) : 0;
             tel->vsyncs += skipped;
             tel->missed += skipped;
             vsync_no += skipped;
