@@ -76,6 +76,8 @@ struct drv_frames {
      * frame arrived and was rejected (the caller counts it and keeps warping its last good frame). */
     int (*receive)(drv_frames *fr, drv_frame *f, int timeout_ms);
     unsigned (*planes)(drv_frames *fr);
+    /* Optional (NULL: none): the latest problem in words, naming the device (for the log after a rejection). */
+    void (*last_error)(drv_frames *fr, char *buf, int len);
     void (*destroy)(drv_frames *fr);
 };
 
@@ -84,6 +86,11 @@ static inline int drv_frames_receive(drv_frames *fr, drv_frame *f, int timeout_m
     return fr->receive(fr, f, timeout_ms);
 }
 static inline unsigned drv_frames_planes(drv_frames *fr) { return fr->planes(fr); }
+static inline void drv_frames_last_error(drv_frames *fr, char *buf, int len)
+{
+    buf[0] = 0;
+    if (fr->last_error) fr->last_error(fr, buf, len);
+}
 static inline void drv_frames_destroy(drv_frames *fr)
 {
     if (fr) fr->destroy(fr);

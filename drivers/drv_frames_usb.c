@@ -198,6 +198,8 @@ static int usb_receive(drv_frames *fr, drv_frame *f, int timeout_ms)
     }
 }
 
+static void usb_last_error(drv_frames *fr, char *buf, int len);
+
 static unsigned usb_planes(drv_frames *fr) { return ((usb_frames *)fr)->p.planes; }
 
 static void *pose_thread(void *arg)
@@ -289,6 +291,7 @@ static usb_frames *board_new(const drv_frames_usb_params *p, char *err, int errl
     u->base.receive = usb_receive;
     u->base.planes = usb_planes;
     u->base.destroy = usb_destroy;
+    u->base.last_error = usb_last_error;
     return u;
 }
 
@@ -307,6 +310,14 @@ void drv_frames_usb_stats_get(drv_frames *fr, drv_frames_usb_stats *st)
     pthread_mutex_unlock(&u->lock);
     st->connected = u->t->connected(u->t);
     st->lead_ms = (double)atomic_load(&u->lead_ns) * 1e-6;
+}
+
+static void usb_last_error(drv_frames *fr, char *buf, int len)
+{
+    usb_frames *u = (usb_frames *)fr;
+    pthread_mutex_lock(&u->lock);
+    snprintf(buf, (size_t)len, "%s", u->st.last_error);
+    pthread_mutex_unlock(&u->lock);
 }
 
 /* ---- FunctionFS transport ---- */

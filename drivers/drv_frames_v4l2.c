@@ -763,6 +763,13 @@ void drv_frames_v4l2_stats_get(drv_frames *fr, drv_frames_v4l2_stats *st)
     pthread_mutex_unlock(&c->lock);
 }
 
+static void cap_last_error(drv_frames *fr, char *buf, int len)
+{
+    drv_frames_v4l2_stats st;
+    drv_frames_v4l2_stats_get(fr, &st);
+    snprintf(buf, (size_t)len, "%s", st.last_error);
+}
+
 static drv_frames *cap_create(const drv_frames_v4l2_params *p, const dev_ops *ops, void *ctx, mock_dev *mock,
                               char *err, int errlen)
 {
@@ -794,6 +801,7 @@ static drv_frames *cap_create(const drv_frames_v4l2_params *p, const dev_ops *op
     c->base.receive = cap_receive;
     c->base.planes = cap_planes;
     c->base.destroy = cap_destroy;
+    c->base.last_error = cap_last_error;
     if (!cap_start(c, err, errlen)) {
         c->mock = NULL; /* the caller still owns it */
         cap_destroy(&c->base);

@@ -327,17 +327,43 @@ static void *frames_thread(void *arg)
 {
     rt_app *a = arg;
     plat_thread_set_name("hmdwarp-frames");
+    /* The log (this thread may do I/O; the vsync thread never does): each kind of rejection at once, then at most
+     * one line a second; a host that goes quiet, and when it is back. */
+    int64_t last_ok = plat_now_ns(), last_log = 0;
+    bool quiet = false, seen_ok = false;
+    uint64_t logged[DRV_FRAME_ERR_COUNT] = {0};
     while (!atomic_load_explicit(&a->stop, memory_order_relaxed)) {
         rt_frame *slot = rt_frameq_back(&a->fq);
         int rc = drv_frames_receive(a->frames, &slot->f, 50);
-        if (rc == 0) continue;
+        int64_t now = plat_now_ns();
+        if (rc == 0) {
+            if (seen_ok && !quiet && now - last_ok > PLAT_NS_PER_S) {
+                fprintf(stderr, "hmdwarpd: no host frame for %.1f s: warping the last good frame\n",
+                        (double)(now - last_ok) * 1e-9);
+                quiet = true;
+            }
+            continue;
+        }
         drv_frame_err e = rc < 0 ? (drv_frame_err)(-rc) : prepare_frame(slot);
         if (e != DRV_FRAME_OK) {
             /* Rejected: counted, and the compositor keeps warping the last good frame. */
             if (e < 0 || e >= DRV_FRAME_ERR_COUNT) e = DRV_FRAME_ERR_IO;
-            atomic_fetch_add(&a->tel->frames_rejected[e], 1);
+            uint64_t n = atomic_fetch_add(&a->tel->frames_rejected[e], 1) + 1;
+            if (!logged[e] || now - last_log > PLAT_NS_PER_S) {
+                char why[200];
+                drv_frames_last_error(a->frames, why, sizeof why);
+                fprintf(stderr, "hmdwarpd: host frame rejected (%s, %llu so far)%s%s; the last good frame stays\n",
+                        drv_frame_err_str(e), (unsigned long long)n, why[0] ? ": " : "", why);
+                logged[e] = n;
+                last_log = now;
+            }
             continue;
         }
+        if (quiet)
+            fprintf(stderr, "hmdwarpd: host frames are back after %.1f s\n", (double)(now - last_ok) * 1e-9);
+        quiet = false;
+        seen_ok = true;
+        last_ok = now;
         /* A host that cannot place its render start on the board's clock sends 0. */
         if (slot->f.render_start_ns)
             rt_hist_add(&a->tel->host_render_ms, (double)(slot->f.received_ns - slot->f.render_start_ns) * 1e-6);

@@ -351,6 +351,10 @@ static bool usb_open(const feed_opts *o, pose_input *pi)
         }
         if (!said) fprintf(stderr, "hmdwarp-feed: waiting for %04x:%04x ...\n", o->vid, o->pid), said = true;
         plat_sleep_ns(500 * PLAT_NS_PER_MS);
+        /* Without udevd libusb gets no hotplug events and keeps its first device list: a new context rescans. */
+        libusb_exit(NULL);
+        rc = libusb_init(NULL);
+        if (rc != 0) return fprintf(stderr, "hmdwarp-feed: libusb_init: %s\n", libusb_strerror(rc)), false;
     }
     libusb_set_auto_detach_kernel_driver(pi->dev, 1);
     rc = libusb_claim_interface(pi->dev, o->interface);
