@@ -55,10 +55,10 @@ hil_gpio_sim_remove hil00
 
 # V4L2: vivid's capture and output nodes with the loop set up.
 hil_vivid
-hil_vivid_loop 640 368 YUYV
+hil_vivid_loop YUYV
 hil_log "vivid: capture $HIL_VID_CAP, output $HIL_VID_OUT, $(v4l2-ctl -d "$HIL_VID_CAP" --get-fmt-video | grep 'Width/Height')"
 # Byte-exact loop: a constant frame written to the output comes back unchanged.
-sz=$((640 * 368 * 2))
+sz=$((HIL_VID_W * HIL_VID_H * 2))
 awk -v n="$sz" 'BEGIN { for (i = 0; i < n / 4; i++) printf "\x5a\x80\xa5\x80" }' >"$HIL_WORK/pat.yuv" 2>/dev/null ||
     head -c "$sz" /dev/zero | tr '\0' 'Z' >"$HIL_WORK/pat.yuv"
 v4l2-ctl -d "$HIL_VID_OUT" --stream-out-mmap=3 --stream-from="$HIL_WORK/pat.yuv" --stream-loop --stream-count=200 >/dev/null 2>&1 &

@@ -135,20 +135,19 @@ hil_vivid() {
     [ -n "$HIL_VID_CAP" ] && [ -n "$HIL_VID_OUT" ] || hil_fail "vivid: no vid-cap/vid-out nodes ($(ls /sys/class/video4linux | tr '\n' ' '))"
     hil_wait_for "$HIL_VID_CAP" 5 && hil_wait_for "$HIL_VID_OUT" 5 || hil_fail "vivid nodes missing in /dev"
 }
-# hil_vivid_loop WIDTH HEIGHT FOURCC: both sides on HDMI, the same format, OSD off, loop on: what is written to the
-# output comes back on the capture byte for byte.
+# hil_vivid_loop [FOURCC]: both sides on HDMI with the same DV timings (640x480p59.94, vivid's first preset, which
+# the in-band layout of 320x360 eyes fits: 640x374) and the same format, OSD off, loop on: what is written to the
+# output comes back on the capture byte for byte. Sets HIL_VID_W and HIL_VID_H.
 hil_vivid_loop() {
-    w=$1; h=$2; fcc=$3
+    fcc=${1:-YUYV}
     v4l2-ctl -d "$HIL_VID_CAP" -i 3 >/dev/null || hil_fail "vivid: cannot select capture input 3 (HDMI)"
     v4l2-ctl -d "$HIL_VID_OUT" -o 1 >/dev/null || hil_fail "vivid: cannot select output 1 (HDMI)"
-    # HDMI sides follow DV timings: a custom BT.656/1120 timing of exactly WxH on both.
     for d in "$HIL_VID_CAP" "$HIL_VID_OUT"; do
-        v4l2-ctl -d "$d" --set-dv-bt-timings "width=$w,height=$h,interlaced=0,polarities=0,pixelclock=$((w * h * 60 * 2)),hfp=16,hs=32,hbp=48,vfp=3,vs=5,vbp=10" >/dev/null 2>&1 ||
-            v4l2-ctl -d "$d" --set-dv-bt-timings "cvt,width=$w,height=$h,fps=60" >/dev/null 2>&1 ||
-            hil_fail "vivid: $d rejects DV timings ${w}x$h"
+        v4l2-ctl -d "$d" --set-dv-bt-timings index=0 >/dev/null || hil_fail "vivid: $d rejects DV timings preset 0"
     done
-    v4l2-ctl -d "$HIL_VID_OUT" --set-fmt-video-out="width=$w,height=$h,pixelformat=$fcc" >/dev/null || hil_fail "vivid: output format"
-    v4l2-ctl -d "$HIL_VID_CAP" --set-fmt-video="width=$w,height=$h,pixelformat=$fcc" >/dev/null || hil_fail "vivid: capture format"
+    HIL_VID_W=640; HIL_VID_H=480
+    v4l2-ctl -d "$HIL_VID_OUT" --set-fmt-video-out="width=640,height=480,pixelformat=$fcc" >/dev/null || hil_fail "vivid: output format"
+    v4l2-ctl -d "$HIL_VID_CAP" --set-fmt-video="width=640,height=480,pixelformat=$fcc" >/dev/null || hil_fail "vivid: capture format"
     v4l2-ctl -d "$HIL_VID_CAP" --set-ctrl=osd_text_mode=2 >/dev/null || hil_fail "vivid: cannot set OSD Text Mode = None"
     v4l2-ctl -d "$HIL_VID_CAP" --set-ctrl=loop_video=1 >/dev/null || hil_fail "vivid: cannot turn Loop Video on"
 }
