@@ -4,6 +4,7 @@
 #   make                 build everything          make run     run hmdwarpd on the simulated board
 #   make test            unit + accuracy tests     make asan    the tests under ASan+UBSan
 #   make install PREFIX=/usr DESTDIR=...           make clean
+#   make hil             hardware-in-the-loop scenarios in a qemu VM on Debian's kernel (tests/hil/README.md)
 #   make CROSS_COMPILE=aarch64-linux-gnu-          cross build for the board
 
 CROSS_COMPILE ?=
@@ -50,7 +51,7 @@ HIL_BINS := $(patsubst tests/hil/src/%.c,$(BUILD)/hil/%,$(HIL_SRC))
 TEST_SUPPORT_SRC := $(wildcard tests/support/*.c)
 TEST_BINS := $(patsubst tests/%.c,$(BUILD)/tests/%,$(TEST_SRC))
 
-.PHONY: all deps run test asan install clean
+.PHONY: all deps run test asan install clean hil
 all: $(PROGRAMS) $(TEST_BINS) $(HIL_BINS)
 .SECONDARY:
 
@@ -121,6 +122,10 @@ run: deps
 test: deps
 	@$(MAKE) --no-print-directory all
 	@tests/run.sh $(BUILD)/tests $(TEST_BINS)
+
+# Hardware-in-the-loop: real kernel drivers (uhid, i2c-stub, vivid, dummy_hcd + FunctionFS, gpio-sim) in a qemu VM.
+hil:
+	@board/deps.sh && board/deps-hil.sh && $(MAKE) --no-print-directory all && tests/hil/run.sh
 
 # Tests under AddressSanitizer + UndefinedBehaviorSanitizer, in their own build tree.
 ASAN_BUILD ?= build/asan

@@ -91,6 +91,13 @@ for d in $DEBS; do
     dpkg-deb -x "$deb" "$CACHE/root"
 done
 
+# The headers' Makefile includes the -common one by its installed path (/usr/src/...): point it into the cache.
+HDR=$CACHE/root/usr/src/linux-headers-$KABI
+sed -i "s|^include /usr/src/|include $(cd "$CACHE/root/usr/src" && pwd)/|" "$HDR/Makefile"
+
+# The image package leaves modules.dep to its postinst: generate it so module dependencies can be resolved.
+depmod -b "$CACHE/root" -F "$CACHE/root/boot/System.map-$KABI" "$KABI"
+
 # What the rest of the recipe reads: the ABI, the kernel, the module tree, the headers' build dir, the source.
 R=$CACHE/root
 [ -f "$R/boot/vmlinuz-$KABI" ] || { echo "deps-hil: no $R/boot/vmlinuz-$KABI" >&2; exit 1; }

@@ -85,6 +85,7 @@ for f in "$here"/init/*; do
     [ "$(basename "$f")" = init ] || cp "$f" "$S/hil/bin/"
 done
 cp "$here"/scenarios/*.sh "$S/hil/scenarios/"
+cp "$top/board/sim/board.ini" "$S/hil/sim-board.ini"   # base for boards that only override a few keys
 if [ -d "$here/boards" ]; then cp "$here"/boards/* "$S/hil/boards/" 2>/dev/null || true; fi
 chmod +x "$S/init" "$S"/hil/bin/* "$S"/hil/scenarios/*.sh
 echo "hil" >"$S/etc/hostname"

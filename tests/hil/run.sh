@@ -8,6 +8,8 @@
 # env:   HIL_SCENARIO=NAME   same as naming it     HIL_SHELL=1   interactive shell in the VM (Ctrl-A x quits)
 #        HIL_VERBOSE=1       stream scenario logs   HIL_TIMEOUT=S  whole-VM limit (default 900)
 #        HIL_SOAK_S=S        soak length (04-soak)  HIL_SMP, HIL_MEM  VM CPUs (2) and MiB (1024)
+#        HIL_NOMINAL_S, HIL_PANEL=small|board, HIL_MISSED_MAX, HIL_IMU_RATE_MIN, HIL_HMD_ARGS=--set,k=v: scenario knobs
+#        passed to the VM (see tests/hil/README.md)
 #        HIL_KERNEL=vmlinuz  boot the compressed image instead of the extracted vmlinux
 #        BUILD=build         build tree (programs from `make all`)
 # Needs board/deps-hil.sh to have run (qemu, busybox, the kernel cache) and `make all`.
@@ -30,7 +32,10 @@ if [ "${HIL_KERNEL:-vmlinux}" = vmlinuz ]; then kernel=$out/cache/root/boot/vmli
 # Kernel parameters: NAME=VALUE words without dots become /init's environment.
 append="console=ttyS0 panic=-1 loglevel=4 mitigations=off nokaslr tsc=reliable"
 append="$append HIL_SHELL=${HIL_SHELL:-0} HIL_VERBOSE=${HIL_VERBOSE:-0}"
-[ -n "${HIL_SOAK_S:-}" ] && append="$append HIL_SOAK_S=$HIL_SOAK_S"
+for v in HIL_SOAK_S HIL_NOMINAL_S HIL_HMD_ARGS HIL_PANEL HIL_MISSED_MAX HIL_IMU_RATE_MIN; do
+    eval "val=\${$v:-}"
+    [ -n "$val" ] && append="$append $v=$val"
+done
 [ -n "${HIL_TIMEOUT_SCALE:-}" ] && append="$append HIL_TIMEOUT_SCALE=$HIL_TIMEOUT_SCALE"
 names=$(echo $scen | tr ' ' ',')
 [ -n "$names" ] && append="$append HIL_SCENARIO=$names"
@@ -50,7 +55,8 @@ rc=0
 timeout "${HIL_TIMEOUT:-900}" "$@" </dev/null >"$log" 2>&1 &
 qpid=$!
 # Echo the per-scenario lines as they come (and a failing scenario's log tail).
-tail -n +1 -f "$log" --pid="$qpid" 2>/dev/null | tr -d '\r' | grep --line-buffered -E '^(hil: |    \| )' || true
+if [ "${HIL_VERBOSE:-0}" = 1 ]; then pat=""; else pat="^(hil: |    \\| )"; fi
+tail -n +1 -f "$log" --pid="$qpid" 2>/dev/null | tr -d "\r" | grep --line-buffered -E "$pat" || true
 wait "$qpid" || rc=$?
 tr -d '\r' <"$log" >"$log.txt"
 

@@ -6,8 +6,7 @@
 . /hil/scenarios/lib.sh
 
 # HID: uhid gives /dev/uhid; hidraw is built in.
-hil_modprobe uhid
-hil_wait_for /dev/uhid 5 || hil_fail "uhid: no /dev/uhid"
+hil_uhid
 [ -d /sys/class/hidraw ] || hil_fail "no hidraw class (CONFIG_HIDRAW)"
 if [ -x /hil/bin/hil_uhid_imu ]; then
     before=$(ls /sys/class/hidraw | wc -l)

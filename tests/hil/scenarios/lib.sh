@@ -22,8 +22,14 @@ hil_fail() {
 # Scenarios may redefine this to dump extra state (logs) on failure.
 hil_on_fail() { :; }
 
+# hil_miss REASON: record a failed check and carry on (the remaining checks still report); hil_pass then fails.
+hil_miss() {
+    echo "$*" >>"$HIL_REASON"
+    hil_log "CHECK FAILED: $*"
+}
+
 hil_pass() {
-    [ -s "$HIL_REASON" ] && exit 1
+    if [ -s "$HIL_REASON" ]; then hil_on_fail 2>/dev/null; exit 1; fi
     echo "hil-ok: $HIL_NAME"
     exit 0
 }
@@ -38,9 +44,14 @@ hil_expect() {
 }
 
 # Floating-point comparison: hil_cmp A OP B with OP one of < <= > >= == !=.
-hil_cmp() { awk -v a="$1" -v b="$3" -v op="$2" 'BEGIN {
-    if (a == "" || b == "") exit 1
-    a += 0; b += 0
+hil_cmp() { awk -v a="$1" -v b="$3" -v op="$2" 'function ev(x,  n, t, i, r) {
+        # a tiny evaluator for "N", "N * M", "N * M + K" (bounds written in terms of measured values)
+        n = split(x, t, " "); r = t[1] + 0
+        for (i = 2; i < n; i += 2) { if (t[i] == "*") r *= t[i+1]; else if (t[i] == "+") r += t[i+1]; else if (t[i] == "-") r -= t[i+1]; else if (t[i] == "/") r /= t[i+1] }
+        return r }
+    BEGIN {
+    if (a == "" || b == "" || a == "nan" || b == "nan") exit 1
+    a = ev(a); b = ev(b)
     if (op == "<") exit !(a < b); if (op == "<=") exit !(a <= b); if (op == ">") exit !(a > b)
     if (op == ">=") exit !(a >= b); if (op == "==") exit !(a == b); if (op == "!=") exit !(a != b); exit 1 }'; }
 
@@ -77,6 +88,33 @@ hil_wait_until() {
         i=$((i + 1)); [ "$i" -le "$lim" ] || return 1
         sleep 0.1
     done
+}
+
+# hil_uhid: uhid plus hid-generic, which binds the created devices (no udevd here to load it from the modalias).
+hil_uhid() {
+    hil_modprobe uhid
+    hil_modprobe hid-generic
+    hil_wait_for /dev/uhid 5 || hil_fail "uhid: no /dev/uhid"
+}
+
+# hil_imu_start ARGS...: hil_uhid_imu in the background (HIL_IMU_PID); waits for its hidraw node (HIL_HIDRAW).
+hil_imu_start() {
+    rm -f "$HIL_WORK/imu.ready"
+    hil_uhid_imu --ready-file "$HIL_WORK/imu.ready" "$@" >"$HIL_WORK/imu.log" 2>&1 &
+    HIL_IMU_PID=$!
+    hil_wait_until 15 grep -q '^state=ready' "$HIL_WORK/imu.ready" 2>/dev/null ||
+        { cat "$HIL_WORK/imu.log"; hil_fail "hil_uhid_imu: no hidraw device ($(tail -n 1 "$HIL_WORK/imu.log"))"; }
+    HIL_HIDRAW=$(sed -n 's/^hidraw=//p' "$HIL_WORK/imu.ready")
+    hil_log "imu: uhid device at $HIL_HIDRAW"
+}
+
+# hil_te_start ARGS...: hil_te playing 90 Hz TE pulses on the gpio-sim line HIL_GPIO_CHIP/0 (HIL_TE_PID).
+hil_te_start() {
+    rm -f "$HIL_WORK/te.ready"
+    hil_te --chip "$HIL_GPIO_CHIP" --line 0 --ready-file "$HIL_WORK/te.ready" "$@" >"$HIL_WORK/te.log" 2>&1 &
+    HIL_TE_PID=$!
+    hil_wait_until 10 grep -q '^state=ready' "$HIL_WORK/te.ready" 2>/dev/null ||
+        { cat "$HIL_WORK/te.log"; hil_fail "hil_te: line $HIL_GPIO_CHIP/0 not ready ($(tail -n 1 "$HIL_WORK/te.log"))"; }
 }
 
 # --- I2C: i2c-stub ---------------------------------------------------------------------------------------------
@@ -173,6 +211,15 @@ hil_gadget_start() {
     fi
     hil_log "$(tail -n 1 "$HIL_WORK/gadget.log")"
 }
+# hil_feed_usb ARGS...: hmdwarp-feed over USB (HIL_FEED_PID), started once the host side has enumerated the
+# gadget: hmdwarp-feed calls libusb_init once and then retries libusb_open_device_with_vid_pid, and without udevd
+# libusb gets no hotplug events, so a device that enumerates after its libusb_init is never seen.
+hil_feed_usb() {
+    hil_wait_until 20 sh -c 'grep -qx 0104 /sys/bus/usb/devices/*/idProduct 2>/dev/null' ||
+        hil_fail "dummy_hcd host side never enumerated the gadget (no 1d6b:0104 in /sys/bus/usb/devices)"
+    hmdwarp-feed --eye "$HIL_EYE" --wait 30 "$@" >"$HIL_WORK/feed.log" 2>&1 &
+    HIL_FEED_PID=$!
+}
 hil_gadget_stop() { gadget.sh --ffs-dir "$FFS_DIR" stop >>"$HIL_WORK/gadget.log" 2>&1; }
 
 # --- hmdwarpd --------------------------------------------------------------------------------------------------
@@ -180,10 +227,22 @@ hil_gadget_stop() { gadget.sh --ffs-dir "$FFS_DIR" stop >>"$HIL_WORK/gadget.log"
 # hil_hmdwarpd ARGS...: start hmdwarpd in the background with --stats $HIL_STATS and its log in $HIL_HMD_LOG.
 HIL_STATS=$HIL_WORK/stats.txt
 HIL_HMD_LOG=$HIL_WORK/hmdwarpd.log
+# The panel defaults to HIL_PANEL=small: TCG runs the warp ~50x slower than the host, so the boards' 640x360 panel
+# cannot keep 90 Hz in the VM; 128x64 (64x64 eyes) can. HIL_PANEL=board keeps the board file's size.
+HIL_EYE=64x64
+[ "${HIL_PANEL:-small}" = small ] || HIL_EYE=320x360    # tests/hil/boards' [eye]
 hil_hmdwarpd() {
     rm -f "$HIL_STATS"
     hil_log "hmdwarpd $*"
-    hmdwarpd --stats "$HIL_STATS" "$@" >"$HIL_HMD_LOG" 2>&1 &
+    if [ "${HIL_PANEL:-small}" = small ]; then
+        set -- "$@" --set display.width=128 --set display.height=64 --set eye.width=64 --set eye.height=64 \
+            --set lens.scale=32 --set "lens.center=33 32" --set lens.mesh=8
+    fi
+    HIL_HMD_T0=$(cut -d. -f1 /proc/uptime)
+    # HIL_HMD_ARGS (kernel command line, via run.sh): extra hmdwarpd options for experiments, e.g.
+    # HIL_HMD_ARGS=--set,vsync.backend=timer (commas for spaces).
+    # shellcheck disable=SC2086
+    hmdwarpd --stats "$HIL_STATS" "$@" $(echo "${HIL_HMD_ARGS:-}" | tr , ' ') >"$HIL_HMD_LOG" 2>&1 &
     HIL_HMD_PID=$!
 }
 # hil_hmdwarpd_wait [TIMEOUT_S]: wait for hmdwarpd to end by itself (its --duration); fails on a crash, a
@@ -213,16 +272,39 @@ hil_hmdwarpd_stop() {
 
 # hil_stat KEY [FILE]: one value from a --stats file (key=value lines).
 hil_stat() { sed -n "s/^$1=//p" "${2:-$HIL_STATS}" | head -n 1; }
-# hil_expect_stat KEY OP VALUE [WHY]: assert on a stats value, e.g. hil_expect_stat missed '<=' 2.
+# hil_expect_stat KEY OP VALUE [WHY]: check a stats value (VALUE may be "N * M + K"); a miss is recorded
+# (hil_miss) and the scenario goes on, so one run reports every failed check, e.g. hil_expect_stat missed '<=' 2.
 hil_expect_stat() {
     v=$(hil_stat "$1")
     hil_note "$1" "${v:-missing}"
-    [ -n "$v" ] || hil_fail "stats: no $1 in $HIL_STATS"
-    hil_cmp "$v" "$2" "$3" || hil_fail "${4:-stats}: $1=$v, expected $2 $3"
+    [ -n "$v" ] || { hil_miss "stats: no $1 in $HIL_STATS"; return 1; }
+    hil_cmp "$v" "$2" "$3" || { hil_miss "${4:-stats}: $1=$v, expected $2 $3"; return 1; }
 }
+# hil_expect_one_present_per_vsync: every compositor pass presents once (a frame, a cleared image when no frame
+# yet, or the previous image when no buffer is free), so the passes cannot outnumber the vsyncs; more passes
+# than vsyncs mean the loop woke again for a vsync it had served.
+hil_expect_one_present_per_vsync() {
+    v=$(hil_stat vsyncs)
+    p=$(( $(hil_stat method_none) + $(hil_stat method_rotation) + $(hil_stat method_raytrace) + $(hil_stat no_frame) + $(hil_stat no_buffer) ))
+    hil_note presents "$p"
+    hil_cmp "$p" '<=' "$v * 1.02 + 2" || hil_miss "compositor passes $p > vsyncs $v: more than one present per vsync (the loop spins on an already served vsync)"
+}
+# hil_expect_run_time D SLACK_S: hmdwarpd's --duration D run ended within D + SLACK_S seconds of wall time.
+hil_expect_run_time() {
+    dt=$(( $(cut -d. -f1 /proc/uptime) - HIL_HMD_T0 ))
+    hil_note run_s "$dt"
+    [ "$dt" -le $(( $1 + $2 )) ] || hil_miss "hmdwarpd --duration $1 ran ${dt}s (its vsync clock fell behind real time?)"
+}
+
+# hil_expect_backends IMU/FRAMES/VSYNC: the stats name these backends (first word of each: "i2c mpu6050 ..." is i2c).
+hil_expect_backends() {
+    got="$(hil_stat imu_backend | cut -d' ' -f1)/$(hil_stat frames_backend | cut -d' ' -f1)/$(hil_stat vsync_backend | cut -d' ' -f1)"
+    [ "$got" = "$1" ]
+}
+
 # hil_log_has REGEX [WHY]: hmdwarpd's log must contain a line matching REGEX.
 hil_log_has() {
-    grep -qE "$1" "$HIL_HMD_LOG" || hil_fail "${2:-hmdwarpd log}: no line matching '$1'"
+    grep -qE "$1" "$HIL_HMD_LOG" || hil_miss "${2:-hmdwarpd log}: no line matching '$1'"
 }
 
 # hil_board NAME: path of a HIL board file (tests/hil/boards/NAME.ini).
