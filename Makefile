@@ -5,6 +5,7 @@
 #   make test            unit + accuracy tests     make asan    the tests under ASan+UBSan
 #   make bench           accuracy vs time          make results every warp vs ground truth
 #   make install PREFIX=/usr DESTDIR=...           make clean
+#   make hil             hardware-in-the-loop scenarios in a qemu VM on Debian's kernel (tests/hil/README.md)
 #   make CROSS_COMPILE=aarch64-linux-gnu-          cross build for the board
 
 CROSS_COMPILE ?=
@@ -70,7 +71,7 @@ HIL_BINS := $(patsubst tests/hil/src/%.c,$(BUILD)/hil/%,$(HIL_SRC))
 TEST_SUPPORT_SRC := $(wildcard tests/support/*.c)
 TEST_BINS := $(patsubst tests/%.c,$(BUILD)/tests/%,$(TEST_SRC))
 
-.PHONY: all deps run test asan install clean results bench stability
+.PHONY: all deps run test asan install clean results bench stability hil
 all: $(PROGRAMS) $(TEST_BINS) $(HIL_BINS)
 .SECONDARY:
 
@@ -153,6 +154,10 @@ test: deps
 stability: deps
 	@$(MAKE) --no-print-directory $(STABILITY_BINS)
 	@tests/run.sh $(BUILD)/tests $(STABILITY_BINS)
+
+# Hardware-in-the-loop: real kernel drivers (uhid, i2c-stub, vivid, dummy_hcd + FunctionFS, gpio-sim) in a qemu VM.
+hil:
+	@board/deps.sh && board/deps-hil.sh && $(MAKE) --no-print-directory all && tests/hil/run.sh
 
 # Tests under AddressSanitizer + UndefinedBehaviorSanitizer, in their own build tree.
 ASAN_BUILD ?= build/asan

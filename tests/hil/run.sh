@@ -1,0 +1,70 @@
+#!/bin/sh
+# Hardware-in-the-loop tests: boots Debian's own kernel under qemu (TCG software emulation, no KVM needed) with an
+# initramfs holding hmdwarpd, the in-VM device programs and the kernel mock devices' modules, runs the scenarios
+# (tests/hil/scenarios) and reports one line per scenario. Exits non-zero if any scenario fails or the VM does
+# not report.
+#
+# usage: tests/hil/run.sh [NAME...]        (names: 01-nominal, 01, nominal; default: all)
+# env:   HIL_SCENARIO=NAME   same as naming it     HIL_SHELL=1   interactive shell in the VM (Ctrl-A x quits)
+#        HIL_VERBOSE=1       stream scenario logs   HIL_TIMEOUT=S  whole-VM limit (default 900)
+#        HIL_SOAK_S=S        soak length (04-soak)  HIL_SMP, HIL_MEM  VM CPUs (2) and MiB (1024)
+#        HIL_NOMINAL_S, HIL_PANEL=small|board, HIL_MISSED_MAX, HIL_IMU_RATE_MIN, HIL_HMD_ARGS=--set,k=v: scenario knobs
+#        passed to the VM (see tests/hil/README.md)
+#        HIL_KERNEL=vmlinuz  boot the compressed image instead of the extracted vmlinux
+#        BUILD=build         build tree (programs from `make all`)
+# Needs board/deps-hil.sh to have run (qemu, busybox, the kernel cache) and `make all`.
+set -eu
+BUILD=${BUILD:-build}
+here=$(cd "$(dirname "$0")" && pwd)
+out=$BUILD/hil
+die() { echo "hil: $*" >&2; exit 2; }
+
+command -v qemu-system-x86_64 >/dev/null || die "qemu-system-x86_64 missing (board/deps-hil.sh)"
+[ -s "$out/cache/kabi" ] || die "no kernel cache in $out/cache (board/deps-hil.sh)"
+KABI=$(cut -d' ' -f1 "$out/cache/kabi")
+
+scen="${HIL_SCENARIO:-} $*"
+"$here/build-initramfs.sh" >"$out/initramfs.log" 2>&1 || { cat "$out/initramfs.log" >&2; die "initramfs build failed"; }
+tail -n 1 "$out/initramfs.log"
+
+if [ "${HIL_KERNEL:-vmlinux}" = vmlinuz ]; then kernel=$out/cache/root/boot/vmlinuz-$KABI; else kernel=$out/vmlinux; fi
+
+# Kernel parameters: NAME=VALUE words without dots become /init's environment.
+append="console=ttyS0 panic=-1 loglevel=4 mitigations=off nokaslr tsc=reliable"
+append="$append HIL_SHELL=${HIL_SHELL:-0} HIL_VERBOSE=${HIL_VERBOSE:-0}"
+for v in HIL_SOAK_S HIL_NOMINAL_S HIL_HMD_ARGS HIL_PANEL HIL_MISSED_MAX HIL_IMU_RATE_MIN; do
+    eval "val=\${$v:-}"
+    [ -n "$val" ] && append="$append $v=$val"
+done
+[ -n "${HIL_TIMEOUT_SCALE:-}" ] && append="$append HIL_TIMEOUT_SCALE=$HIL_TIMEOUT_SCALE"
+names=$(echo $scen | tr ' ' ',')
+[ -n "$names" ] && append="$append HIL_SCENARIO=$names"
+
+set -- qemu-system-x86_64 -accel tcg,thread=multi -cpu max -smp "${HIL_SMP:-2}" -m "${HIL_MEM:-1024}" \
+    -kernel "$kernel" -initrd "$out/initramfs.cpio" -append "$append" \
+    -nographic -no-reboot -nic none
+
+if [ "${HIL_SHELL:-0}" = 1 ]; then
+    echo "hil: interactive VM (kernel $KABI); Ctrl-A x quits qemu"
+    exec "$@"
+fi
+
+log=$out/console.log
+echo "hil: booting $KABI under qemu (TCG), console log: $log"
+rc=0
+timeout "${HIL_TIMEOUT:-900}" "$@" </dev/null >"$log" 2>&1 &
+qpid=$!
+# Echo the per-scenario lines as they come (and a failing scenario's log tail).
+if [ "${HIL_VERBOSE:-0}" = 1 ]; then pat=""; else pat="^(hil: |    \\| )"; fi
+tail -n +1 -f "$log" --pid="$qpid" 2>/dev/null | tr -d "\r" | grep --line-buffered -E "$pat" || true
+wait "$qpid" || rc=$?
+tr -d '\r' <"$log" >"$log.txt"
+
+summary=$(grep -E '^hil: [0-9]+ passed, [0-9]+ failed' "$log.txt" | tail -n 1)
+if [ -z "$summary" ]; then
+    if [ "$rc" -eq 124 ]; then echo "hil: FAIL: the VM did not finish within ${HIL_TIMEOUT:-900}s"
+    else echo "hil: FAIL: the VM ended (qemu status $rc) without reporting; last console lines:"; fi
+    tail -n 25 "$log.txt" | sed 's/^/    | /'
+    exit 1
+fi
+case "$summary" in *" 0 failed") exit 0 ;; *) exit 1 ;; esac

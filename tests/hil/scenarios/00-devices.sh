@@ -1,0 +1,81 @@
+#!/bin/sh
+# 00-devices: every kernel mock device the other scenarios use appears and works at the kernel level, before
+# hmdwarpd is involved: uhid/hidraw, i2c-stub registers, gpio-sim edges seen by libgpiod, vivid's loop,
+# dummy_hcd's UDC and USB host side.
+# hil-timeout: 90
+. /hil/scenarios/lib.sh
+
+# HID: uhid gives /dev/uhid; hidraw is built in.
+hil_uhid
+[ -d /sys/class/hidraw ] || hil_fail "no hidraw class (CONFIG_HIDRAW)"
+if [ -x /hil/bin/hil_uhid_imu ]; then
+    before=$(ls /sys/class/hidraw | wc -l)
+    hil_uhid_imu --help >/dev/null 2>&1
+    hil_uhid_imu --duration 3 >"$HIL_WORK/uhid.log" 2>&1 &
+    up=$!
+    hil_wait_until 10 sh -c "[ \$(ls /sys/class/hidraw | wc -l) -gt $before ]" ||
+        { cat "$HIL_WORK/uhid.log"; hil_fail "uhid: hil_uhid_imu created no hidraw device"; }
+    hr=$(ls -t /sys/class/hidraw | head -n 1)
+    hil_log "uhid: $hr: $(grep HID_NAME /sys/class/hidraw/"$hr"/device/uevent)"
+    hil_wait_for "/dev/$hr" 5 || hil_fail "uhid: no /dev/$hr node"
+    kill "$up" 2>/dev/null; wait "$up" 2>/dev/null
+fi
+
+# I2C: i2c-stub's register file through i2c-dev (SMBus byte data).
+bus=$(hil_i2c_stub 0x68)
+n=${bus#/dev/i2c-}
+i2cset -y "$n" 0x68 0x75 0x68 b || hil_fail "i2c-stub: i2cset on $bus failed"
+v=$(i2cget -y "$n" 0x68 0x75 b) || hil_fail "i2c-stub: i2cget on $bus failed"
+[ "$v" = 0x68 ] || hil_fail "i2c-stub: register 0x75 reads $v after writing 0x68"
+hil_log "i2c-stub: $bus, register write/read ok"
+hil_rmmod i2c_stub
+
+# GPIO: a gpio-sim line toggled through its pull attribute gives edge events to libgpiod.
+hil_gpio_sim hil00 1
+pull=$(hil_gpio_pull 0)
+[ -w "$pull" ] || hil_fail "gpio-sim: no pull attribute at $pull"
+echo pull-down >"$pull"
+if command -v gpiomon >/dev/null; then
+    gpiomon -n 4 "$HIL_GPIO_CHIP" 0 >"$HIL_WORK/gpiomon.log" 2>&1 &
+    mon=$!
+    sleep 0.5
+    for s in up down up down; do echo "pull-$s" >"$pull"; sleep 0.1; done
+    i=0; while kill -0 "$mon" 2>/dev/null && [ $i -lt 30 ]; do sleep 0.1; i=$((i + 1)); done
+    kill "$mon" 2>/dev/null
+    cat "$HIL_WORK/gpiomon.log"
+    edges=$(grep -c 'EDGE' "$HIL_WORK/gpiomon.log")
+    [ "$edges" -eq 4 ] || hil_fail "gpio-sim: gpiomon saw $edges edges on $HIL_GPIO_CHIP line 0, expected 4"
+    echo pull-up >"$pull"
+    v=$(gpioget "$HIL_GPIO_CHIP" 0) || hil_fail "gpioget $HIL_GPIO_CHIP 0 failed"
+    [ "$v" = 1 ] || hil_fail "gpio-sim: line 0 reads $v with pull-up"
+fi
+hil_log "gpio-sim: $HIL_GPIO_CHIP ($HIL_GPIO_DEV), edges ok"
+hil_gpio_sim_remove hil00
+
+# V4L2: vivid's capture and output nodes with the loop set up.
+hil_vivid
+hil_vivid_loop YUYV
+hil_log "vivid: capture $HIL_VID_CAP, output $HIL_VID_OUT, $(v4l2-ctl -d "$HIL_VID_CAP" --get-fmt-video | grep 'Width/Height')"
+# Byte-exact loop: a constant frame written to the output comes back unchanged.
+sz=$((HIL_VID_W * HIL_VID_H * 2))
+awk -v n="$sz" 'BEGIN { for (i = 0; i < n / 4; i++) printf "\x5a\x80\xa5\x80" }' >"$HIL_WORK/pat.yuv" 2>/dev/null ||
+    head -c "$sz" /dev/zero | tr '\0' 'Z' >"$HIL_WORK/pat.yuv"
+v4l2-ctl -d "$HIL_VID_OUT" --stream-out-mmap=3 --stream-from="$HIL_WORK/pat.yuv" --stream-loop --stream-count=200 >/dev/null 2>&1 &
+out=$!
+sleep 1
+v4l2-ctl -d "$HIL_VID_CAP" --stream-mmap=3 --stream-count=4 --stream-to="$HIL_WORK/cap.yuv" >/dev/null 2>&1 ||
+    hil_fail "vivid: capture streaming failed"
+kill "$out" 2>/dev/null; wait "$out" 2>/dev/null
+tail -c "$sz" "$HIL_WORK/cap.yuv" >"$HIL_WORK/last.yuv"
+cmp -s "$HIL_WORK/last.yuv" "$HIL_WORK/pat.yuv" ||
+    hil_fail "vivid: looped frame differs from the one written ($(cmp "$HIL_WORK/last.yuv" "$HIL_WORK/pat.yuv" 2>&1 | head -n 1))"
+hil_log "vivid: loop byte-exact"
+hil_rmmod vivid
+
+# USB: dummy_hcd's UDC and its host-side root hub (usbfs nodes from devtmpfs, no udevd).
+hil_usb_udc
+hil_wait_for /dev/bus/usb/001/001 5 || hil_fail "dummy_hcd: no /dev/bus/usb/001/001 (root hub)"
+[ -d "$CFS/usb_gadget" ] || hil_fail "libcomposite: no $CFS/usb_gadget"
+hil_log "usb: $(ls /sys/class/udc), root hub $(cat /sys/bus/usb/devices/usb1/product 2>/dev/null)"
+
+hil_pass

@@ -1,0 +1,75 @@
+#!/bin/sh
+# 03-faults: the full real-driver board (hidraw IMU, USB frames, gpio-sim TE) with faults injected from outside
+# hmdwarpd, on a timeline, then a V4L2 phase with vivid's error injection:
+#   t=3 s   the host stalls 2 s (hmdwarp-feed SIGSTOP/SIGCONT)       -> last good frame warped, frames resume
+#   t=6 s   the IMU is unplugged for 1 s (uhid destroy, replug)       -> orientation held, reconnect
+#   always  every 50th HID report damaged (crc, truncated, id, version) -> rejected and counted, no crash
+#   t=9 s   TE edges stop for 1 s, then restart                       -> timer fallback, relock on the edges
+#   V4L2    20 % dropped buffers, then a fatal streaming error        -> rejected/lost counted, no crash
+# Asserts: no crash, every fault counted and logged, recovery (reconnect, relock, frames after the stall) within
+# the run; plus one present per vsync.
+# Not covered here: corrupted/truncated frames on the real USB link (hmdwarp-feed cannot damage frames; the
+# framelink rejections are covered by the mocks in tests/unit).
+# hil-timeout: 200
+. /hil/scenarios/lib.sh
+D=${HIL_FAULTS_S:-14}
+
+hil_uhid
+hil_imu_start --duration $((D + 60)) --trace slow --unplug-at 6 --unplug-for 1 --corrupt-every 50
+hil_gpio_sim hil03 1
+hil_te_start --rate 90 --duration $((D + 60)) --stop-at 9 --stop-for 1
+hil_usb_udc
+hil_gadget_start --config "$(hil_board hid-usb-gpio)" --duration "$D" --set "vsync.chip=$HIL_GPIO_CHIP"
+hil_feed_usb --rate 30 --duration $((D + 5))
+t0=$(cut -d. -f1 /proc/uptime)
+# The host stall, timed from here (the IMU and TE timelines started a few seconds earlier: they are only
+# ordered, not simultaneous).
+sleep 3
+kill -STOP "$HIL_FEED_PID"; hil_log "host stalled"
+sleep 2
+kill -CONT "$HIL_FEED_PID"; hil_log "host resumed"
+hil_hmdwarpd_wait $((D + 60))
+kill "$HIL_FEED_PID" 2>/dev/null; wait "$HIL_FEED_PID" 2>/dev/null
+hil_gadget_stop
+grep -i 'unplug\|replug\|ready\|summary' "$HIL_WORK/imu.log" | tail -n 5
+grep -v '^frames_rejected_\|^psnr\|^ssim' "$HIL_STATS"
+
+hil_expect_backends hid/usb/gpio || hil_miss "backends not hid/usb/gpio"
+hil_expect_run_time "$D" 20
+# IMU unplug/replug: a reconnect, the orientation held meanwhile, a clear log line.
+hil_expect_stat imu_reconnects '>=' 1 "IMU replug seen"
+hil_expect_stat imu_stale_vsyncs '>=' 1 "orientation held while the IMU was gone"
+hil_expect_stat imu_connected '==' 1 "IMU connected again at the end"
+hil_log_has 'HID IMU.*(unplug|gone|lost|disconnect|reconnect|no report)' "IMU unplug log line"
+# Damaged HID reports: rejected and counted.
+hil_expect_stat imu_bad_reports '>=' 3 "damaged HID reports counted"
+# TE stop: fallback to the timer, then back on the line.
+hil_expect_stat vsync_fallbacks '>=' 1 "timer fallback while TE edges stopped"
+hil_expect_stat vsync_on_timer '==' 0 "relocked on the TE line"
+# Host stall: frames before and after (received over the whole run at >= 1 Hz), none rejected.
+hil_expect_stat frames_received '>=' "$D" "host frames (the link resumed after the stall)"
+hil_expect_stat frames_rejected '==' 0 "rejected frames on a clean link"
+hil_expect_stat frame_age_ms_max '>=' 1500 "a frame at least the stall old was warped while the host was gone"
+hil_expect_one_present_per_vsync
+hil_expect_stat missed '<=' "$(hil_stat vsyncs) * ${HIL_MISSED_MAX:-0.25}" "late presents"
+
+# V4L2 phase: vivid drops buffers, then fails the stream; hmdwarpd keeps presenting.
+hil_log "--- V4L2 errors"
+hil_vivid
+hil_vivid_loop YUYV
+hmdwarp-feed --v4l2 "$HIL_VID_OUT" --v4l2-format yuyv --synth-poses --eye "$HIL_EYE" --rate 30 --duration 60 \
+    >"$HIL_WORK/feed-v4l2.log" 2>&1 &
+fpid=$!
+sleep 1
+hil_hmdwarpd --config "$(hil_board sim-v4l2-sim)" --duration 8 --set "frames.device=$HIL_VID_CAP"
+sleep 3
+v4l2-ctl -d "$HIL_VID_CAP" --set-ctrl=percentage_of_dropped_buffers=20 || hil_miss "vivid: cannot drop buffers"
+sleep 2
+v4l2-ctl -d "$HIL_VID_CAP" --set-ctrl=inject_fatal_streaming_error=1 || hil_miss "vivid: cannot inject a streaming error"
+hil_hmdwarpd_wait 60
+kill "$fpid" 2>/dev/null; wait "$fpid" 2>/dev/null
+grep -v '^frames_rejected_\|^psnr\|^ssim' "$HIL_STATS"
+hil_expect_stat frames_received '>=' 10 "V4L2 frames before the errors"
+hil_expect_stat vsyncs '>=' "8 * 90 * 0.9" "presents kept going through the V4L2 errors"
+hil_log_has 'video|V4L2|DQBUF|stream' "a log line naming the V4L2 failure"
+hil_pass

@@ -1,0 +1,334 @@
+# lib.sh: helpers for HIL scenarios (sourced inside the test VM: . /hil/scenarios/lib.sh).
+# Kernel mock devices (modules, i2c-stub, gpio-sim, vivid, the FunctionFS gadget), hmdwarpd runs, stats checks.
+# A scenario ends with hil_pass; hil_fail REASON (or any failed hil_expect*) ends it with that reason.
+
+HIL_NAME=${HIL_NAME:-adhoc}
+HIL_REASON=${HIL_REASON:-/tmp/hil/$HIL_NAME.reason}
+HIL_BOARDS=${HIL_BOARDS:-/hil/boards}
+HIL_WORK=/tmp/hil/$HIL_NAME.d
+mkdir -p "$HIL_WORK" "$(dirname "$HIL_REASON")"
+CFS=/sys/kernel/config
+FFS_DIR=/dev/ffs-hmdwarp
+
+hil_log() { echo "[$HIL_NAME $(cut -d' ' -f1 /proc/uptime)] $*"; }
+
+# hil_fail REASON: record the reason (hil-run prints it on the scenario's line) and end the scenario.
+hil_fail() {
+    echo "$*" >>"$HIL_REASON"
+    hil_log "FAIL: $*"
+    hil_on_fail 2>/dev/null
+    exit 1
+}
+# Scenarios may redefine this to dump extra state (logs) on failure.
+hil_on_fail() { :; }
+
+# hil_miss REASON: record a failed check and carry on (the remaining checks still report); hil_pass then fails.
+hil_miss() {
+    echo "$*" >>"$HIL_REASON"
+    hil_log "CHECK FAILED: $*"
+}
+
+hil_pass() {
+    if [ -s "$HIL_REASON" ]; then hil_on_fail 2>/dev/null; exit 1; fi
+    echo "hil-ok: $HIL_NAME"
+    exit 0
+}
+
+# hil_note KEY VALUE: keep a measured value in the log in a fixed form (README "timings").
+hil_note() { echo "hil-note: $HIL_NAME: $1=$2"; }
+
+# hil_expect DESCRIPTION COMMAND...: fail with DESCRIPTION unless COMMAND succeeds.
+hil_expect() {
+    d=$1; shift
+    "$@" || hil_fail "$d"
+}
+
+# Floating-point comparison: hil_cmp A OP B with OP one of < <= > >= == !=.
+hil_cmp() { awk -v a="$1" -v b="$3" -v op="$2" 'function ev(x,  n, t, i, r) {
+        # a tiny evaluator for "N", "N * M", "N * M + K" (bounds written in terms of measured values)
+        n = split(x, t, " "); r = t[1] + 0
+        for (i = 2; i < n; i += 2) { if (t[i] == "*") r *= t[i+1]; else if (t[i] == "+") r += t[i+1]; else if (t[i] == "-") r -= t[i+1]; else if (t[i] == "/") r /= t[i+1] }
+        return r }
+    BEGIN {
+    if (a == "" || b == "" || a == "nan" || b == "nan") exit 1
+    a = ev(a); b = ev(b)
+    if (op == "<") exit !(a < b); if (op == "<=") exit !(a <= b); if (op == ">") exit !(a > b)
+    if (op == ">=") exit !(a >= b); if (op == "==") exit !(a == b); if (op == "!=") exit !(a != b); exit 1 }'; }
+
+# --- modules ---------------------------------------------------------------------------------------------------
+
+# hil_modprobe NAME [PARAM=VALUE...]: load a module with parameters; fails the scenario with dmesg's tail.
+hil_modprobe() {
+    if ! out=$(modprobe "$@" 2>&1); then
+        dmesg | tail -n 15
+        hil_fail "modprobe $*: $out"
+    fi
+}
+# hil_rmmod NAME...: unload modules that are loaded (ignores ones that are not).
+hil_rmmod() {
+    for m in "$@"; do
+        m=$(echo "$m" | tr - _)
+        grep -q "^$m " /proc/modules && rmmod "$m" 2>/dev/null
+    done
+    return 0
+}
+
+# hil_wait_for PATH [TIMEOUT_S]: wait until PATH exists (devtmpfs nodes appear asynchronously).
+hil_wait_for() {
+    i=0; lim=$(( ${2:-10} * 10 ))
+    while [ ! -e "$1" ]; do
+        i=$((i + 1)); [ "$i" -le "$lim" ] || return 1
+        sleep 0.1
+    done
+}
+# hil_wait_until TIMEOUT_S COMMAND...: poll COMMAND every 0.1 s until it succeeds.
+hil_wait_until() {
+    lim=$(( $1 * 10 )); shift; i=0
+    until "$@"; do
+        i=$((i + 1)); [ "$i" -le "$lim" ] || return 1
+        sleep 0.1
+    done
+}
+
+# hil_uhid: uhid plus hid-generic, which binds the created devices (no udevd here to load it from the modalias).
+hil_uhid() {
+    hil_modprobe uhid
+    hil_modprobe hid-generic
+    hil_wait_for /dev/uhid 5 || hil_fail "uhid: no /dev/uhid"
+}
+
+# hil_imu_start ARGS...: hil_uhid_imu in the background (HIL_IMU_PID); waits for its hidraw node (HIL_HIDRAW).
+hil_imu_start() {
+    rm -f "$HIL_WORK/imu.ready"
+    hil_uhid_imu --ready-file "$HIL_WORK/imu.ready" "$@" >"$HIL_WORK/imu.log" 2>&1 &
+    HIL_IMU_PID=$!
+    hil_wait_until 15 grep -q '^state=ready' "$HIL_WORK/imu.ready" 2>/dev/null ||
+        { cat "$HIL_WORK/imu.log"; hil_fail "hil_uhid_imu: no hidraw device ($(tail -n 1 "$HIL_WORK/imu.log"))"; }
+    HIL_HIDRAW=$(sed -n 's/^hidraw=//p' "$HIL_WORK/imu.ready")
+    hil_log "imu: uhid device at $HIL_HIDRAW"
+}
+
+# hil_te_start ARGS...: hil_te playing 90 Hz TE pulses on the gpio-sim line HIL_GPIO_CHIP/0 (HIL_TE_PID).
+hil_te_start() {
+    rm -f "$HIL_WORK/te.ready"
+    hil_te --chip "$HIL_GPIO_CHIP" --line 0 --ready-file "$HIL_WORK/te.ready" "$@" >"$HIL_WORK/te.log" 2>&1 &
+    HIL_TE_PID=$!
+    hil_wait_until 10 grep -q '^state=ready' "$HIL_WORK/te.ready" 2>/dev/null ||
+        { cat "$HIL_WORK/te.log"; hil_fail "hil_te: line $HIL_GPIO_CHIP/0 not ready ($(tail -n 1 "$HIL_WORK/te.log"))"; }
+}
+
+# --- I2C: i2c-stub ---------------------------------------------------------------------------------------------
+
+# hil_i2c_stub [ADDR]: load i2c-dev and i2c-stub with a chip at ADDR (default 0x68); prints /dev/i2c-N.
+hil_i2c_stub() {
+    hil_modprobe i2c-dev
+    hil_modprobe i2c-stub "chip_addr=${1:-0x68}"
+    for d in /sys/bus/i2c/devices/i2c-*; do
+        if [ "$(cat "$d/name" 2>/dev/null)" = "SMBus stub driver" ]; then
+            n=${d##*/i2c-}
+            hil_wait_for "/dev/i2c-$n" 5 || hil_fail "i2c-stub bus i2c-$n has no /dev/i2c-$n"
+            echo "/dev/i2c-$n"; return 0
+        fi
+    done
+    hil_fail "i2c-stub loaded but no 'SMBus stub driver' bus in /sys/bus/i2c/devices"
+}
+
+# --- GPIO: gpio-sim --------------------------------------------------------------------------------------------
+
+# hil_gpio_sim NAME [NUM_LINES]: create a live gpio-sim chip through configfs. Sets HIL_GPIO_CHIP (gpiochipN)
+# and HIL_GPIO_DEV (platform device name); hil_gpio_pull LINE prints that line's sysfs `pull` path.
+hil_gpio_sim() {
+    grep -q '^gpio_sim ' /proc/modules || hil_modprobe gpio-sim
+    g=$CFS/gpio-sim/$1
+    [ -d "$CFS/gpio-sim" ] || hil_fail "gpio-sim loaded but $CFS/gpio-sim missing (configfs mounted?)"
+    mkdir "$g" "$g/bank0" || hil_fail "cannot create gpio-sim chip $1 in configfs"
+    echo "${2:-1}" >"$g/bank0/num_lines"
+    echo 1 >"$g/live" || hil_fail "gpio-sim chip $1 did not go live (dmesg: $(dmesg | tail -n 2 | tr '\n' ' '))"
+    HIL_GPIO_CHIP=$(cat "$g/bank0/chip_name")
+    HIL_GPIO_DEV=$(cat "$g/dev_name")
+    [ -n "$HIL_GPIO_CHIP" ] || hil_fail "gpio-sim chip $1 has no chip_name"
+    hil_wait_for "/dev/$HIL_GPIO_CHIP" 5 || hil_fail "no /dev/$HIL_GPIO_CHIP for gpio-sim chip $1"
+}
+hil_gpio_pull() { echo "/sys/devices/platform/$HIL_GPIO_DEV/$HIL_GPIO_CHIP/sim_gpio${1:-0}/pull"; }
+hil_gpio_sim_remove() {
+    g=$CFS/gpio-sim/$1
+    [ -d "$g" ] || return 0
+    echo 0 >"$g/live" 2>/dev/null
+    rmdir "$g/bank0" "$g" 2>/dev/null
+    return 0
+}
+
+# --- V4L2: vivid loop ------------------------------------------------------------------------------------------
+
+# hil_vivid: load vivid with one capture and one output node; sets HIL_VID_CAP and HIL_VID_OUT (/dev/videoN).
+hil_vivid() {
+    grep -q '^vivid ' /proc/modules || hil_modprobe vivid n_devs=1 node_types=0x101
+    HIL_VID_CAP=; HIL_VID_OUT=
+    for d in /sys/class/video4linux/video*; do
+        case "$(cat "$d/name")" in
+            *vid-cap*) HIL_VID_CAP=/dev/${d##*/} ;;
+            *vid-out*) HIL_VID_OUT=/dev/${d##*/} ;;
+        esac
+    done
+    [ -n "$HIL_VID_CAP" ] && [ -n "$HIL_VID_OUT" ] || hil_fail "vivid: no vid-cap/vid-out nodes ($(ls /sys/class/video4linux | tr '\n' ' '))"
+    hil_wait_for "$HIL_VID_CAP" 5 && hil_wait_for "$HIL_VID_OUT" 5 || hil_fail "vivid nodes missing in /dev"
+}
+# hil_vivid_loop [FOURCC]: both sides on HDMI with the same DV timings (640x480p59.94, vivid's first preset, which
+# the in-band layout of 320x360 eyes fits: 640x374) and the same format, OSD off, loop on: what is written to the
+# output comes back on the capture byte for byte. Sets HIL_VID_W and HIL_VID_H.
+hil_vivid_loop() {
+    fcc=${1:-YUYV}
+    v4l2-ctl -d "$HIL_VID_CAP" -i 3 >/dev/null || hil_fail "vivid: cannot select capture input 3 (HDMI)"
+    v4l2-ctl -d "$HIL_VID_OUT" -o 1 >/dev/null || hil_fail "vivid: cannot select output 1 (HDMI)"
+    for d in "$HIL_VID_CAP" "$HIL_VID_OUT"; do
+        v4l2-ctl -d "$d" --set-dv-bt-timings index=0 >/dev/null || hil_fail "vivid: $d rejects DV timings preset 0"
+    done
+    HIL_VID_W=640; HIL_VID_H=480
+    v4l2-ctl -d "$HIL_VID_OUT" --set-fmt-video-out="width=640,height=480,pixelformat=$fcc" >/dev/null || hil_fail "vivid: output format"
+    v4l2-ctl -d "$HIL_VID_CAP" --set-fmt-video="width=640,height=480,pixelformat=$fcc" >/dev/null || hil_fail "vivid: capture format"
+    v4l2-ctl -d "$HIL_VID_CAP" --set-ctrl=osd_text_mode=2 >/dev/null || hil_fail "vivid: cannot set OSD Text Mode = None"
+    v4l2-ctl -d "$HIL_VID_CAP" --set-ctrl=loop_video=1 >/dev/null || hil_fail "vivid: cannot turn Loop Video on"
+}
+
+# --- USB: dummy_hcd + FunctionFS gadget ------------------------------------------------------------------------
+
+# hil_usb_udc: load dummy_hcd (one UDC, dummy_udc.0) and usbfs-visible host side.
+hil_usb_udc() {
+    hil_modprobe dummy_hcd
+    hil_modprobe libcomposite
+    hil_modprobe usb_f_fs
+    hil_wait_for /sys/class/udc/dummy_udc.0 5 || hil_fail "dummy_hcd loaded but no dummy_udc.0"
+}
+# hil_gadget_start HMDWARPD_ARGS...: board/gadget.sh builds the configfs gadget and mounts FunctionFS; hmdwarpd
+# (run by us, so its exit status is ours: HIL_HMD_PID) writes the descriptors; gadget.sh then binds dummy_udc.0.
+hil_gadget_start() {
+    gadget.sh --udc dummy_udc.0 --no-daemon --wait 60 --ffs-dir "$FFS_DIR" start >"$HIL_WORK/gadget.log" 2>&1 &
+    gpid=$!
+    hil_wait_for "$FFS_DIR/ep0" 20 || { cat "$HIL_WORK/gadget.log"; hil_fail "gadget.sh: no FunctionFS ep0 in $FFS_DIR"; }
+    hil_hmdwarpd "$@" --set frames.backend=usb --set "frames.device=$FFS_DIR"
+    if ! wait "$gpid"; then
+        cat "$HIL_WORK/gadget.log"; hil_fail "gadget.sh start failed: $(tail -n 1 "$HIL_WORK/gadget.log")"
+    fi
+    hil_log "$(tail -n 1 "$HIL_WORK/gadget.log")"
+}
+# hil_feed_usb ARGS...: hmdwarp-feed over USB (HIL_FEED_PID), started once the host side has enumerated the
+# gadget: hmdwarp-feed calls libusb_init once and then retries libusb_open_device_with_vid_pid, and without udevd
+# libusb gets no hotplug events, so a device that enumerates after its libusb_init is never seen.
+hil_feed_usb() {
+    hil_wait_until 20 sh -c 'grep -qx 0104 /sys/bus/usb/devices/*/idProduct 2>/dev/null' ||
+        hil_fail "dummy_hcd host side never enumerated the gadget (no 1d6b:0104 in /sys/bus/usb/devices)"
+    hmdwarp-feed --eye "$HIL_EYE" --wait 30 "$@" >"$HIL_WORK/feed.log" 2>&1 &
+    HIL_FEED_PID=$!
+}
+hil_gadget_stop() { gadget.sh --ffs-dir "$FFS_DIR" stop >>"$HIL_WORK/gadget.log" 2>&1; }
+
+# --- hmdwarpd --------------------------------------------------------------------------------------------------
+
+# hil_hmdwarpd ARGS...: start hmdwarpd in the background with --stats $HIL_STATS and its log in $HIL_HMD_LOG.
+HIL_STATS=$HIL_WORK/stats.txt
+HIL_HMD_LOG=$HIL_WORK/hmdwarpd.log
+# The panel defaults to HIL_PANEL=small: TCG runs the warp ~50x slower than the host, so the boards' 640x360 panel
+# cannot keep 90 Hz in the VM; 128x64 (64x64 eyes) can. HIL_PANEL=board keeps the board file's size.
+HIL_EYE=64x64
+[ "${HIL_PANEL:-small}" = small ] || HIL_EYE=320x360    # tests/hil/boards' [eye]
+hil_hmdwarpd() {
+    rm -f "$HIL_STATS"
+    hil_log "hmdwarpd $*"
+    if [ "${HIL_PANEL:-small}" = small ]; then
+        set -- "$@" --set display.width=128 --set display.height=64 --set eye.width=64 --set eye.height=64 \
+            --set lens.scale=32 --set "lens.center=33 32" --set lens.mesh=8
+    fi
+    HIL_HMD_T0=$(cut -d. -f1 /proc/uptime)
+    # HIL_HMD_ARGS (kernel command line, via run.sh): extra hmdwarpd options for experiments, e.g.
+    # HIL_HMD_ARGS=--set,vsync.backend=timer (commas for spaces).
+    # shellcheck disable=SC2086
+    hmdwarpd --stats "$HIL_STATS" "$@" $(echo "${HIL_HMD_ARGS:-}" | tr , ' ') >"$HIL_HMD_LOG" 2>&1 &
+    HIL_HMD_PID=$!
+}
+# hil_hmdwarpd_wait [TIMEOUT_S]: wait for hmdwarpd to end by itself (its --duration); fails on a crash, a
+# non-zero exit, or a run without a stats file. Prints its log's last lines either way.
+hil_hmdwarpd_wait() {
+    lim=${1:-120}; i=0
+    while kill -0 "$HIL_HMD_PID" 2>/dev/null; do
+        i=$((i + 1))
+        if [ "$i" -gt $((lim * 10)) ]; then
+            kill "$HIL_HMD_PID"; sleep 1; kill -9 "$HIL_HMD_PID" 2>/dev/null
+            tail -n 30 "$HIL_HMD_LOG"
+            hil_fail "hmdwarpd still running after ${lim}s"
+        fi
+        sleep 0.1
+    done
+    wait "$HIL_HMD_PID"; rc=$?
+    tail -n 40 "$HIL_HMD_LOG" | sed 's/^/  hmdwarpd| /'
+    if [ "$rc" -ge 128 ]; then hil_fail "hmdwarpd crashed (signal $((rc - 128)))"; fi
+    [ "$rc" -eq 0 ] || hil_fail "hmdwarpd exited with status $rc: $(grep -m1 -i 'error\|fail\|cannot' "$HIL_HMD_LOG")"
+    [ -s "$HIL_STATS" ] || hil_fail "hmdwarpd wrote no stats file"
+}
+# hil_hmdwarpd_stop: SIGTERM (it writes its summary and stats), then the same checks as hil_hmdwarpd_wait.
+hil_hmdwarpd_stop() {
+    kill -TERM "$HIL_HMD_PID" 2>/dev/null
+    hil_hmdwarpd_wait "${1:-20}"
+}
+
+# hil_stat KEY [FILE]: one value from a --stats file (key=value lines).
+hil_stat() { sed -n "s/^$1=//p" "${2:-$HIL_STATS}" | head -n 1; }
+# hil_expect_stat KEY OP VALUE [WHY]: check a stats value (VALUE may be "N * M + K"); a miss is recorded
+# (hil_miss) and the scenario goes on, so one run reports every failed check, e.g. hil_expect_stat missed '<=' 2.
+hil_expect_stat() {
+    v=$(hil_stat "$1")
+    hil_note "$1" "${v:-missing}"
+    [ -n "$v" ] || { hil_miss "stats: no $1 in $HIL_STATS"; return 1; }
+    hil_cmp "$v" "$2" "$3" || { hil_miss "${4:-stats}: $1=$v, expected $2 $3"; return 1; }
+}
+# hil_expect_one_present_per_vsync: every compositor pass presents once (a frame, a cleared image when no frame
+# yet, or the previous image when no buffer is free), so the passes cannot outnumber the vsyncs; more passes
+# than vsyncs mean the loop woke again for a vsync it had served.
+hil_expect_one_present_per_vsync() {
+    v=$(hil_stat vsyncs)
+    p=$(( $(hil_stat method_none) + $(hil_stat method_rotation) + $(hil_stat method_raytrace) + $(hil_stat no_frame) + $(hil_stat no_buffer) ))
+    hil_note presents "$p"
+    hil_cmp "$p" '<=' "$v * 1.02 + 2" || hil_miss "compositor passes $p > vsyncs $v: more than one present per vsync (the loop spins on an already served vsync)"
+}
+# hil_expect_run_time D SLACK_S: hmdwarpd's --duration D run ended within D + SLACK_S seconds of wall time.
+hil_expect_run_time() {
+    dt=$(( $(cut -d. -f1 /proc/uptime) - HIL_HMD_T0 ))
+    hil_note run_s "$dt"
+    [ "$dt" -le $(( $1 + $2 )) ] || hil_miss "hmdwarpd --duration $1 ran ${dt}s (its vsync clock fell behind real time?)"
+}
+
+# hil_expect_backends IMU/FRAMES/VSYNC: the stats name these backends (first word of each: "i2c mpu6050 ..." is i2c).
+hil_expect_backends() {
+    got="$(hil_stat imu_backend | cut -d' ' -f1)/$(hil_stat frames_backend | cut -d' ' -f1)/$(hil_stat vsync_backend | cut -d' ' -f1)"
+    [ "$got" = "$1" ]
+}
+
+# hil_log_has REGEX [WHY]: hmdwarpd's log must contain a line matching REGEX.
+hil_log_has() {
+    grep -qE "$1" "$HIL_HMD_LOG" || hil_miss "${2:-hmdwarpd log}: no line matching '$1'"
+}
+
+# hil_board NAME: path of a HIL board file (tests/hil/boards/NAME.ini).
+hil_board() {
+    [ -f "$HIL_BOARDS/$1.ini" ] || hil_fail "no board file $HIL_BOARDS/$1.ini"
+    echo "$HIL_BOARDS/$1.ini"
+}
+
+# hil_rss_kb PID: resident memory of a process in KiB.
+hil_rss_kb() { awk '/^VmRSS:/{print $2}' "/proc/$1/status" 2>/dev/null; }
+
+# hil_cleanup: stop everything a scenario may have left behind (hil-run calls it after each scenario).
+hil_cleanup() {
+    for p in hmdwarp-feed hil_uhid_imu hil_i2c_chip hil_te hmdwarpd; do
+        pids=$(pidof "$p")
+        [ -n "$pids" ] && kill $pids 2>/dev/null
+    done
+    sleep 0.3
+    for p in hmdwarp-feed hil_uhid_imu hil_i2c_chip hil_te hmdwarpd; do
+        pids=$(pidof "$p")
+        [ -n "$pids" ] && kill -9 $pids 2>/dev/null
+    done
+    gadget.sh --ffs-dir "$FFS_DIR" stop >/dev/null 2>&1
+    for g in "$CFS"/gpio-sim/*; do [ -d "$g" ] && hil_gpio_sim_remove "${g##*/}"; done
+    hil_rmmod i2c_stub vivid gpio_sim usb_f_fs dummy_hcd uhid
+    return 0
+}

@@ -1,0 +1,344 @@
+/* hil_te: plays a display panel's TE (tearing effect) signal on a gpio-sim line: pulses at the panel rate written
+ * through the simulated line's sysfs `pull` attribute, so libgpiod in hmdwarpd sees real edge interrupts; with
+ * jitter, a TE dropout and a phase jump on request. */
+#include <dirent.h>
+#include <fcntl.h>
+
+#include "tests/hil/src/hil_common.h"
+
+#define LATE_NS (500 * 1000) /* an edge written this late after its time counts as late */
+
+typedef struct {
+    const char *pull;
+    char pull_buf[512];
+    double rate_hz, high_us, jitter_us;
+    double duration_s, stop_at_s, stop_for_s;
+    double jump_at_s, jump_us;
+    bool active_low;
+    uint64_t seed;
+    const char *ready_file;
+    int dry_run;
+    bool verbose;
+} opts;
+
+/* ---- the pulse schedule (pure) ---- */
+
+static uint64_t splitmix64(uint64_t x)
+{
+    x += 0x9e3779b97f4a7c15ULL;
+    x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
+    x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
+    return x ^ (x >> 31);
+}
+
+typedef struct {
+    int64_t period_ns, high_ns, jitter_ns;
+    int64_t stop_at_ns, stop_to_ns; /* relative to the first pulse; INT64_MAX: never */
+    int64_t jump_at_ns, jump_ns;
+    uint64_t seed;
+} sched;
+
+/* Start of pulse k relative to pulse 0 (negative for pulse 0 jittered early); false when the TE is stopped then.
+ * The jitter is uniform in [-jitter, +jitter], deterministic per (seed, k). */
+static bool pulse_at(const sched *s, uint64_t k, int64_t *at)
+{
+    int64_t t = (int64_t)k * s->period_ns;
+    if (t >= s->jump_at_ns) t += s->jump_ns;
+    if (s->jitter_ns > 0) {
+        double u = (double)(splitmix64(s->seed * 0x100000001b3ULL + k) >> 11) * 0x1.0p-53; /* [0, 1) */
+        t += (int64_t)llround((2 * u - 1) * (double)s->jitter_ns);
+    }
+    *at = t;
+    return !(t >= s->stop_at_ns && t < s->stop_to_ns);
+}
+
+/* ---- the line ---- */
+
+typedef struct {
+    int fd;
+    const char *path;
+    bool active_low, level; /* level: the line is active (pulse) now */
+    uint64_t rising, falling, write_errors;
+} te_line;
+
+static int line_set(te_line *l, bool active)
+{
+    bool high = active != l->active_low;
+    const char *v = high ? "pull-up" : "pull-down";
+    ssize_t n = pwrite(l->fd, v, strlen(v), 0);
+    if (n != (ssize_t)strlen(v)) {
+        int e = n < 0 ? errno : EIO;
+        l->write_errors++;
+        if (l->write_errors == 1 || l->write_errors % 1000 == 0)
+            hil_msg("%s: writing \"%s\" failed (%llu so far): %s", l->path, v, (unsigned long long)l->write_errors,
+                    strerror(e));
+        return -e;
+    }
+    if (active != l->level) {
+        if (high)
+            l->rising++;
+        else
+            l->falling++;
+    }
+    l->level = active;
+    return 0;
+}
+
+/* --chip NAME --line N: the gpio-sim line's attribute directory is the chip's device directory, reachable from
+ * the gpio bus (/sys/bus/gpio/devices/gpiochipN) or under the gpio-sim platform device. */
+static bool find_pull(const char *chip, int line, char *out, size_t len)
+{
+    snprintf(out, len, "/sys/bus/gpio/devices/%s/sim_gpio%d/pull", chip, line);
+    if (access(out, F_OK) == 0) return true;
+    DIR *d = opendir("/sys/devices/platform");
+    struct dirent *e;
+    bool found = false;
+    while (d && !found && (e = readdir(d))) {
+        if (strncmp(e->d_name, "gpio-sim.", 9) != 0 || strlen(e->d_name) > 64) continue;
+        snprintf(out, len, "/sys/devices/platform/%.64s/%.64s/sim_gpio%d/pull", e->d_name, chip, line);
+        found = access(out, F_OK) == 0;
+    }
+    if (d) closedir(d);
+    return found;
+}
+
+static void line_open(te_line *l, const opts *o)
+{
+    memset(l, 0, sizeof *l);
+    l->path = o->pull;
+    l->active_low = o->active_low;
+    l->fd = open(o->pull, O_WRONLY | O_CLOEXEC);
+    if (l->fd >= 0) return;
+    int e = errno;
+    if (e == ENOENT)
+        hil_die(HIL_EXIT_FAIL,
+                "%s: no such file (gpio-sim loaded, the chip configured in /sys/kernel/config/gpio-sim and live, "
+                "the line inside num_lines? see tests/hil/FEEDERS.md)",
+                o->pull);
+    if (e == EACCES || e == EPERM) hil_die(HIL_EXIT_FAIL, "%s: permission denied (run as root)", o->pull);
+    hil_die(HIL_EXIT_FAIL, "%s: cannot open for writing: %s", o->pull, strerror(e));
+}
+
+/* ---- --dry-run ---- */
+
+static int dry_run(const opts *o, const sched *s)
+{
+    printf("%s: dry run: %d pulses at %g Hz, %.0f us wide, jitter +-%.0f us, %s\n", hil_prog, o->dry_run, o->rate_hz,
+           o->high_us, o->jitter_us, o->active_low ? "active low (idle pull-up)" : "active high (idle pull-down)");
+    int bad = 0;
+    int64_t prev_end = INT64_MIN;
+    for (uint64_t k = 0; k < (uint64_t)o->dry_run; k++) {
+        int64_t t;
+        if (!pulse_at(s, k, &t)) {
+            printf("  pulse %3llu: stopped (no edges)\n", (unsigned long long)k);
+            continue;
+        }
+        int64_t nominal = (int64_t)k * s->period_ns + (t >= s->jump_at_ns ? s->jump_ns : 0);
+        bool ok = t > prev_end && llabs(t - nominal) <= s->jitter_ns;
+        bad += !ok;
+        prev_end = t + s->high_ns;
+        printf("  pulse %3llu: t=%10.3f us write %-9s  t=%10.3f us write %-9s%s\n", (unsigned long long)k,
+               (double)t * 1e-3, o->active_low ? "pull-down" : "pull-up", (double)(t + s->high_ns) * 1e-3,
+               o->active_low ? "pull-up" : "pull-down", ok ? "" : "  <-- FAIL (overlaps or off its slot)");
+    }
+    printf("%s: dry run %s\n", hil_prog, bad ? "FAIL" : "PASS");
+    return bad ? HIL_EXIT_FAIL : 0;
+}
+
+/* ---- command line ---- */
+
+static void usage(FILE *f)
+{
+    fprintf(f,
+            "usage: %s --pull PATH | --chip NAME --line N [options]\n"
+            "Plays a panel TE signal on a gpio-sim line: every 1/rate seconds a pulse of --high-us, written as\n"
+            "\"pull-up\" / \"pull-down\" to the simulated line's sysfs pull attribute, so the kernel's gpio-sim raises\n"
+            "real edge interrupts for the consumer (hmdwarpd's libgpiod TE source). Sleeps with clock_nanosleep\n"
+            "(TIMER_ABSTIME, CLOCK_MONOTONIC). Prints \"%s: ready PATH\" once the line is idle, and a key=value\n"
+            "summary (edges written, lateness) at exit. The line is left idle.\n"
+            "\n"
+            "Line:\n"
+            "  --pull PATH         the line's pull attribute, e.g.\n"
+            "                      /sys/devices/platform/gpio-sim.0/gpiochip1/sim_gpio0/pull\n"
+            "  --chip NAME         instead of --pull: the gpio-sim chip (gpiochipN, its bank's chip_name) ...\n"
+            "  --line N            ... and the line offset (default 0)\n"
+            "  --active-low        idle high, pulses low (for [vsync] edge = falling)\n"
+            "  --ready-file PATH   also write state=ready|done, pull=, pid= lines to PATH (atomic)\n"
+            "Signal:\n"
+            "  --rate HZ           pulses per second (default 90)\n"
+            "  --high-us US        pulse width (default 1000)\n"
+            "  --jitter-us US      uniform random offset of each pulse, +-US (default 0; below half the gap\n"
+            "                      between pulses)\n"
+            "  --seed N            seed of the jitter (default 1)\n"
+            "Run:\n"
+            "  --duration S        stop after S seconds (default 60; 0: until SIGINT/SIGTERM)\n"
+            "  --stop-at S         S seconds after start, no more pulses (TE dropout: hmdwarpd should fall back to\n"
+            "                      its timer) ...\n"
+            "  --stop-for S        ... for S seconds (default 1), then pulses resume on the same phase (relock)\n"
+            "  --phase-jump-at S   S seconds after start, shift every later pulse by --phase-jump-us (a panel mode\n"
+            "  --phase-jump-us US  change: hmdwarpd should relock on the new phase; default 3000)\n"
+            "  --dry-run[=N]       no device: print the first N pulses (default 10) and the writes; PASS or FAIL\n"
+            "  -v, --verbose       report every late edge\n"
+            "  -h, --help          this text\n"
+            "Exit status: 0 done, 1 device failure, 2 bad command line.\n",
+            hil_prog, hil_prog);
+}
+
+enum {
+    OPT_PULL = 1000,
+    OPT_CHIP,
+    OPT_LINE,
+    OPT_ACTIVE_LOW,
+    OPT_READY_FILE,
+    OPT_RATE,
+    OPT_HIGH_US,
+    OPT_JITTER_US,
+    OPT_SEED,
+    OPT_DURATION,
+    OPT_STOP_AT,
+    OPT_STOP_FOR,
+    OPT_JUMP_AT,
+    OPT_JUMP_US,
+    OPT_DRY_RUN,
+};
+
+static void parse_args(int argc, char **argv, opts *o)
+{
+    static const struct option lo[] = {
+        {"pull", required_argument, NULL, OPT_PULL},
+        {"chip", required_argument, NULL, OPT_CHIP},
+        {"line", required_argument, NULL, OPT_LINE},
+        {"active-low", no_argument, NULL, OPT_ACTIVE_LOW},
+        {"ready-file", required_argument, NULL, OPT_READY_FILE},
+        {"rate", required_argument, NULL, OPT_RATE},
+        {"high-us", required_argument, NULL, OPT_HIGH_US},
+        {"jitter-us", required_argument, NULL, OPT_JITTER_US},
+        {"seed", required_argument, NULL, OPT_SEED},
+        {"duration", required_argument, NULL, OPT_DURATION},
+        {"stop-at", required_argument, NULL, OPT_STOP_AT},
+        {"stop-for", required_argument, NULL, OPT_STOP_FOR},
+        {"phase-jump-at", required_argument, NULL, OPT_JUMP_AT},
+        {"phase-jump-us", required_argument, NULL, OPT_JUMP_US},
+        {"dry-run", optional_argument, NULL, OPT_DRY_RUN},
+        {"verbose", no_argument, NULL, 'v'},
+        {"help", no_argument, NULL, 'h'},
+        {NULL, 0, NULL, 0},
+    };
+    memset(o, 0, sizeof *o);
+    o->rate_hz = 90;
+    o->high_us = 1000;
+    o->duration_s = 60;
+    o->stop_for_s = 1;
+    o->jump_us = 3000;
+    o->seed = 1;
+    const char *chip = NULL;
+    int line = 0;
+    int c;
+    opterr = 0;
+    while ((c = getopt_long(argc, argv, ":hv", lo, NULL)) != -1) {
+        switch (c) {
+        case OPT_PULL: o->pull = optarg; break;
+        case OPT_CHIP: chip = optarg; break;
+        case OPT_LINE: line = (int)hil_parse_int("--line", optarg, 0, 1023); break;
+        case OPT_ACTIVE_LOW: o->active_low = true; break;
+        case OPT_READY_FILE: o->ready_file = optarg; break;
+        case OPT_RATE: o->rate_hz = hil_parse_double("--rate", optarg, 1, 1000); break;
+        case OPT_HIGH_US: o->high_us = hil_parse_double("--high-us", optarg, 1, 1e6); break;
+        case OPT_JITTER_US: o->jitter_us = hil_parse_double("--jitter-us", optarg, 0, 1e6); break;
+        case OPT_SEED: o->seed = (uint64_t)hil_parse_int("--seed", optarg, 0, INT64_MAX); break;
+        case OPT_DURATION: o->duration_s = hil_parse_double("--duration", optarg, 0, 1e6); break;
+        case OPT_STOP_AT: o->stop_at_s = hil_parse_double("--stop-at", optarg, 0, 1e6); break;
+        case OPT_STOP_FOR: o->stop_for_s = hil_parse_double("--stop-for", optarg, 0.001, 1e6); break;
+        case OPT_JUMP_AT: o->jump_at_s = hil_parse_double("--phase-jump-at", optarg, 0, 1e6); break;
+        case OPT_JUMP_US: o->jump_us = hil_parse_double("--phase-jump-us", optarg, -1e6, 1e6); break;
+        case OPT_DRY_RUN: o->dry_run = optarg ? (int)hil_parse_int("--dry-run", optarg, 1, 100000) : 10; break;
+        case 'v': o->verbose = true; break;
+        case 'h': usage(stdout); exit(0);
+        case ':': hil_die(HIL_EXIT_USAGE, "%s needs a value (see --help)", argv[optind - 1]);
+        default: hil_die(HIL_EXIT_USAGE, "unknown option '%s' (see --help)", argv[optind - 1]);
+        }
+    }
+    if (optind < argc) hil_die(HIL_EXIT_USAGE, "unexpected argument '%s' (see --help)", argv[optind]);
+    double period_us = 1e6 / o->rate_hz;
+    if (o->high_us >= period_us)
+        hil_die(HIL_EXIT_USAGE, "--high-us %g: a pulse must be shorter than the period (%.1f us at %g Hz)",
+                o->high_us, period_us, o->rate_hz);
+    if (o->jitter_us > 0 && 2 * o->jitter_us >= period_us - o->high_us)
+        hil_die(HIL_EXIT_USAGE, "--jitter-us %g: pulses could overlap; keep it below %.1f us (half the gap between "
+                "pulses)", o->jitter_us, (period_us - o->high_us) / 2);
+    if (o->pull && chip) hil_die(HIL_EXIT_USAGE, "give either --pull or --chip/--line, not both");
+    if (chip && !o->dry_run) {
+        if (!find_pull(chip, line, o->pull_buf, sizeof o->pull_buf))
+            hil_die(HIL_EXIT_FAIL,
+                    "--chip %s --line %d: no gpio-sim line attribute /sys/bus/gpio/devices/%s/sim_gpio%d/pull (nor "
+                    "under /sys/devices/platform/gpio-sim.*; gpio-sim loaded and the chip live?)",
+                    chip, line, chip, line);
+        o->pull = o->pull_buf;
+    }
+    if (!o->pull && !o->dry_run) hil_die(HIL_EXIT_USAGE, "--pull PATH or --chip NAME --line N is required");
+}
+
+int main(int argc, char **argv)
+{
+    hil_init("hil_te");
+    opts o;
+    parse_args(argc, argv, &o);
+    sched s = {(int64_t)llround(1e9 / o.rate_hz), (int64_t)llround(o.high_us * 1e3), (int64_t)llround(o.jitter_us * 1e3),
+               o.stop_at_s > 0 ? (int64_t)llround(o.stop_at_s * 1e9) : INT64_MAX,
+               o.stop_at_s > 0 ? (int64_t)llround((o.stop_at_s + o.stop_for_s) * 1e9) : INT64_MAX,
+               o.jump_at_s > 0 ? (int64_t)llround(o.jump_at_s * 1e9) : INT64_MAX, (int64_t)llround(o.jump_us * 1e3),
+               o.seed};
+    if (o.dry_run) return dry_run(&o, &s);
+
+    hil_signals_install();
+    te_line l;
+    line_open(&l, &o);
+    l.level = true; /* unknown: force the idle write */
+    if (line_set(&l, false) < 0) hil_die(HIL_EXIT_FAIL, "%s: cannot set the line idle", o.pull);
+    l.rising = l.falling = 0;
+    printf("%s: ready %s (%g Hz, %.0f us pulses, jitter +-%.0f us, %s)\n", hil_prog, o.pull, o.rate_hz, o.high_us,
+           o.jitter_us, o.active_low ? "active low" : "active high");
+    hil_status_write(o.ready_file, "state=ready\npull=%s\n", o.pull);
+
+    /* the first pulse a little ahead, so it is not late by construction */
+    const int64_t t0 = hil_now_ns() + 10 * PLAT_NS_PER_MS;
+    const int64_t t_end = o.duration_s > 0 ? t0 + (int64_t)(o.duration_s * 1e9) : INT64_MAX;
+    uint64_t pulses = 0, stopped = 0, late = 0, n_late = 0;
+    int64_t late_max = 0;
+    double late_sum = 0;
+    for (uint64_t k = 0; !hil_stopped(); k++) {
+        int64_t rel;
+        bool on = pulse_at(&s, k, &rel);
+        int64_t nominal = t0 + (int64_t)k * s.period_ns;
+        if (nominal >= t_end) break;
+        if (!on) {
+            stopped++;
+            hil_sleep_until_ns(nominal); /* keep the loop paced (and signals noticed) while the TE is off */
+            continue;
+        }
+        int64_t edges[2] = {t0 + rel, t0 + rel + s.high_ns};
+        for (int e = 0; e < 2 && !hil_stopped(); e++) {
+            if (!hil_sleep_until_ns(edges[e])) break;
+            line_set(&l, e == 0);
+            pulses += e == 0;
+            int64_t lat = hil_now_ns() - edges[e];
+            late_sum += (double)lat;
+            n_late++;
+            if (lat > late_max) late_max = lat;
+            if (lat > LATE_NS) {
+                late++;
+                if (o.verbose) hil_msg("edge %llu.%d written %.0f us late", (unsigned long long)k, e, lat * 1e-3);
+            }
+        }
+    }
+    if (l.level) line_set(&l, false); /* stopped mid-pulse: leave the line idle */
+    close(l.fd);
+    printf("%s: summary run_s=%.3f pulses=%llu rising=%llu falling=%llu stopped_pulses=%llu write_errors=%llu "
+           "late_mean_us=%.1f late_max_us=%.1f late_over_500us=%llu stop=%s\n",
+           hil_prog, (double)(hil_now_ns() - t0) * 1e-9, (unsigned long long)pulses, (unsigned long long)l.rising,
+           (unsigned long long)l.falling, (unsigned long long)stopped, (unsigned long long)l.write_errors,
+           n_late ? late_sum / (double)n_late * 1e-3 : 0.0, (double)late_max * 1e-3, (unsigned long long)late,
+           hil_stopped() ? "signal" : "duration");
+    hil_status_write(o.ready_file, "state=done\npull=%s\n", o.pull);
+    return l.write_errors ? HIL_EXIT_FAIL : 0;
+}
