@@ -6,7 +6,7 @@
 #   make bench           accuracy vs time          make results every warp vs ground truth
 #   make install PREFIX=/usr DESTDIR=...           make clean
 #   make hil             hardware-in-the-loop scenarios in a qemu VM on Debian's kernel (tests/hil/README.md)
-#   make CROSS_COMPILE=aarch64-linux-gnu-          cross build for the board
+#   make CROSS_COMPILE=aarch64-linux-gnu-          cross build for the board (make check-cross tests it)
 
 CROSS_COMPILE ?=
 ifeq ($(origin CC),default)
@@ -71,7 +71,7 @@ HIL_BINS := $(patsubst tests/hil/src/%.c,$(BUILD)/hil/%,$(HIL_SRC))
 TEST_SUPPORT_SRC := $(wildcard tests/support/*.c)
 TEST_BINS := $(patsubst tests/%.c,$(BUILD)/tests/%,$(TEST_SRC))
 
-.PHONY: all deps run test asan install clean results bench stability hil
+.PHONY: all deps run test asan install clean results bench stability hil check-cross
 all: $(PROGRAMS) $(TEST_BINS) $(HIL_BINS)
 .SECONDARY:
 
@@ -180,12 +180,43 @@ results: deps
 	$(BUILD)/hmdwarp-warp --table docs/warp-results.md
 	@echo "results: docs/warp-results.md"
 
+# The board layout: programs, every board definition, the chosen board's configuration in SYSCONFDIR, the systemd
+# unit (pointing at PREFIX/bin), the USB-gadget drop-in for boards whose host link is USB, sysusers and udev rules.
+# `make install PREFIX=/usr DESTDIR=/tmp/root BOARD=rpi5 CROSS_COMPILE=aarch64-linux-gnu-`, then board/flash.sh.
+BOARDS := $(patsubst board/%/board.ini,%,$(wildcard board/*/board.ini))
+UNITDIR ?= /lib/systemd/system
+UDEVDIR ?= /lib/udev/rules.d
+SYSUSERSDIR ?= /usr/lib/sysusers.d
 install: $(PROGRAMS)
-	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/share/hmdwarp/boards/sim $(DESTDIR)$(PREFIX)/share/doc/hmdwarp
+	@test -f board/$(BOARD)/board.ini || { echo "install: no board/$(BOARD)/board.ini (BOARD= one of: $(BOARDS))"; exit 1; }
+	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/share/doc/hmdwarp $(DESTDIR)$(SYSCONFDIR)/hmdwarp \
+	  $(DESTDIR)$(UNITDIR) $(DESTDIR)$(UDEVDIR) $(DESTDIR)$(SYSUSERSDIR)
 	install -m 0755 $(PROGRAMS) $(DESTDIR)$(PREFIX)/bin/
 	install -m 0755 board/gadget.sh $(DESTDIR)$(PREFIX)/bin/hmdwarp-gadget
-	install -m 0644 board/sim/board.ini $(DESTDIR)$(PREFIX)/share/hmdwarp/boards/sim/board.ini
-	install -m 0644 docs/*.md $(DESTDIR)$(PREFIX)/share/doc/hmdwarp/
+	for b in $(BOARDS); do \
+	  install -d $(DESTDIR)$(PREFIX)/share/hmdwarp/boards/$$b && \
+	  install -m 0644 board/$$b/* $(DESTDIR)$(PREFIX)/share/hmdwarp/boards/$$b/ || exit 1; done
+	install -m 0644 board/$(BOARD)/board.ini $(DESTDIR)$(SYSCONFDIR)/hmdwarp/board.ini
+	sed 's|/usr/bin/|$(PREFIX)/bin/|g; s|/etc/hmdwarp/|$(SYSCONFDIR)/hmdwarp/|g' board/systemd/hmdwarpd.service \
+	  > $(DESTDIR)$(UNITDIR)/hmdwarpd.service
+	if grep -Eq '^backend *= *usb' board/$(BOARD)/board.ini; then \
+	  install -d $(DESTDIR)$(SYSCONFDIR)/systemd/system/hmdwarpd.service.d && \
+	  sed 's|/usr/bin/|$(PREFIX)/bin/|g' board/systemd/hmdwarpd-usb-gadget.conf \
+	    > $(DESTDIR)$(SYSCONFDIR)/systemd/system/hmdwarpd.service.d/usb-gadget.conf; fi
+	install -m 0644 board/systemd/hmdwarp.sysusers.conf $(DESTDIR)$(SYSUSERSDIR)/hmdwarp.conf
+	install -m 0644 board/udev/99-hmdwarp.rules $(DESTDIR)$(UDEVDIR)/99-hmdwarp.rules
+	install -m 0644 README.md docs/*.md $(DESTDIR)$(PREFIX)/share/doc/hmdwarp/
+
+# The board build, proven: the cross-built unit and stability tests run under qemu-user (Debian's
+# qemu-user-static) against the arm64 multiarch libraries.
+CROSS ?= aarch64-linux-gnu-
+CROSS_BUILD = build/$(patsubst %-,%,$(CROSS))
+check-cross:
+	@board/deps.sh && board/deps-cross.sh
+	@$(MAKE) --no-print-directory CROSS_COMPILE=$(CROSS) all
+	@QEMU_LD_PREFIX=/usr/$(patsubst %-,%,$(CROSS)) TEST_RUNNER="qemu-$(firstword $(subst -, ,$(CROSS)))-static" \
+	  tests/run.sh $(CROSS_BUILD)/tests $(filter-out %/test_gles_parity %/test_gles_runtime %/test_feed %/test_warp_tool,\
+	  $(patsubst $(BUILD)/%,$(CROSS_BUILD)/%,$(filter $(BUILD)/tests/unit/% $(BUILD)/tests/stability/%,$(TEST_BINS))))
 
 clean:
 	rm -rf build

@@ -9,7 +9,8 @@ passed=0; failed=0
 for bin in "$@"; do
     name=$(basename "$bin")
     log="$logdir/logs/$name.log"
-    CMOCKA_MESSAGE_OUTPUT=TAP "$bin" >"$log" 2>&1
+    # TEST_RUNNER: e.g. qemu-aarch64-static for cross-built tests (make check-cross)
+    CMOCKA_MESSAGE_OUTPUT=TAP ${TEST_RUNNER:-} "$bin" >"$log" 2>&1
     rc=$?
     ok=$(grep -c '^ok ' "$log")
     bad=$(grep -c '^not ok ' "$log")

@@ -1,0 +1,145 @@
+/* The board definitions and the install tree: every board/NAME/board.ini loads and validates; `make install` for a
+ * USB-gadget board gives a tree board/flash.sh --dry-run accepts (unit, drop-in, udev rules, sysusers, config);
+ * the unit passes systemd-analyze verify where it exists; the udev rules parse; a broken tree is refused. */
+#include <libgen.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <cmocka.h>
+
+static char build[256], tmp[300];
+
+static int sh(const char *cmd, char *out, size_t cap)
+{
+    char full[4096];
+    snprintf(full, sizeof full, "%s 2>&1", cmd);
+    FILE *p = popen(full, "r");
+    assert_non_null(p);
+    size_t n = out ? fread(out, 1, cap - 1, p) : 0;
+    if (out) out[n] = 0;
+    char sink[4096];
+    while (fread(sink, 1, sizeof sink, p) > 0) {
+    }
+    int st = pclose(p);
+    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+}
+
+static void test_every_board_validates(void **state)
+{
+    (void)state;
+    char cmd[1024], out[8192];
+    snprintf(cmd, sizeof cmd, "ls board/*/board.ini");
+    assert_int_equal(sh(cmd, out, sizeof out), 0);
+    int boards = 0;
+    for (char *line = strtok(out, "\n"); line; line = strtok(NULL, "\n")) {
+        char o2[4096];
+        snprintf(cmd, sizeof cmd, "%s/hmdwarpd --check-config --config %s", build, line);
+        int rc = sh(cmd, o2, sizeof o2);
+        if (rc != 0) fail_msg("%s does not validate:\n%s", line, o2);
+        boards++;
+    }
+    assert_true(boards >= 3); /* sim, rpi5, generic-aarch64 */
+}
+
+static void test_install_tree_flashes(void **state)
+{
+    (void)state;
+    char cmd[2048], out[16384];
+    snprintf(cmd, sizeof cmd, "rm -rf %s/root && make -s install BUILD=%s DESTDIR=%s/root PREFIX=/usr BOARD=rpi5", tmp,
+             build, tmp);
+    if (sh(cmd, out, sizeof out) != 0) fail_msg("make install: %s", out);
+    const char *files[] = {"usr/bin/hmdwarpd", "usr/bin/hmdwarp-feed", "usr/bin/hmdwarp-gadget",
+                           "etc/hmdwarp/board.ini", "lib/systemd/system/hmdwarpd.service",
+                           "etc/systemd/system/hmdwarpd.service.d/usb-gadget.conf", "lib/udev/rules.d/99-hmdwarp.rules",
+                           "usr/lib/sysusers.d/hmdwarp.conf", "usr/share/hmdwarp/boards/rpi5/hmdwarp-rpi5.dts"};
+    for (size_t i = 0; i < sizeof files / sizeof files[0]; i++) {
+        snprintf(cmd, sizeof cmd, "test -e %s/root/%s", tmp, files[i]);
+        if (sh(cmd, NULL, 0) != 0) fail_msg("missing in the install tree: %s", files[i]);
+    }
+    snprintf(cmd, sizeof cmd, "board/flash.sh --tree %s/root --board rpi5 --dry-run", tmp);
+    int rc = sh(cmd, out, sizeof out);
+    /* (not echoed: its "ok" lines would read as TAP results) */
+    if (rc != 0) fail_msg("flash.sh --dry-run refused the tree:\n%s", out);
+    assert_non_null(strstr(out, "board.ini validates"));
+    assert_non_null(strstr(out, "would run: cp -a"));
+    /* the wrong board, and a tree without its unit, are refused */
+    snprintf(cmd, sizeof cmd, "board/flash.sh --tree %s/root --board sim --dry-run", tmp);
+    assert_int_not_equal(sh(cmd, out, sizeof out), 0);
+    assert_non_null(strstr(out, "is for board 'rpi5'"));
+    snprintf(cmd, sizeof cmd, "mv %s/root/lib/systemd/system/hmdwarpd.service %s/unit && board/flash.sh --tree %s/root "
+                              "--dry-run; rc=$?; mv %s/unit %s/root/lib/systemd/system/hmdwarpd.service; exit $rc",
+             tmp, tmp, tmp, tmp, tmp);
+    assert_int_not_equal(sh(cmd, out, sizeof out), 0);
+    assert_non_null(strstr(out, "MISSING /lib/systemd/system/hmdwarpd.service"));
+    /* the unit starts the binary in the tree, with the tree's config */
+    snprintf(cmd, sizeof cmd, "grep -q '^ExecStart=/usr/bin/hmdwarpd --config /etc/hmdwarp/board.ini' "
+                              "%s/root/lib/systemd/system/hmdwarpd.service", tmp);
+    assert_int_equal(sh(cmd, NULL, 0), 0);
+}
+
+static void test_unit_and_rules_verify(void **state)
+{
+    (void)state;
+    char cmd[2048], out[16384];
+    /* systemd-analyze verify, where the tool exists (it checks keys, values and the ExecStart binary) */
+    if (sh("command -v systemd-analyze", NULL, 0) == 0) {
+        snprintf(cmd, sizeof cmd,
+                 "d=%s/unit-check && rm -rf $d && mkdir -p $d && cp board/systemd/hmdwarpd.service $d/ && "
+                 "sed -i 's|/usr/bin/hmdwarpd|%s/hmdwarpd|' $d/hmdwarpd.service && "
+                 "SYSTEMD_LOG_LEVEL=warning systemd-analyze verify --man=no $d/hmdwarpd.service",
+                 tmp, build);
+        int rc = sh(cmd, out, sizeof out);
+        /* users and groups of the board do not exist here; everything else must be clean */
+        char *p = out, filtered[16384] = "";
+        for (char *line = strtok(p, "\n"); line; line = strtok(NULL, "\n"))
+            if (!strstr(line, "Failed to resolve") && !strstr(line, "user") && !strstr(line, "group") &&
+                !strstr(line, "Cannot add dependency") && !strstr(line, "No such file or directory") &&
+                !strstr(line, "Failed to put bus name") && !strstr(line, "Failed to create"))
+                snprintf(filtered + strlen(filtered), sizeof filtered - strlen(filtered), "%s\n", line);
+        if (filtered[0]) fail_msg("systemd-analyze verify (rc %d):\n%s", rc, filtered);
+    } else {
+        print_message("systemd-analyze not installed: unit syntax checked by the grep below only\n");
+    }
+    /* the unit's essentials */
+    const char *keys[] = {"^Type=notify", "^WatchdogSec=", "^Restart=on-failure", "^LimitRTPRIO=",
+                          "^CPUAffinity=", "^AmbientCapabilities=CAP_SYS_NICE CAP_IPC_LOCK", "^User=hmdwarp"};
+    for (size_t i = 0; i < sizeof keys / sizeof keys[0]; i++) {
+        snprintf(cmd, sizeof cmd, "grep -q '%s' board/systemd/hmdwarpd.service", keys[i]);
+        if (sh(cmd, NULL, 0) != 0) fail_msg("hmdwarpd.service lacks %s", keys[i]);
+    }
+    /* udev rules: every rule is comma-separated KEY[{attr}] OP "value" pairs with udev's operators */
+    snprintf(cmd, sizeof cmd,
+             "grep -v '^#' board/udev/99-hmdwarp.rules | grep -v '^$' | tr ',' '\\n' | sed 's/^ *//' | "
+             "grep -vE '^[A-Z]+(\\{[A-Za-z0-9_]+\\})?(==|!=|\\+=|-=|:=|=)\"[^\"]*\"$'");
+    int rc = sh(cmd, out, sizeof out);
+    if (rc == 0) fail_msg("udev rules: malformed tokens:\n%s", out);
+    /* device-tree overlay, where dtc exists */
+    if (sh("command -v dtc", NULL, 0) == 0) {
+        snprintf(cmd, sizeof cmd, "dtc -@ -q -I dts -O dtb -o %s/o.dtbo board/rpi5/hmdwarp-rpi5.dts", tmp);
+        if (sh(cmd, out, sizeof out) != 0) fail_msg("dtc: %s", out);
+    }
+}
+
+int main(int argc, char **argv)
+{
+    (void)argc;
+    char t[512];
+    snprintf(t, sizeof t, "%s", argv[0]);
+    char *b = realpath(dirname(dirname(dirname(t))), NULL);
+    if (!b) return 1;
+    snprintf(build, sizeof build, "%s", b);
+    free(b);
+    snprintf(tmp, sizeof tmp, "%s/tests/board", build);
+    char cmd[600];
+    snprintf(cmd, sizeof cmd, "mkdir -p %s", tmp);
+    if (system(cmd) != 0) return 1;
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_every_board_validates),
+        cmocka_unit_test(test_install_tree_flashes),
+        cmocka_unit_test(test_unit_and_rules_verify),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
