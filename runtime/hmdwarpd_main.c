@@ -5,6 +5,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include <systemd/sd-daemon.h>
+
 #include "runtime/rt_app.h"
 #include "runtime/rt_config.h"
 #include "sim/sim_scene.h"
@@ -146,7 +148,11 @@ int main(int argc, char **argv)
            rt_method_name(cfg.method),
            cfg.duration_s > 0 ? "running" : "running until Ctrl-C");
     fflush(stdout);
+    /* Devices are open and everything is allocated (for the USB gadget: the descriptors are written, so the UDC
+     * can be bound now). No-op outside systemd. */
+    sd_notify(0, "READY=1");
     rt_app_run(&app);
+    sd_notify(0, "STOPPING=1");
     rt_app_summary(&app, stdout);
     int rc = 0;
     if (cfg.stats[0]) {

@@ -8,6 +8,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include <systemd/sd-daemon.h>
+
 #include "drivers/drv_sim.h"
 #include "platform/plat_clock.h"
 #include "warp/warp_resample.h"
@@ -390,9 +392,19 @@ static void *aux_thread(void *arg)
     rt_app *a = arg;
     plat_thread_set_name("hmdwarp-aux");
     /* CSV rows are written here, away from the vsync path; then accuracy evaluation once the run is over if the
-     * idle-priority evaluator could not keep up. */
+     * idle-priority evaluator could not keep up. Under systemd (Type=notify, WatchdogSec) the watchdog is fed
+     * from here too, but only while the vsync loop advances: a compositor that stops presenting gets restarted. */
+    uint64_t usec = 0, last_vsyncs = UINT64_MAX;
+    bool watchdog = sd_watchdog_enabled(0, &usec) > 0 && usec > 0;
+    int64_t next_ping = plat_now_ns();
     while (!atomic_load(&a->stop)) {
         if (a->csv) drain_csv(a);
+        if (watchdog && plat_now_ns() >= next_ping) {
+            uint64_t v = a->tel->vsyncs;
+            if (v != last_vsyncs) sd_notify(0, "WATCHDOG=1");
+            last_vsyncs = v;
+            next_ping = plat_now_ns() + (int64_t)usec * 1000 / 2;
+        }
         plat_sleep_ns(20 * PLAT_NS_PER_MS);
     }
     if (a->csv) drain_csv(a);
