@@ -7,7 +7,10 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "warp/warp_forward.h"
 #include "warp/warp_grid.h"
+#include "warp/warp_objects.h"
+#include "warp/warp_splat.h"
 #include "warp/warp_holes.h"
 #include "warp/warp_transparency.h"
 #include "warp/warp_iterative.h"
@@ -292,6 +295,115 @@ static const char *run_transparency(const warp_view *src, const warp_camera *dst
     return why;
 }
 
+/* ---- 004 / 002: forward warps ---- */
+
+static const warp_pose *g_dst_objects; /* set by cat_set_target_objects */
+
+void cat_set_target_objects(const warp_pose *poses) { g_dst_objects = poses; }
+
+/* Holes of a forward warp, filled from its z-buffer (target inverse depth; < 0 where nothing landed). */
+static const char *fwd_fill(int fill, const warp_view *src, const warp_camera *dst_cam, warp_pose dst_pose,
+                            const warp_fwd_scratch *sc, warp_image_rgba8 *dst, warp_image_u8 *mask, cat_stats *st)
+{
+    warp_image_f32 zb = {dst->w, dst->h, dst->w, sc->zbuf};
+    return fill_holes(fill, src, dst_cam, dst_pose, &zb, dst, mask, st);
+}
+
+static const char *run_forward(const warp_view *src, const warp_camera *dst_cam, warp_pose dst_pose, double dst_time,
+                               const char *params, warp_image_rgba8 *dst, warp_image_u8 *mask, cat_stats *st)
+{
+    (void)dst_time;
+    const char *why = cat_check_params(params, "vis twopass fill");
+    if (why) return why;
+    warp_forward_params p = warp_forward_default_params();
+    bool bad = false;
+    p.vis = (warp_fwd_visibility)(int)cat_param(params, "vis", p.vis, &bad);
+    p.two_pass = cat_param(params, "twopass", p.two_pass, &bad) != 0;
+    int fill = (int)cat_param(params, "fill", 0, &bad);
+    if (bad || p.vis < WARP_FWD_ZBUFFER || p.vis > WARP_FWD_SHEETS8)
+        return "forward: vis must be 0 (z-buffer), 1 (4 sheets) or 2 (8 sheets)";
+    warp_fwd_scratch sc;
+    if (!warp_fwd_scratch_alloc(&sc, src->color->w, src->color->h, dst->w, dst->h)) return "out of memory";
+    warp_forward_stats fs;
+    memset(&fs, 0, sizeof fs);
+    why = warp_forward_run(src, dst_cam, dst_pose, &p, &sc, dst, mask, &fs);
+    if (!why) {
+        st->primitives = fs.samples;
+        st->samples = fs.writes;
+        snprintf(st->note, sizeof st->note, "%s%s, %d sheets", p.vis == WARP_FWD_ZBUFFER ? "z-buffer" : "painter",
+                 p.two_pass ? ", two-pass binned" : "", fs.sheets);
+        why = fwd_fill(fill, src, dst_cam, dst_pose, &sc, dst, mask, st);
+        count_mask(mask, st);
+    }
+    warp_fwd_scratch_free(&sc);
+    return why;
+}
+
+static const char *run_splat(const warp_view *src, const warp_camera *dst_cam, warp_pose dst_pose, double dst_time,
+                             const char *params, warp_image_rgba8 *dst, warp_image_u8 *mask, cat_stats *st)
+{
+    (void)dst_time;
+    const char *why = cat_check_params(params, "kind vis fill");
+    if (why) return why;
+    bool bad = false;
+    int kind = (int)cat_param(params, "kind", WARP_SPLAT_MESH, &bad);
+    if (bad || kind < WARP_SPLAT_POINT || kind > WARP_SPLAT_MESH) return "splat: kind must be 0 (point), 1 (quad), 2 (mesh)";
+    warp_splat_params p = warp_splat_default_params((warp_splat_kind)kind);
+    p.vis = (warp_fwd_visibility)(int)cat_param(params, "vis", p.vis, &bad);
+    int fill = (int)cat_param(params, "fill", 0, &bad);
+    if (bad) return "splat: a parameter value is not a number";
+    warp_fwd_scratch sc;
+    if (!warp_fwd_scratch_alloc(&sc, src->color->w, src->color->h, dst->w, dst->h)) return "out of memory";
+    warp_splat_stats ss;
+    memset(&ss, 0, sizeof ss);
+    why = warp_splat_run(src, dst_cam, dst_pose, &p, &sc, dst, mask, &ss);
+    if (!why) {
+        st->primitives = ss.primitives;
+        st->samples = ss.fragments;
+        snprintf(st->note, sizeof st->note, "%s splats", kind == 0 ? "point" : kind == 1 ? "quad" : "mesh");
+        why = fwd_fill(fill, src, dst_cam, dst_pose, &sc, dst, mask, st);
+        count_mask(mask, st);
+    }
+    warp_fwd_scratch_free(&sc);
+    return why;
+}
+
+static const char *run_objects(const warp_view *src, const warp_camera *dst_cam, warp_pose dst_pose, double dst_time,
+                               const char *params, warp_image_rgba8 *dst, warp_image_u8 *mask, cat_stats *st)
+{
+    (void)dst_time;
+    const char *why = cat_check_params(params, "kind fill static");
+    if (why) return why;
+    if (!src->ids) return "objects: the frame has no object ids";
+    bool bad = false;
+    int kind = (int)cat_param(params, "kind", WARP_SPLAT_MESH, &bad);
+    int fill = (int)cat_param(params, "fill", 2, &bad);
+    bool keep_static = cat_param(params, "static", 0, &bad) != 0;
+    if (bad || kind < 0 || kind > 2) return "objects: kind must be 0..2, fill 0..5, static 0|1";
+    warp_splat_params p = warp_splat_default_params((warp_splat_kind)kind);
+    warp_objects_setup *os = calloc(1, sizeof *os);
+    warp_fwd_scratch sc;
+    if (!os || !warp_fwd_scratch_alloc(&sc, src->color->w, src->color->h, dst->w, dst->h)) {
+        free(os);
+        return "out of memory";
+    }
+    warp_objects_stats ob;
+    memset(&ob, 0, sizeof ob);
+    /* the objects where they are at the target time (002 §3.2), or where the source saw them (static=1) */
+    why = warp_objects_run(os, src, dst_cam, dst_pose, keep_static ? NULL : g_dst_objects, &p, &sc, dst, mask, &ob);
+    if (!why) {
+        st->primitives = ob.splat.primitives;
+        st->samples = ob.splat.fragments;
+        snprintf(st->note, sizeof st->note, "%d objects, %d moved%s", ob.objects, ob.moved,
+                 g_dst_objects && !keep_static ? "" : " (no target poses: static)");
+        why = fwd_fill(fill, src, dst_cam, dst_pose, &sc, dst, mask, st);
+        count_mask(mask, st);
+    }
+    warp_fwd_scratch_free(&sc);
+    free(os);
+    return why;
+}
+
 static const cat_warp w_none = {"none", "-", "the source frame as rendered (no warp)", 0, run_none};
 static const cat_warp w_rotation = {"rotation", "003 §3.4", "rotation reprojection with clamped fringe fill", 0,
                                     run_rotation};
@@ -313,8 +425,20 @@ static const cat_warp w_transparency = {"transparency", "000 §5.3",
                                         "thickness=0.02 and the grid's knobs",
                                         CAT_NEEDS_DEPTH | CAT_NEEDS_LAYERS, run_transparency};
 
-static const cat_warp *const catalogue[] = {&w_none, &w_rotation, &w_raytrace, &w_iterative, &w_grid,
-                                            &w_transparency, NULL};
+static const cat_warp w_forward = {"forward", "004 §4",
+                                   "McMillan forward warp, 1-pixel points; vis=0|1|2 (z-buffer|4 sheets|8 sheets) "
+                                   "twopass=0|1 (004 §5) fill=0..5",
+                                   CAT_NEEDS_DEPTH, run_forward};
+static const cat_warp w_splat = {"splat", "002 §3.3",
+                                 "forward warp with reconstruction; kind=0|1|2 (point|quad|mesh) vis=0..2 fill=0..5",
+                                 CAT_NEEDS_DEPTH, run_splat};
+static const cat_warp w_objects = {"objects", "002 §3.2",
+                                   "per-object forward warp, objects at their target-time poses; kind=0..2 fill=2 "
+                                   "static=0|1",
+                                   CAT_NEEDS_DEPTH | CAT_NEEDS_IDS, run_objects};
+
+static const cat_warp *const catalogue[] = {&w_none,  &w_rotation, &w_raytrace, &w_iterative, &w_grid, &w_transparency,
+                                            &w_forward, &w_splat, &w_objects, NULL};
 
 const cat_warp *const *cat_all(void) { return catalogue; }
 

@@ -42,4 +42,8 @@ const cat_warp *const *cat_all(void);
 double cat_param(const char *params, const char *key, double def, bool *bad);
 const char *cat_check_params(const char *params, const char *known);
 
+/* Object poses at the target time ([id - 1], world_from_object) for the per-object warp; NULL = unknown (the objects
+ * stay where the source saw them). The tool and the table set it from the simulator. */
+void cat_set_target_objects(const warp_pose *poses);
+
 #endif

@@ -390,6 +390,9 @@ int main(int argc, char **argv)
         v.n_objects = sim_scene_object_count(sc) < 64 ? sim_scene_object_count(sc) : 64;
         for (int i = 0; i < v.n_objects; i++) objs[i] = sim_scene_object_pose(sc, i + 1, o.sim_time);
         v.object_pose = objs;
+        static warp_pose objs_dst[64];
+        for (int i = 0; i < v.n_objects; i++) objs_dst[i] = sim_scene_object_pose(sc, i + 1, o.dst_time);
+        cat_set_target_objects(objs_dst);
         if (o.write_inputs) {
             mkdir(o.write_inputs, 0755);
             char p[600];
