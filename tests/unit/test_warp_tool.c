@@ -67,6 +67,32 @@ static void test_files_match_simulator(void **state)
     assert_true(psnr_of(out) < sim_psnr - 3);
 }
 
+static void test_layers_file_round_trip(void **state)
+{
+    (void)state;
+    /* the A-buffer through its file format warps exactly as from the simulator */
+    char out[4096], args[8192], view[300];
+    snprintf(view, sizeof view, "%s/v.txt", dir);
+    write_view(view);
+    snprintf(args, sizeof args, "--sim glass --view %s --warp transparency --write-inputs %s/glass", view, dir);
+    assert_int_equal(run(args, out, sizeof out), 0);
+    double sim_psnr = psnr_of(out);
+    snprintf(args, sizeof args,
+             "--color %s/glass/color.png --depth %s/glass/depth.pfm --layers %s/glass/layers.bin --view "
+             "%s/glass/view.txt --warp transparency --ref %s/glass/truth.png",
+             dir, dir, dir, dir, dir);
+    assert_int_equal(run(args, out, sizeof out), 0);
+    assert_true(fabs(psnr_of(out) - sim_psnr) < 1e-6);
+    /* a truncated layers file is refused with its name */
+    snprintf(args, sizeof args, "head -c 100 %s/glass/layers.bin > %s/short.bin", dir, dir);
+    assert_int_equal(system(args), 0);
+    snprintf(args, sizeof args,
+             "--color %s/glass/color.png --depth %s/glass/depth.pfm --layers %s/short.bin --view %s/glass/view.txt "
+             "--warp transparency", dir, dir, dir, dir);
+    assert_int_equal(run(args, out, sizeof out), 1);
+    assert_non_null(strstr(out, "short.bin"));
+}
+
 static void test_bad_inputs_named(void **state)
 {
     (void)state;
@@ -105,6 +131,7 @@ int main(int argc, char **argv)
     if (system(cmd) != 0) return 1;
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_files_match_simulator),
+        cmocka_unit_test(test_layers_file_round_trip),
         cmocka_unit_test(test_bad_inputs_named),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

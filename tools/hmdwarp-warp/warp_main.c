@@ -16,7 +16,7 @@
 #include "warp_table.h"
 
 typedef struct {
-    const char *color, *depth, *ids, *motion, *view, *ref;
+    const char *color, *depth, *ids, *motion, *layers, *view, *ref;
     const char *depth_kind, *depth_encoding;
     double depth_scale;
     const char *warp, *params;
@@ -44,6 +44,7 @@ static void usage(FILE *f)
             "  --depth-scale S        multiply linear depth by S to get metres (e.g. 0.001 for millimetres)\n"
             "  --ids FILE.png         object ids, 16-bit grey PNG, 0 = static scene (002 §3.2)\n"
             "  --motion FILE.pfm      screen motion in pixels per second, 3-channel PFM (x, y, unused)\n"
+            "  --layers FILE          transparent fragments (A-buffer), the binary format of docs/hmdwarp-warp.md\n"
             "  --view FILE            intrinsics and the source and target poses (format: docs/hmdwarp-warp.md)\n"
             "  --ref FILE.png         the true target view: prints PSNR, SSIM and error-pixel %% (002 §4)\n"
             "Or the simulator:\n"
@@ -72,11 +73,11 @@ static bool parse(int argc, char **argv, opts *o)
 {
     *o = (opts){.dst_time = NAN, .depth_kind = "planar", .depth_encoding = "linear", .depth_scale = 1, .warp = "rotation"};
     enum { O_COLOR = 256, O_DEPTH, O_KIND, O_ENC, O_SCALE, O_IDS, O_MOTION, O_VIEW, O_REF, O_SIM, O_TIME, O_WRITE,
-           O_WARP, O_PARAMS, O_LIST, O_OUT, O_MASK, O_TABLE, O_QUICK, O_TTIME };
+           O_WARP, O_PARAMS, O_LIST, O_OUT, O_MASK, O_TABLE, O_QUICK, O_TTIME, O_LAYERS };
     static const struct option lo[] = {
         {"color", 1, 0, O_COLOR}, {"depth", 1, 0, O_DEPTH}, {"depth-kind", 1, 0, O_KIND},
         {"depth-encoding", 1, 0, O_ENC}, {"depth-scale", 1, 0, O_SCALE}, {"ids", 1, 0, O_IDS},
-        {"motion", 1, 0, O_MOTION}, {"view", 1, 0, O_VIEW}, {"ref", 1, 0, O_REF}, {"sim", 1, 0, O_SIM},
+        {"motion", 1, 0, O_MOTION}, {"layers", 1, 0, O_LAYERS}, {"view", 1, 0, O_VIEW}, {"ref", 1, 0, O_REF}, {"sim", 1, 0, O_SIM},
         {"time", 1, 0, O_TIME}, {"target-time", 1, 0, O_TTIME}, {"write-inputs", 1, 0, O_WRITE}, {"warp", 1, 0, O_WARP},
         {"params", 1, 0, O_PARAMS}, {"list", 0, 0, O_LIST}, {"out", 1, 0, O_OUT}, {"mask", 1, 0, O_MASK},
         {"table", 1, 0, O_TABLE}, {"quick", 0, 0, O_QUICK}, {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
@@ -90,6 +91,7 @@ static bool parse(int argc, char **argv, opts *o)
         case O_SCALE: o->depth_scale = atof(optarg); break;
         case O_IDS: o->ids = optarg; break;
         case O_MOTION: o->motion = optarg; break;
+        case O_LAYERS: o->layers = optarg; break;
         case O_VIEW: o->view = optarg; break;
         case O_REF: o->ref = optarg; break;
         case O_SIM: o->sim = optarg; break;
@@ -327,6 +329,68 @@ static bool load_depth(const opts *o, const warp_camera *cam, warp_image_f32 *de
     return true;
 }
 
+/* ---- transparency layers: "HWLAYER1", u32 w, h, max_layers, then per pixel (row-major) a u8 count and count
+ * fragments of f32 z (linear view depth, metres), u8 r g b a (straight alpha), u16 object id; little endian ---- */
+
+static bool write_layers(const char *path, const warp_image_layers *l)
+{
+    FILE *f = fopen(path, "wb");
+    if (!f) return false;
+    uint32_t hdr[3] = {(uint32_t)l->w, (uint32_t)l->h, (uint32_t)l->max_layers};
+    fwrite("HWLAYER1", 1, 8, f);
+    fwrite(hdr, 4, 3, f);
+    for (int i = 0; i < l->w * l->h; i++) {
+        uint8_t n = l->count[i];
+        fwrite(&n, 1, 1, f);
+        for (int k = 0; k < n; k++) {
+            const warp_fragment *fr = &l->frag[(size_t)i * l->max_layers + k];
+            fwrite(&fr->z, 4, 1, f);
+            fwrite(&fr->rgba, 1, 4, f);
+            fwrite(&fr->id, 2, 1, f);
+        }
+    }
+    return fclose(f) == 0;
+}
+
+static bool read_layers(const char *path, const warp_camera *cam, warp_image_layers *l, char *err, int errlen)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) return snprintf(err, (size_t)errlen, "%s: %s", path, strerror(errno)), false;
+    char magic[8];
+    uint32_t hdr[3];
+    if (fread(magic, 1, 8, f) != 8 || memcmp(magic, "HWLAYER1", 8) || fread(hdr, 4, 3, f) != 3) {
+        fclose(f);
+        return snprintf(err, (size_t)errlen, "%s: not a layers file (expected HWLAYER1)", path), false;
+    }
+    if ((int)hdr[0] != cam->width || (int)hdr[1] != cam->height || hdr[2] < 1 || hdr[2] > 64) {
+        fclose(f);
+        return snprintf(err, (size_t)errlen, "%s: %ux%u with %u layers; expected %dx%d and 1..64 layers", path, hdr[0],
+                        hdr[1], hdr[2], cam->width, cam->height), false;
+    }
+    if (!warp_image_layers_alloc(l, (int)hdr[0], (int)hdr[1], (int)hdr[2])) {
+        fclose(f);
+        return snprintf(err, (size_t)errlen, "out of memory"), false;
+    }
+    for (int i = 0; i < l->w * l->h; i++) {
+        uint8_t n;
+        if (fread(&n, 1, 1, f) != 1 || n > l->max_layers) {
+            fclose(f);
+            return snprintf(err, (size_t)errlen, "%s: pixel %d: truncated or more than %d fragments", path, i,
+                            l->max_layers), false;
+        }
+        l->count[i] = n;
+        for (int k = 0; k < n; k++) {
+            warp_fragment *fr = &l->frag[(size_t)i * l->max_layers + k];
+            if (fread(&fr->z, 4, 1, f) != 1 || fread(&fr->rgba, 1, 4, f) != 4 || fread(&fr->id, 2, 1, f) != 1) {
+                fclose(f);
+                return snprintf(err, (size_t)errlen, "%s: truncated at pixel %d", path, i), false;
+            }
+        }
+    }
+    fclose(f);
+    return true;
+}
+
 /* ---- scoring and output ---- */
 
 static void mask_to_grey(const warp_image_u8 *m, warp_image_u8 *g)
@@ -364,6 +428,7 @@ int main(int argc, char **argv)
     warp_image_f32 depth = {0}, inv = {0};
     warp_image_u16 ids = {0};
     warp_image_vec2f motion = {0};
+    warp_image_layers layers = {0};
     sim_buffers sb, tb;
     memset(&sb, 0, sizeof sb);
     memset(&tb, 0, sizeof tb);
@@ -411,6 +476,8 @@ int main(int argc, char **argv)
                 }
             snprintf(p, sizeof p, "%s/depth.pfm", o.write_inputs);
             if (!write_pfm(p, d, vf.cam.width, vf.cam.height, 1)) return fail_msg("cannot write depth.pfm");
+            snprintf(p, sizeof p, "%s/layers.bin", o.write_inputs);
+            if (!write_layers(p, &sb.layers)) return fail_msg("cannot write layers.bin");
             snprintf(p, sizeof p, "%s/ids.png", o.write_inputs);
             if (!plat_png_write_u16(p, u, vf.cam.width, vf.cam.height, err, sizeof err)) return fail_msg(err);
             free(d);
@@ -425,7 +492,8 @@ int main(int argc, char **argv)
             pose_line(f, "source", vf.src);
             pose_line(f, "target", vf.dst);
             fclose(f);
-            printf("inputs written to %s (color.png, depth.pfm, ids.png, view.txt, truth.png)\n", o.write_inputs);
+            printf("inputs written to %s (color.png, depth.pfm, ids.png, layers.bin, view.txt, truth.png)\n",
+                   o.write_inputs);
         }
     } else {
         if (!o.color) return fail_msg("--color FILE.png (or --sim SCENE) is required");
@@ -460,6 +528,10 @@ int main(int argc, char **argv)
             free(m);
             v.motion = &motion;
         }
+        if (o.layers) {
+            if (!read_layers(o.layers, &vf.cam, &layers, err, sizeof err)) return fail_msg(err);
+            v.layers = &layers;
+        }
         if (o.ref && !plat_png_read(o.ref, &ref, err, sizeof err)) return fail_msg(err);
     }
     if (have_depth) {
@@ -471,7 +543,7 @@ int main(int argc, char **argv)
     if ((w->needs & CAT_NEEDS_DEPTH) && !v.inv_depth) return fail_msg("this warp needs --depth");
     if ((w->needs & CAT_NEEDS_IDS) && !v.ids) return fail_msg("this warp needs --ids");
     if ((w->needs & CAT_NEEDS_MOTION) && !v.motion) return fail_msg("this warp needs --motion");
-    if ((w->needs & CAT_NEEDS_LAYERS) && !v.layers) return fail_msg("this warp needs transparency layers (--sim only)");
+    if ((w->needs & CAT_NEEDS_LAYERS) && !v.layers) return fail_msg("this warp needs --layers");
 
     warp_image_rgba8 out;
     warp_image_u8 mask, grey;
@@ -513,6 +585,7 @@ int main(int argc, char **argv)
         warp_image_free(&depth);
         warp_image_free(&ids);
         warp_image_free(&motion);
+        warp_image_layers_free(&layers);
         warp_image_free(&ref);
     }
     return 0;
