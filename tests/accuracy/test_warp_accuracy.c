@@ -6,6 +6,8 @@
 #include <stddef.h>
 #include <cmocka.h>
 
+#include "tests/support/test_scene.h"
+
 #include "sim/sim_scene.h"
 #include "warp/warp_camera.h"
 #include "warp/warp_metrics.h"
@@ -56,14 +58,7 @@ static int teardown(void **state)
 /* Renders the source at pose a (with depth) and the truth at pose b. */
 static void render_pair(const char *scene, warp_pose a, warp_pose b)
 {
-    const sim_scene *s = sim_scene_find(scene);
-    assert_non_null(s);
-    sim_render(s, 0.0, a, &F.cam, SIM_PLANE_COLOR | SIM_PLANE_DEPTH, &F.a);
-    sim_render(s, 0.0, b, &F.cam, SIM_PLANE_COLOR, &F.b);
-    F.v = (warp_view){.cam = F.cam, .pose = a, .color = &F.a.color, .inv_depth = &F.inv};
-    assert_int_equal(warp_inverse_depth_from(&F.cam, WARP_DEPTH_LINEAR, &F.a.depth, &F.inv, &F.v.inv_depth_min,
-                                             &F.v.inv_depth_max),
-                     0);
+    test_render_pair(scene, &F.cam, a, b, &F.a, &F.b, &F.inv, &F.v);
 }
 
 static void reproject(warp_pose to, warp_image_rgba8 *out, warp_image_u8 *mask)

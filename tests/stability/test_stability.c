@@ -17,6 +17,7 @@
 #include "runtime/rt_config.h"
 #include "runtime/rt_fusion.h"
 #include "sim/sim_scene.h"
+#include "tests/support/test_scene.h"
 #include "tests/support/test_util.h"
 #include "warp/warp_camera.h"
 #include "warp/warp_lens.h"
@@ -75,14 +76,7 @@ static void fx_free(fx *f)
 
 static void fx_render(fx *f, const char *scene, warp_pose a, warp_pose b)
 {
-    const sim_scene *s = sim_scene_find(scene);
-    assert_non_null(s);
-    sim_render(s, 0, a, &f->c, SIM_PLANE_COLOR | SIM_PLANE_DEPTH, &f->src);
-    sim_render(s, 0, b, &f->c, SIM_PLANE_COLOR, &f->truth);
-    f->v = (warp_view){.cam = f->c, .pose = a, .color = &f->src.color, .inv_depth = &f->inv};
-    assert_int_equal(warp_inverse_depth_from(&f->c, WARP_DEPTH_LINEAR, &f->src.depth, &f->inv, &f->v.inv_depth_min,
-                                             &f->v.inv_depth_max),
-                     0);
+    test_render_pair(scene, &f->c, a, b, &f->src, &f->truth, &f->inv, &f->v);
 }
 
 static void raytrace(fx *f, warp_pose to, warp_image_rgba8 *out)
