@@ -315,6 +315,7 @@ static drv_frame_err prepare_frame(rt_frame *s)
             long bad = warp_inverse_depth_from(&s->f.cam[eye], s->f.depth_encoding, &s->f.depth[eye],
                                                &s->inv_depth[eye], &s->inv_min[eye], &s->inv_max[eye]);
             if (bad) return DRV_FRAME_ERR_BAD_DEPTH;
+            warp_raytrace_blockmax(&s->inv_depth[eye], &s->blockmax[eye], RT_BLOCK);
         }
         warp_planar3_from_rgba_rows(&s->planar[eye], &s->f.color[eye], 0, s->f.color[eye].h);
         /* The host blended its transparent fragments into the colour; the transparency warp moves them on their

@@ -126,6 +126,7 @@ static rt_method compose(rt_app *a, job *j, const rt_frame *frame, const warp_po
         for (int e = 0; e < 2 && ok; e++) {
             j->views[e] = rt_frame_view(frame, e);
             ok = warp_raytrace_prepare(&j->rts[e], &j->views[e], &frame->f.cam[e], eyes[e], &a->rt_params) == NULL;
+            if (ok) warp_raytrace_use_blockmax(&j->rts[e], &frame->blockmax[e], RT_BLOCK);
         }
         if (ok) {
             j->bands = (a->inter[0].h + BAND_H - 1) / BAND_H;

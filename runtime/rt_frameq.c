@@ -36,7 +36,9 @@ bool rt_frameq_init(rt_frameq *q, int w, int h, unsigned planes, int max_layers)
         bool ok = drv_frame_alloc(&s->f, w, h, planes, max_layers);
         for (int e = 0; ok && e < 2; e++) {
             ok = warp_planar3_alloc(&s->planar[e], w, h);
-            if (ok && (planes & DRV_PLANE_DEPTH)) ok = warp_image_f32_alloc(&s->inv_depth[e], w, h);
+            if (ok && (planes & DRV_PLANE_DEPTH))
+                ok = warp_image_f32_alloc(&s->inv_depth[e], w, h) &&
+                     warp_image_f32_alloc(&s->blockmax[e], (w + RT_BLOCK - 1) / RT_BLOCK, (h + RT_BLOCK - 1) / RT_BLOCK);
             if (ok && (planes & DRV_PLANE_LAYERS)) ok = warp_image_rgba8_alloc(&s->opaque[e], w, h);
         }
         if (!ok) {
@@ -58,6 +60,7 @@ void rt_frameq_free(rt_frameq *q)
             warp_image_free(&q->slot[i].inv_depth[e]);
             warp_planar3_free(&q->slot[i].planar[e]);
             warp_image_free(&q->slot[i].opaque[e]);
+            warp_image_free(&q->slot[i].blockmax[e]);
         }
     }
 }

@@ -18,8 +18,11 @@ typedef struct {
     float inv_min[2], inv_max[2];
     warp_planar3 planar[2];
     warp_image_rgba8 opaque[2]; /* with layers: the colour behind the transparent fragments (unblended) */
+    warp_image_f32 blockmax[2]; /* with depth: nearest inverse depth per RT_BLOCK^2 texels (raytrace skipping) */
     bool has_depth;
 } rt_frame;
+
+#define RT_BLOCK 8
 
 /* Builds the warp input for one eye of a prepared frame. */
 warp_view rt_frame_view(const rt_frame *fr, int eye);

@@ -39,7 +39,50 @@ const char *warp_raytrace_prepare(warp_raytrace_setup *s, const warp_view *src, 
     s->aw = a.z;
     s->dst_w = dst_cam->width;
     s->dst_h = dst_cam->height;
+    s->blockmax = NULL;
+    s->block = 0;
     return NULL;
+}
+
+void warp_raytrace_blockmax(const warp_image_f32 *inv, warp_image_f32 *bmax, int block)
+{
+    int bw = (inv->w + block - 1) / block, bh = (inv->h + block - 1) / block;
+    for (int by = 0; by < bh; by++)
+        for (int bx = 0; bx < bw; bx++) {
+            float m = 0;
+            int x1 = (bx + 1) * block < inv->w ? (bx + 1) * block : inv->w;
+            int y1 = (by + 1) * block < inv->h ? (by + 1) * block : inv->h;
+            for (int y = by * block; y < y1; y++)
+                for (int x = bx * block; x < x1; x++)
+                    if (WARP_AT(inv, x, y) > m) m = WARP_AT(inv, x, y);
+            WARP_AT(bmax, bx, by) = m;
+        }
+}
+
+void warp_raytrace_use_blockmax(warp_raytrace_setup *s, const warp_image_f32 *bmax, int block)
+{
+    s->blockmax = bmax && block > 0 ? bmax : NULL;
+    s->block = bmax ? block : 0;
+}
+
+/* Largest inverse depth any bilinear sample between source positions p and q can return: the blocks around the
+ * segment's bounding box, widened by the bilinear footprint (and the clamping at the borders). */
+static float region_max(const warp_raytrace_setup *s, double px, double py, double qx, double qy)
+{
+    const warp_image_f32 *b = s->blockmax;
+    const int B = s->block, w = s->src->inv_depth->w, h = s->src->inv_depth->h;
+    double x0 = px < qx ? px : qx, x1 = px < qx ? qx : px, y0 = py < qy ? py : qy, y1 = py < qy ? qy : py;
+    /* texels read: floor(x - 0.5) .. floor(x - 0.5) + 1, clamped to the image */
+    int tx0 = (int)floor(x0 - 0.5), tx1 = (int)floor(x1 - 0.5) + 1, ty0 = (int)floor(y0 - 0.5), ty1 = (int)floor(y1 - 0.5) + 1;
+    tx0 = tx0 < 0 ? 0 : (tx0 >= w ? w - 1 : tx0);
+    tx1 = tx1 < 0 ? 0 : (tx1 >= w ? w - 1 : tx1);
+    ty0 = ty0 < 0 ? 0 : (ty0 >= h ? h - 1 : ty0);
+    ty1 = ty1 < 0 ? 0 : (ty1 >= h ? h - 1 : ty1);
+    float m = 0;
+    for (int by = ty0 / B; by <= ty1 / B; by++)
+        for (int bx = tx0 / B; bx <= tx1 / B; bx++)
+            if (WARP_AT(b, bx, by) > m) m = WARP_AT(b, bx, by);
+    return m;
 }
 
 /* Bilinear inverse depth at continuous position (x, y), clamped to the image like the colour fringe fill. */
@@ -103,7 +146,8 @@ void warp_raytrace_rows(const warp_raytrace_setup *s, warp_image_rgba8 *dst, war
     const double dmin = v->inv_depth_min, dmax = v->inv_depth_max;
     const int max_steps = s->p.max_steps;
     const float jump = s->p.edge_jump;
-    long steps_total = 0, edges = 0, fringes = 0;
+    long steps_total = 0, edges = 0, fringes = 0, samples = 0;
+    const int chunk = s->blockmax ? s->block : 0;
 
     for (int y = y0; y < y1; y++) {
         double py = y + 0.5;
@@ -162,9 +206,25 @@ void warp_raytrace_rows(const warp_raytrace_setup *s, warp_image_rgba8 *dst, war
                 if (near_clipped) flag = WARP_MASK_FRINGE;
             } else {
                 for (k = 1; k <= n; k++) {
+                    /* A run of `chunk` steps (about a block long) none of which can hit: the nearest surface in
+                     * their region is farther than the ray at the run's far end. Jump to its last step, whose sample
+                     * the search would have kept as the bracket's near side. */
+                    if (chunk && k + chunk - 1 < n) {
+                        double dlast = hi - dd * (k + chunk - 1);
+                        double d0 = hi - dd * k;
+                        if (region_max(s, pix + d0 * ex, piy + d0 * ey, pix + dlast * ex, piy + dlast * ey) < dlast) {
+                            k += chunk - 1;
+                            da = dlast;
+                            sa = inv_at(dimg, (float)(pix + da * ex), (float)(piy + da * ey));
+                            fa = sa - da;
+                            samples++;
+                            continue;
+                        }
+                    }
                     db = hi - dd * k;
                     if (k == n) db = lo;
                     sb = inv_at(dimg, (float)(pix + db * ex), (float)(piy + db * ey));
+                    samples++;
                     fb = sb - db;
                     if (fb >= 0) break;
                     da = db;
@@ -231,5 +291,6 @@ void warp_raytrace_rows(const warp_raytrace_setup *s, warp_image_rgba8 *dst, war
         st->steps += steps_total;
         st->edge_pixels += edges;
         st->fringe_pixels += fringes;
+        st->samples += samples;
     }
 }

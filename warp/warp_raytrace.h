@@ -28,6 +28,7 @@ typedef struct {
     long steps;         /* depth samples taken in the linear searches (n_d of 003 eq. 11, summed) */
     long edge_pixels;   /* pixels filled across a depth edge */
     long fringe_pixels; /* pixels whose ray left the source image */
+    long samples;       /* depth samples actually taken by the searches (fewer than steps with a block-max grid) */
 } warp_raytrace_stats;
 
 /* Everything that is constant over one warp of one eye. */
@@ -37,12 +38,21 @@ typedef struct {
     warp_mat3 h;        /* target pixel -> source homogeneous position of the ray's point at infinity */
     double ax, ay, aw;  /* source homogeneous position of the target eye (K_src * origin) */
     int dst_w, dst_h;
+    const warp_image_f32 *blockmax; /* optional (warp_raytrace_use_blockmax): skip steps that cannot hit */
+    int block;
 } warp_raytrace_setup;
 
 /* Prepares a warp of src (which must carry inverse depth) to the eye pose dst_pose (world_from_eye) seen through
  * dst_cam. Returns NULL when usable, else a static string naming what is missing. */
 const char *warp_raytrace_prepare(warp_raytrace_setup *s, const warp_view *src, const warp_camera *dst_cam,
                                   warp_pose dst_pose, const warp_raytrace_params *p);
+
+/* The largest inverse depth of every block x block texels of inv, into bmax ((w + block - 1) / block wide, as
+ * many rows). Once per host frame: with it, the search skips runs of steps whose region holds nothing as near
+ * as the ray (the spirit of 000 §5.3's min-max trees); the result is bit-identical to the plain search. */
+void warp_raytrace_blockmax(const warp_image_f32 *inv, warp_image_f32 *bmax, int block);
+/* Lets s use bmax (built from s's source inverse depth with the same block); NULL = the plain linear search. */
+void warp_raytrace_use_blockmax(warp_raytrace_setup *s, const warp_image_f32 *bmax, int block);
 
 /* Writes rows [y0, y1) of dst; fills mask with WARP_MASK_FRINGE / WARP_MASK_EDGE (may be NULL); adds to *st
  * (may be NULL). Rows are independent, so threads may split them. */

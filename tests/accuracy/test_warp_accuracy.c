@@ -250,6 +250,41 @@ static void test_reversed_z_input(void **state)
     warp_image_free(&rz);
 }
 
+static void test_raytrace_blockmax_skipping_is_exact(void **state)
+{
+    (void)state;
+    /* The block-max grid only skips steps that cannot hit: the image and mask are bit-identical to the plain
+     * linear search, with far fewer depth samples (a broken bound would change pixels or skip nothing). */
+    warp_image_f32 bmax;
+    assert_true(warp_image_f32_alloc(&bmax, (W + 7) / 8, (H + 7) / 8));
+    const warp_pose a = eye_at(0, 0, 0, warp_v3(0, 1.6, 0));
+    const warp_pose tos[3] = {eye_at(0.03, 0, 0, warp_v3(0.05, 1.6, 0)), eye_at(-0.02, 0.01, 0, warp_v3(-0.03, 1.62, -0.04)),
+                              eye_at(0, 0, 0, warp_v3(0, 1.6, -0.08))};
+    const char *scenes[2] = {"near", "hairball"};
+    for (int sc = 0; sc < 2; sc++)
+        for (int t = 0; t < 3; t++) {
+            render_pair(scenes[sc], a, tos[t]);
+            warp_raytrace_blockmax(&F.inv, &bmax, 8);
+            warp_raytrace_params p = warp_raytrace_default_params();
+            warp_raytrace_setup s;
+            assert_null(warp_raytrace_prepare(&s, &F.v, &F.cam, tos[t], &p));
+            warp_raytrace_stats plain = {0}, fast = {0};
+            warp_raytrace_rows(&s, &F.out, &F.mask, 0, H, &plain);
+            warp_raytrace_use_blockmax(&s, &bmax, 8);
+            warp_raytrace_rows(&s, &F.out2, &F.mask2, 0, H, &fast);
+            for (int y = 0; y < H; y++) {
+                assert_memory_equal(&WARP_AT(&F.out, 0, y), &WARP_AT(&F.out2, 0, y), sizeof(warp_rgba8) * W);
+                assert_memory_equal(&WARP_AT(&F.mask, 0, y), &WARP_AT(&F.mask2, 0, y), W);
+            }
+            assert_int_equal(plain.steps, fast.steps); /* the search is the same; it samples less */
+            print_message("%s pose %d: %ld steps, samples %ld -> %ld\n", scenes[sc], t, plain.steps, plain.samples,
+                          fast.samples);
+            assert_true(fast.samples < plain.samples);
+        }
+    /* the translation case with most steps saves the most */
+    warp_image_free(&bmax);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -260,6 +295,7 @@ int main(void)
         cmocka_unit_test(test_raytrace_refinement_and_budget),
         cmocka_unit_test(test_raytrace_edge_fills),
         cmocka_unit_test(test_reversed_z_input),
+        cmocka_unit_test(test_raytrace_blockmax_skipping_is_exact),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

@@ -111,7 +111,7 @@ static const char *run_raytrace(const warp_view *src, const warp_camera *dst_cam
                                 const char *params, warp_image_rgba8 *dst, warp_image_u8 *mask, cat_stats *st)
 {
     (void)dst_time;
-    const char *why = cat_check_params(params, "steps refine fill edge_jump");
+    const char *why = cat_check_params(params, "steps refine fill edge_jump skip");
     if (why) return why;
     warp_raytrace_params p = warp_raytrace_default_params();
     bool bad = false;
@@ -125,10 +125,18 @@ static const char *run_raytrace(const warp_view *src, const warp_camera *dst_cam
     warp_raytrace_setup s;
     why = warp_raytrace_prepare(&s, src, dst_cam, dst_pose, &p);
     if (why) return why;
+    /* the skipping grid, as the runtime builds it once per host frame (skip=0: the plain linear search) */
+    int skip = (int)cat_param(params, "skip", 1, &bad);
+    warp_image_f32 bmax = {0};
+    if (skip && warp_image_f32_alloc(&bmax, (src->inv_depth->w + 7) / 8, (src->inv_depth->h + 7) / 8)) {
+        warp_raytrace_blockmax(src->inv_depth, &bmax, 8);
+        warp_raytrace_use_blockmax(&s, &bmax, 8);
+    }
     warp_raytrace_stats rs = {0};
     warp_raytrace_rows(&s, dst, mask, 0, dst->h, &rs);
+    warp_image_free(&bmax);
     st->primitives = -1;
-    st->samples = rs.steps;
+    st->samples = rs.samples;
     count_mask(mask, st);
     snprintf(st->note, sizeof st->note, "%d steps max, %ld edge px", p.max_steps, rs.edge_pixels);
     return NULL;
@@ -408,7 +416,7 @@ static const cat_warp w_none = {"none", "-", "the source frame as rendered (no w
 static const cat_warp w_rotation = {"rotation", "003 §3.4", "rotation reprojection with clamped fringe fill", 0,
                                     run_rotation};
 static const cat_warp w_raytrace = {"raytrace", "003 §3.5",
-                                    "height-map raytrace; steps=512 refine=4 fill=0|1 (far|linear) edge_jump=0.1",
+                                    "height-map raytrace; steps=512 refine=4 fill=0|1 (far|linear) edge_jump=0.1 skip=1|0",
                                     CAT_NEEDS_DEPTH, run_raytrace};
 
 static const cat_warp w_iterative = {"iterative", "001 §3",

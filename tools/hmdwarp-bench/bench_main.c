@@ -353,9 +353,14 @@ int main(int argc, char **argv)
         const float *mx[3] = {maps[e][0], maps[e][1], maps[e][2]}, *my[3] = {maps[e][3], maps[e][4], maps[e][5]};
         cv[e] = bench_cv_create(vw, cfg.panel_h, mx, my, cfg.eye_w, cfg.eye_h);
     }
+    warp_image_f32 bmax[2];
     for (int e = 0; e < 2; e++) {
+        warp_image_f32_alloc(&bmax[e], (cfg.eye_w + 7) / 8, (cfg.eye_h + 7) / 8);
         warp_raytrace_params rp = warp_raytrace_default_params();
         warp_raytrace_prepare(&D.rts[e], &fc[e].v, &D.cam[e], fc[e].b, &rp);
+        /* as the runtime does once per host frame */
+        warp_raytrace_blockmax(&fc[e].inv, &bmax[e], 8);
+        warp_raytrace_use_blockmax(&D.rts[e], &bmax[e], 8);
     }
 
     /* ---- 1. the display path, interleaved rounds ---- */
@@ -431,6 +436,8 @@ int main(int argc, char **argv)
             warp_planar3_from_rgba_rows(&D.planar[e], &fc[e].src.color, 0, cfg.eye_h);
             warp_raytrace_params rp = warp_raytrace_default_params();
             warp_raytrace_prepare(&D.rts[e], &fc[e].v, &D.cam[e], fc[e].b, &rp);
+            warp_raytrace_blockmax(&fc[e].inv, &bmax[e], 8);
+            warp_raytrace_use_blockmax(&D.rts[e], &bmax[e], 8);
             rot[e] = warp_quat_mul(warp_quat_conj(fc[e].a.q), fc[e].b.q);
         }
         samples sr = {0}, so = {0};
@@ -731,6 +738,7 @@ int main(int argc, char **argv)
             free(cv_dst[e][ch]);
         }
         warp_mesh_free(&D.mesh[e]);
+        warp_image_free(&bmax[e]);
         warp_planar3_free(&D.planar[e]);
         warp_planar3_free(&D.inter_planar[e]);
         warp_image_free(&D.inter[e]);
