@@ -10,7 +10,7 @@
 #include "drivers/drv_sim.h"
 
 typedef struct {
-    char device[64];  /* e.g. /dev/video0 */
+    char device[128]; /* e.g. /dev/video0 (as long as [frames] device) */
     char format[16];  /* auto|yuyv|nv12|bgr32|rgb24 (auto: the first of these the device offers) */
     int eye_w, eye_h;
     bool depth;       /* a depth plane is packed with the colour (below it: docs/v4l2-inband.md) */

@@ -37,10 +37,10 @@ static void set_err(char *err, int errlen, const char *fmt, ...)
 typedef struct {
     drv_i2c_bus bus;
     int fd;
-    char path[64];
+    char path[128];
     int addr;
     bool rdwr_read, rdwr_write; /* plain I2C messages instead of SMBus (adapter lacks the SMBus commands) */
-    char name[96];
+    char name[160];
 } i2c_dev;
 
 static int dev_rdwr(i2c_dev *d, struct i2c_msg *msgs, int n)
@@ -396,7 +396,7 @@ int drv_i2c_mockbus_write_at(const drv_i2c_mockbus *m, int idx, uint8_t *reg, ui
 
 typedef struct {
     drv_imu base;
-    char name[128];
+    char name[176];
     drv_i2c_bus *bus;
     drv_i2c_mockbus *mock; /* == bus for mock devices */
     const drv_i2c_chip *chip;

@@ -10,7 +10,7 @@
 #include "drivers/drv_imu.h"
 
 typedef struct {
-    char bus[64];  /* "/dev/i2c-1" */
+    char bus[128]; /* "/dev/i2c-1" (as long as [imu] device) */
     int addr;      /* 7-bit address, 0x68 (AD0 low) or 0x69 */
     char chip[16]; /* auto|mpu6050|mpu9250|icm42688 */
     double rate_hz;
@@ -53,7 +53,7 @@ typedef struct {
 typedef struct drv_i2c_mockbus {
     drv_i2c_bus bus;          /* its interface (pass &m->bus) */
     drv_i2c_chip_kind model;  /* the chip emulated */
-    char name[96];
+    char name[160];
     uint8_t reg[256];         /* register file (bank 0); tests may preload it */
     /* every transfer in order (the first DRV_I2C_MOCK_LOG; n_log keeps counting) */
     drv_i2c_mock_op log[DRV_I2C_MOCK_LOG];

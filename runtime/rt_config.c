@@ -521,10 +521,6 @@ bool rt_config_validate(const rt_config *c, rt_config_errors *err)
     if (strcmp(c->frames_backend, "sim") != 0 && !c->frames_device[0])
         add_error(err, "[frames] device: required for backend = %s (%s, or mock)", c->frames_backend,
                   strcmp(c->frames_backend, "usb") == 0 ? "the FunctionFS mount directory" : "a /dev/videoN path");
-    /* the I2C bus and V4L2 device names go into 64-byte fields */
-    if ((strcmp(c->imu_backend, "i2c") == 0 && strlen(c->imu_device) > 63) ||
-        (strcmp(c->frames_backend, "v4l2") == 0 && strlen(c->frames_device) > 63))
-        add_error(err, "device path longer than 63 characters (%s%s)", c->imu_device, "");
     if (strcmp(c->output, "kms") == 0 && strcmp(c->renderer, "cpu") == 0)
         add_error(err, "[display] output = kms: needs [render] renderer = gles or auto (the CPU path has no KMS "
                        "output)");

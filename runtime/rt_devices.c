@@ -61,7 +61,7 @@ static bool open_imu(rt_app *a, char *err, int errlen)
     } else if (strcmp(c->imu_backend, "i2c") == 0) {
         drv_imu_i2c_params p;
         memset(&p, 0, sizeof p);
-        snprintf(p.bus, sizeof p.bus, "%.*s", (int)sizeof p.bus - 1, c->imu_device);
+        snprintf(p.bus, sizeof p.bus, "%s", c->imu_device);
         p.addr = c->imu_address;
         snprintf(p.chip, sizeof p.chip, "%s", c->imu_chip);
         p.rate_hz = c->imu_rate_hz;
@@ -150,7 +150,7 @@ static bool open_frames(rt_app *a, const drv_frames_sim_params *sp, char *err, i
     } else if (strcmp(c->frames_backend, "v4l2") == 0) {
         drv_frames_v4l2_params p;
         memset(&p, 0, sizeof p);
-        snprintf(p.device, sizeof p.device, "%.*s", (int)sizeof p.device - 1, c->frames_device);
+        snprintf(p.device, sizeof p.device, "%s", c->frames_device);
         snprintf(p.format, sizeof p.format, "%s", c->v4l2_format);
         p.eye_w = c->eye_w;
         p.eye_h = c->eye_h;
