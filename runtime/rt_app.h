@@ -111,6 +111,8 @@ typedef struct {
     bool can_transparency, can_objects;
     warp_grid grid[2];
     warp_minmax_tree abuf[2];
+    const void *abuf_frame[2];     /* the frame slot and sequence the grid and tree were built from: they depend */
+    uint64_t abuf_seq[2];          /* on the source only, so they are built once per host frame, not per vsync */
     warp_image_f32 zb[2];          /* warped opaque inverse depth (transparency) */
     warp_image_u8 wmask[2];        /* the depth warps' masks (holes, fringe) */
     warp_fwd_scratch fwd[2];

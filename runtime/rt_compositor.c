@@ -67,8 +67,19 @@ static void depth_task(void *ctx, int e)
     if (j->method == RT_METHOD_TRANSPARENCY) {
         warp_grid_params gp = warp_grid_default_params();
         warp_transparency_params tp = warp_transparency_default_params();
-        warp_transparency_run(&a->grid[e], &a->abuf[e], &j->views[e], &fr->f.cam[e], j->eyes[e], &gp, &tp,
-                              &a->inter[e], &a->zb[e], m, NULL, NULL);
+        /* warp_transparency_run would rebuild the source's grid and fragment tree every vsync */
+        bool ok = true;
+        if (a->abuf_frame[e] != fr || a->abuf_seq[e] != fr->f.seq) {
+            ok = !warp_grid_build(&a->grid[e], &j->views[e], &gp, NULL);
+            warp_minmax_build(&a->abuf[e], j->views[e].layers);
+            a->abuf_frame[e] = ok ? fr : NULL;
+            a->abuf_seq[e] = fr->f.seq;
+        }
+        warp_transparency_setup ts;
+        ok = ok && !warp_grid_warp_rows(&a->grid[e], &j->views[e], &fr->f.cam[e], j->eyes[e], &gp, &a->inter[e],
+                                        &a->zb[e], m, 0, a->inter[e].h, NULL);
+        ok = ok && !warp_transparency_prepare(&ts, &j->views[e], &a->abuf[e], &fr->f.cam[e], j->eyes[e], &tp);
+        if (ok) warp_transparency_rows(&ts, &a->zb[e], &a->inter[e], 0, a->inter[e].h, NULL);
     } else {
         warp_splat_params sp = warp_splat_default_params(WARP_SPLAT_MESH);
         warp_objects_run(a->objs[e], &j->views[e], &fr->f.cam[e], j->eyes[e], a->obj_two ? a->obj_at : NULL, &sp,
