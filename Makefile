@@ -146,9 +146,11 @@ run: deps
 	@$(MAKE) --no-print-directory $(BUILD)/hmdwarpd
 	$(BUILD)/hmdwarpd --config board/sim/board.ini $(RUN_OVERRIDES) $(RUN_ARGS)
 
+# The unit, accuracy and stability binaries, then the HIL scenarios (a one-minute soak here; HIL=0 skips them,
+# saying so; .ci/run sets HIL_REQUIRED=1 so CI fails rather than skips).
 test: deps
 	@$(MAKE) --no-print-directory all
-	@tests/run.sh $(BUILD)/tests $(TEST_BINS)
+	@BUILD=$(BUILD) HIL_SOAK_S=$${HIL_SOAK_S:-60} tests/run.sh --hil $(BUILD)/tests $(TEST_BINS)
 
 # The numerical-stability suite alone (it is part of `make test` too).
 stability: deps
@@ -157,7 +159,8 @@ stability: deps
 
 # Hardware-in-the-loop: real kernel drivers (uhid, i2c-stub, vivid, dummy_hcd + FunctionFS, gpio-sim) in a qemu VM.
 hil:
-	@board/deps.sh && board/deps-hil.sh && $(MAKE) --no-print-directory all && tests/hil/run.sh
+	@board/deps.sh && board/deps-hil.sh && $(MAKE) --no-print-directory all && \
+	  BUILD=$(BUILD) HIL_SOAK_S=$${HIL_SOAK_S:-180} tests/hil/run.sh
 
 # Tests under AddressSanitizer + UndefinedBehaviorSanitizer, in their own build tree.
 ASAN_BUILD ?= build/asan

@@ -10,7 +10,7 @@
 # linux-image-amd64 depends on, so image, headers and source all come from the same Debian upload).
 set -eu
 
-CACHE=${HIL_CACHE:-build/hil/cache}
+CACHE=${HIL_CACHE:-${BUILD:-build}/hil/cache}
 
 # Tools on the host: qemu (TCG, no KVM needed), the initramfs parts (busybox, cpio, kmod for depmod),
 # compression tools for the kernel packages, the out-of-tree module build (gcc/make + what kbuild calls),

@@ -86,6 +86,10 @@ static bool render_init(rt_app *a, char *err, int errlen)
     const bool kms = strcmp(c->output, "kms") == 0;
     const bool forced = strcmp(c->renderer, "gles") == 0;
     char eerr[300] = "";
+    static const char *const kernels[] = {"auto", "scalar", "vector", "avx2", "avx512"};
+    for (int k = 0; k < (int)(sizeof kernels / sizeof *kernels); k++)
+        if (strcmp(c->kernel, kernels[k]) == 0 && !warp_resample_force_kernel((warp_resample_kernel_id)k))
+            return fail(err, errlen, "[render] kernel = %s: this build or CPU cannot run it%s", c->kernel, "");
     if (strcmp(c->renderer, "cpu") != 0 || kms) {
         if (kms) {
             plat_egl_kms_params kp = {c->kms_device, c->kms_connector, 0, 0, 0};
@@ -463,7 +467,9 @@ void rt_app_summary(rt_app *a, FILE *out)
     else
         fprintf(out, "  renderer                   cpu (%s kernel, %d threads, %s%s), warp method %s\n",
                 warp_resample_kernel(), plat_workers_threads(a->workers),
-                a->realtime ? "SCHED_FIFO" : "normal priority (not permitted to use SCHED_FIFO)",
+                a->realtime           ? "SCHED_FIFO"
+                : c->rt_priority == 0 ? "normal priority (rt_priority = 0)"
+                                      : "normal priority (not permitted to use SCHED_FIFO)",
                 a->realtime ? (a->memory_locked ? ", memory locked" : ", memory not locked") : "",
                 rt_method_name(c->method));
     fprintf(out, "  renderer chosen            %s\n", a->render_why);
@@ -473,6 +479,11 @@ void rt_app_summary(rt_app *a, FILE *out)
     fprintf(out, "  vsyncs                     %llu, missed %llu (%.2f %%)%s\n", (unsigned long long)t->vsyncs,
             (unsigned long long)t->missed, t->vsyncs ? 100.0 * (double)t->missed / (double)t->vsyncs : 0.0,
             t->no_buffer ? " (some with no free swapchain image)" : "");
+    if (t->missed)
+        fprintf(out, "  missed, why                own %llu (the warp outran its planned time), scheduler: woken late "
+                     "%llu, descheduled %llu; no free image %llu\n",
+                (unsigned long long)t->missed_by[RT_MISS_OWN], (unsigned long long)t->missed_by[RT_MISS_LATE_WAKE],
+                (unsigned long long)t->missed_by[RT_MISS_DESCHEDULED], (unsigned long long)t->missed_by[RT_MISS_NO_BUFFER]);
     for (int m = 0; m < RT_METHOD_COUNT; m++)
         if (t->method_count[m]) {
             snprintf(buf, sizeof buf, "warp time (%s)", rt_method_name((rt_method)m));
@@ -620,6 +631,11 @@ void rt_app_stats_kv(rt_app *a, FILE *out)
     }
     KVU("vsyncs", t->vsyncs);
     KVU("missed", t->missed);
+    for (int m = 0; m < RT_MISS_COUNT; m++) {
+        char k[64];
+        snprintf(k, sizeof k, "missed_%s", rt_miss_name((rt_miss)m));
+        KVU(k, t->missed_by[m]);
+    }
     KVU("no_frame", t->no_frame);
     KVU("no_buffer", t->no_buffer);
     for (int m = 0; m < RT_METHOD_COUNT; m++) {

@@ -317,6 +317,7 @@ void rt_compositor_run(rt_app *a)
         int64_t wake = t_vs - warp_est - late_est - margin_ns;
         plat_sleep_until_ns(wake);
         int64_t t_start = plat_now_ns();
+        int64_t cpu_start = plat_thread_cpu_ns();
 
         bool is_new = false;
         const rt_frame *frame = rt_frameq_latest(&a->fq, &is_new);
@@ -395,6 +396,8 @@ void rt_compositor_run(rt_app *a)
             if (frame && idx >= 0 && a->gles_submit_ns - t_start + gpu > dur) dur = a->gles_submit_ns - t_start + gpu;
         }
         bool missed = t_done > t_vs || idx < 0;
+        int64_t cpu = plat_thread_cpu_ns() - cpu_start;
+        rt_miss cause = missed ? rt_miss_classify(wake, t_start, t_vs, cpu, idx >= 0) : RT_MISS_OWN;
         if (idx >= 0) {
             plat_display_present(a->display, &a->sc, idx, t_vs, vsync_no);
             a->sc.on_screen = idx;
@@ -402,6 +405,7 @@ void rt_compositor_run(rt_app *a)
 
         tel->vsyncs++;
         tel->missed += missed;
+        tel->missed_by[cause] += missed;
         double warp_ms = (double)dur * 1e-6;
         if (frame && idx >= 0) {
             tel->method_count[used]++;
@@ -463,6 +467,8 @@ void rt_compositor_run(rt_app *a)
             uint64_t skipped = period > 0 ? (uint64_t)((later - next + period / 2) / period) : 0;
             tel->vsyncs += skipped;
             tel->missed += skipped;
+            /* A pass that made its vsync yet leaves no time for the next one: the plan's (own) doing. */
+            tel->missed_by[missed ? cause : RT_MISS_OWN] += skipped;
             vsync_no += skipped;
             next = later;
         }

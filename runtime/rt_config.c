@@ -15,6 +15,7 @@ static const char *const method_names[] = {"none", "rotation", "raytrace", "tran
 static const char *const edge_fill_names[] = {"far", "linear", NULL};
 static const char *const sink_names[] = {"null", "png", "raw", NULL};
 static const char *const renderer_names[] = {"auto", "cpu", "gles", NULL};
+static const char *const kernel_names[] = {"auto", "scalar", "vector", "avx2", "avx512", NULL};
 static const char *const output_names[] = {"offscreen", "kms", NULL};
 static const char *const imu_names[] = {"sim", "hid", "i2c", NULL};
 static const char *const frames_names[] = {"sim", "usb", "v4l2", NULL};
@@ -63,6 +64,9 @@ static const keydef keys[] = {
      "warp backend: gles (EGL + OpenGL ES 3), cpu, or auto (gles on a hardware GPU, cpu when EGL offers only a "
      "software rasterizer such as llvmpipe or nothing)"},
     {"render", "threads", K_INT, F(threads), 0, 1, 16, NULL, "compositor threads (the vsync thread included)"},
+    {"render", "kernel", K_CHOICE, F(kernel), S(kernel), 0, 0, kernel_names,
+     "CPU resampling kernel: auto (the widest this CPU runs), scalar, vector, avx2 or avx512 (x86 only); all give "
+     "the same image bit for bit, they differ in speed (an emulator may run the plain ones faster)"},
     {"render", "rt_priority", K_INT, F(rt_priority), 0, 0, 99, NULL,
      "SCHED_FIFO priority for the compositor when permitted (0 = normal scheduling)"},
     {"eye", "width", K_INT, F(eye_w), 0, 16, 8192, NULL, "host eye buffer width"},
@@ -171,6 +175,7 @@ void rt_config_defaults(rt_config *c)
     snprintf(c->kms_connector, sizeof c->kms_connector, "auto");
     snprintf(c->kms_mode, sizeof c->kms_mode, "auto");
     snprintf(c->renderer, sizeof c->renderer, "auto");
+    snprintf(c->kernel, sizeof c->kernel, "auto");
     c->threads = 2;
     c->rt_priority = 10;
     c->eye_w = 1440;

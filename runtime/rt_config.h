@@ -38,6 +38,7 @@ typedef struct {
     /* [render] */
     char renderer[16];          /* auto | cpu | gles */
     int threads;                /* compositor threads, caller included */
+    char kernel[16];            /* auto | scalar | vector | avx2 | avx512: CPU resampling kernel */
     int rt_priority;            /* SCHED_FIFO priority of the compositor when permitted; 0 = normal */
     /* [eye]: the host's eye buffers (left eye; the right eye is its mirror image) */
     int eye_w, eye_h;

@@ -32,3 +32,9 @@ double rt_hist_pct(const rt_hist *h, double p)
 rt_telemetry *rt_telemetry_create(void) { return calloc(1, sizeof(rt_telemetry)); }
 
 void rt_telemetry_destroy(rt_telemetry *t) { free(t); }
+
+const char *rt_miss_name(rt_miss m)
+{
+    static const char *const names[RT_MISS_COUNT] = {"own", "late_wake", "descheduled", "no_buffer"};
+    return m >= 0 && m < RT_MISS_COUNT ? names[m] : "?";
+}

@@ -4,6 +4,7 @@
 #define RT_TELEMETRY_H
 
 #include <stdatomic.h>
+#include <stdbool.h>
 #include <stdint.h>
 #include <stdio.h>
 
@@ -23,9 +24,28 @@ void rt_hist_add(rt_hist *h, double ms);
 /* p-th percentile (0..100), bin-centre resolution; NAN when empty. */
 double rt_hist_pct(const rt_hist *h, double p);
 
+/* Why a vsync was missed. Only RT_MISS_OWN is hmdwarpd's doing: its own CPU work did not fit the time it planned
+ * for it. The others are the system's: the scheduler woke the compositor too late, or took the CPU away during the
+ * pass (hmdwarpd's vsync path never blocks, so time off the CPU is someone else's), or the display held every
+ * image. On a board with SCHED_FIFO and isolated cores only OWN should occur; elsewhere the split says what to mend. */
+typedef enum { RT_MISS_OWN, RT_MISS_LATE_WAKE, RT_MISS_DESCHEDULED, RT_MISS_NO_BUFFER, RT_MISS_COUNT } rt_miss;
+
+/* Classifies a missed pass planned to wake at `wake` for the vsync at `t_vs`, that woke at `t_start` and used
+ * `cpu_ns` of its own thread's CPU time. */
+static inline rt_miss rt_miss_classify(int64_t wake, int64_t t_start, int64_t t_vs, int64_t cpu_ns, bool buffer)
+{
+    if (!buffer) return RT_MISS_NO_BUFFER;
+    int64_t planned = t_vs - wake;
+    if (cpu_ns > planned) return RT_MISS_OWN;
+    /* on CPU for all of its work yet late: woken so late the work could not fit, or kept off the CPU meanwhile */
+    return t_start - wake > planned - cpu_ns ? RT_MISS_LATE_WAKE : RT_MISS_DESCHEDULED;
+}
+const char *rt_miss_name(rt_miss m);
+
 typedef struct {
     /* compositor thread */
     uint64_t vsyncs, missed, no_buffer, no_frame, new_frames_shown;
+    uint64_t missed_by[RT_MISS_COUNT]; /* sums to missed (skipped vsyncs take the cause of the pass that overran) */
     uint64_t method_count[RT_METHOD_COUNT];
     rt_hist warp_ms[RT_METHOD_COUNT];
     rt_hist m2p_ms;        /* newest IMU sample used -> photon time */

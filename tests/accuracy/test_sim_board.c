@@ -8,6 +8,7 @@
 #include <cmocka.h>
 
 #include "runtime/rt_app.h"
+#include "warp/warp_resample.h"
 
 static void small_config(rt_config *c, const char *scene, const char *method)
 {
@@ -59,6 +60,48 @@ static void test_rotation_only_scene(void **state)
     /* latencies are measured and plausible: IMU sample to photon within a frame or so */
     assert_true(rt_hist_pct(&t->m2p_ms, 50) > 0 && rt_hist_pct(&t->m2p_ms, 50) < 30);
     assert_true(app.eval[RT_EVAL_NONE].n >= 1);
+    rt_app_free(&app);
+}
+
+/* A warp that cannot fit the period (full-size eyes, one thread, 500 Hz): the misses are hmdwarpd's own, and the
+ * causes account for every miss. */
+static void test_misses_attributed(void **state)
+{
+    (void)state;
+    rt_config c;
+    rt_config_defaults(&c);
+    rt_config_errors e = {0};
+    const char *sets[] = {"display.refresh_hz=500", "render.threads=1", "render.rt_priority=0", "sim.duration_s=0.5",
+                          "sim.scene=room", "warp.method=rotation"};
+    for (size_t i = 0; i < sizeof sets / sizeof sets[0]; i++) assert_true(rt_config_set(&c, sets[i], &e));
+    assert_true(rt_config_validate(&c, &e));
+    run(&c);
+    rt_telemetry *t = app.tel;
+    uint64_t sum = 0;
+    for (int m = 0; m < RT_MISS_COUNT; m++) sum += t->missed_by[m];
+    print_message("vsyncs %llu missed %llu own %llu\n", (unsigned long long)t->vsyncs, (unsigned long long)t->missed,
+                  (unsigned long long)t->missed_by[RT_MISS_OWN]);
+    assert_true(t->missed * 2 > t->vsyncs);
+    assert_true(sum == t->missed);
+    assert_true(t->missed_by[RT_MISS_OWN] * 10 >= t->missed * 9);
+    rt_app_free(&app);
+}
+
+/* [render] kernel picks the resampling kernel for the run; auto gives the choice back to the CPU check. */
+static void test_kernel_choice(void **state)
+{
+    (void)state;
+    rt_config c;
+    small_config(&c, "room", "rotation");
+    rt_config_errors e = {0};
+    char err[300];
+    assert_true(rt_config_set(&c, "render.kernel=scalar", &e));
+    if (!rt_app_init(&app, &c, err, sizeof err)) fail_msg("init: %s", err);
+    assert_string_equal(warp_resample_kernel(), "scalar");
+    rt_app_free(&app);
+    assert_true(rt_config_set(&c, "render.kernel=auto", &e));
+    if (!rt_app_init(&app, &c, err, sizeof err)) fail_msg("init: %s", err);
+    assert_string_not_equal(warp_resample_kernel(), "scalar");
     rt_app_free(&app);
 }
 
@@ -168,6 +211,8 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_rotation_only_scene),
+        cmocka_unit_test(test_misses_attributed),
+        cmocka_unit_test(test_kernel_choice),
         cmocka_unit_test(test_depth_scene_raytrace),
         cmocka_unit_test(test_raytrace_without_depth_falls_back),
         cmocka_unit_test(test_auto_rotation_only_scene_never_pays_for_depth),

@@ -66,8 +66,10 @@ for p in "$BUILD"/hil/*; do
 done
 for p in $progs; do cp "$p" "$S/hil/bin/"; done
 cp "$top/board/gadget.sh" "$S/hil/bin/gadget.sh"
+# chrt (util-linux): the device stand-ins run at real-time priority (scenarios/lib.sh hil_device).
+extra=$(command -v chrt) || die "no chrt (util-linux)"
+cp "$extra" "$S/usr/bin/"
 # Debugging aids when the host has them: v4l2-ctl sets vivid's controls, gpiomon/gpioget/gpioinfo show edges.
-extra=""
 for t in v4l2-ctl gpiomon gpioget gpioset gpioinfo gpiodetect; do
     t=$(command -v "$t" 2>/dev/null) || continue
     cp "$t" "$S/usr/bin/"; extra="$extra $t"

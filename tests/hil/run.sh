@@ -8,7 +8,7 @@
 # env:   HIL_SCENARIO=NAME   same as naming it     HIL_SHELL=1   interactive shell in the VM (Ctrl-A x quits)
 #        HIL_VERBOSE=1       stream scenario logs   HIL_TIMEOUT=S  whole-VM limit (default 900)
 #        HIL_SOAK_S=S        soak length (04-soak)  HIL_SMP, HIL_MEM  VM CPUs (2) and MiB (1024)
-#        HIL_NOMINAL_S, HIL_PANEL=small|board, HIL_MISSED_MAX, HIL_IMU_RATE_MIN, HIL_HMD_ARGS=--set,k=v: scenario knobs
+#        HIL_NOMINAL_S, HIL_PANEL=small|board, HIL_MISSED_MAX, HIL_OWN_MAX, HIL_IMU_RATE_MIN, HIL_HMD_ARGS=--set,k=v: scenario knobs
 #        passed to the VM (see tests/hil/README.md)
 #        HIL_KERNEL=vmlinuz  boot the compressed image instead of the extracted vmlinux
 #        BUILD=build         build tree (programs from `make all`)
@@ -17,22 +17,23 @@ set -eu
 BUILD=${BUILD:-build}
 here=$(cd "$(dirname "$0")" && pwd)
 out=$BUILD/hil
+CACHE=${HIL_CACHE:-$out/cache}
 die() { echo "hil: $*" >&2; exit 2; }
 
 command -v qemu-system-x86_64 >/dev/null || die "qemu-system-x86_64 missing (board/deps-hil.sh)"
-[ -s "$out/cache/kabi" ] || die "no kernel cache in $out/cache (board/deps-hil.sh)"
-KABI=$(cut -d' ' -f1 "$out/cache/kabi")
+[ -s "$CACHE/kabi" ] || die "no kernel cache in $CACHE (board/deps-hil.sh)"
+KABI=$(cut -d' ' -f1 "$CACHE/kabi")
 
 scen="${HIL_SCENARIO:-} $*"
 "$here/build-initramfs.sh" >"$out/initramfs.log" 2>&1 || { cat "$out/initramfs.log" >&2; die "initramfs build failed"; }
 tail -n 1 "$out/initramfs.log"
 
-if [ "${HIL_KERNEL:-vmlinux}" = vmlinuz ]; then kernel=$out/cache/root/boot/vmlinuz-$KABI; else kernel=$out/vmlinux; fi
+if [ "${HIL_KERNEL:-vmlinux}" = vmlinuz ]; then kernel=$CACHE/root/boot/vmlinuz-$KABI; else kernel=$out/vmlinux; fi
 
 # Kernel parameters: NAME=VALUE words without dots become /init's environment.
 append="console=ttyS0 panic=-1 loglevel=4 mitigations=off nokaslr tsc=reliable"
 append="$append HIL_SHELL=${HIL_SHELL:-0} HIL_VERBOSE=${HIL_VERBOSE:-0}"
-for v in HIL_SOAK_S HIL_NOMINAL_S HIL_HMD_ARGS HIL_PANEL HIL_MISSED_MAX HIL_IMU_RATE_MIN; do
+for v in HIL_SOAK_S HIL_NOMINAL_S HIL_HMD_ARGS HIL_PANEL HIL_MISSED_MAX HIL_OWN_MAX HIL_IMU_RATE_MIN; do
     eval "val=\${$v:-}"
     [ -n "$val" ] && append="$append $v=$val"
 done

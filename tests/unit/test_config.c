@@ -93,6 +93,10 @@ static void test_ranges_enforced(void **state)
     assert_true(has_error(&e, "expected section.key=value"));
     assert_true(rt_config_set(&c, "render.threads=1", &e));
     assert_int_equal(c.threads, 1);
+    assert_false(rt_config_set(&c, "render.kernel=avx3", &e));
+    assert_true(has_error(&e, "[render] kernel = 'avx3'"));
+    assert_true(rt_config_set(&c, "render.kernel=scalar", &e));
+    assert_string_equal(c.kernel, "scalar");
 }
 
 static void test_folding_lens_rejected(void **state)

@@ -1,0 +1,55 @@
+/* rt_telemetry: the latency histograms' percentiles and the attribution of missed vsyncs to hmdwarpd's own work
+ * or to the system (late wake-up, descheduled, no free image), which HIL and soak runs assert on. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <cmocka.h>
+#include <math.h>
+#include <string.h>
+
+#include "runtime/rt_telemetry.h"
+
+#define MS 1000000LL
+
+static void test_hist_percentiles(void **state)
+{
+    (void)state;
+    rt_telemetry *t = rt_telemetry_create();
+    assert_non_null(t);
+    assert_true(isnan(rt_hist_pct(&t->m2p_ms, 50)));
+    for (int i = 1; i <= 100; i++) rt_hist_add(&t->m2p_ms, (double)i); /* 1..100 ms */
+    assert_true(fabs(rt_hist_pct(&t->m2p_ms, 50) - 50.0) < 0.02);
+    assert_true(fabs(rt_hist_pct(&t->m2p_ms, 99) - 99.0) < 0.02);
+    rt_hist_add(&t->m2p_ms, 1000.0); /* past the last bin: counted as overflow, max kept */
+    assert_true(rt_hist_pct(&t->m2p_ms, 100) >= 250.0);
+    assert_true(t->m2p_ms.max == 1000.0);
+    rt_telemetry_destroy(t);
+}
+
+/* A pass planned 4 ms ahead of its vsync (wake at 6 ms, vsync at 10 ms). */
+static void test_miss_causes(void **state)
+{
+    (void)state;
+    const int64_t wake = 6 * MS, vs = 10 * MS;
+    /* its own CPU work alone is longer than the 4 ms it planned: hmdwarpd's doing, however it was scheduled */
+    assert_int_equal(rt_miss_classify(wake, wake, vs, 5 * MS, true), RT_MISS_OWN);
+    assert_int_equal(rt_miss_classify(wake, wake + 3 * MS, vs, 4 * MS + 1, true), RT_MISS_OWN);
+    /* 2 ms of work woken 2.5 ms late: woken on time it would have made it */
+    assert_int_equal(rt_miss_classify(wake, wake + 5 * MS / 2, vs, 2 * MS, true), RT_MISS_LATE_WAKE);
+    /* woken on time, 2 ms of work, yet late: it was off the CPU in between */
+    assert_int_equal(rt_miss_classify(wake, wake, vs, 2 * MS, true), RT_MISS_DESCHEDULED);
+    assert_int_equal(rt_miss_classify(wake, wake + 1 * MS, vs, 2 * MS, true), RT_MISS_DESCHEDULED);
+    /* no image to draw into: the display's */
+    assert_int_equal(rt_miss_classify(wake, wake, vs, 5 * MS, false), RT_MISS_NO_BUFFER);
+    for (int m = 0; m < RT_MISS_COUNT; m++) assert_true(strcmp(rt_miss_name((rt_miss)m), "?") != 0);
+    assert_string_equal(rt_miss_name(RT_MISS_COUNT), "?");
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_hist_percentiles),
+        cmocka_unit_test(test_miss_causes),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
