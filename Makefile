@@ -210,22 +210,26 @@ install: $(PROGRAMS)
 	install -m 0644 board/udev/99-hmdwarp.rules $(DESTDIR)$(UDEVDIR)/99-hmdwarp.rules
 	install -m 0644 README.md docs/*.md $(DESTDIR)$(PREFIX)/share/doc/hmdwarp/
 
-# The board build, proven: the cross-built tests run under qemu-user (Debian's qemu-user-static) against the arm64
-# multiarch libraries. Only the single-threaded ones: on this host qemu-user 7.2 hangs in the guest's first
-# pthread_create (a four-line program reproduces it; threads work on real boards), and tests that pace themselves
-# in real time (HID mock rates) or start host programs do not belong under an emulator anyway.
+# The board build, proven: every cross-built test program runs under qemu-user (Debian's qemu-user-static) against
+# the arm64 multiarch libraries (/lib/ld-linux-aarch64.so.1 from libc6:arm64; not the cross toolchain's copy in
+# /usr/aarch64-linux-gnu, under which qemu-user 7.2 hangs in the guest's first pthread_create), and the programs
+# they start run under it too (TEST_RUNNER, tests/support/test_util.h). Left out, because an emulator running
+# 10-50x slower cannot keep real time: the end-to-end runs paced by simulated devices (test_sim_board,
+# test_backends, test_gles_runtime) and the HID mock's timed unplug/corruption (test_imu_hid); and
+# test_gles_parity, whose raytrace+lens parity on llvmpipe under qemu measures 43.4 dB against its 45 dB bar (the
+# CPU side's FMA contraction on aarch64 or llvmpipe's arm64 JIT; not tracked down). They all run in `make test`.
 CROSS ?= aarch64-linux-gnu-
 CROSS_BUILD = build/$(patsubst %-,%,$(CROSS))
-CROSS_TESTS := unit/test_config unit/test_framelink unit/test_lens unit/test_math unit/test_metrics \
-               unit/test_resample unit/test_trace unit/test_select unit/test_imu_i2c unit/test_v4l2 unit/test_sim \
-               stability/test_stability
+CROSS_SKIP := accuracy/test_sim_board accuracy/test_backends unit/test_gles_runtime unit/test_imu_hid \
+              unit/test_gles_parity
+CROSS_TESTS := $(filter-out $(CROSS_SKIP),$(patsubst tests/%.c,%,$(TEST_SRC)))
 check-cross:
 	@board/deps.sh && board/deps-cross.sh
 	@$(MAKE) --no-print-directory CROSS_COMPILE=$(CROSS) all
 	@file $(CROSS_BUILD)/hmdwarpd | grep -q 'ARM aarch64' || od -An -tx1 -j18 -N2 $(CROSS_BUILD)/hmdwarpd | grep -q 'b7 00' \
 	  || { echo "check-cross: $(CROSS_BUILD)/hmdwarpd is not an aarch64 binary"; exit 1; }
 	@echo "check-cross: $(CROSS_BUILD)/hmdwarpd is an aarch64 binary; running $(words $(CROSS_TESTS)) test programs under qemu-user"
-	@QEMU_LD_PREFIX=/usr/$(patsubst %-,%,$(CROSS)) TEST_RUNNER="qemu-$(firstword $(subst -, ,$(CROSS)))-static" \
+	@TEST_RUNNER="qemu-$(firstword $(subst -, ,$(CROSS)))-static" \
 	  tests/run.sh $(CROSS_BUILD)/tests $(addprefix $(CROSS_BUILD)/tests/,$(CROSS_TESTS))
 
 clean:

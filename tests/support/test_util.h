@@ -5,8 +5,21 @@
 
 #include <math.h>
 #include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
 
 #include "warp/warp_math.h"
+
+/* Prefix for the programs a test starts: the runner the test itself runs under (TEST_RUNNER, e.g.
+ * qemu-aarch64-static in make check-cross) plus a space, or "". A cross-built test cannot exec a cross-built
+ * program without it. */
+static inline const char *test_runner(void)
+{
+    static char buf[256];
+    const char *r = getenv("TEST_RUNNER");
+    snprintf(buf, sizeof buf, "%s%s", r ? r : "", r && *r ? " " : "");
+    return buf;
+}
 
 typedef struct { uint64_t s; } test_rng;
 

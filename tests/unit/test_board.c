@@ -9,6 +9,8 @@
 #include <stdlib.h>
 #include <string.h>
 #include <cmocka.h>
+
+#include "tests/support/test_util.h"
 #include <sys/socket.h>
 #include <sys/un.h>
 #include <unistd.h>
@@ -39,7 +41,7 @@ static void test_every_board_validates(void **state)
     int boards = 0;
     for (char *line = strtok(out, "\n"); line; line = strtok(NULL, "\n")) {
         char o2[4096];
-        snprintf(cmd, sizeof cmd, "%s/hmdwarpd --check-config --config %s", build, line);
+        snprintf(cmd, sizeof cmd, "%s%s/hmdwarpd --check-config --config %s", test_runner(), build, line);
         int rc = sh(cmd, o2, sizeof o2);
         if (rc != 0) fail_msg("%s does not validate:\n%s", line, o2);
         boards++;
@@ -141,8 +143,9 @@ static void test_systemd_notify_and_watchdog(void **state)
     memcpy(sa.sun_path, path, strlen(path) + 1);
     assert_int_equal(bind(fd, (struct sockaddr *)&sa, sizeof sa), 0);
     char cmd[1200];
-    snprintf(cmd, sizeof cmd, "NOTIFY_SOCKET=%s WATCHDOG_USEC=200000 %s/hmdwarpd --duration 1.5 --set sim.imu_rest_s=0.2 "
-             "--set sim.eval_every_ms=0 --set render.rt_priority=0 >/dev/null 2>&1 </dev/null", path, build);
+    snprintf(cmd, sizeof cmd, "NOTIFY_SOCKET=%s WATCHDOG_USEC=200000 %s%s/hmdwarpd --duration 1.5 --set sim.imu_rest_s=0.2 "
+             "--set sim.eval_every_ms=0 --set render.rt_priority=0 >/dev/null 2>&1 </dev/null", path, test_runner(),
+             build);
     /* read while it runs, as systemd does (a datagram queue that nobody reads blocks the sender) */
     FILE *child = popen(cmd, "r");
     assert_non_null(child);

@@ -9,6 +9,8 @@
 #include <string.h>
 #include <cmocka.h>
 
+#include "tests/support/test_util.h"
+
 #include "drivers/drv_framelink.h"
 
 static char feed_path[512];
@@ -16,7 +18,7 @@ static char feed_path[512];
 static uint8_t *run_feed(const char *args, size_t *len)
 {
     char cmd[1024];
-    snprintf(cmd, sizeof cmd, "%s --stdout --synth-poses %s 2>/dev/null", feed_path, args);
+    snprintf(cmd, sizeof cmd, "%s%s --stdout --synth-poses %s 2>/dev/null", test_runner(), feed_path, args);
     FILE *p = popen(cmd, "r");
     assert_non_null(p);
     size_t cap = 1 << 20, n = 0;

@@ -11,13 +11,15 @@
 #include <string.h>
 #include <cmocka.h>
 
+#include "tests/support/test_util.h"
+
 static char tool[256], dir[256];
 
 /* Runs the tool; returns its exit status and its stdout in out. */
 static int run(const char *args, char *out, size_t cap)
 {
     char cmd[9000];
-    snprintf(cmd, sizeof cmd, "%s %s 2>&1", tool, args);
+    snprintf(cmd, sizeof cmd, "%s%s %s 2>&1", test_runner(), tool, args);
     FILE *p = popen(cmd, "r");
     assert_non_null(p);
     size_t n = fread(out, 1, cap - 1, p);
