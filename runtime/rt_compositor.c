@@ -289,11 +289,14 @@ void rt_compositor_run(rt_app *a)
      * early costs only that much latency (Monado's pacing likewise backs off at once and creeps back). */
     enum { WINDOW = 128 };
     int64_t durs[WINDOW], lates[WINDOW];
+    /* The first WINDOW vsyncs plan for a whole period: the first warps run with cold caches and TLBs and on pages
+     * touched for the first time, and a half-period guess missed them (a 60 s soak lost its first vsyncs so).
+     * Waking early costs a few ms of latency for the first second or so, nothing else. */
     for (int i = 0; i < WINDOW; i++) {
-        durs[i] = period / 2; /* the first warps run with cold caches */
+        durs[i] = period - margin_ns;
         lates[i] = 0;
     }
-    int64_t warp_est = period / 2, late_est = 0;
+    int64_t warp_est = period - margin_ns, late_est = 0;
     /* auto: what each method has been costing (rises at once, decays slowly; an estimate not refreshed decays
      * too, by 1/512 per vsync, so a warp once too slow is tried again after some ten seconds) */
     rt_method prev_used = RT_METHOD_COUNT;
@@ -445,6 +448,9 @@ void rt_compositor_run(rt_app *a)
             if (durs[i] > warp_est) warp_est = durs[i];
             if (lates[i] > late_est) late_est = lates[i];
         }
+        /* The longest of 128 warps is no bound on the next: keep an eighth of it in hand (misses in a 60 s soak
+         * were passes some 10 % over the window's maximum; an eighth costs well under a millisecond of latency). */
+        warp_est += warp_est / 8;
         /* Plan within one period. A scheduler that wakes us later than a quarter period (a loaded VM) is noise no
          * wake-up time can absorb; and neither estimate may go negative, or the loop below would pick a vsync
          * that has already passed and serve it again. */

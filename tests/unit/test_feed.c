@@ -75,6 +75,45 @@ static void test_feed_rotation_scene_sends_no_depth(void **state)
     free(buf);
 }
 
+/* --damage-every 3: frames 3, 6, 9 damaged in turn (payload byte, cut in half, version). A receiver resyncing on
+ * the next magic after a bad frame (as the USB backend does) loses exactly those three, each for its reason. */
+static void test_feed_damage_every(void **state)
+{
+    (void)state;
+    size_t len;
+    uint8_t *buf = run_feed("--scene room --eye 64x64 --frames 9 --rate 200 --damage-every 3", &len);
+    drv_frame f;
+    assert_true(drv_frame_alloc(&f, 64, 64, DRV_PLANE_COLOR | DRV_PLANE_DEPTH, 1));
+    size_t at = 0;
+    uint64_t good = 0, seqs = 0;
+    int crc = 0, version = 0, other = 0;
+    while (at < len) {
+        size_t total = 0;
+        drv_frame_err e = drv_framelink_peek(buf + at, len - at, 64u << 20, &total);
+        if (e == DRV_FRAME_OK && total <= len - at) e = drv_framelink_decode(buf + at, total, 64u << 20, &f);
+        else if (e == DRV_FRAME_OK) e = DRV_FRAME_ERR_TRUNCATED;
+        if (e == DRV_FRAME_OK) {
+            good++;
+            seqs |= 1ull << f.seq;
+            at += total;
+            continue;
+        }
+        crc += e == DRV_FRAME_ERR_CRC;
+        version += e == DRV_FRAME_ERR_BAD_VERSION;
+        other += e != DRV_FRAME_ERR_CRC && e != DRV_FRAME_ERR_BAD_VERSION && e != DRV_FRAME_ERR_TRUNCATED;
+        size_t skip = drv_framelink_find_magic(buf + at + 1, len - at - 1);
+        at += 1 + skip;
+    }
+    assert_int_equal(good, 6);
+    assert_int_equal(seqs, (1u << 1) | (1u << 2) | (1u << 4) | (1u << 5) | (1u << 7) | (1u << 8));
+    /* the flipped payload byte and the cut frame (whose bytes run into the next one) fail their CRCs */
+    assert_int_equal(crc, 2);
+    assert_int_equal(version, 1);
+    assert_int_equal(other, 0);
+    drv_frame_free(&f);
+    free(buf);
+}
+
 int main(int argc, char **argv)
 {
     (void)argc;
@@ -85,6 +124,7 @@ int main(int argc, char **argv)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_feed_stream_decodes),
         cmocka_unit_test(test_feed_rotation_scene_sends_no_depth),
+        cmocka_unit_test(test_feed_damage_every),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -40,6 +40,7 @@ typedef struct {
     int depth_format;
     double rate_hz, duration_s, synth_rate_hz;
     long max_frames;
+    long damage_every;
     int threads;
     bool verbose;
 } feed_opts;
@@ -92,6 +93,10 @@ static void usage(FILE *f)
             "  --v4l2-format FMT   yuyv, nv12, bgr32 or rgb24 (default yuyv)\n"
             "  --v4l2-depth        pack the depth plane below the colour (board: [frames] depth = true)\n"
             "  --synth-poses       synthesise poses (a slow head turn) instead of reading the board's\n"
+            "Faults (USB and file output; hardware-in-the-loop tests):\n"
+            "  --damage-every N    damage every Nth frame on the wire, in turn: one payload byte flipped (the\n"
+            "                      board rejects it: crc), cut to half its bytes (truncated; the board resyncs on\n"
+            "                      the next frame's magic), a version the board does not speak (bad version)\n"
             "Other:\n"
             "  -v, --verbose       per-frame lines\n"
             "  -h, --help          this text\n"
@@ -121,14 +126,14 @@ static bool parse_opts(int argc, char **argv, feed_opts *o)
                      .eye_h = 800, .fov = {52, 48, 52, 52}, .near_z = 0.05,
                      .planes = DRV_PLANE_COLOR | DRV_PLANE_DEPTH, .rate_hz = 45, .synth_rate_hz = 90, .threads = 2};
     enum { O_DEVICE = 256, O_IFACE, O_WAIT, O_SCENE, O_PNG, O_EYE, O_FOV, O_NEAR, O_PLANES, O_DEPTH, O_THREADS,
-           O_RATE, O_FRAMES, O_DURATION, O_FILE, O_STDOUT, O_SYNTH, O_V4L2, O_V4L2_FMT, O_V4L2_DEPTH, O_SYNTH_POSES };
+           O_RATE, O_FRAMES, O_DURATION, O_FILE, O_STDOUT, O_SYNTH, O_V4L2, O_V4L2_FMT, O_V4L2_DEPTH, O_SYNTH_POSES, O_DAMAGE };
     static const struct option lo[] = {
         {"device", 1, 0, O_DEVICE}, {"interface", 1, 0, O_IFACE}, {"wait", 1, 0, O_WAIT}, {"scene", 1, 0, O_SCENE},
         {"png", 1, 0, O_PNG}, {"eye", 1, 0, O_EYE}, {"fov", 1, 0, O_FOV}, {"near", 1, 0, O_NEAR},
         {"planes", 1, 0, O_PLANES}, {"depth", 1, 0, O_DEPTH}, {"threads", 1, 0, O_THREADS}, {"rate", 1, 0, O_RATE},
         {"frames", 1, 0, O_FRAMES}, {"duration", 1, 0, O_DURATION}, {"file", 1, 0, O_FILE},
         {"stdout", 0, 0, O_STDOUT}, {"synth-rate", 1, 0, O_SYNTH}, {"v4l2", 1, 0, O_V4L2},
-        {"v4l2-format", 1, 0, O_V4L2_FMT}, {"v4l2-depth", 0, 0, O_V4L2_DEPTH}, {"synth-poses", 0, 0, O_SYNTH_POSES}, {"verbose", 0, 0, 'v'}, {"help", 0, 0, 'h'},
+        {"v4l2-format", 1, 0, O_V4L2_FMT}, {"v4l2-depth", 0, 0, O_V4L2_DEPTH}, {"synth-poses", 0, 0, O_SYNTH_POSES}, {"damage-every", 1, 0, O_DAMAGE}, {"verbose", 0, 0, 'v'}, {"help", 0, 0, 'h'},
         {0, 0, 0, 0}};
     int c;
     while ((c = getopt_long(argc, argv, "vh", lo, NULL)) != -1) {
@@ -172,6 +177,10 @@ static bool parse_opts(int argc, char **argv, feed_opts *o)
         case O_V4L2_FMT: o->v4l2_format = optarg; break;
         case O_V4L2_DEPTH: o->v4l2_depth = true; break;
         case O_SYNTH_POSES: o->synth_poses = true; break;
+        case O_DAMAGE:
+            o->damage_every = atol(optarg);
+            if (o->damage_every < 1) return fprintf(stderr, "--damage-every wants a whole number >= 1\n"), false;
+            break;
         case 'v': o->verbose = true; break;
         case 'h': usage(stdout); exit(0);
         default: usage(stderr); return false;
@@ -180,6 +189,8 @@ static bool parse_opts(int argc, char **argv, feed_opts *o)
     if (optind < argc) return fprintf(stderr, "unexpected argument '%s' (see --help)\n", argv[optind]), false;
     if (!(o->rate_hz > 0) || !(o->synth_rate_hz > 0) || o->threads < 1)
         return fprintf(stderr, "--rate, --synth-rate and --threads must be positive\n"), false;
+    if (o->damage_every && o->v4l2_dev)
+        return fprintf(stderr, "--damage-every damages framelink bytes: USB or file output only, not --v4l2\n"), false;
     return true;
 }
 
@@ -498,7 +509,8 @@ int main(int argc, char **argv)
 
     int64_t t_start = plat_now_ns(), last_start = 0, period = (int64_t)(1e9 / o.rate_hz);
     int64_t scene_t0 = 0, report_at = t_start + PLAT_NS_PER_S;
-    uint64_t frames = 0, win_frames = 0, win_bytes = 0;
+    uint64_t frames = 0, win_frames = 0, win_bytes = 0, damaged = 0, damaged_kind[3] = {0};
+    static const char *const damage_names[3] = {"crc", "truncated", "version"};
     double win_latency_ms = 0, win_render_ms = 0;
     int rc = 0;
     while (!atomic_load(&g_stop)) {
@@ -550,7 +562,19 @@ int main(int argc, char **argv)
             rc = 1;
             break;
         }
-        if (!sink.write(&sink, &f, sink.wants_bytes ? buf : NULL, sink.wants_bytes ? n : 0)) {
+        size_t wire = n;
+        if (o.damage_every && (frames + 1) % (uint64_t)o.damage_every == 0) {
+            /* The kinds in turn; the header's size fields stay intact so the board's resync is what is tested. */
+            int kind = (int)(damaged % 3);
+            size_t hdr = (size_t)buf[6] | (size_t)buf[7] << 8;
+            if (kind == 0) buf[hdr + (n - hdr - 4) / 2] ^= 0x5a; /* payload byte: payload CRC */
+            else if (kind == 1) wire = n / 2;                    /* truncated */
+            else buf[4] ^= 0x02;                                 /* version 3: bad version */
+            damaged++;
+            damaged_kind[kind]++;
+            if (o.verbose) fprintf(stderr, "frame %llu: damaged (%s)\n", (unsigned long long)f.seq, damage_names[kind]);
+        }
+        if (!sink.write(&sink, &f, sink.wants_bytes ? buf : NULL, sink.wants_bytes ? wire : 0)) {
             rc = 1;
             break;
         }
@@ -584,6 +608,10 @@ int main(int argc, char **argv)
         libusb_exit(NULL);
     }
     fprintf(stderr, "hmdwarp-feed: %llu frames sent\n", (unsigned long long)frames);
+    if (o.damage_every)
+        fprintf(stderr, "hmdwarp-feed: %llu damaged: %s %llu, %s %llu, %s %llu\n", (unsigned long long)damaged,
+                damage_names[0], (unsigned long long)damaged_kind[0], damage_names[1],
+                (unsigned long long)damaged_kind[1], damage_names[2], (unsigned long long)damaged_kind[2]);
     plat_workers_destroy(workers);
     drv_frame_free(&f);
     free(buf);
