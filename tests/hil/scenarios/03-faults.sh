@@ -58,6 +58,10 @@ hil_expect_stat frames_rejected_bad_version '>=' 1 "frames with a foreign versio
 hil_expect_stat frames_rejected '<=' "${dmg:-0}" "rejected frames beyond those damaged (a cut frame cost more than itself?)"
 hil_log_has 'host frame rejected \(bad CRC' "rejection log line"
 hil_expect_stat frame_age_ms_max '>=' 1500 "a frame at least the stall old was warped while the host was gone"
+# Recovery, from the per-vsync CSV: the stall's stale frames and the unplug's stale orientation end within 1 s of
+# the fault (a frame normally is < 0.4 s old at photon time here, an IMU sample < 60 ms).
+hil_expect_recovery frame_age_ms 400 2 1 "host stall recovery"
+hil_expect_recovery m2p_ms 60 1 1 "IMU replug recovery"
 hil_expect_one_present_per_vsync
 hil_expect_on_time
 

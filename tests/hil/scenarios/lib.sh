@@ -233,13 +233,14 @@ hil_gadget_stop() { gadget.sh --ffs-dir "$FFS_DIR" stop >>"$HIL_WORK/gadget.log"
 
 # hil_hmdwarpd ARGS...: start hmdwarpd in the background with --stats $HIL_STATS and its log in $HIL_HMD_LOG.
 HIL_STATS=$HIL_WORK/stats.txt
+HIL_CSV=$HIL_WORK/vsync.csv   # one row per vsync (telemetry.csv): recovery times are measured from it
 HIL_HMD_LOG=$HIL_WORK/hmdwarpd.log
 # The panel defaults to HIL_PANEL=small: TCG runs the warp ~50x slower than the host, so the boards' 640x360 panel
 # cannot keep 90 Hz in the VM; 128x64 (64x64 eyes) can. HIL_PANEL=board keeps the board file's size.
 HIL_EYE=64x64
 [ "${HIL_PANEL:-small}" = small ] || HIL_EYE=320x360    # tests/hil/boards' [eye]
 hil_hmdwarpd() {
-    rm -f "$HIL_STATS"
+    rm -f "$HIL_STATS" "$HIL_CSV"
     hil_log "hmdwarpd $*"
     if [ "${HIL_PANEL:-small}" = small ]; then
         set -- "$@" --set display.width=128 --set display.height=64 --set eye.width=64 --set eye.height=64 \
@@ -249,7 +250,7 @@ hil_hmdwarpd() {
     # HIL_HMD_ARGS (kernel command line, via run.sh): extra hmdwarpd options for experiments, e.g.
     # HIL_HMD_ARGS=--set,vsync.backend=timer (commas for spaces).
     # shellcheck disable=SC2086
-    hmdwarpd --stats "$HIL_STATS" "$@" $(echo "${HIL_HMD_ARGS:-}" | tr , ' ') >"$HIL_HMD_LOG" 2>&1 &
+    hmdwarpd --stats "$HIL_STATS" --csv "$HIL_CSV" "$@" $(echo "${HIL_HMD_ARGS:-}" | tr , ' ') >"$HIL_HMD_LOG" 2>&1 &
     HIL_HMD_PID=$!
 }
 # hil_hmdwarpd_wait [TIMEOUT_S]: wait for hmdwarpd to end by itself (its --duration); fails on a crash, a
@@ -313,6 +314,23 @@ hil_expect_run_time() {
     dt=$(( $(cut -d. -f1 /proc/uptime) - HIL_HMD_T0 ))
     hil_note run_s "$dt"
     [ "$dt" -le $(( $1 + $2 )) ] || hil_miss "hmdwarpd --duration $1 ran ${dt}s (its vsync clock fell behind real time?)"
+}
+
+# hil_expect_recovery COLUMN THRESHOLD FAULT_S RECOVER_S WHY: in the per-vsync CSV, the longest stretch of vsyncs
+# whose COLUMN (m2p_ms, frame_age_ms, ...) exceeds THRESHOLD lasts at most FAULT_S + RECOVER_S seconds (service is
+# back within RECOVER_S of the fault's end) and at least FAULT_S / 4 (the fault was seen at all).
+hil_expect_recovery() {
+    col=$1; thr=$2; fault=$3; rec=$4; why=$5
+    [ -s "$HIL_CSV" ] || { hil_miss "$why: no per-vsync CSV $HIL_CSV"; return 1; }
+    got=$(awk -F, -v name="$col" -v thr="$thr" '
+        NR == 1 { for (i = 1; i <= NF; i++) if ($i == name) c = i; next }
+        c && $c + 0 > thr { if (!on) { on = 1; t0 = $2 } t1 = $2; next }
+        { if (on && t1 - t0 > best) best = t1 - t0; on = 0 }
+        END { if (on && t1 - t0 > best) best = t1 - t0; if (!c) print "nocol"; else printf "%.2f\n", best / 1e9 }' "$HIL_CSV")
+    hil_note "longest_${col}_over_${thr}_s" "$got"
+    [ "$got" != nocol ] || { hil_miss "$why: no column $col in $HIL_CSV"; return 1; }
+    hil_cmp "$got" '<=' "$fault + $rec" || { hil_miss "$why: $col > $thr for ${got}s, expected <= ${fault}s fault + ${rec}s recovery"; return 1; }
+    hil_cmp "$got" '>=' "$fault / 4" || { hil_miss "$why: $col > $thr for only ${got}s: the ${fault}s fault was not seen"; return 1; }
 }
 
 # hil_expect_backends IMU/FRAMES/VSYNC: the stats name these backends (first word of each: "i2c mpu6050 ..." is i2c).
