@@ -92,12 +92,12 @@ static const keydef keys[] = {
     {"warp", "raytrace_steps", K_INT, F(raytrace_steps), 0, 1, 100000, NULL, "raytrace step budget per ray"},
     {"warp", "edge_fill", K_ENUM, F(edge_fill), 0, 0, 0, edge_fill_names,
      "raytrace disocclusion fill: far (far side) or linear (003 §4.4)"},
+    {"warp", "edge_jump", K_DOUBLE, F(edge_jump), 0, 0.001, 10, NULL,
+     "relative inverse-depth jump per step that counts as an occlusion edge"},
     {"warp", "raytrace_grid", K_ENUM, F(raytrace_grid), 0, 0, 0, raytrace_grid_names,
      "where the CPU raytrace traces: pixel (every eye-buffer pixel, then the lens pass) or mesh (only the lens "
      "mesh's vertices, one pass from the host frame: near the display path's cost, but parallax is smeared "
      "across depth edges within a mesh cell); the GLES renderer always traces per pixel"},
-    {"warp", "edge_jump", K_DOUBLE, F(edge_jump), 0, 0.001, 10, NULL,
-     "relative inverse-depth jump per step that counts as an occlusion edge"},
     {"imu", "backend", K_CHOICE, F(imu_backend), S(imu_backend), 0, 0, imu_names,
      "IMU source: sim (simulated board), hid (USB HID, hidraw) or i2c (i2c-dev)"},
     {"imu", "device", K_STR, F(imu_device), S(imu_device), 0, 0, NULL,
