@@ -55,6 +55,13 @@ static void raytrace_task(void *ctx, int task)
     warp_planar3_from_rgba_rows(&a->inter_planar[e], &a->inter[e], y0, y1);
 }
 
+/* [warp] raytrace_grid = mesh: one eye's rays, at its lens mesh's vertices (the resample then reads the frame). */
+static void mesh_raytrace_task(void *ctx, int e)
+{
+    job *j = ctx;
+    warp_mesh_update_raytrace(&j->a->mesh[e], &j->frame->f.cam[e], &j->rts[e]);
+}
+
 /* The warps that need a whole eye at once (they rasterise or splat): one task per eye, into eye space, holes
  * filled, then deinterleaved for the lens pass. */
 static void depth_task(void *ctx, int e)
@@ -138,6 +145,13 @@ static rt_method compose(rt_app *a, job *j, const rt_frame *frame, const warp_po
             j->views[e] = rt_frame_view(frame, e);
             ok = warp_raytrace_prepare(&j->rts[e], &j->views[e], &frame->f.cam[e], eyes[e], &a->rt_params) == NULL;
             if (ok) warp_raytrace_use_blockmax(&j->rts[e], &frame->blockmax[e], RT_BLOCK);
+        }
+        if (ok && a->cfg.raytrace_grid == RT_RAYTRACE_MESH) {
+            /* no eye-space image: depth warp, lens and CA in the one resampling pass from the host frame */
+            plat_workers_run(a->workers, 2, mesh_raytrace_task, j);
+            for (int e = 0; e < 2; e++) j->src[e] = &frame->planar[e];
+            run_resample(a, j);
+            return method;
         }
         if (ok) {
             j->bands = (a->inter[0].h + BAND_H - 1) / BAND_H;

@@ -5,7 +5,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-bool warp_mesh_init(warp_mesh *m, int n, const warp_lens *lens, int vp_x, int vp_y, int vp_w, int vp_h)
+/* Allocates the mesh and sets its geometry; the tangents are the caller's. */
+static bool mesh_alloc(warp_mesh *m, int n, int vp_x, int vp_y, int vp_w, int vp_h)
 {
     memset(m, 0, sizeof *m);
     if (n < 2 || n > 1024 || vp_w <= 0 || vp_h <= 0 || vp_w > 16384 || vp_h > 16384) return false;
@@ -33,14 +34,41 @@ bool warp_mesh_init(warp_mesh *m, int n, const warp_lens *lens, int vp_x, int vp
     m->vp_y = vp_y;
     m->vp_w = vp_w;
     m->vp_h = vp_h;
-    for (int j = 0; j < rows; j++)
-        for (int i = 0; i < cols; i++) {
-            double x = (double)i * cell_w, y = (double)j * vp_h / (rows - 1);
+    return true;
+}
+
+/* Continuous viewport position of vertex (i, j) (warp_mesh.h). */
+static void vertex_xy(const warp_mesh *m, int i, int j, double *x, double *y)
+{
+    *x = (double)i * m->cell_w;
+    *y = (double)j * m->vp_h / (m->rows - 1);
+}
+
+bool warp_mesh_init(warp_mesh *m, int n, const warp_lens *lens, int vp_x, int vp_y, int vp_w, int vp_h)
+{
+    if (!mesh_alloc(m, n, vp_x, vp_y, vp_w, vp_h)) return false;
+    for (int j = 0; j < m->rows; j++)
+        for (int i = 0; i < m->cols; i++) {
+            double x, y;
+            vertex_xy(m, i, j, &x, &y);
             for (int c = 0; c < 3; c++) {
                 double u, v;
                 warp_lens_distort(lens, c, x, y, &u, &v);
-                m->tan[((size_t)j * cols + i) * 3 + c] = (warp_vec2f){(float)u, (float)v};
+                m->tan[((size_t)j * m->cols + i) * 3 + c] = (warp_vec2f){(float)u, (float)v};
             }
+        }
+    return true;
+}
+
+bool warp_mesh_init_eye(warp_mesh *m, int n, const warp_camera *cam)
+{
+    if (!mesh_alloc(m, n, 0, 0, cam->width, cam->height)) return false;
+    for (int j = 0; j < m->rows; j++)
+        for (int i = 0; i < m->cols; i++) {
+            double x, y, u, v;
+            vertex_xy(m, i, j, &x, &y);
+            warp_camera_pixel_to_tan(cam, x, y, &u, &v);
+            for (int c = 0; c < 3; c++) m->tan[((size_t)j * m->cols + i) * 3 + c] = (warp_vec2f){(float)u, (float)v};
         }
     return true;
 }
@@ -78,21 +106,40 @@ static void band_lines(warp_mesh *m, int j)
         }
 }
 
+/* Records the source position (x, y) of vertex (i, j), channel c: in src, and for the lines in 1/64 pixel units,
+ * minus the half pixel from centre to corner, plus the rounding bias (warp_mesh.h). Keeps it within what the
+ * fixed-point resampler can represent (anything this far is fringe anyway), written so that a NaN (a broken lens
+ * or pose) also ends up at the border. */
+static void set_vertex(warp_mesh *m, int j, int i, int c, double x, double y)
+{
+    x = x > -65536 ? (x < 65536 ? x : 65536) : -65536;
+    y = y > -65536 ? (y < 65536 ? y : 65536) : -65536;
+    m->src[((size_t)j * m->cols + i) * 3 + c] = (warp_vec2f){(float)x, (float)y};
+    double *row = m->work + (size_t)j * 6 * (size_t)m->cols;
+    row[(size_t)(c * 2) * m->cols + i] = 64.0 * (float)x - 31.5;
+    row[(size_t)(c * 2 + 1) * m->cols + i] = 64.0 * (float)y - 31.5;
+}
+
+/* Once every vertex is set: the resampler's lines. */
+static void finish_update(warp_mesh *m, int behind)
+{
+    m->behind = behind;
+    for (int j = 0; j < m->rows - 1; j++) band_lines(m, j);
+}
+
 void warp_mesh_update(warp_mesh *m, const warp_camera *src_cam, warp_quat src_from_dst)
 {
     warp_mat3 k = warp_camera_K(src_cam), r = warp_quat_to_mat3(src_from_dst);
     warp_mat3 h = warp_mat3_mul(&k, &r);
     /* Far outside the source but small enough for float-to-int conversion: the resampler clamps it to the
      * border like every other fringe position. */
-    const float far_out = -65536.0f;
+    const double far_out = -65536.0;
     int behind = 0;
-    const int cols = m->cols;
-    for (int j = 0; j < m->rows; j++) {
-        double *row = m->work + (size_t)j * 6 * (size_t)cols;
-        for (int i = 0; i < cols; i++)
+    for (int j = 0; j < m->rows; j++)
+        for (int i = 0; i < m->cols; i++)
             for (int c = 0; c < 3; c++) {
-                const size_t v_at = ((size_t)j * cols + i) * 3 + c;
-                double u = m->tan[v_at].x, v = m->tan[v_at].y;
+                const warp_vec2f t = m->tan[((size_t)j * m->cols + i) * 3 + c];
+                double u = t.x, v = t.y;
                 double x = h.m[0][0] * u + h.m[0][1] * v - h.m[0][2];
                 double y = h.m[1][0] * u + h.m[1][1] * v - h.m[1][2];
                 double w = h.m[2][0] * u + h.m[2][1] * v - h.m[2][2];
@@ -100,21 +147,29 @@ void warp_mesh_update(warp_mesh *m, const warp_camera *src_cam, warp_quat src_fr
                     double iw = 1.0 / w;
                     x *= iw;
                     y *= iw;
-                    /* Keep within what the fixed-point resampler can represent; anything this far is fringe
-                     * anyway. Written so that a NaN (a broken lens or pose) also ends up at the border. */
-                    x = x > -65536 ? (x < 65536 ? x : 65536) : -65536;
-                    y = y > -65536 ? (y < 65536 ? y : 65536) : -65536;
                 } else {
                     x = y = far_out;
                     behind++;
                 }
-                m->src[v_at] = (warp_vec2f){(float)x, (float)y};
-                /* for the lines: 1/64 pixel units, minus the half pixel from centre to corner, plus the rounding
-                 * bias (warp_mesh.h) */
-                row[(size_t)(c * 2) * cols + i] = 64.0 * (float)x - 31.5;
-                row[(size_t)(c * 2 + 1) * cols + i] = 64.0 * (float)y - 31.5;
+                set_vertex(m, j, i, c, x, y);
             }
-    }
-    m->behind = behind;
-    for (int j = 0; j < m->rows - 1; j++) band_lines(m, j);
+    finish_update(m, behind);
+}
+
+void warp_mesh_update_raytrace(warp_mesh *m, const warp_camera *dst_cam, const warp_raytrace_setup *s)
+{
+    int left = 0;
+    for (int j = 0; j < m->rows; j++)
+        for (int i = 0; i < m->cols; i++)
+            for (int c = 0; c < 3; c++) {
+                const warp_vec2f t = m->tan[((size_t)j * m->cols + i) * 3 + c];
+                /* where the per-pixel raytrace would meet this direction in the target eye buffer (continuous:
+                 * a lens vertex rarely sits on a pixel centre, and may lie beyond the buffer's edge, where the
+                 * ray is still traced: the rows' fringe rules apply to it as to any ray) */
+                double tx, ty, x, y;
+                warp_camera_tan_to_pixel(dst_cam, t.x, t.y, &tx, &ty);
+                left += warp_raytrace_point(s, tx, ty, &x, &y, NULL) == WARP_MASK_FRINGE;
+                set_vertex(m, j, i, c, x, y);
+            }
+    finish_update(m, left);
 }

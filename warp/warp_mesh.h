@@ -8,6 +8,7 @@
 #include "warp/warp_camera.h"
 #include "warp/warp_image.h"
 #include "warp/warp_lens.h"
+#include "warp/warp_raytrace.h"
 
 /* Values per mesh cell in `lines`: for each channel c (R, G, B) and axis a (x, y) an offset p and a slope q, at
  * index WARP_MESH_LINE(c, a, 0) and WARP_MESH_LINE(c, a, 1). */
@@ -45,17 +46,31 @@ typedef struct {
     float *lines;
     int line_stride; /* a multiple of 8, with room for 8-wide loads starting at the last cell */
     double *work;    /* scratch of warp_mesh_update (allocated here: the update runs on the vsync path) */
-    int behind;      /* vertices of the last update that pointed behind the source camera */
+    int behind;      /* vertices of the last update that pointed behind the source camera (warp_mesh_update) or
+                      * whose ray left the source (warp_mesh_update_raytrace) */
 } warp_mesh;
 
 /* Allocates the mesh and evaluates the lens at every vertex (start-up only). n must be in [2, 1024], the viewport
  * at most 16384 pixels on a side. Returns false on bad arguments or out of memory. */
 bool warp_mesh_init(warp_mesh *m, int n, const warp_lens *lens, int vp_x, int vp_y, int vp_w, int vp_h);
+/* A mesh over an eye camera's own image, without a lens: vertex (x, y) sees the direction of cam's continuous
+ * pixel position (x, y), viewport (0, 0, width, height). Resampled through it, a warp gives the eye-buffer image
+ * a depth warp would (tests and benchmarks compare it with them and with ground truth). Start-up only. */
+bool warp_mesh_init_eye(warp_mesh *m, int n, const warp_camera *cam);
 void warp_mesh_free(warp_mesh *m);
 
 /* Rebuilds the source positions for a rotation warp: a vertex seeing tangent direction t of the target eye
  * samples the source at K_src * src_from_dst * (t, -1). Identity rotation = distortion only (e.g. after a
  * depth warp has already produced the target view). Allocation-free: safe on the vsync path. */
 void warp_mesh_update(warp_mesh *m, const warp_camera *src_cam, warp_quat src_from_dst);
+
+/* Rebuilds the source positions for a depth warp traced at the vertices only (a grid variant of the raytrace,
+ * cf. 000's adaptive grid): a vertex seeing tangent direction t of the target eye takes the source position of
+ * the ray through t's position in dst_cam's image, traced with warp_raytrace_point under s (prepared for dst_cam),
+ * per channel, so lens distortion, chromatic aberration and the depth warp are one resampling pass straight from
+ * the host frame. In between, the resampler interpolates: parallax is smeared across depth edges inside a cell
+ * (a rubber sheet) where the per-pixel raytrace keeps them sharp. Vertices whose ray leaves the source sample
+ * where the fringe fill does (clamped to the border). Allocation-free: safe on the vsync path. */
+void warp_mesh_update_raytrace(warp_mesh *m, const warp_camera *dst_cam, const warp_raytrace_setup *s);
 
 #endif

@@ -100,8 +100,9 @@ static inline float inv_at(const warp_image_f32 *d, float x, float y)
     return top + (bot - top) * ay;
 }
 
-/* Colour of the farthest of the four texels around (x, y): the far side of an edge without near-side bleed. */
-static warp_rgba8 far_texel(const warp_view *v, float x, float y)
+/* The farthest of the four texels around (x, y), into (*tx, *ty): the far side of an edge without near-side
+ * bleed. */
+static void far_texel_at(const warp_view *v, float x, float y, int *tx, int *ty)
 {
     const warp_image_f32 *d = v->inv_depth;
     int x0 = (int)floorf(x - 0.5f), y0 = (int)floorf(y - 0.5f);
@@ -119,7 +120,8 @@ static warp_rgba8 far_texel(const warp_view *v, float x, float y)
                 by = yj;
             }
         }
-    return WARP_AT(v->color, bx, by);
+    *tx = bx;
+    *ty = by;
 }
 
 /* Clips the D interval [*lo, *hi] to where p + D*e lies inside [0, size]. Returns false when empty. */
@@ -137,17 +139,167 @@ static bool clip_axis(double p, double e, double size, double *lo, double *hi)
     return *lo <= *hi;
 }
 
+/* What one call traces with, hoisted out of the per-ray code (the output stores may alias the setup). */
+typedef struct {
+    const warp_raytrace_setup *s;
+    const warp_image_f32 *dimg;
+    double sw, sh, dmin, dmax;
+    int max_steps;
+    float jump;
+    int chunk;
+} ray_ctx;
+
+static ray_ctx ray_ctx_make(const warp_raytrace_setup *s)
+{
+    const warp_view *v = s->src;
+    ray_ctx c = {s, v->inv_depth, v->color->w, v->color->h, v->inv_depth_min, v->inv_depth_max, s->p.max_steps,
+                 s->p.edge_jump, s->blockmax ? s->block : 0};
+    return c;
+}
+
+/* Traces the ray whose point at infinity has homogeneous source position (bx, by, bw): returns its flag (0,
+ * WARP_MASK_FRINGE or WARP_MASK_EDGE) and the source position (*hx, *hy) its colour comes from, bilinearly,
+ * except for an edge with the far-side fill, which takes far_texel_at(*hx, *hy); adds the steps and samples taken
+ * to *steps and *samples. Always inlined: warp_raytrace_rows keeps the speed of the loop this was cut from, and
+ * warp_raytrace_point traces exactly the same way. */
+static inline __attribute__((always_inline)) uint8_t trace_ray(const ray_ctx *c, double bx, double by, double bw,
+                                                               float *hx, float *hy, long *steps, long *samples)
+{
+    const warp_raytrace_setup *s = c->s;
+    const warp_image_f32 *dimg = c->dimg;
+    const double sw = c->sw, sh = c->sh;
+    const double dmin = c->dmin, dmax = c->dmax;
+    const int max_steps = c->max_steps;
+    const float jump = c->jump;
+    const int chunk = c->chunk;
+    uint8_t flag = 0;
+    /* A ray at or beyond 90 degrees from the source view axis has no point at infinity in the source
+     * image; with centimetre head translations such rays see nothing the source saw: fringe. */
+    if (!(bw > 1e-9 * (fabs(bx) + fabs(by) + fabs(bw)))) {
+        *hx = bx > 0 ? (float)sw : 0.f;
+        *hy = by > 0 ? (float)sh : 0.f;
+        return WARP_MASK_FRINGE;
+    }
+    double pix = bx / bw, piy = by / bw;
+    double ex = s->ax - s->aw * pix, ey = s->ay - s->aw * piy;
+    /* Search interval in inverse depth: the scene's depth range, cut to the part of the ray in front of
+     * the target eye (D <= 1/aw when the eye is in front of the source eye's plane) ... */
+    double hi = dmax, lo = dmin;
+    if (s->aw > 0 && 1.0 / s->aw < hi) hi = 1.0 / s->aw;
+    bool near_clipped = false;
+    double hi0 = hi;
+    /* ... and to the part that projects inside the source image, where the height map is known. */
+    bool inside = lo <= hi && clip_axis(pix, ex, sw, &lo, &hi) && clip_axis(piy, ey, sh, &lo, &hi);
+    if (!inside) {
+        /* The clip moved lo to where the ray would enter the image, which may lie nearer than anything in
+         * the frame; the fringe fill samples the ray within the frame's depth range (for an all-sky
+         * frame exactly the rotation reprojection's clamped sample). */
+        double d = lo < dmin ? dmin : (lo > dmax ? dmax : lo);
+        *hx = (float)(pix + d * ex);
+        *hy = (float)(piy + d * ey);
+        return WARP_MASK_FRINGE;
+    }
+    near_clipped = hi < hi0;
+    /* One step per source pixel along the segment (003 §3.5: n_d is the pixel count), within budget. */
+    double len = fabs(hi - lo) * sqrt(ex * ex + ey * ey);
+    int n = (int)ceil(len);
+    if (n < 1) n = 1;
+    if (n > max_steps) n = max_steps;
+    double dd = (hi - lo) / n;
+
+    double da = hi, fa;
+    float sa = inv_at(dimg, (float)(pix + da * ex), (float)(piy + da * ey));
+    fa = sa - da;
+    double db = da, fb = fa;
+    float sb = sa;
+    int k = 0;
+    if (fa >= 0) {
+        /* Hit at the very first sample. If the segment was cut at the image border, the ray entered
+         * below the surface: it is hidden by something the source never saw. */
+        if (near_clipped) flag = WARP_MASK_FRINGE;
+    } else {
+        for (k = 1; k <= n; k++) {
+            /* A run of `chunk` steps (about a block long) none of which can hit: the nearest surface in
+             * their region is farther than the ray at the run's far end. Jump to its last step, whose sample
+             * the search would have kept as the bracket's near side. */
+            if (chunk && k + chunk - 1 < n) {
+                double dlast = hi - dd * (k + chunk - 1);
+                double d0 = hi - dd * k;
+                if (region_max(s, pix + d0 * ex, piy + d0 * ey, pix + dlast * ex, piy + dlast * ey) < dlast) {
+                    k += chunk - 1;
+                    da = dlast;
+                    sa = inv_at(dimg, (float)(pix + da * ex), (float)(piy + da * ey));
+                    fa = sa - da;
+                    (*samples)++;
+                    continue;
+                }
+            }
+            db = hi - dd * k;
+            if (k == n) db = lo;
+            sb = inv_at(dimg, (float)(pix + db * ex), (float)(piy + db * ey));
+            (*samples)++;
+            fb = sb - db;
+            if (fb >= 0) break;
+            da = db;
+            fa = fb;
+            sa = sb;
+        }
+        *steps += k < n ? k : n;
+        if (k > n) {
+            /* Not even the farthest depth was reached inside the image: the ray leaves the source. */
+            flag = WARP_MASK_FRINGE;
+            da = db;
+        } else {
+            /* Regula falsi (Illinois) between the last sample in front of the surface and the first one
+             * behind it: the hit lands between samples, not on the step grid. */
+            int side = 0;
+            /* Refining a bracket that already spans under 1/64 pixel cannot move the hit visibly: most
+             * rays of a small head translation stop here after one step. */
+            const double epx = sqrt(ex * ex + ey * ey);
+            for (int it = 0; it < s->p.refine_iters && fabs(db - da) * epx > 1.0 / 64; it++) {
+                double dm = da + (db - da) * (-fa) / (fb - fa);
+                float sm = inv_at(dimg, (float)(pix + dm * ex), (float)(piy + dm * ey));
+                double fm = sm - dm;
+                if (fm < 0) {
+                    da = dm;
+                    fa = fm;
+                    if (side == -1) fb *= 0.5;
+                    side = -1;
+                } else {
+                    db = dm;
+                    fb = fm;
+                    if (side == 1) fa *= 0.5;
+                    side = 1;
+                }
+            }
+            /* Without refinement the hit is the first sample behind the surface, as in 003 eq. 10. */
+            if (s->p.refine_iters > 0)
+                da = fb - fa != 0 ? da + (db - da) * (-fa) / (fb - fa) : db;
+            else
+                da = db;
+        }
+    }
+    *hx = (float)(pix + da * ex);
+    *hy = (float)(piy + da * ey);
+    /* Edge fills (003 §4.4): a large jump of the surface's inverse depth across the bracketing step means
+     * the ray went down the steep wall the height map draws between a near and a far surface. A hit in
+     * the wall's upper half is the near object's silhouette; lower, it is a disocclusion gap. */
+    if (!flag) {
+        float near_d = sa > sb ? sa : sb, far_d = sa > sb ? sb : sa;
+        if (near_d - far_d > jump * near_d) {
+            double alpha = (da - far_d) / (near_d - far_d);
+            if (alpha < 0.5) flag = WARP_MASK_EDGE;
+        }
+    }
+    return flag;
+}
+
 void warp_raytrace_rows(const warp_raytrace_setup *s, warp_image_rgba8 *dst, warp_image_u8 *mask, int y0, int y1,
                         warp_raytrace_stats *st)
 {
     const warp_view *v = s->src;
-    const warp_image_f32 *dimg = v->inv_depth;
-    const double sw = v->color->w, sh = v->color->h;
-    const double dmin = v->inv_depth_min, dmax = v->inv_depth_max;
-    const int max_steps = s->p.max_steps;
-    const float jump = s->p.edge_jump;
+    const ray_ctx c = ray_ctx_make(s);
     long steps_total = 0, edges = 0, fringes = 0, samples = 0;
-    const int chunk = s->blockmax ? s->block : 0;
 
     for (int y = y0; y < y1; y++) {
         double py = y + 0.5;
@@ -157,130 +309,15 @@ void warp_raytrace_rows(const warp_raytrace_setup *s, warp_image_rgba8 *dst, war
         warp_rgba8 *out = &WARP_AT(dst, 0, y);
         uint8_t *m = mask ? &WARP_AT(mask, 0, y) : NULL;
         for (int x = 0; x < dst->w; x++, bx += s->h.m[0][0], by += s->h.m[1][0], bw += s->h.m[2][0]) {
-            uint8_t flag = 0;
-            /* A ray at or beyond 90 degrees from the source view axis has no point at infinity in the source
-             * image; with centimetre head translations such rays see nothing the source saw: fringe. */
-            if (!(bw > 1e-9 * (fabs(bx) + fabs(by) + fabs(bw)))) {
-                out[x] = warp_sample_bilinear(v->color, bx > 0 ? (float)sw : 0.f, by > 0 ? (float)sh : 0.f);
-                if (m) m[x] = WARP_MASK_FRINGE;
-                fringes++;
-                continue;
-            }
-            double pix = bx / bw, piy = by / bw;
-            double ex = s->ax - s->aw * pix, ey = s->ay - s->aw * piy;
-            /* Search interval in inverse depth: the scene's depth range, cut to the part of the ray in front of
-             * the target eye (D <= 1/aw when the eye is in front of the source eye's plane) ... */
-            double hi = dmax, lo = dmin;
-            if (s->aw > 0 && 1.0 / s->aw < hi) hi = 1.0 / s->aw;
-            bool near_clipped = false;
-            double hi0 = hi;
-            /* ... and to the part that projects inside the source image, where the height map is known. */
-            bool inside = lo <= hi && clip_axis(pix, ex, sw, &lo, &hi) && clip_axis(piy, ey, sh, &lo, &hi);
-            if (!inside) {
-                /* The clip moved lo to where the ray would enter the image, which may lie nearer than anything in
-                 * the frame; the fringe fill samples the ray within the frame's depth range (for an all-sky
-                 * frame exactly the rotation reprojection's clamped sample). */
-                double d = lo < dmin ? dmin : (lo > dmax ? dmax : lo);
-                out[x] = warp_sample_bilinear(v->color, (float)(pix + d * ex), (float)(piy + d * ey));
-                if (m) m[x] = WARP_MASK_FRINGE;
-                fringes++;
-                continue;
-            }
-            near_clipped = hi < hi0;
-            /* One step per source pixel along the segment (003 §3.5: n_d is the pixel count), within budget. */
-            double len = fabs(hi - lo) * sqrt(ex * ex + ey * ey);
-            int n = (int)ceil(len);
-            if (n < 1) n = 1;
-            if (n > max_steps) n = max_steps;
-            double dd = (hi - lo) / n;
-
-            double da = hi, fa;
-            float sa = inv_at(dimg, (float)(pix + da * ex), (float)(piy + da * ey));
-            fa = sa - da;
-            double db = da, fb = fa;
-            float sb = sa;
-            int k = 0;
-            if (fa >= 0) {
-                /* Hit at the very first sample. If the segment was cut at the image border, the ray entered
-                 * below the surface: it is hidden by something the source never saw. */
-                if (near_clipped) flag = WARP_MASK_FRINGE;
+            float hx, hy;
+            uint8_t flag = trace_ray(&c, bx, by, bw, &hx, &hy, &steps_total, &samples);
+            if (flag == WARP_MASK_EDGE && s->p.edge_fill == WARP_EDGE_FILL_FAR) {
+                int tx, ty;
+                far_texel_at(v, hx, hy, &tx, &ty);
+                out[x] = WARP_AT(v->color, tx, ty);
             } else {
-                for (k = 1; k <= n; k++) {
-                    /* A run of `chunk` steps (about a block long) none of which can hit: the nearest surface in
-                     * their region is farther than the ray at the run's far end. Jump to its last step, whose sample
-                     * the search would have kept as the bracket's near side. */
-                    if (chunk && k + chunk - 1 < n) {
-                        double dlast = hi - dd * (k + chunk - 1);
-                        double d0 = hi - dd * k;
-                        if (region_max(s, pix + d0 * ex, piy + d0 * ey, pix + dlast * ex, piy + dlast * ey) < dlast) {
-                            k += chunk - 1;
-                            da = dlast;
-                            sa = inv_at(dimg, (float)(pix + da * ex), (float)(piy + da * ey));
-                            fa = sa - da;
-                            samples++;
-                            continue;
-                        }
-                    }
-                    db = hi - dd * k;
-                    if (k == n) db = lo;
-                    sb = inv_at(dimg, (float)(pix + db * ex), (float)(piy + db * ey));
-                    samples++;
-                    fb = sb - db;
-                    if (fb >= 0) break;
-                    da = db;
-                    fa = fb;
-                    sa = sb;
-                }
-                steps_total += k < n ? k : n;
-                if (k > n) {
-                    /* Not even the farthest depth was reached inside the image: the ray leaves the source. */
-                    flag = WARP_MASK_FRINGE;
-                    da = db;
-                } else {
-                    /* Regula falsi (Illinois) between the last sample in front of the surface and the first one
-                     * behind it: the hit lands between samples, not on the step grid. */
-                    int side = 0;
-                    /* Refining a bracket that already spans under 1/64 pixel cannot move the hit visibly: most
-                     * rays of a small head translation stop here after one step. */
-                    const double epx = sqrt(ex * ex + ey * ey);
-                    for (int it = 0; it < s->p.refine_iters && fabs(db - da) * epx > 1.0 / 64; it++) {
-                        double dm = da + (db - da) * (-fa) / (fb - fa);
-                        float sm = inv_at(dimg, (float)(pix + dm * ex), (float)(piy + dm * ey));
-                        double fm = sm - dm;
-                        if (fm < 0) {
-                            da = dm;
-                            fa = fm;
-                            if (side == -1) fb *= 0.5;
-                            side = -1;
-                        } else {
-                            db = dm;
-                            fb = fm;
-                            if (side == 1) fa *= 0.5;
-                            side = 1;
-                        }
-                    }
-                    /* Without refinement the hit is the first sample behind the surface, as in 003 eq. 10. */
-                    if (s->p.refine_iters > 0)
-                        da = fb - fa != 0 ? da + (db - da) * (-fa) / (fb - fa) : db;
-                    else
-                        da = db;
-                }
-            }
-            float hx = (float)(pix + da * ex), hy = (float)(piy + da * ey);
-            /* Edge fills (003 §4.4): a large jump of the surface's inverse depth across the bracketing step means
-             * the ray went down the steep wall the height map draws between a near and a far surface. A hit in
-             * the wall's upper half is the near object's silhouette; lower, it is a disocclusion gap. */
-            if (!flag) {
-                float near_d = sa > sb ? sa : sb, far_d = sa > sb ? sb : sa;
-                if (near_d - far_d > jump * near_d) {
-                    double alpha = (da - far_d) / (near_d - far_d);
-                    if (alpha < 0.5) flag = WARP_MASK_EDGE;
-                }
-            }
-            if (flag == WARP_MASK_EDGE && s->p.edge_fill == WARP_EDGE_FILL_FAR)
-                out[x] = far_texel(v, hx, hy);
-            else
                 out[x] = warp_sample_bilinear(v->color, hx, hy);
+            }
             if (m) m[x] = flag;
             edges += flag == WARP_MASK_EDGE;
             fringes += flag == WARP_MASK_FRINGE;
@@ -293,4 +330,35 @@ void warp_raytrace_rows(const warp_raytrace_setup *s, warp_image_rgba8 *dst, war
         st->fringe_pixels += fringes;
         st->samples += samples;
     }
+}
+
+int warp_raytrace_point(const warp_raytrace_setup *s, double tx, double ty, double *sx, double *sy,
+                        warp_raytrace_stats *st)
+{
+    const ray_ctx c = ray_ctx_make(s);
+    /* the same homogeneous position warp_raytrace_rows reaches by stepping along a row (up to rounding) */
+    double bx = s->h.m[0][0] * tx + s->h.m[0][1] * ty + s->h.m[0][2];
+    double by = s->h.m[1][0] * tx + s->h.m[1][1] * ty + s->h.m[1][2];
+    double bw = s->h.m[2][0] * tx + s->h.m[2][1] * ty + s->h.m[2][2];
+    long steps = 0, samples = 0;
+    float hx, hy;
+    uint8_t flag = trace_ray(&c, bx, by, bw, &hx, &hy, &steps, &samples);
+    if (flag == WARP_MASK_EDGE && s->p.edge_fill == WARP_EDGE_FILL_FAR) {
+        /* the far texel's centre, where a bilinear sample returns exactly that texel */
+        int fx, fy;
+        far_texel_at(s->src, hx, hy, &fx, &fy);
+        *sx = fx + 0.5;
+        *sy = fy + 0.5;
+    } else {
+        *sx = hx;
+        *sy = hy;
+    }
+    if (st) {
+        st->rays++;
+        st->steps += steps;
+        st->edge_pixels += flag == WARP_MASK_EDGE;
+        st->fringe_pixels += flag == WARP_MASK_FRINGE;
+        st->samples += samples;
+    }
+    return flag;
 }

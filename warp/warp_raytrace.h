@@ -59,4 +59,13 @@ void warp_raytrace_use_blockmax(warp_raytrace_setup *s, const warp_image_f32 *bm
 void warp_raytrace_rows(const warp_raytrace_setup *s, warp_image_rgba8 *dst, warp_image_u8 *mask, int y0, int y1,
                         warp_raytrace_stats *st);
 
+/* Traces one ray, through the continuous target position (tx, ty) (pixel (x, y) of warp_raytrace_rows is the ray
+ * through (x + 0.5, y + 0.5)), with the same search, refinement, edge fill and fringe rules. Writes the source
+ * position whose bilinear sample is the ray's colour: the hit; the far texel's centre for an edge under the
+ * far-side fill; for a ray that leaves the source, the position the fringe fill samples (possibly outside the
+ * image: samplers clamp it to the border). Returns 0, WARP_MASK_EDGE or WARP_MASK_FRINGE (what rows writes into
+ * the mask); adds to *st (may be NULL). For meshes that trace only at their vertices (warp_mesh_update_raytrace). */
+int warp_raytrace_point(const warp_raytrace_setup *s, double tx, double ty, double *sx, double *sy,
+                        warp_raytrace_stats *st);
+
 #endif

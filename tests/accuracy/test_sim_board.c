@@ -1,10 +1,13 @@
 /* End-to-end runs of hmdwarpd's runtime on the simulated board (IMU, host and vsync simulated in-process):
  * frames flow, tracking follows the true head, only the planes a scene needs are rendered, warps are chosen as
  * configured. Short runs with small panels; assertions are about behaviour, not speed. */
+#include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
 #include <cmocka.h>
 
 #include "runtime/rt_app.h"
@@ -119,6 +122,51 @@ static void test_depth_scene_raytrace(void **state)
     rt_app_free(&app);
 }
 
+/* [warp] raytrace_grid = mesh: the raytrace traced at the lens mesh's vertices runs as the raytrace, with no
+ * fallback, and the summary says which grid it used. */
+static void test_depth_scene_raytrace_mesh(void **state)
+{
+    (void)state;
+    rt_config c;
+    small_config(&c, "near", "raytrace");
+    rt_config_errors e = {0};
+    assert_true(rt_config_set(&c, "warp.raytrace_grid=mesh", &e));
+    assert_true(rt_config_set(&c, "sim.trace=translate", &e));
+    assert_int_equal(c.raytrace_grid, RT_RAYTRACE_MESH);
+    run(&c);
+    rt_telemetry *t = app.tel;
+    assert_true(app.sim_plane_renders[1] > 0);
+    assert_true(t->method_count[RT_METHOD_RAYTRACE] > 0);
+    assert_int_equal(t->method_count[RT_METHOD_ROTATION], 0);
+    assert_int_equal(app.raytrace_fallbacks, 0);
+    assert_int_equal(app.plane_fallbacks, 0);
+    char *text = NULL;
+    size_t len = 0;
+    FILE *f = open_memstream(&text, &len);
+    assert_non_null(f);
+    rt_app_summary(&app, f);
+    fclose(f);
+    assert_non_null(strstr(text, "warp method raytrace (mesh)"));
+    free(text);
+    /* The last vsync's mesh holds traced positions, not the lens-only ones the per-pixel path leaves there (the
+     * head moved between the frame and the vsync, so they differ). */
+    warp_mesh *m = &app.mesh[0];
+    size_t n = (size_t)m->rows * (size_t)m->cols * 3;
+    warp_vec2f *traced = malloc(n * sizeof *traced);
+    assert_non_null(traced);
+    memcpy(traced, m->src, n * sizeof *traced);
+    warp_mesh_update(m, &app.eye_cam[0], warp_quat_identity());
+    double most = 0;
+    for (size_t k = 0; k < n; k++) {
+        double d = fabs(traced[k].x - m->src[k].x) + fabs(traced[k].y - m->src[k].y);
+        most = d > most ? d : most;
+    }
+    free(traced);
+    print_message("mesh raytrace: last vsync's vertices up to %.2f px from the lens-only mesh\n", most);
+    assert_true(most > 0.5);
+    rt_app_free(&app);
+}
+
 static void test_raytrace_without_depth_falls_back(void **state)
 {
     (void)state;
@@ -214,6 +262,7 @@ int main(void)
         cmocka_unit_test(test_misses_attributed),
         cmocka_unit_test(test_kernel_choice),
         cmocka_unit_test(test_depth_scene_raytrace),
+        cmocka_unit_test(test_depth_scene_raytrace_mesh),
         cmocka_unit_test(test_raytrace_without_depth_falls_back),
         cmocka_unit_test(test_auto_rotation_only_scene_never_pays_for_depth),
         cmocka_unit_test(test_auto_translation_escalates_and_is_stable),
