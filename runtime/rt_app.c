@@ -465,16 +465,13 @@ void rt_app_summary(rt_app *a, FILE *out)
         fprintf(out, "  renderer                   gles: %s (%s; %s), warp method %s\n", plat_egl_renderer(a->egl),
                 plat_egl_version(a->egl), a->realtime ? "SCHED_FIFO" : "normal priority", rt_method_name(c->method));
     else
-        fprintf(out, "  renderer                   cpu (%s kernel, %d threads, %s%s), warp method %s%s\n",
+        fprintf(out, "  renderer                   cpu (%s kernel, %d threads, %s%s), warp method %s\n",
                 warp_resample_kernel(), plat_workers_threads(a->workers),
                 a->realtime           ? "SCHED_FIFO"
                 : c->rt_priority == 0 ? "normal priority (rt_priority = 0)"
                                       : "normal priority (not permitted to use SCHED_FIFO)",
                 a->realtime ? (a->memory_locked ? ", memory locked" : ", memory not locked") : "",
-                rt_method_name(c->method),
-                c->raytrace_grid != RT_RAYTRACE_MESH || c->method < RT_METHOD_RAYTRACE ? ""
-                : c->method == RT_METHOD_RAYTRACE                                 ? " (mesh)"
-                                                                                  : " (raytrace: mesh)");
+                rt_method_name(c->method));
     fprintf(out, "  renderer chosen            %s\n", a->render_why);
     fprintf(out, "  panel                      %dx%d at %.0f Hz, eye buffers %dx%d, lens mesh %dx%d\n", c->panel_w,
             c->panel_h, c->refresh_hz, c->eye_w, c->eye_h, c->mesh_n, c->mesh_n);

@@ -55,7 +55,7 @@ static void raytrace_task(void *ctx, int task)
     warp_planar3_from_rgba_rows(&a->inter_planar[e], &a->inter[e], y0, y1);
 }
 
-/* [warp] raytrace_grid = mesh: one eye's rays, at its lens mesh's vertices (the resample then reads the frame). */
+/* raytrace_mesh: one eye's rays, at its lens mesh's vertices (the resample then reads the frame). */
 static void mesh_raytrace_task(void *ctx, int e)
 {
     job *j = ctx;
@@ -134,19 +134,19 @@ static rt_method compose(rt_app *a, job *j, const rt_frame *frame, const warp_po
         return method;
     }
     if (method == RT_METHOD_TRANSPARENCY || method == RT_METHOD_OBJECTS) method = RT_METHOD_RAYTRACE;
-    if (method == RT_METHOD_RAYTRACE && !frame->has_depth) {
+    if ((method == RT_METHOD_RAYTRACE || method == RT_METHOD_RAYTRACE_MESH) && !frame->has_depth) {
         /* The host sent no depth (a rotation-only scene): nothing to raytrace against. */
         a->raytrace_fallbacks++;
         method = RT_METHOD_ROTATION;
     }
-    if (method == RT_METHOD_RAYTRACE) {
+    if (method == RT_METHOD_RAYTRACE || method == RT_METHOD_RAYTRACE_MESH) {
         bool ok = true;
         for (int e = 0; e < 2 && ok; e++) {
             j->views[e] = rt_frame_view(frame, e);
             ok = warp_raytrace_prepare(&j->rts[e], &j->views[e], &frame->f.cam[e], eyes[e], &a->rt_params) == NULL;
             if (ok) warp_raytrace_use_blockmax(&j->rts[e], &frame->blockmax[e], RT_BLOCK);
         }
-        if (ok && a->cfg.raytrace_grid == RT_RAYTRACE_MESH) {
+        if (ok && method == RT_METHOD_RAYTRACE_MESH) {
             /* no eye-space image: depth warp, lens and CA in the one resampling pass from the host frame */
             plat_workers_run(a->workers, 2, mesh_raytrace_task, j);
             for (int e = 0; e < 2; e++) j->src[e] = &frame->planar[e];
@@ -185,8 +185,10 @@ static rt_method compose_gles(rt_app *a, job *j, const rt_frame *frame, const wa
 {
     plat_gles *g = a->gles;
     char err[200];
-    /* no GLES pass for the A-buffer and object warps yet: the raytrace is the GPU's depth warp */
-    if (method == RT_METHOD_TRANSPARENCY || method == RT_METHOD_OBJECTS) method = RT_METHOD_RAYTRACE;
+    /* no GLES pass for the A-buffer and object warps yet: the raytrace is the GPU's depth warp; and the GPU traces
+     * every pixel, so the mesh raytrace (a CPU economy) is the raytrace there */
+    if (method == RT_METHOD_TRANSPARENCY || method == RT_METHOD_OBJECTS || method == RT_METHOD_RAYTRACE_MESH)
+        method = RT_METHOD_RAYTRACE;
     if (method == RT_METHOD_RAYTRACE && !frame->has_depth) {
         a->raytrace_fallbacks++;
         method = RT_METHOD_ROTATION;
@@ -312,7 +314,8 @@ void rt_compositor_run(rt_app *a)
     }
     int64_t warp_est = period - margin_ns, late_est = 0;
     /* auto: what each method has been costing (rises at once, decays slowly; an estimate not refreshed decays
-     * too, by 1/512 per vsync, so a warp once too slow is tried again after some ten seconds) */
+     * too, by 1/512 per vsync, so a warp once a little too slow is tried again after some seconds; one that took
+     * more than two periods is not retried: every retry would cost its length in missed vsyncs) */
     rt_method prev_used = RT_METHOD_COUNT;
     double cost_ns[RT_METHOD_COUNT] = {0};
     bool objects_moving = false;
@@ -452,7 +455,7 @@ void rt_compositor_run(rt_app *a)
             for (int m = 0; m < RT_METHOD_COUNT; m++)
                 if (m == (int)used)
                     cost_ns[m] = d > cost_ns[m] ? d : cost_ns[m] + (d - cost_ns[m]) / 8;
-                else
+                else if (cost_ns[m] < 2 * period)
                     cost_ns[m] -= cost_ns[m] / 512;
         }
         durs[vsync_no % WINDOW] = dur;

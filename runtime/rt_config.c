@@ -11,9 +11,9 @@
 
 #include "warp/warp_head.h"
 
-static const char *const method_names[] = {"none", "rotation", "raytrace", "transparency", "objects", "auto", NULL};
+static const char *const method_names[] = {"none",    "rotation",      "raytrace", "transparency",
+                                           "objects", "raytrace_mesh", "auto",     NULL};
 static const char *const edge_fill_names[] = {"far", "linear", NULL};
-static const char *const raytrace_grid_names[] = {"pixel", "mesh", NULL};
 static const char *const sink_names[] = {"null", "png", "raw", NULL};
 static const char *const renderer_names[] = {"auto", "cpu", "gles", NULL};
 static const char *const kernel_names[] = {"auto", "scalar", "vector", "avx2", "avx512", NULL};
@@ -85,8 +85,11 @@ static const keydef keys[] = {
     {"lens", "center", K_DLIST, F(lens_center), 2, -100000, 100000, NULL,
      "left eye's lens centre x y in pixels within its half of the panel (mirrored for the right eye)"},
     {"warp", "method", K_ENUM, F(method), 0, 0, 0, method_names,
-     "none (lens only), rotation (003 §3.4), raytrace (003 §3.5), transparency (000 §5.3), objects (002 §3.2) or "
-     "auto (per vsync, the cheapest warp whose predicted error stays under pixel_budget)"},
+     "none (lens only), rotation (003 §3.4), raytrace (003 §3.5, every eye-buffer pixel, then the lens pass), "
+     "raytrace_mesh (the raytrace at the lens mesh's vertices only, one pass from the host frame: near the display "
+     "path's cost, parallax smeared across depth edges within a mesh cell; the GLES renderer traces per pixel), "
+     "transparency (000 §5.3), objects (002 §3.2) or auto (per vsync, the cheapest warp whose predicted error "
+     "stays under pixel_budget; short of time, raytrace steps down to raytrace_mesh, then rotation)"},
     {"warp", "pixel_budget", K_DOUBLE, F(pixel_budget), 0, 0.01, 100, NULL,
      "auto: largest on-screen error in eye-buffer pixels accepted from a cheaper warp (004 eqs. 5-7 bound)"},
     {"warp", "raytrace_steps", K_INT, F(raytrace_steps), 0, 1, 100000, NULL, "raytrace step budget per ray"},
@@ -94,10 +97,6 @@ static const keydef keys[] = {
      "raytrace disocclusion fill: far (far side) or linear (003 §4.4)"},
     {"warp", "edge_jump", K_DOUBLE, F(edge_jump), 0, 0.001, 10, NULL,
      "relative inverse-depth jump per step that counts as an occlusion edge"},
-    {"warp", "raytrace_grid", K_ENUM, F(raytrace_grid), 0, 0, 0, raytrace_grid_names,
-     "where the CPU raytrace traces: pixel (every eye-buffer pixel, then the lens pass) or mesh (only the lens "
-     "mesh's vertices, one pass from the host frame: near the display path's cost, but parallax is smeared "
-     "across depth edges within a mesh cell); the GLES renderer always traces per pixel"},
     {"imu", "backend", K_CHOICE, F(imu_backend), S(imu_backend), 0, 0, imu_names,
      "IMU source: sim (simulated board), hid (USB HID, hidraw) or i2c (i2c-dev)"},
     {"imu", "device", K_STR, F(imu_device), S(imu_device), 0, 0, NULL,
@@ -200,7 +199,6 @@ void rt_config_defaults(rt_config *c)
     c->pixel_budget = 0.5;
     c->raytrace_steps = 512;
     c->edge_fill = 0;
-    c->raytrace_grid = RT_RAYTRACE_PIXEL;
     c->edge_jump = 0.1;
     snprintf(c->imu_backend, sizeof c->imu_backend, "sim");
     snprintf(c->frames_backend, sizeof c->frames_backend, "sim");

@@ -17,16 +17,12 @@ typedef enum {
     RT_METHOD_RAYTRACE = 2,
     RT_METHOD_TRANSPARENCY = 3, /* opaque surface by the adaptive grid + A-buffer ray casting (000 §5.3) */
     RT_METHOD_OBJECTS = 4,      /* per-object forward warp with extrapolated object poses (002 §3.2) */
+    RT_METHOD_RAYTRACE_MESH = 5, /* the raytrace at the lens mesh's vertices only (warp_mesh_update_raytrace): one
+                                  * resampling pass from the host frame, parallax smeared within a mesh cell */
     RT_METHOD_COUNT,
     RT_METHOD_AUTO = RT_METHOD_COUNT
 } rt_method;
 const char *rt_method_name(rt_method m);
-
-/* [warp] raytrace_grid: where the CPU raytrace traces its rays. */
-typedef enum {
-    RT_RAYTRACE_PIXEL = 0, /* every eye-buffer pixel (003 §3.5), then the lens pass */
-    RT_RAYTRACE_MESH = 1,  /* the lens mesh's vertices only (warp_mesh_update_raytrace): one pass */
-} rt_raytrace_grid;
 
 typedef struct {
     char board_name[64];
@@ -61,7 +57,6 @@ typedef struct {
     double pixel_budget;        /* auto: largest predicted error accepted from a cheaper warp, eye-buffer pixels */
     int raytrace_steps;
     int edge_fill;              /* warp_edge_fill */
-    int raytrace_grid;          /* rt_raytrace_grid */
     double edge_jump;
     /* [imu] [frames] [vsync] backends and their devices; device "mock" puts the simulated board's device behind
      * the real backend's decoding (HID reports, I2C register maps, GPIO edges, framelink, V4L2 layout) */

@@ -46,8 +46,20 @@ static int rank(rt_method m)
     switch (m) {
     case RT_METHOD_NONE: return 0;
     case RT_METHOD_ROTATION: return 1;
-    case RT_METHOD_RAYTRACE: return 2;
-    default: return 3; /* transparency, objects: the depth warps that also handle what raytrace cannot */
+    case RT_METHOD_RAYTRACE_MESH: return 2;
+    case RT_METHOD_RAYTRACE: return 3;
+    default: return 4; /* transparency, objects: the depth warps that also handle what raytrace cannot */
+    }
+}
+
+/* One rung down the ladder of depth warps, towards rotation. */
+static rt_method cheaper(rt_method m)
+{
+    switch (m) {
+    case RT_METHOD_TRANSPARENCY:
+    case RT_METHOD_OBJECTS: return RT_METHOD_RAYTRACE;
+    case RT_METHOD_RAYTRACE: return RT_METHOD_RAYTRACE_MESH;
+    default: return RT_METHOD_ROTATION;
     }
 }
 
@@ -104,9 +116,10 @@ rt_method rt_select_choose(rt_select *s, rt_method configured, const rt_select_i
     rt_method m = s->current;
     /* Short of time: the cheaper warp now beats a missed vsync (which would show a stale frame unwarped). The state
      * keeps the preferred method, so the next vsync with time to spare returns to it. */
-    /* Step down the ladder (objects/transparency -> raytrace -> rotation) until the estimate fits. */
+    /* Step down the ladder (objects/transparency -> raytrace -> raytrace at the mesh's vertices -> rotation) until
+     * the estimate fits: the mesh raytrace keeps most of the parallax at near the rotation warp's cost. */
     while (m != RT_METHOD_ROTATION && in->cost_ns[m] > 0 && in->cost_ns[m] > in->time_left_ns) {
-        m = rank(m) == 3 ? RT_METHOD_RAYTRACE : RT_METHOD_ROTATION;
+        m = cheaper(m);
         w = RT_WHY_TIME_BUDGET;
     }
     *why = w;

@@ -130,9 +130,20 @@ static void test_time_budget_degrades(void **state)
     rt_select_why why;
     rt_select_input in = frame(0.02, 0.4);
     in.cost_ns[RT_METHOD_ROTATION] = 2e6;
-    in.cost_ns[RT_METHOD_RAYTRACE] = 20e6; /* does not fit in 8 ms */
+    in.cost_ns[RT_METHOD_RAYTRACE] = 20e6; /* does not fit in 8 ms: the mesh raytrace next (cost not known yet) */
+    assert_int_equal(rt_select_choose(&s, RT_METHOD_AUTO, &in, &why), RT_METHOD_RAYTRACE_MESH);
+    assert_int_equal(why, RT_WHY_TIME_BUDGET);
+    in.cost_ns[RT_METHOD_RAYTRACE_MESH] = 3e6; /* fits */
+    assert_int_equal(rt_select_choose(&s, RT_METHOD_AUTO, &in, &why), RT_METHOD_RAYTRACE_MESH);
+    in.cost_ns[RT_METHOD_RAYTRACE_MESH] = 9e6; /* neither fits: rotation */
     assert_int_equal(rt_select_choose(&s, RT_METHOD_AUTO, &in, &why), RT_METHOD_ROTATION);
     assert_int_equal(why, RT_WHY_TIME_BUDGET);
+    /* the objects warp steps down through the same ladder */
+    in.objects_moving = true;
+    in.cost_ns[RT_METHOD_OBJECTS] = 30e6;
+    in.cost_ns[RT_METHOD_RAYTRACE_MESH] = 3e6;
+    assert_int_equal(rt_select_choose(&s, RT_METHOD_AUTO, &in, &why), RT_METHOD_RAYTRACE_MESH);
+    in.objects_moving = false;
     in.cost_ns[RT_METHOD_RAYTRACE] = 5e6; /* fits again: back to the preferred warp at once */
     assert_int_equal(rt_select_choose(&s, RT_METHOD_AUTO, &in, &why), RT_METHOD_RAYTRACE);
 }

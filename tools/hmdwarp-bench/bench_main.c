@@ -128,7 +128,7 @@ static void mesh_raytrace_task(void *ctx, int e)
     warp_mesh_update_raytrace(&d->mesh[e], &d->cam[e], &d->rts[e]);
 }
 
-/* The raytrace at the lens mesh's vertices ([warp] raytrace_grid = mesh): one resampling pass from the frame. */
+/* The raytrace at the lens mesh's vertices ([warp] method = raytrace_mesh): one resampling pass from the frame. */
 static void display_raytrace_mesh(display *d, plat_workers *w)
 {
     plat_workers_run(w, 2, mesh_raytrace_task, d);
@@ -719,7 +719,7 @@ int main(int argc, char **argv)
     fprintf(md, "| raytrace at 5 cm head translation at most 2x the display path | %.2fx | %s |\n", ray_ratio,
             ray_ratio <= 2 ? "met" : "NOT met");
     const int m5 = n_motion - 1 < 3 ? n_motion - 1 : 3; /* 5 cm (quick: the largest measured) */
-    fprintf(md, "| the same, raytraced at the lens mesh's vertices (`raytrace_grid = mesh`; %.2f dB from the per-pixel "
+    fprintf(md, "| the same, raytraced at the lens mesh's vertices (`method = raytrace_mesh`; %.2f dB from the per-pixel "
                 "raytrace at %g cm, see below) | %.2fx | %s |\n",
             mesh_vs_ray[m5], motions_cm[m5], raymesh_ratio, raymesh_ratio <= 2 ? "met" : "NOT met");
     if (soak_vsyncs >= 0)
@@ -748,7 +748,7 @@ int main(int argc, char **argv)
     fprintf(md, "\n## Raytrace cost vs head translation (scene near, 2 deg yaw)\n\n"
                 "003 eq. 11: the linear search takes a step per source pixel of parallax, so its cost grows with "
                 "translation. ![time vs motion](time_vs_motion.png)\n\n"
-                "The mesh raytrace (`raytrace_grid = mesh`) traces only the lens mesh's vertices (%d x %d per eye, 3 "
+                "The mesh raytrace (`method = raytrace_mesh`) traces only the lens mesh's vertices (%d x %d per eye, 3 "
                 "channels) and interpolates in between: its PSNR is scored the same way, before the lens through a "
                 "lens-free mesh as dense, and against the per-pixel raytrace's image (the last column).\n\n"
                 "| translation cm | raytrace+lens ms | steps/ray | raytrace PSNR dB | rotation ms | rotation PSNR dB "
