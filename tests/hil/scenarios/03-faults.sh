@@ -8,8 +8,9 @@
 #   always  every 15th USB frame damaged on the wire (payload byte,    -> rejected by reason, resync, the
 #           cut in half, version: hmdwarp-feed --damage-every)            frames around it shown
 #   V4L2    20 % dropped buffers, then a fatal streaming error        -> rejected/lost counted, no crash
-# Asserts: no crash, every fault counted and logged, recovery (reconnect, relock, frames after the stall) within
-# the run; plus one present per vsync.
+# Asserts: no crash, every fault counted and logged, recovery (reconnect, relock, frames after the stall; for the
+# stall and the unplug: service back within 1 s of the fault's end, from the per-vsync CSV); one present per
+# vsync, no misses of hmdwarpd's own.
 # hil-timeout: 200
 . /hil/scenarios/lib.sh
 D=${HIL_FAULTS_S:-14}
