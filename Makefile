@@ -231,6 +231,11 @@ check-cross:
 	@echo "check-cross: $(CROSS_BUILD)/hmdwarpd is an aarch64 binary; running $(words $(CROSS_TESTS)) test programs under qemu-user"
 	@TEST_RUNNER="qemu-$(firstword $(subst -, ,$(CROSS)))-static" \
 	  tests/run.sh $(CROSS_BUILD)/tests $(addprefix $(CROSS_BUILD)/tests/,$(CROSS_TESTS))
+	@echo "check-cross: the cross-built hmdwarp-bench under qemu-user, for function only (96x96 eyes, no soak)"
+	@qemu-$(firstword $(subst -, ,$(CROSS)))-static $(CROSS_BUILD)/hmdwarp-bench --quick --eye 96x96 --reps 1 \
+	  --soak 0 --out $(CROSS_BUILD)/bench >$(CROSS_BUILD)/bench.log 2>&1 && test -s $(CROSS_BUILD)/bench/bench.csv \
+	  && echo "check-cross: hmdwarp-bench ran: $(CROSS_BUILD)/bench/bench.md" \
+	  || { tail -n 15 $(CROSS_BUILD)/bench.log; echo "check-cross: hmdwarp-bench failed under qemu-user"; exit 1; }
 
 clean:
 	rm -rf build
