@@ -695,6 +695,9 @@ void rt_app_stats_kv(rt_app *a, FILE *out)
     rt_fusion_state st;
     if (rt_fusion_latest(a->fusion, &st)) {
         KV("orientation_w", "%.6f", st.q.w);
+        KV("orientation_x", "%.6f", st.q.x);
+        KV("orientation_y", "%.6f", st.q.y);
+        KV("orientation_z", "%.6f", st.q.z);
         if (a->has_truth) {
             warp_quat truth = sim_trace_orientation(&a->trace, (double)(st.t_ns - a->t0_ns) * 1e-9);
             KV("orientation_error_deg", "%.4f", warp_quat_angle_between(truth, st.q) * 180 / WARP_PI);

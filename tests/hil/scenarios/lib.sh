@@ -95,7 +95,9 @@ hil_wait_until() {
 # the IMU's reports back behind the host feeder's rendering (motion-to-photon grows by tens of ms); above
 # hmdwarpd's threads (50, 49) they take the CPU from its compositor (the I2C chip's 1 kHz register traffic costs
 # a TCG guest several syscalls a tick). Just below them, they run whenever hmdwarpd's real-time threads sleep.
-hil_device() { chrt -f 40 "$@"; }
+# Called in the background (hil_device PROG ... &): exec, so that $! is the program's own pid (a scenario that
+# kills $! must reach the program, not a subshell that leaves it running).
+hil_device() { exec chrt -f 40 "$@"; }
 
 # hil_uhid: uhid plus hid-generic, which binds the created devices (no udevd here to load it from the modalias).
 hil_uhid() {
