@@ -465,9 +465,9 @@ void rt_compositor_run(rt_app *a)
             if (durs[i] > warp_est) warp_est = durs[i];
             if (lates[i] > late_est) late_est = lates[i];
         }
-        /* The longest of 128 warps is no bound on the next: keep an eighth of it in hand (misses in a 60 s soak
-         * were passes some 10 % over the window's maximum; an eighth costs well under a millisecond of latency). */
-        warp_est += warp_est / 8;
+        /* The longest of 128 warps is no bound on the next: keep a quarter of it in hand (the misses left in 60 s
+         * soaks were passes 10-25 % over the window's maximum; a quarter costs about a millisecond of latency). */
+        warp_est += warp_est / 4;
         /* Plan within one period. A scheduler that wakes us later than a quarter period (a loaded VM) is noise no
          * wake-up time can absorb; and neither estimate may go negative, or the loop below would pick a vsync
          * that has already passed and serve it again. */
