@@ -517,10 +517,11 @@ static void run_end_to_end(const char *chip, int dps, int g)
         assert_true(out[0].t_ns > last_t);
         last_t = out[0].t_ns;
         /* equal to one of the source's samples within quantisation, one the source produced by the end of the
-         * transfer (the mock latches the source during the transfer; the timestamp is its middle) */
+         * transfer (the mock latches the source during the transfer; the timestamp is its middle, and a transfer
+         * preempted half way, under ASan on a busy machine, ends some milliseconds after it) */
         for (int j = rec->n - 1; j >= 0; j--) {
             const drv_imu_sample *r = &rec->rec[j];
-            bool eq = r->t_ns <= out[0].t_ns + PLAT_NS_PER_MS;
+            bool eq = r->t_ns <= out[0].t_ns + 5 * PLAT_NS_PER_MS;
             for (int a = 0; a < 3 && eq; a++)
                 eq = fabs(r->gyro[a] - out[0].gyro[a]) <= gq && fabs(r->accel[a] - out[0].accel[a]) <= aq;
             if (eq) {
