@@ -8,6 +8,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 
+#include "warp/warp_lens.h"
 #include "warp/warp_math.h"
 
 /* Prefix for the programs a test starts: the runner the test itself runs under (TEST_RUNNER, e.g.
@@ -19,6 +20,24 @@ static inline const char *test_runner(void)
     const char *r = getenv("TEST_RUNNER");
     snprintf(buf, sizeof buf, "%s%s", r ? r : "", r && *r ? " " : "");
     return buf;
+}
+
+/* The reference headset's lens shape (barrel k1 0.22, k2 0.24, lateral CA red 0.996 / blue 1.008) centred at
+ * (cx, cy) panel pixels with the given scale. */
+static inline warp_lens test_reference_lens(double cx, double cy, double scale)
+{
+    warp_lens l;
+    const double ca[3] = {0.996, 1.0, 1.008};
+    for (int c = 0; c < 3; c++) {
+        l.ch[c].k[0] = ca[c];
+        l.ch[c].k[1] = 0.22 * ca[c];
+        l.ch[c].k[2] = 0.24 * ca[c];
+        l.ch[c].k[3] = 0;
+    }
+    l.center_x = cx;
+    l.center_y = cy;
+    l.scale = scale;
+    return l;
 }
 
 typedef struct { uint64_t s; } test_rng;

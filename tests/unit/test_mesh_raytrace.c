@@ -10,6 +10,7 @@
 #include <cmocka.h>
 
 #include "tests/support/test_scene.h"
+#include "tests/support/test_util.h"
 #include "warp/warp_camera.h"
 #include "warp/warp_lens.h"
 #include "warp/warp_mesh.h"
@@ -66,21 +67,7 @@ static void synth_free(synth *s)
 /* The reference headset's lens shape (barrel + lateral CA), at a scale whose panel sees only the inside of the
  * eye buffer: both paths then see the same source (beyond the buffer the two-pass path can only repeat its
  * border). */
-static warp_lens lens_for_synth(void)
-{
-    warp_lens l;
-    const double ca[3] = {0.996, 1.0, 1.008};
-    for (int c = 0; c < 3; c++) {
-        l.ch[c].k[0] = ca[c];
-        l.ch[c].k[1] = 0.22 * ca[c];
-        l.ch[c].k[2] = 0.24 * ca[c];
-        l.ch[c].k[3] = 0;
-    }
-    l.center_x = 160;
-    l.center_y = 160;
-    l.scale = 320;
-    return l;
-}
+static warp_lens lens_for_synth(void) { return test_reference_lens(160, 160, 320); }
 
 static warp_pose moved(warp_pose a, double yaw_deg, double pitch_deg, double dx, double dy, double dz)
 {

@@ -32,21 +32,7 @@ static void random_image(warp_image_rgba8 *img, uint64_t seed, double noise)
         }
 }
 
-static warp_lens realistic_lens(void)
-{
-    warp_lens l;
-    const double ca[3] = {0.996, 1.0, 1.008};
-    for (int c = 0; c < 3; c++) {
-        l.ch[c].k[0] = ca[c];
-        l.ch[c].k[1] = 0.22 * ca[c];
-        l.ch[c].k[2] = 0.24 * ca[c];
-        l.ch[c].k[3] = 0;
-    }
-    l.center_x = 200;
-    l.center_y = 180;
-    l.scale = 200;
-    return l;
-}
+static warp_lens realistic_lens(void) { return test_reference_lens(200, 180, 200); }
 
 static bool same_pixel(warp_rgba8 p, warp_rgba8 q) { return p.r == q.r && p.g == q.g && p.b == q.b && p.a == q.a; }
 
