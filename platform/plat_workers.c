@@ -13,6 +13,7 @@
 #include "platform/plat_clock.h"
 
 #define MAX_EXTRA 16
+#define CLOSED 0xffffffffu /* task index of a claim word whose job is being set up */
 
 struct plat_workers {
     /* Job: generation in the high 32 bits, next unclaimed task in the low 32. A worker claims with a CAS that
@@ -48,11 +49,13 @@ static int drain(plat_workers *w, uint32_t gen)
     for (;;) {
         uint64_t c = atomic_load_explicit(&w->claim, memory_order_acquire);
         if ((uint32_t)(c >> 32) != gen) return ran;
-        plat_task_fn fn = atomic_load_explicit(&w->fn, memory_order_relaxed);
-        void *ctx = atomic_load_explicit(&w->ctx, memory_order_relaxed);
-        int n = atomic_load_explicit(&w->ntasks, memory_order_relaxed);
+        /* acquire: seeing the next job's fn/ctx/ntasks means seeing the CLOSED claim word stored before them, so
+         * the CAS below then fails (on aarch64 too, where relaxed stores may become visible out of order) */
+        plat_task_fn fn = atomic_load_explicit(&w->fn, memory_order_acquire);
+        void *ctx = atomic_load_explicit(&w->ctx, memory_order_acquire);
+        int n = atomic_load_explicit(&w->ntasks, memory_order_acquire);
         uint32_t task = (uint32_t)c;
-        if ((int)task >= n) return ran;
+        if (task >= (uint32_t)n) return ran; /* all claimed, or CLOSED while the next job is set up */
         if (!atomic_compare_exchange_weak_explicit(&w->claim, &c, c + 1, memory_order_acq_rel, memory_order_acquire))
             continue;
         fn(ctx, (int)task);
@@ -101,9 +104,14 @@ void plat_workers_run(plat_workers *w, int ntasks, plat_task_fn fn, void *ctx)
 {
     if (ntasks <= 0) return;
     uint32_t gen = ++w->gen;
-    atomic_store_explicit(&w->fn, fn, memory_order_relaxed);
-    atomic_store_explicit(&w->ctx, ctx, memory_order_relaxed);
-    atomic_store_explicit(&w->ntasks, ntasks, memory_order_relaxed);
+    /* Close the claim word first, under the new generation: a worker still in drain() for the previous job may
+     * have read the old word, then this job's fn/ctx/ntasks; its CAS on the old word must fail now, or it would run
+     * a task of this job that is claimed again below (twice), and count it in `done` (the caller would return
+     * early). test_handoff's every-task-once test caught that under ASan. */
+    atomic_store_explicit(&w->claim, (uint64_t)gen << 32 | CLOSED, memory_order_seq_cst);
+    atomic_store_explicit(&w->fn, fn, memory_order_release);
+    atomic_store_explicit(&w->ctx, ctx, memory_order_release);
+    atomic_store_explicit(&w->ntasks, ntasks, memory_order_release);
     atomic_store_explicit(&w->done, 0, memory_order_relaxed);
     atomic_store_explicit(&w->claim, (uint64_t)gen << 32, memory_order_release);
     if (w->extra) {
