@@ -86,10 +86,9 @@ static bool render_init(rt_app *a, char *err, int errlen)
     const bool kms = strcmp(c->output, "kms") == 0;
     const bool forced = strcmp(c->renderer, "gles") == 0;
     char eerr[300] = "";
-    static const char *const kernels[] = {"auto", "scalar", "vector", "avx2", "avx512"};
-    for (int k = 0; k < (int)(sizeof kernels / sizeof *kernels); k++)
-        if (strcmp(c->kernel, kernels[k]) == 0 && !warp_resample_force_kernel((warp_resample_kernel_id)k))
-            return fail(err, errlen, "[render] kernel = %s: this build or CPU cannot run it%s", c->kernel, "");
+    if (!warp_resample_force_kernel((warp_resample_kernel_id)c->kernel))
+        return fail(err, errlen, "[render] kernel = %s: this build or CPU cannot run it%s", rt_kernel_name(c->kernel),
+                    "");
     if (strcmp(c->renderer, "cpu") != 0 || kms) {
         if (kms) {
             plat_egl_kms_params kp = {c->kms_device, c->kms_connector, 0, 0, 0};

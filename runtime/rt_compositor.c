@@ -490,8 +490,9 @@ void rt_compositor_run(rt_app *a)
             uint64_t skipped = period > 0 ? (uint64_t)((later - next + period / 2) / period) : 0;
             tel->vsyncs += skipped;
             tel->missed += skipped;
-            /* A pass that made its vsync yet leaves no time for the next one: the plan's (own) doing. */
-            tel->missed_by[missed ? cause : RT_MISS_OWN] += skipped;
+            /* skipped vsyncs take the overrunning pass's cause; a pass that made its vsync yet leaves no time for the
+             * next one has cause OWN: the plan's doing */
+            tel->missed_by[cause] += skipped;
             vsync_no += skipped;
             next = later;
         }

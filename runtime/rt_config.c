@@ -16,6 +16,7 @@ static const char *const method_names[] = {"none",    "rotation",      "raytrace
 static const char *const edge_fill_names[] = {"far", "linear", NULL};
 static const char *const sink_names[] = {"null", "png", "raw", NULL};
 static const char *const renderer_names[] = {"auto", "cpu", "gles", NULL};
+/* in warp_resample_kernel_id order: the index is the id */
 static const char *const kernel_names[] = {"auto", "scalar", "vector", "avx2", "avx512", NULL};
 static const char *const output_names[] = {"offscreen", "kms", NULL};
 static const char *const imu_names[] = {"sim", "hid", "i2c", NULL};
@@ -25,6 +26,11 @@ static const char *const chip_names[] = {"auto", "mpu6050", "mpu9250", "icm42688
 static const char *const v4l2_format_names[] = {"auto", "yuyv", "nv12", "bgr32", "rgb24", NULL};
 static const char *const bool_names[] = {"false", "true", NULL};
 static const char *const edge_names[] = {"rising", "falling", NULL};
+
+const char *rt_kernel_name(int k)
+{
+    return k >= 0 && k < (int)(sizeof kernel_names / sizeof *kernel_names) - 1 ? kernel_names[k] : "?";
+}
 
 const char *rt_method_name(rt_method m) { return m >= 0 && m <= RT_METHOD_AUTO ? method_names[m] : "?"; }
 
@@ -65,7 +71,7 @@ static const keydef keys[] = {
      "warp backend: gles (EGL + OpenGL ES 3), cpu, or auto (gles on a hardware GPU, cpu when EGL offers only a "
      "software rasterizer such as llvmpipe or nothing)"},
     {"render", "threads", K_INT, F(threads), 0, 1, 16, NULL, "compositor threads (the vsync thread included)"},
-    {"render", "kernel", K_CHOICE, F(kernel), S(kernel), 0, 0, kernel_names,
+    {"render", "kernel", K_ENUM, F(kernel), 0, 0, 0, kernel_names,
      "CPU resampling kernel: auto (the widest this CPU runs), scalar, vector, avx2 or avx512 (x86 only); all give "
      "the same image bit for bit, they differ in speed (an emulator may run the plain ones faster)"},
     {"render", "rt_priority", K_INT, F(rt_priority), 0, 0, 99, NULL,
@@ -179,7 +185,7 @@ void rt_config_defaults(rt_config *c)
     snprintf(c->kms_connector, sizeof c->kms_connector, "auto");
     snprintf(c->kms_mode, sizeof c->kms_mode, "auto");
     snprintf(c->renderer, sizeof c->renderer, "auto");
-    snprintf(c->kernel, sizeof c->kernel, "auto");
+    c->kernel = 0; /* auto */
     c->threads = 2;
     c->rt_priority = 10;
     c->eye_w = 1440;

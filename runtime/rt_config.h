@@ -23,6 +23,8 @@ typedef enum {
     RT_METHOD_AUTO = RT_METHOD_COUNT
 } rt_method;
 const char *rt_method_name(rt_method m);
+/* [render] kernel's value names, in warp_resample_kernel_id order ("auto", "scalar", ...). */
+const char *rt_kernel_name(int k);
 
 typedef struct {
     char board_name[64];
@@ -40,7 +42,7 @@ typedef struct {
     /* [render] */
     char renderer[16];          /* auto | cpu | gles */
     int threads;                /* compositor threads, caller included */
-    char kernel[16];            /* auto | scalar | vector | avx2 | avx512: CPU resampling kernel */
+    int kernel;                 /* CPU resampling kernel, a warp_resample_kernel_id (auto, scalar, vector, ...) */
     int rt_priority;            /* SCHED_FIFO priority of the compositor when permitted; 0 = normal */
     /* [eye]: the host's eye buffers (left eye; the right eye is its mirror image) */
     int eye_w, eye_h;

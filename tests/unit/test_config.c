@@ -96,7 +96,7 @@ static void test_ranges_enforced(void **state)
     assert_false(rt_config_set(&c, "render.kernel=avx3", &e));
     assert_true(has_error(&e, "[render] kernel = 'avx3'"));
     assert_true(rt_config_set(&c, "render.kernel=scalar", &e));
-    assert_string_equal(c.kernel, "scalar");
+    assert_string_equal(rt_kernel_name(c.kernel), "scalar");
 }
 
 static void test_folding_lens_rejected(void **state)
