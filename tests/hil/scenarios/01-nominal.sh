@@ -68,7 +68,6 @@ kill "$HIL_FEED_PID" 2>/dev/null; wait "$HIL_FEED_PID" 2>/dev/null
 hil_gadget_stop
 hil_expect_stat frames_shown '>=' 20 "same inputs: host frames shown by the real-driver board"
 hil_log "same inputs: real-driver orientation $(hil_stat orientation_w) $(hil_stat orientation_x) $(hil_stat orientation_y) $(hil_stat orientation_z)"
-cp "$HIL_STATS" "$HIL_WORK/stats-real.txt"
 hil_hmdwarpd --config "$(hil_board hid-usb-gpio)" --duration 4 --set imu.backend=sim --set frames.backend=sim \
     --set vsync.backend=sim --set sim.trace=still --set sim.gyro_noise=0 --set "sim.gyro_bias=0 0 0" \
     --set sim.accel_noise=0 --set display.sink=raw --set display.sink_every=45 --set "display.sink_path=$HIL_WORK/inproc"
