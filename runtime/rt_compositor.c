@@ -26,6 +26,7 @@ typedef struct {
     int bands;
     rt_method method;   /* depth_task: which further warp */
     warp_pose eyes[2];
+    warp_quat src_from_dst[2]; /* mesh_task */
 } job;
 
 static void resample_task(void *ctx, int task)
@@ -53,6 +54,14 @@ static void raytrace_task(void *ctx, int task)
     int y0 = b * BAND_H, y1 = y0 + BAND_H < h ? y0 + BAND_H : h;
     warp_raytrace_rows(&j->rts[e], &a->inter[e], NULL, y0, y1, NULL);
     warp_planar3_from_rgba_rows(&a->inter_planar[e], &a->inter[e], y0, y1);
+}
+
+/* One eye's distortion mesh for a rotation (both eyes at once: done in turn they took a sixth of the pass while
+ * the other thread waited). */
+static void mesh_task(void *ctx, int e)
+{
+    job *j = ctx;
+    warp_mesh_update(&j->a->mesh[e], &j->frame->f.cam[e], j->src_from_dst[e]);
 }
 
 /* raytrace_mesh: one eye's rays, at its lens mesh's vertices (the resample then reads the frame). */
@@ -127,9 +136,10 @@ static rt_method compose(rt_app *a, job *j, const rt_frame *frame, const warp_po
         }
         plat_workers_run(a->workers, 2, depth_task, j);
         for (int e = 0; e < 2; e++) {
-            warp_mesh_update(&a->mesh[e], &frame->f.cam[e], warp_quat_identity());
+            j->src_from_dst[e] = warp_quat_identity();
             j->src[e] = &a->inter_planar[e];
         }
+        plat_workers_run(a->workers, 2, mesh_task, j);
         run_resample(a, j);
         return method;
     }
@@ -157,9 +167,10 @@ static rt_method compose(rt_app *a, job *j, const rt_frame *frame, const warp_po
             j->bands = (a->inter[0].h + BAND_H - 1) / BAND_H;
             plat_workers_run(a->workers, 2 * j->bands, raytrace_task, j);
             for (int e = 0; e < 2; e++) {
-                warp_mesh_update(&a->mesh[e], &frame->f.cam[e], warp_quat_identity());
+                j->src_from_dst[e] = warp_quat_identity();
                 j->src[e] = &a->inter_planar[e];
             }
+            plat_workers_run(a->workers, 2, mesh_task, j);
             run_resample(a, j);
             return method;
         }
@@ -167,12 +178,12 @@ static rt_method compose(rt_app *a, job *j, const rt_frame *frame, const warp_po
     }
     for (int e = 0; e < 2; e++) {
         /* 003 §3.4: only orientations matter; NONE shows the frame as rendered, through the lens. */
-        warp_quat src_from_dst = method == RT_METHOD_ROTATION
-                                     ? warp_quat_mul(warp_quat_conj(frame->f.eye_pose[e].q), eyes[e].q)
-                                     : warp_quat_identity();
-        warp_mesh_update(&a->mesh[e], &frame->f.cam[e], src_from_dst);
+        j->src_from_dst[e] = method == RT_METHOD_ROTATION
+                                 ? warp_quat_mul(warp_quat_conj(frame->f.eye_pose[e].q), eyes[e].q)
+                                 : warp_quat_identity();
         j->src[e] = &frame->planar[e];
     }
+    plat_workers_run(a->workers, 2, mesh_task, j);
     run_resample(a, j);
     return method;
 }
