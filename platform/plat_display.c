@@ -25,17 +25,27 @@ bool plat_swapchain_init(plat_swapchain *sc, int count, int w, int h)
         warp_image_rgba8_fill(&sc->img[i], (warp_rgba8){0, 0, 0, 255});
         sc->count = i + 1;
     }
-    sc->on_screen = -1;
+    sc->on_screen = sc->prev = -1;
+    sc->prev_until_ns = 0;
     return true;
 }
 
-int plat_swapchain_next(plat_swapchain *sc)
+int plat_swapchain_next(plat_swapchain *sc, int64_t now_ns)
 {
     for (int k = 1; k <= sc->count; k++) {
         int i = (sc->on_screen + k + sc->count) % sc->count;
-        if (i != sc->on_screen && !atomic_load_explicit(&sc->held[i], memory_order_acquire)) return i;
+        if (i != sc->on_screen && !(i == sc->prev && now_ns < sc->prev_until_ns) &&
+            !atomic_load_explicit(&sc->held[i], memory_order_acquire))
+            return i;
     }
     return -1;
+}
+
+void plat_swapchain_presented(plat_swapchain *sc, int index, int64_t vsync_ns)
+{
+    sc->prev = sc->on_screen;
+    sc->prev_until_ns = vsync_ns;
+    sc->on_screen = index;
 }
 
 void plat_swapchain_free(plat_swapchain *sc)

@@ -17,12 +17,19 @@ typedef struct {
     /* Set by a display that keeps reading an image after present() returned (a file writer, a pending page
      * flip); cleared by it when done. The compositor never draws into a held image. */
     _Atomic int held[PLAT_SWAPCHAIN_MAX];
-    int on_screen; /* index presented last; -1 before the first present */
+    int on_screen; /* index presented last, shown from its vsync on; -1 before the first present */
+    /* The image presented before it, still shown until on_screen's vsync: a compositor that starts a pass more
+     * than a period ahead (plat_swapchain_presented) must not draw into it yet. */
+    int prev;
+    int64_t prev_until_ns;
 } plat_swapchain;
 
 bool plat_swapchain_init(plat_swapchain *sc, int count, int w, int h);
-/* An image that is neither on screen nor held, or -1 when every image is busy (the compositor then skips). */
-int plat_swapchain_next(plat_swapchain *sc);
+/* An image that is neither on screen, nor still shown at now_ns, nor held, or -1 when every image is busy (the
+ * compositor then skips). */
+int plat_swapchain_next(plat_swapchain *sc, int64_t now_ns);
+/* Records that image `index` was presented for the vsync at vsync_ns. */
+void plat_swapchain_presented(plat_swapchain *sc, int index, int64_t vsync_ns);
 void plat_swapchain_free(plat_swapchain *sc);
 
 typedef struct plat_display plat_display;

@@ -169,7 +169,9 @@ bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen)
         if (!warp_mesh_init(&a->mesh[e], c->mesh_n, &a->lens[e], e * vw, 0, vw, c->panel_h))
             return fail(err, errlen, "%s%s: cannot allocate the distortion mesh", "[lens] mesh", "");
     }
-    if (!plat_swapchain_init(&a->sc, 3, c->panel_w, c->panel_h))
+    /* one shown, one waiting for its vsync, one being drawn; a fourth while a file sink still reads one, or while
+     * a pass started by [render] stall_reserve_ms more than a period ahead keeps two out of reach */
+    if (!plat_swapchain_init(&a->sc, c->stall_reserve_ms > 0 ? 4 : 3, c->panel_w, c->panel_h))
         return fail(err, errlen, "cannot allocate the swapchain (%s%s)", "[display] width/height", "");
     if (!render_init(a, err, errlen)) return false;
     a->workers = plat_workers_create(c->threads - 1, c->rt_priority);
@@ -644,6 +646,7 @@ void rt_app_stats_kv(rt_app *a, FILE *out)
     }
     KV("warp_ms_p50", "%.3f", rt_hist_pct(&t->warp_ms[c->method], 50));
     KV("warp_ms_p99", "%.3f", rt_hist_pct(&t->warp_ms[c->method], 99));
+    KV("stall_reserve_ms", "%.3f", c->stall_reserve_ms);
     KV("m2p_ms_p50", "%.3f", rt_hist_pct(&t->m2p_ms, 50));
     KV("m2p_ms_p99", "%.3f", rt_hist_pct(&t->m2p_ms, 99));
     KV("frame_age_ms_p50", "%.3f", rt_hist_pct(&t->frame_age_ms, 50));

@@ -324,6 +324,13 @@ void rt_compositor_run(rt_app *a)
         lates[i] = 0;
     }
     int64_t warp_est = period - margin_ns, late_est = 0;
+    /* The stall reserve lets a pass start up to a period before the previous vsync: the warp for vsync N may run
+     * while N-1's image waits and N-2's is still shown (the swapchain keeps both out of reach). A KMS page flip
+     * cannot be queued behind one still pending, so the GLES path plans within one period. */
+    int64_t reserve_ns = (int64_t)(c->stall_reserve_ms * 1e6);
+    if (reserve_ns > period - margin_ns) reserve_ns = period - margin_ns;
+    if (reserve_ns < 0) reserve_ns = 0;
+    int64_t prev_done = 0;
     /* auto: what each method has been costing (rises at once, decays slowly; an estimate not refreshed decays
      * too, by 1/512 per vsync, so a warp once a little too slow is tried again after some seconds; one that took
      * more than two periods is not retried: every retry would cost its length in missed vsyncs) */
@@ -345,7 +352,9 @@ void rt_compositor_run(rt_app *a)
 
     while (!atomic_load_explicit(&a->stop, memory_order_relaxed)) {
         if (a->t_end_ns && t_vs > a->t_end_ns) break;
-        int64_t wake = t_vs - warp_est - late_est - margin_ns;
+        int64_t lead = warp_est + late_est + margin_ns + reserve_ns;
+        if (gles && lead > period) lead = period;
+        int64_t wake = t_vs - lead;
         plat_sleep_until_ns(wake);
         int64_t t_start = plat_now_ns();
         int64_t cpu_start = plat_thread_cpu_ns();
@@ -359,7 +368,7 @@ void rt_compositor_run(rt_app *a)
             if (a->can_objects) objects_moving = track_objects(a, frame);
         }
 
-        int idx = plat_swapchain_next(&a->sc);
+        int idx = plat_swapchain_next(&a->sc, t_start);
         int64_t t_photon = t_vs + photon_ns;
         rt_fusion_state st;
         bool tracked = rt_fusion_latest(a->fusion, &st);
@@ -431,7 +440,7 @@ void rt_compositor_run(rt_app *a)
         rt_miss cause = missed ? rt_miss_classify(wake, t_start, t_vs, cpu, idx >= 0) : RT_MISS_OWN;
         if (idx >= 0) {
             plat_display_present(a->display, &a->sc, idx, t_vs, vsync_no);
-            a->sc.on_screen = idx;
+            plat_swapchain_presented(&a->sc, idx, t_vs);
         }
 
         tel->vsyncs++;
@@ -470,7 +479,10 @@ void rt_compositor_run(rt_app *a)
                     cost_ns[m] -= cost_ns[m] / 512;
         }
         durs[vsync_no % WINDOW] = dur;
-        lates[vsync_no % WINDOW] = t_start > wake ? t_start - wake : 0;
+        /* woken late; not a start delayed by the previous pass, which a lead beyond a period can make */
+        int64_t planned_start = wake > prev_done ? wake : prev_done;
+        lates[vsync_no % WINDOW] = t_start > planned_start ? t_start - planned_start : 0;
+        prev_done = t_done;
         warp_est = late_est = 0;
         for (int i = 0; i < WINDOW; i++) {
             if (durs[i] > warp_est) warp_est = durs[i];
@@ -490,7 +502,8 @@ void rt_compositor_run(rt_app *a)
         /* Half a period on: an estimated phase (GPIO TE line) may move the vsync just served a few µs later, and
          * asking for "after t_vs" would then return the same vsync again. */
         int64_t next = drv_vsync_next(a->vsync, t_vs + period / 2, &period);
-        /* Overran a whole period: the vsyncs in between were not served. */
+        /* Overran a whole period: the vsyncs in between were not served. (Too little time for the expected warp,
+         * not "should have woken already": the reserve is there to be used up.) */
         int64_t now = plat_now_ns();
         if (next - warp_est - late_est - margin_ns < now) {
             /* the first vsync we can still make, and never one at or before the vsync just served */

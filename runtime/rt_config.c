@@ -76,6 +76,11 @@ static const keydef keys[] = {
      "the same image bit for bit, they differ in speed (an emulator may run the plain ones faster)"},
     {"render", "rt_priority", K_INT, F(rt_priority), 0, 0, 99, NULL,
      "SCHED_FIFO priority for the compositor when permitted (0 = normal scheduling)"},
+    {"render", "stall_reserve_ms", K_DOUBLE, F(stall_reserve_ms), 0, 0, 100, NULL,
+     "extra time each pass starts ahead of its vsync, beyond its longest recent warp, so that the scheduler keeping "
+     "the compositor off the CPU that long (a VM, a shared desktop) costs no vsync; at most a period; adds as "
+     "much motion-to-photon latency (0 on a board whose compositor has its cores; the GLES path takes at most "
+     "what fits in one period)"},
     {"eye", "width", K_INT, F(eye_w), 0, 16, 8192, NULL, "host eye buffer width"},
     {"eye", "height", K_INT, F(eye_h), 0, 16, 8192, NULL, "host eye buffer height"},
     {"eye", "fov", K_DLIST, F(fov_deg), 4, 1, 89, NULL,

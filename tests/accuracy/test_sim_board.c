@@ -90,6 +90,31 @@ static void test_misses_attributed(void **state)
     rt_app_free(&app);
 }
 
+/* [render] stall_reserve_ms: each pass starts that much earlier (more than a period ahead here), so motion-to-photon
+ * grows by about as much; the swapchain has the fourth image that needs, and the passes still find a free one. */
+static void test_stall_reserve_starts_passes_earlier(void **state)
+{
+    (void)state;
+    double m2p[2];
+    for (int k = 0; k < 2; k++) {
+        rt_config c;
+        small_config(&c, "room", "rotation");
+        rt_config_errors e = {0};
+        assert_true(rt_config_set(&c, k ? "render.stall_reserve_ms=8" : "render.stall_reserve_ms=0", &e));
+        run(&c);
+        rt_telemetry *t = app.tel;
+        m2p[k] = rt_hist_pct(&t->m2p_ms, 50);
+        print_message("reserve %d ms: m2p p50 %.2f ms, vsyncs %llu, missed %llu, no image %llu\n", k ? 8 : 0, m2p[k],
+                      (unsigned long long)t->vsyncs, (unsigned long long)t->missed,
+                      (unsigned long long)t->no_buffer);
+        assert_int_equal(app.sc.count, k ? 4 : 3);
+        assert_int_equal(t->no_buffer, 0);
+        assert_true(t->method_count[RT_METHOD_ROTATION] >= 100);
+        rt_app_free(&app);
+    }
+    assert_true(m2p[1] - m2p[0] > 6 && m2p[1] - m2p[0] < 10);
+}
+
 /* [render] kernel picks the resampling kernel for the run; auto gives the choice back to the CPU check. */
 static void test_kernel_choice(void **state)
 {
@@ -264,6 +289,7 @@ int main(void)
         cmocka_unit_test(test_rotation_only_scene),
         cmocka_unit_test(test_misses_attributed),
         cmocka_unit_test(test_kernel_choice),
+        cmocka_unit_test(test_stall_reserve_starts_passes_earlier),
         cmocka_unit_test(test_depth_scene_raytrace),
         cmocka_unit_test(test_depth_scene_raytrace_mesh),
         cmocka_unit_test(test_raytrace_without_depth_falls_back),

@@ -27,13 +27,22 @@ static void test_swapchain_next(void **state)
     assert_false(plat_swapchain_init(&sc, 1, 8, 8)); /* one image cannot be drawn while shown */
     assert_true(plat_swapchain_init(&sc, 3, 8, 8));
     sc.on_screen = 0;
-    assert_int_equal(plat_swapchain_next(&sc), 1);
+    assert_int_equal(plat_swapchain_next(&sc, 0), 1);
     atomic_store(&sc.held[1], 1);
-    assert_int_equal(plat_swapchain_next(&sc), 2);
+    assert_int_equal(plat_swapchain_next(&sc, 0), 2);
     atomic_store(&sc.held[2], 1);
-    assert_int_equal(plat_swapchain_next(&sc), -1); /* all busy: the compositor skips, never waits */
+    assert_int_equal(plat_swapchain_next(&sc, 0), -1); /* all busy: the compositor skips, never waits */
     atomic_store(&sc.held[1], 0);
-    assert_int_equal(plat_swapchain_next(&sc), 1);
+    assert_int_equal(plat_swapchain_next(&sc, 0), 1);
+    atomic_store(&sc.held[1], 0);
+    atomic_store(&sc.held[2], 0);
+    /* A pass started more than a period ahead: image 1 went up for the vsync at 100, image 0 is shown until then
+     * and must not be drawn into before; afterwards it is free again. */
+    plat_swapchain_presented(&sc, 1, 100);
+    assert_int_equal(plat_swapchain_next(&sc, 50), 2);
+    atomic_store(&sc.held[2], 1);
+    assert_int_equal(plat_swapchain_next(&sc, 50), -1);
+    assert_int_equal(plat_swapchain_next(&sc, 100), 0);
     plat_swapchain_free(&sc);
 }
 

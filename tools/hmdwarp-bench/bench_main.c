@@ -8,7 +8,11 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sched.h>
+#include <signal.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include "bench_opencv.h"
 #include "platform/plat_clock.h"
@@ -273,6 +277,77 @@ static bool run_gnuplot(const char *dir, const char *script)
     snprintf(cmd, sizeof cmd, "cd '%s' && gnuplot '%s' 2>&1", dir, script);
     int rc = system(cmd);
     return rc == 0;
+}
+
+/* One soak of hmdwarpd on the simulated board (its board.ini plus `extra` settings), summary in OUT/NAME.txt and its
+ * --stats in OUT/NAME.kv; vsyncs < 0 when it did not run. */
+typedef struct {
+    long vsyncs, missed, own, late, desched;
+    double m2p_p50, reserve_ms;
+} soak_result;
+
+/* A stolen CPU, reproducibly: a child at SCHED_FIFO 90 on CPU 0 that every 0.5-0.9 s spins for stall_ms, as a
+ * hypervisor or an interrupt storm takes the CPU away from whatever runs there. 0 when not permitted. */
+static pid_t start_stalls(double stall_ms)
+{
+    pid_t pid = fork();
+    if (pid != 0) return pid < 0 ? 0 : pid;
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    CPU_SET(0, &set);
+    struct sched_param sp = {.sched_priority = 90};
+    if (sched_setaffinity(0, sizeof set, &set) != 0 || sched_setscheduler(0, SCHED_FIFO, &sp) != 0) _exit(1);
+    uint32_t seed = 1; /* no rand(): the child of a threaded process keeps to plain code and system calls */
+    for (;;) {
+        seed = seed * 1664525u + 1013904223u;
+        plat_sleep_ns((int64_t)((500 + (seed >> 8) % 400) * 1e6));
+        int64_t end = plat_now_ns() + (int64_t)(stall_ms * 1e6);
+        while (plat_now_ns() < end) {
+        }
+    }
+}
+
+static soak_result soak(const char *hmdwarpd, const opts *o, const char *name, const char *extra, double seconds,
+                        double stall_ms)
+{
+    soak_result r = {-1, -1, -1, -1, -1, NAN, NAN};
+    pid_t stalls = 0;
+    if (stall_ms > 0) {
+        stalls = start_stalls(stall_ms);
+        usleep(100000);
+        int st;
+        if (!stalls || waitpid(stalls, &st, WNOHANG) != 0) {
+            printf("soak: %s skipped: SCHED_FIFO on CPU 0 not permitted for the stall injector\n", name);
+            return r;
+        }
+    }
+    char cmd[4096], stats[700];
+    snprintf(stats, sizeof stats, "%s/%s.kv", o->out, name);
+    snprintf(cmd, sizeof cmd, "%s --config board/sim/board.ini --duration %g --set warp.method=rotation "
+             "--set sim.eval_every_ms=0 %s --stats %s > %s/%s.txt 2>&1", hmdwarpd, seconds, extra, stats, o->out, name);
+    printf("soak: %s%s\n", cmd, stalls ? " (with stalls injected)" : "");
+    fflush(stdout);
+    int rc = system(cmd);
+    if (stalls) {
+        kill(stalls, SIGKILL);
+        waitpid(stalls, NULL, 0);
+    }
+    if (rc != 0) return r;
+    FILE *f = fopen(stats, "r");
+    char line[256];
+    while (f && fgets(line, sizeof line, f)) {
+        if (!strncmp(line, "vsyncs=", 7)) r.vsyncs = atol(line + 7);
+        if (!strncmp(line, "missed=", 7)) r.missed = atol(line + 7);
+        if (!strncmp(line, "missed_own=", 11)) r.own = atol(line + 11);
+        if (!strncmp(line, "missed_late_wake=", 17)) r.late = atol(line + 17);
+        if (!strncmp(line, "missed_descheduled=", 19)) r.desched = atol(line + 19);
+        if (!strncmp(line, "m2p_ms_p50=", 11)) r.m2p_p50 = atof(line + 11);
+        if (!strncmp(line, "stall_reserve_ms=", 17)) r.reserve_ms = atof(line + 17);
+    }
+    if (f) fclose(f);
+    printf("soak: %ld vsyncs, %ld missed (target 0): own %ld, woken late %ld, descheduled %ld; motion-to-photon p50 "
+           "%.2f ms, stall reserve %.1f ms\n", r.vsyncs, r.missed, r.own, r.late, r.desched, r.m2p_p50, r.reserve_ms);
+    return r;
 }
 
 static void usage(FILE *f)
@@ -663,29 +738,19 @@ int main(int argc, char **argv)
                 rows[i].pareto = false;
     }
 
-    /* ---- 4. soak: hmdwarpd on the simulated board at 90 Hz with the rotation warp ---- */
-    long soak_vsyncs = -1, soak_missed = -1, soak_own = -1, soak_late = -1, soak_desched = -1;
+    /* ---- 4. soak: hmdwarpd on the simulated board at 90 Hz with the rotation warp: as the board is configured
+     * (with its stall reserve), and (full run) without the reserve, to show what robustness costs in latency ---- */
+    soak_result soaks[4];
+    int n_soaks = 0;
+    const double stall_ms = 8, stall_s = 20;
     if (o.soak_s > 0) {
-        char cmd[4096], stats[700];
-        snprintf(stats, sizeof stats, "%s/soak.kv", o.out);
-        snprintf(cmd, sizeof cmd, "%s --config board/sim/board.ini --duration %g --set warp.method=rotation "
-                 "--set sim.eval_every_ms=0 --stats %s > %s/soak.txt 2>&1", hmdwarpd, o.soak_s, stats, o.out);
-        printf("soak: %s\n", cmd);
-        fflush(stdout);
-        if (system(cmd) == 0) {
-            FILE *f = fopen(stats, "r");
-            char line[256];
-            while (f && fgets(line, sizeof line, f)) {
-                if (!strncmp(line, "vsyncs=", 7)) soak_vsyncs = atol(line + 7);
-                if (!strncmp(line, "missed=", 7)) soak_missed = atol(line + 7);
-                if (!strncmp(line, "missed_own=", 11)) soak_own = atol(line + 11);
-                if (!strncmp(line, "missed_late_wake=", 17)) soak_late = atol(line + 17);
-                if (!strncmp(line, "missed_descheduled=", 19)) soak_desched = atol(line + 19);
-            }
-            if (f) fclose(f);
+        soaks[n_soaks++] = soak(hmdwarpd, &o, "soak", "", o.soak_s, 0);
+        if (!o.quick) {
+            soaks[n_soaks++] = soak(hmdwarpd, &o, "soak_no_reserve", "--set render.stall_reserve_ms=0", o.soak_s, 0);
+            soaks[n_soaks++] = soak(hmdwarpd, &o, "soak_stalls", "", stall_s, stall_ms);
+            soaks[n_soaks++] = soak(hmdwarpd, &o, "soak_stalls_no_reserve", "--set render.stall_reserve_ms=0", stall_s,
+                                    stall_ms);
         }
-        printf("soak: %ld vsyncs, %ld missed (target 0): own %ld, woken late %ld, descheduled %ld\n", soak_vsyncs,
-               soak_missed, soak_own, soak_late, soak_desched);
     }
 
     /* ---- output: CSV, Markdown, plots ---- */
@@ -745,10 +810,24 @@ int main(int argc, char **argv)
     fprintf(md, "| the same, raytraced at the lens mesh's vertices (`method = raytrace_mesh`; %.2f dB from the per-pixel "
                 "raytrace at %g cm, see below) | %.2fx | %s |\n",
             mesh_vs_ray[m5], motions_cm[m5], raymesh_ratio, raymesh_ratio <= 2 ? "met" : "NOT met");
-    if (soak_vsyncs >= 0)
-        fprintf(md, "| zero missed vsyncs in %g s at 90 Hz, rotation warp, simulated board | %ld of %ld missed (hmdwarpd's "
-                    "own %ld; the scheduler's: woken late %ld, descheduled %ld) | %s |\n",
-                o.soak_s, soak_missed, soak_vsyncs, soak_own, soak_late, soak_desched, soak_missed == 0 ? "met" : "NOT met");
+    static const char *soak_what[] = {
+        "zero missed vsyncs in %g s at 90 Hz, rotation warp, simulated board",
+        "for comparison: the same without the stall reserve",
+        "the same with %.0f ms stalls injected on one core every 0.5-0.9 s (%g s)",
+        "the same with stalls injected, without the stall reserve",
+    };
+    for (int k = 0; k < n_soaks; k++) {
+        const soak_result *r = &soaks[k];
+        if (r->vsyncs < 0) continue;
+        char what[200];
+        if (k == 0) snprintf(what, sizeof what, soak_what[0], o.soak_s);
+        else if (k == 2) snprintf(what, sizeof what, soak_what[2], stall_ms, stall_s);
+        else snprintf(what, sizeof what, "%s", soak_what[k]);
+        fprintf(md, "| %s | %ld of %ld missed (hmdwarpd's own %ld; the scheduler's: woken late %ld, descheduled %ld); "
+                    "motion-to-photon p50 %.1f ms with a %.1f ms stall reserve | %s |\n",
+                what, r->missed, r->vsyncs, r->own, r->late, r->desched, r->m2p_p50, r->reserve_ms,
+                k == 0 ? (r->missed == 0 ? "met" : "NOT met") : "-");
+    }
     fprintf(md, "\n## Display path, both eyes\n\n| what | median ms | p99 ms | x memcpy |\n|---|---:|---:|---:|\n");
     for (size_t i = 0; i < sizeof disp / sizeof disp[0]; i++)
         fprintf(md, "| %s | %.2f | %.2f | %.1f |\n", disp[i].name, pct(disp[i].s, 50), pct(disp[i].s, 99),
