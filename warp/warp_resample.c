@@ -2,7 +2,6 @@
  * in fixed point from planar 8-bit sources, tile by tile; portable, AVX2 and AVX-512 kernels, bit-identical. */
 #include "warp/warp_resample.h"
 
-#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -296,12 +295,7 @@ AVX2 static void kernel_avx2(const warp_planar3 *s, const warp_mesh *m, const ro
             px = _mm256_or_si256(px, _mm256_slli_epi32(avx2_sample(s, c, maxx, maxy, fx, fy), 8 * c));
         }
         if (gx >= x0 && gx + 8 <= x1) {
-            /* The panel image is written once and read by someone else (display, sink, readback): streaming
-             * stores skip reading each line into the cache first (another 1-4 %); fenced at the end of the call. */
-            if (((uintptr_t)&row[gx] & 31) == 0)
-                _mm256_stream_si256((__m256i *)(void *)&row[gx], px);
-            else
-                _mm256_storeu_si256((__m256i *)(void *)&row[gx], px);
+            _mm256_storeu_si256((__m256i *)(void *)&row[gx], px);
         } else {
             /* lanes gx + l in [x0, x1) */
             const __m256i l = _mm256_add_epi32(lane_i, _mm256_set1_epi32(gx));
@@ -576,7 +570,4 @@ void warp_mesh_resample(const warp_mesh *m, const warp_planar3 *src, warp_image_
         }
         sx0 = sx1;
     }
-#ifdef HAVE_X86_KERNELS
-    _mm_sfence();
-#endif
 }

@@ -84,6 +84,7 @@ typedef struct {
     warp_raytrace_setup rts[2];
     int bands;
     plat_workers *workers1, *workers;
+    warp_quat src_from_dst[2]; /* mesh_task */
 } display;
 
 static void resample_task(void *ctx, int task)
@@ -106,13 +107,21 @@ static void raytrace_task(void *ctx, int task)
     warp_planar3_from_rgba_rows(&d->inter_planar[e], &d->inter[e], y0, y1);
 }
 
-/* Rotation + lens + CA for both eyes: what the compositor does every vsync. */
+static void mesh_task(void *ctx, int e)
+{
+    display *d = ctx;
+    warp_mesh_update(&d->mesh[e], &d->cam[e], d->src_from_dst[e]);
+}
+
+/* Rotation + lens + CA for both eyes: what the compositor does every vsync (both meshes at once, then the
+ * resampling). */
 static void display_rotation(display *d, plat_workers *w, const warp_quat src_from_dst[2])
 {
     for (int e = 0; e < 2; e++) {
-        warp_mesh_update(&d->mesh[e], &d->cam[e], src_from_dst[e]);
+        d->src_from_dst[e] = src_from_dst[e];
         d->src[e] = &d->planar[e];
     }
+    plat_workers_run(w, 2, mesh_task, d);
     plat_workers_run(w, 2 * d->tiles_x * d->tiles_y, resample_task, d);
 }
 
