@@ -534,6 +534,9 @@ void rt_app_summary(rt_app *a, FILE *out)
                 (unsigned long long)vs.missed, (unsigned long long)vs.fallbacks, vs.on_timer ? " (on timer now)" : "",
                 (double)vs.period_ns * 1e-6, vs.jitter_us, vs.last_error[0] ? "; last: " : "", vs.last_error);
     pct_line(out, "motion-to-photon", &t->m2p_ms);
+    if (c->stall_reserve_ms > 0)
+        fprintf(out, "  stall reserve              %.1f ms of the motion-to-photon latency: passes start that much earlier "
+                     "([render] stall_reserve_ms)%s\n", c->stall_reserve_ms, a->use_gles ? "; on the GLES path only what fits in a period" : "");
     pct_line(out, "frame age at photon time", &t->frame_age_ms);
     a->display->describe(a->display, buf, sizeof buf);
     fprintf(out, "  output                     %s\n", buf);
