@@ -27,6 +27,7 @@ struct plat_workers {
     _Atomic int quit;
     _Atomic long helped;
     uint32_t gen;
+    int64_t stalled_ns; /* plat_workers_stalled_ns; the caller's alone */
     int extra;
     int prio;
     pthread_t th[MAX_EXTRA];
@@ -118,8 +119,11 @@ void plat_workers_run(plat_workers *w, int ntasks, plat_task_fn fn, void *ctx)
         atomic_fetch_add_explicit(&w->wake, 1, memory_order_release);
         futex_wake_all(&w->wake);
     }
-    drain(w, gen);
+    const int64_t t0 = plat_now_ns();
+    const int mine = drain(w, gen);
     /* Everything is claimed; wait only for tasks a worker is still finishing (bounded by one task). */
+    if (atomic_load_explicit(&w->done, memory_order_acquire) >= ntasks) return;
+    const int64_t t1 = plat_now_ns();
     while (atomic_load_explicit(&w->done, memory_order_acquire) < ntasks) {
 #if defined(__x86_64__) || defined(__i386__)
         __builtin_ia32_pause();
@@ -127,7 +131,13 @@ void plat_workers_run(plat_workers *w, int ntasks, plat_task_fn fn, void *ctx)
         __asm__ volatile("yield");
 #endif
     }
+    /* Waiting longer than twice the caller's own tasks took on average means a worker was kept off its CPU mid-
+     * task: the tasks of one job are alike (tiles, bands, eyes). With none of its own to compare, it cannot tell. */
+    const int64_t waited = plat_now_ns() - t1;
+    if (mine && waited > 2 * (t1 - t0) / mine) w->stalled_ns += waited - 2 * (t1 - t0) / mine;
 }
+
+int64_t plat_workers_stalled_ns(const plat_workers *w) { return w->stalled_ns; }
 
 int plat_workers_threads(const plat_workers *w) { return w->extra + 1; }
 

@@ -357,7 +357,7 @@ void rt_compositor_run(rt_app *a)
         int64_t wake = t_vs - lead;
         plat_sleep_until_ns(wake);
         int64_t t_start = plat_now_ns();
-        int64_t cpu_start = plat_thread_cpu_ns();
+        int64_t cpu_start = plat_thread_cpu_ns(), stalled_start = plat_workers_stalled_ns(a->workers);
 
         bool is_new = false;
         const rt_frame *frame = rt_frameq_latest(&a->fq, &is_new);
@@ -436,7 +436,9 @@ void rt_compositor_run(rt_app *a)
             if (frame && idx >= 0 && a->gles_submit_ns - t_start + gpu > dur) dur = a->gles_submit_ns - t_start + gpu;
         }
         bool missed = t_done > t_vs || idx < 0;
-        int64_t cpu = plat_thread_cpu_ns() - cpu_start;
+        /* the compositor spins while it waits for a worker's last task: CPU time, but not its own work when the
+         * worker was off its CPU meanwhile */
+        int64_t cpu = plat_thread_cpu_ns() - cpu_start - (plat_workers_stalled_ns(a->workers) - stalled_start);
         rt_miss cause = missed ? rt_miss_classify(wake, t_start, t_vs, cpu, idx >= 0) : RT_MISS_OWN;
         if (idx >= 0) {
             plat_display_present(a->display, &a->sc, idx, t_vs, vsync_no);

@@ -8,6 +8,7 @@
 #include <string.h>
 #include <cmocka.h>
 
+#include "platform/plat_clock.h"
 #include "platform/plat_workers.h"
 #include "runtime/rt_frameq.h"
 #include "runtime/rt_ring.h"
@@ -146,6 +147,48 @@ static void test_workers_every_task_once(void **state)
     plat_workers_destroy(w);
 }
 
+/* Tasks of 0.2 ms of work; on a worker thread, the first one it takes is also put to sleep for 20 ms, as a worker
+ * kept off its CPU mid-task would be. */
+typedef struct {
+    pthread_t caller;
+    _Atomic int slept;
+} stall_ctx;
+
+static void busy_task(void *ctx, int task)
+{
+    (void)task;
+    stall_ctx *c = ctx;
+    int64_t end = plat_now_ns() + PLAT_NS_PER_MS / 5;
+    while (plat_now_ns() < end) {
+    }
+    if (!pthread_equal(pthread_self(), c->caller) && atomic_exchange(&c->slept, 1) == 0) plat_sleep_ns(20 * PLAT_NS_PER_MS);
+}
+
+/* plat_workers_stalled_ns: waiting for a worker that was off its CPU counts, waiting for its last ordinary task
+ * does not. */
+static void test_workers_stalled_worker_counted(void **state)
+{
+    (void)state;
+    plat_workers *w = plat_workers_create(1, 0);
+    assert_non_null(w);
+    stall_ctx c = {pthread_self(), 0};
+    /* all tasks alike: at most about a task's wait a job, far from a stall (unless something else takes a CPU) */
+    for (int job = 0; job < 20; job++) {
+        atomic_store(&c.slept, 1);
+        plat_workers_run(w, 16, busy_task, &c);
+    }
+    assert_true(plat_workers_stalled_ns(w) < 10 * PLAT_NS_PER_MS);
+    /* the worker sleeps in its first task (retried until the worker woke in time to take one) */
+    int64_t before = plat_workers_stalled_ns(w);
+    atomic_store(&c.slept, 0);
+    for (int tries = 0; tries < 50 && !atomic_load(&c.slept); tries++) plat_workers_run(w, 16, busy_task, &c);
+    assert_true(atomic_load(&c.slept));
+    int64_t stalled = plat_workers_stalled_ns(w) - before;
+    print_message("stalled %.2f ms\n", (double)stalled * 1e-6);
+    assert_true(stalled > 10 * PLAT_NS_PER_MS && stalled < 25 * PLAT_NS_PER_MS);
+    plat_workers_destroy(w);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -153,6 +196,7 @@ int main(void)
         cmocka_unit_test(test_frameq_replaces_unconsumed),
         cmocka_unit_test(test_ring),
         cmocka_unit_test(test_workers_every_task_once),
+        cmocka_unit_test(test_workers_stalled_worker_counted),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
