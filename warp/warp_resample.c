@@ -239,28 +239,9 @@ AVX2 static inline __m256i avx2_sample(const warp_planar3 *s, int c, __m256i max
                                          _mm256_srli_epi32(ax, 6));
     const int i0 = _mm_cvtsi128_si32(_mm256_castsi256_si128(idx)), pf = s->stride * PREFETCH_ROWS;
     if (i0 < s->stride * s->h - pf) _mm_prefetch((const char *)(s->plane[c] + i0 + pf), _MM_HINT_T0);
-    /* Window: when every lane's tap word starts within 14 elements after lane 0's, two 32-byte loads at lane 0's
-     * element and the next hold them all (the first has the words at even distances, the second at odd ones) and
-     * two vpermd pick them. vpgatherdd waits on eight loads: on the Zen 3 measured, half the kernel's samples sat
-     * on it, and the window took 6-11 % off the kernel (interleaved runs, one eye at 1440x1600 and 720x800).
-     * Steep mappings (more than ~2 source pixels per output pixel, the outer parts of a strong lens) fail the test
-     * and are gathered. The loads end at most 17 elements past a tap: the plane's padding covers that. */
-    const __m256i d = _mm256_sub_epi32(idx, _mm256_broadcastd_epi32(_mm256_castsi256_si128(idx)));
-    const __m256i c14 = _mm256_set1_epi32(14);
-    __m256i v;
-    if (_mm256_movemask_epi8(_mm256_cmpeq_epi32(_mm256_min_epu32(d, c14), d)) == -1) {
-        const uint16_t *w = s->plane[c] + i0;
-        const __m256i half = _mm256_srli_epi32(d, 1);
-        const __m256i even = _mm256_permutevar8x32_epi32(_mm256_loadu_si256((const __m256i *)(const void *)w), half);
-        const __m256i odd =
-            _mm256_permutevar8x32_epi32(_mm256_loadu_si256((const __m256i *)(const void *)(w + 1)), half);
-        v = _mm256_castps_si256(_mm256_blendv_ps(_mm256_castsi256_ps(even), _mm256_castsi256_ps(odd),
-                                                 _mm256_castsi256_ps(_mm256_slli_epi32(d, 31))));
-    } else {
-        /* vpgatherdd: on the Zen 5 measured it beat eight scalar loads put together through memory 1.8 : 1 in
-         * this kernel (the vector load spanning the scalar stores cannot be store-forwarded and stalls) */
-        v = _mm256_i32gather_epi32((const int *)(const void *)s->plane[c], idx, 2);
-    }
+    /* vpgatherdd: on the Zen 5 measured it beat eight scalar loads put together through memory 1.8 : 1 in this
+     * kernel (the vector load spanning the scalar stores cannot be store-forwarded and stalls) */
+    const __m256i v = _mm256_i32gather_epi32((const int *)(const void *)s->plane[c], idx, 2);
     /* bytes (64 - wy, wy) twice per lane, and words (64 - wx, wx) */
     const __m256i wy = _mm256_add_epi32(_mm256_mullo_epi32(_mm256_and_si256(ay, m63), _mm256_set1_epi32(0x00ff00ff)),
                                         _mm256_set1_epi32(0x00400040));
