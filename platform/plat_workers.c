@@ -133,8 +133,8 @@ void plat_workers_run(plat_workers *w, int ntasks, plat_task_fn fn, void *ctx)
     }
     /* Waiting longer than twice the caller's own tasks took on average means a worker was kept off its CPU mid-
      * task: the tasks of one job are alike (tiles, bands, eyes). With none of its own to compare, it cannot tell. */
-    const int64_t waited = plat_now_ns() - t1;
-    if (mine && waited > 2 * (t1 - t0) / mine) w->stalled_ns += waited - 2 * (t1 - t0) / mine;
+    const int64_t waited = plat_now_ns() - t1, expected = mine ? 2 * (t1 - t0) / mine : waited;
+    if (waited > expected) w->stalled_ns += waited - expected;
 }
 
 int64_t plat_workers_stalled_ns(const plat_workers *w) { return w->stalled_ns; }

@@ -536,7 +536,8 @@ void rt_app_summary(rt_app *a, FILE *out)
     pct_line(out, "motion-to-photon", &t->m2p_ms);
     if (c->stall_reserve_ms > 0)
         fprintf(out, "  stall reserve              %.1f ms of the motion-to-photon latency: passes start that much earlier "
-                     "([render] stall_reserve_ms)%s\n", c->stall_reserve_ms, a->use_gles ? "; on the GLES path only what fits in a period" : "");
+                     "([render] stall_reserve_ms)%s\n",
+                c->stall_reserve_ms, a->use_gles ? "; on the GLES path only what fits in a period" : "");
     pct_line(out, "frame age at photon time", &t->frame_age_ms);
     a->display->describe(a->display, buf, sizeof buf);
     fprintf(out, "  output                     %s\n", buf);

@@ -504,8 +504,8 @@ void rt_compositor_run(rt_app *a)
         /* Half a period on: an estimated phase (GPIO TE line) may move the vsync just served a few µs later, and
          * asking for "after t_vs" would then return the same vsync again. */
         int64_t next = drv_vsync_next(a->vsync, t_vs + period / 2, &period);
-        /* Overran a whole period: the vsyncs in between were not served. (Too little time for the expected warp,
-         * not "should have woken already": the reserve is there to be used up.) */
+        /* Overran a whole period: the vsyncs in between were not served. (The test leaves the reserve out: it is
+         * there to be used up.) */
         int64_t now = plat_now_ns();
         if (next - warp_est - late_est - margin_ns < now) {
             /* the first vsync we can still make, and never one at or before the vsync just served */

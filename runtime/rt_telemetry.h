@@ -26,8 +26,9 @@ double rt_hist_pct(const rt_hist *h, double p);
 
 /* Why a vsync was missed. Only RT_MISS_OWN is hmdwarpd's doing: its own CPU work did not fit the time it planned
  * for it. The others are the system's: the scheduler woke the compositor too late, or took the CPU away during the
- * pass from it or from a worker it then waited for (plat_workers_stalled_ns; hmdwarpd's vsync path never blocks, so
- * time off the CPU is someone else's), or the display held every image. On a board with SCHED_FIFO and isolated cores only OWN should occur; elsewhere the split says what to mend. */
+ * pass from it or from a worker it then waited for (plat_workers_stalled_ns; hmdwarpd's vsync path never blocks,
+ * so time off the CPU is someone else's), or the display held every image. On a board with SCHED_FIFO and isolated
+ * cores only OWN should occur; elsewhere the split says what to mend. */
 typedef enum { RT_MISS_OWN, RT_MISS_LATE_WAKE, RT_MISS_DESCHEDULED, RT_MISS_NO_BUFFER, RT_MISS_COUNT } rt_miss;
 
 /* Classifies a missed pass planned to wake at `wake` for the vsync at `t_vs`, that woke at `t_start` and used
