@@ -161,6 +161,16 @@ static void kernel_scalar(const warp_planar3 *s, const warp_mesh *m, const row_t
     }
 }
 
+/* Prefetch distance in row pairs: the hardware prefetchers miss the source lines of the next output rows in
+ * 128-pixel-wide tiles. Fetching them three row pairs ahead took 7 % off at 1440x1600 on one thread and 20 % on
+ * two (whose misses compete for the shared cache), measured with the AVX-512 kernel on a Zen 5. On a Zen 3 the
+ * AVX2 kernel loses a third of its speed without the prefetch, and fetching 12 row pairs ahead instead of 3
+ * took another 11 % off on one thread and 6 % on two (6 to 16 were alike; taller tiles did not help); the
+ * portable kernel, which had no prefetch, got 21 % faster on one thread and 26 % on two with it there (as SSE;
+ * not yet measured as NEON on a board). */
+#define PREFETCH_ROWS 3
+#define PREFETCH_ROWS_FAR 12
+
 /* The portable SIMD kernel: 4-pixel groups in GCC/clang vector extensions, the width of NEON on the aarch64
  * board (and of SSE2), with one scalar load per lane and channel for the taps. C has no vector ?:, so
  * selections are masks: a comparison gives -1 in the lanes where it holds. */
@@ -199,6 +209,8 @@ static void kernel_vector(const warp_planar3 *s, const warp_mesh *m, const row_t
             const v4u ay = vec_fixed_pos(LV(t, c, 1, 0, k) + LV(t, c, 1, 1, k) * xl, maxy);
             const v4u idx = (ay >> 6) * (uint32_t)s->stride + (ax >> 6);
             const uint16_t *pl = s->plane[c];
+            const uint32_t pf = (uint32_t)s->stride * PREFETCH_ROWS_FAR;
+            if (idx[0] < (uint32_t)s->stride * (uint32_t)s->h - pf) __builtin_prefetch(pl + idx[0] + pf);
             const v4u v = {load_u32(pl + idx[0]), load_u32(pl + idx[1]), load_u32(pl + idx[2]), load_u32(pl + idx[3])};
             const v4u wx = ax & 63, wy = ay & 63;
             const v4u l = (v & 255) * (64 - wy) + (v >> 8 & 255) * wy, r = (v >> 16 & 255) * (64 - wy) + (v >> 24) * wy;
@@ -216,13 +228,6 @@ static void kernel_vector(const warp_planar3 *s, const warp_mesh *m, const row_t
 }
 
 #ifdef HAVE_X86_KERNELS
-/* Prefetch distance in row pairs: the hardware prefetchers miss the source lines of the next output rows in
- * 128-pixel-wide tiles; fetching them three row pairs ahead took 7 % off at 1440x1600 on one thread and 20 % on
- * two (whose misses compete for the shared cache), measured with the AVX-512 kernel on a Zen 5. On a Zen 3 the
- * AVX2 kernel loses a third of its speed without the prefetch, and fetching 12 row pairs ahead instead of 3
- * took another 11 % off on one thread and 6 % on two (6 to 16 were alike; taller tiles did not help). */
-#define PREFETCH_ROWS 3
-#define PREFETCH_ROWS_AVX2 12
 
 #define AVX2 __attribute__((target("avx2")))
 
@@ -249,7 +254,7 @@ AVX2 __attribute__((always_inline)) static inline __m256i avx2_sample(const avx2
     /* tap column and row as the two words of a dword (both < 2^14), then row * stride + column */
     const __m256i pos = _mm256_blend_epi16(_mm256_srli_epi32(ax, 6), _mm256_slli_epi32(ay, 10), 0xaa);
     const __m256i idx = _mm256_madd_epi16(pos, k->stride_mul);
-    const int i0 = _mm_cvtsi128_si32(_mm256_castsi256_si128(idx)), pf = s->stride * PREFETCH_ROWS_AVX2;
+    const int i0 = _mm_cvtsi128_si32(_mm256_castsi256_si128(idx)), pf = s->stride * PREFETCH_ROWS_FAR;
     if (i0 < s->stride * s->h - pf) _mm_prefetch((const char *)(s->plane[c] + i0 + pf), _MM_HINT_T0);
     /* vpgatherdd: on the Zen 5 measured it beat eight scalar loads put together through memory 1.8 : 1 in this
      * kernel (the vector load spanning the scalar stores cannot be store-forwarded and stalls) */
