@@ -600,7 +600,8 @@ void rt_app_summary(rt_app *a, FILE *out)
                          "(prediction and tracking; no warp can fix it)\n",
                     pe->angle_sum / pe->n, pe->pos_sum / pe->n, pe->angle_max, pe->pos_max);
         fprintf(out, "  %-26s %9s %9s %8s %12s\n", "method", "PSNR dB", "min dB", "SSIM", "error px %");
-        static const char *const names[RT_EVAL_METHODS] = {"no warp", "rotation (003 §3.4)", "raytrace (003 §3.5)"};
+        static const char *const names[RT_EVAL_METHODS] = {"no warp", "rotation (003 §3.4)", "raytrace (003 §3.5)",
+                                                              "raytrace at mesh vertices"};
         for (int m = 0; m < RT_EVAL_METHODS; m++) {
             const rt_eval_acc *e = &a->eval[m];
             if (!e->n) continue;
@@ -709,7 +710,7 @@ void rt_app_stats_kv(rt_app *a, FILE *out)
             KV("orientation_error_deg", "%.4f", warp_quat_angle_between(truth, st.q) * 180 / WARP_PI);
         }
     }
-    static const char *const names[RT_EVAL_METHODS] = {"none", "rotation", "raytrace"};
+    static const char *const names[RT_EVAL_METHODS] = {"none", "rotation", "raytrace", "raytrace_mesh"};
     for (int m = 0; m < RT_EVAL_METHODS; m++)
         if (a->eval[m].n) {
             char k[64];

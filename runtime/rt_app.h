@@ -61,7 +61,7 @@ typedef struct {
     double psnr_min;
 } rt_eval_acc;
 
-enum { RT_EVAL_NONE, RT_EVAL_ROTATION, RT_EVAL_RAYTRACE, RT_EVAL_METHODS };
+enum { RT_EVAL_NONE, RT_EVAL_ROTATION, RT_EVAL_RAYTRACE, RT_EVAL_RAYTRACE_MESH, RT_EVAL_METHODS };
 
 /* One CSV row per vsync, produced on the vsync path and written by the telemetry thread. */
 typedef struct {

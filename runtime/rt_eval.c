@@ -1,14 +1,16 @@
 /* rt_eval: accuracy of the simulated board against ground truth. For sampled vsyncs it re-renders the host's frame
  * (the simulator is deterministic), renders the truth at the true photon-time pose and scores no warp, rotation
- * reprojection and raytrace. Runs at idle priority, off the vsync path. */
+ * reprojection, raytrace and the raytrace at mesh vertices. Runs at idle priority, off the vsync path. */
 #include <math.h>
 #include <string.h>
 
 #include "platform/plat_clock.h"
 #include "runtime/rt_app.h"
+#include "warp/warp_mesh.h"
 #include "warp/warp_metrics.h"
 #include "warp/warp_raytrace.h"
 #include "warp/warp_reproject.h"
+#include "warp/warp_resample.h"
 #include "warp/warp_view.h"
 
 static void score(rt_eval_acc *acc, const warp_image_rgba8 *img, const warp_image_rgba8 *truth)
@@ -34,10 +36,17 @@ void *rt_eval_thread(void *arg)
     sim_buffers src, truth;
     warp_image_rgba8 out;
     warp_image_f32 inv;
+    /* raytrace_mesh scored like the others, before the lens: a lens-free mesh over the eye buffer as dense as the
+     * panel's (what hmdwarp-bench does too) */
+    warp_mesh mesh;
+    warp_planar3 planar;
+    memset(&mesh, 0, sizeof mesh);
+    memset(&planar, 0, sizeof planar);
     bool ok = sim_buffers_alloc(&src, cam->width, cam->height, SIM_PLANE_COLOR | SIM_PLANE_DEPTH, 1) &&
               sim_buffers_alloc(&truth, cam->width, cam->height, SIM_PLANE_COLOR, 1) &&
               warp_image_rgba8_alloc(&out, cam->width, cam->height) &&
-              warp_image_f32_alloc(&inv, cam->width, cam->height);
+              warp_image_f32_alloc(&inv, cam->width, cam->height) && warp_mesh_init_eye(&mesh, a->cfg.mesh_n, cam) &&
+              warp_planar3_alloc(&planar, cam->width, cam->height);
     warp_raytrace_params rp = a->rt_params;
     for (;;) {
         rt_eval_record r;
@@ -72,6 +81,10 @@ void *rt_eval_thread(void *arg)
         if (!warp_raytrace_prepare(&s, &v, cam, r.shown_eye, &rp)) {
             warp_raytrace_rows(&s, &out, NULL, 0, out.h, NULL);
             score(&a->eval[RT_EVAL_RAYTRACE], &out, &truth.color);
+            warp_planar3_from_rgba_rows(&planar, &src.color, 0, src.color.h);
+            warp_mesh_update_raytrace(&mesh, cam, &s);
+            warp_mesh_resample(&mesh, &planar, &out, 0, 0, out.w, out.h);
+            score(&a->eval[RT_EVAL_RAYTRACE_MESH], &out, &truth.color);
         }
         a->eval_done++;
     }
@@ -79,5 +92,7 @@ void *rt_eval_thread(void *arg)
     sim_buffers_free(&truth);
     warp_image_free(&out);
     warp_image_free(&inv);
+    warp_mesh_free(&mesh);
+    warp_planar3_free(&planar);
     return NULL;
 }
