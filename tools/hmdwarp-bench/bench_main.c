@@ -546,7 +546,7 @@ int main(int argc, char **argv)
         display_rotation(&D, D.workers1, rot);
         double ms_ours1 = (double)(plat_now_ns() - t) * 1e-6;
         /* the per-pixel raytrace takes some 80 display paths: every fourth round (and the first warm-up) keeps the
-         * bench to minutes and still gives its ratio a median of 15 */
+         * bench to minutes and still gives its ratio a median of 15 in a full run (60 rounds) */
         const bool ray_round = r < 0 ? r == -2 : r % 4 == 0;
         double ms_ray = 0;
         if (ray_round) {
