@@ -605,7 +605,10 @@ void rt_app_summary(rt_app *a, FILE *out)
         for (int m = 0; m < RT_EVAL_METHODS; m++) {
             const rt_eval_acc *e = &a->eval[m];
             if (!e->n) continue;
-            fprintf(out, "  %-26s %9.2f %9.2f %8.4f %12.3f\n", names[m], e->psnr_sum / e->n, e->psnr_min,
+            /* printf pads by bytes: widen by the UTF-8 continuation bytes (the "§") so the columns line up */
+            int wide = 26;
+            for (const char *p = names[m]; *p; p++) wide += ((unsigned char)*p & 0xc0) == 0x80;
+            fprintf(out, "  %-*s %9.2f %9.2f %8.4f %12.3f\n", wide, names[m], e->psnr_sum / e->n, e->psnr_min,
                     e->ssim_sum / e->n, e->err_sum / e->n);
         }
     }
