@@ -118,6 +118,23 @@ static void run_resample(rt_app *a, job *j)
     plat_workers_run(a->workers, j->tiles_x[0] * j->tiles_y[0] + j->tiles_x[1] * j->tiles_y[1], resample_task, j);
 }
 
+/* The lens pass: both eyes' meshes for j->src_from_dst at once, then the resampling from j->src. */
+static void lens_pass(rt_app *a, job *j)
+{
+    plat_workers_run(a->workers, 2, mesh_task, j);
+    run_resample(a, j);
+}
+
+/* The lens pass after a warp into eye space (inter_planar): distortion and CA only. */
+static void lens_pass_eye_space(rt_app *a, job *j)
+{
+    for (int e = 0; e < 2; e++) {
+        j->src_from_dst[e] = warp_quat_identity();
+        j->src[e] = &a->inter_planar[e];
+    }
+    lens_pass(a, j);
+}
+
 /* Warps `frame` to the eye poses `eyes` into `out`. Returns the method actually used. */
 static rt_method compose(rt_app *a, job *j, const rt_frame *frame, const warp_pose eyes[2], rt_method method)
 {
@@ -135,12 +152,7 @@ static rt_method compose(rt_app *a, job *j, const rt_frame *frame, const warp_po
             j->eyes[e] = eyes[e];
         }
         plat_workers_run(a->workers, 2, depth_task, j);
-        for (int e = 0; e < 2; e++) {
-            j->src_from_dst[e] = warp_quat_identity();
-            j->src[e] = &a->inter_planar[e];
-        }
-        plat_workers_run(a->workers, 2, mesh_task, j);
-        run_resample(a, j);
+        lens_pass_eye_space(a, j);
         return method;
     }
     if (method == RT_METHOD_TRANSPARENCY || method == RT_METHOD_OBJECTS) method = RT_METHOD_RAYTRACE;
@@ -166,12 +178,7 @@ static rt_method compose(rt_app *a, job *j, const rt_frame *frame, const warp_po
         if (ok) {
             j->bands = (a->inter[0].h + BAND_H - 1) / BAND_H;
             plat_workers_run(a->workers, 2 * j->bands, raytrace_task, j);
-            for (int e = 0; e < 2; e++) {
-                j->src_from_dst[e] = warp_quat_identity();
-                j->src[e] = &a->inter_planar[e];
-            }
-            plat_workers_run(a->workers, 2, mesh_task, j);
-            run_resample(a, j);
+            lens_pass_eye_space(a, j);
             return method;
         }
         method = RT_METHOD_ROTATION;
@@ -183,8 +190,7 @@ static rt_method compose(rt_app *a, job *j, const rt_frame *frame, const warp_po
                                  : warp_quat_identity();
         j->src[e] = &frame->planar[e];
     }
-    plat_workers_run(a->workers, 2, mesh_task, j);
-    run_resample(a, j);
+    lens_pass(a, j);
     return method;
 }
 
