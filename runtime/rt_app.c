@@ -114,6 +114,7 @@ static bool render_init(rt_app *a, char *err, int errlen)
     a->use_gles = rt_render_choose(c->renderer, a->egl ? plat_egl_renderer(a->egl) : NULL, eerr, kms, a->render_why,
                                    sizeof a->render_why);
     if (a->use_gles && !a->egl) return fail(err, errlen, "[render] renderer = gles: %s%s", eerr, "");
+    a->gles_software = a->egl && plat_egl_renderer_is_software(plat_egl_renderer(a->egl));
     if (!a->use_gles) {
         plat_egl_close(a->egl);
         a->egl = NULL;
@@ -485,6 +486,8 @@ void rt_app_summary(rt_app *a, FILE *out)
                      "%llu, descheduled %llu; no free image %llu\n",
                 (unsigned long long)t->missed_by[RT_MISS_OWN], (unsigned long long)t->missed_by[RT_MISS_LATE_WAKE],
                 (unsigned long long)t->missed_by[RT_MISS_DESCHEDULED], (unsigned long long)t->missed_by[RT_MISS_NO_BUFFER]);
+    rt_miss_advice(t->missed_by, a->use_gles, a->gles_software, buf, sizeof buf);
+    if (buf[0]) fprintf(out, "  misses, what to do         %s\n", buf);
     for (int m = 0; m < RT_METHOD_COUNT; m++)
         if (t->method_count[m]) {
             snprintf(buf, sizeof buf, "warp time (%s)", rt_method_name((rt_method)m));
