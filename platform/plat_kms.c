@@ -536,11 +536,11 @@ bool plat_kms_commit(plat_kms *k, uint32_t fb, char *err, int errlen)
 bool plat_kms_wait(plat_kms *k, int timeout_ms)
 {
     struct timespec ts;
-    clock_gettime(CLOCK_REALTIME, &ts); /* sem_timedwait counts on the realtime clock */
+    clock_gettime(CLOCK_MONOTONIC, &ts); /* sem_clockwait: a wall-clock step cannot stretch the wait */
     ts.tv_nsec += (long)(timeout_ms % 1000) * 1000000L;
     ts.tv_sec += timeout_ms / 1000 + ts.tv_nsec / 1000000000L;
     ts.tv_nsec %= 1000000000L;
-    while (sem_timedwait(&k->wake, &ts) != 0)
+    while (sem_clockwait(&k->wake, CLOCK_MONOTONIC, &ts) != 0)
         if (errno != EINTR) return false;
     return true;
 }
