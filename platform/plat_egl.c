@@ -206,6 +206,7 @@ plat_egl *plat_egl_open_kms(const plat_egl_kms_params *p, char *err, int errlen)
         return NULL;
     }
     e->fd = plat_kms_fd(e->k);
+    dev = plat_kms_device(e->k); /* the card kms_device = auto found */
     plat_kms_set_format(e->k, GBM_FORMAT_XRGB8888);
     const drmModeModeInfo *mode = &plat_kms_chosen(e->k)->mode;
     e->gbm = gbm_create_device(e->fd);

@@ -164,6 +164,7 @@ static const char *const plane_prop_names[P_PLANE_N] = {"FB_ID",  "CRTC_ID", "SR
 
 struct plat_kms {
     int fd;
+    int rt_priority;
     char device[128];
     plat_kms_choice ch;
     bool atomic;
@@ -205,6 +206,7 @@ struct plat_kms {
 };
 
 int plat_kms_fd(const plat_kms *k) { return k->fd; }
+const char *plat_kms_device(const plat_kms *k) { return k->device; }
 const plat_kms_choice *plat_kms_chosen(const plat_kms *k) { return &k->ch; }
 bool plat_kms_atomic(const plat_kms *k) { return k->atomic; }
 void plat_kms_set_format(plat_kms *k, uint32_t fourcc) { k->format = fourcc; }
@@ -368,6 +370,7 @@ static void *event_thread(void *arg)
 {
     plat_kms *k = arg;
     plat_thread_set_name("hmdwarp-kms-ev");
+    if (k->rt_priority > 0) plat_thread_set_realtime(k->rt_priority < 99 ? k->rt_priority + 1 : 99);
     drmEventContext ev = {.version = 2, .vblank_handler = on_vblank, .page_flip_handler = on_flip};
     while (!atomic_load(&k->quit)) {
         if (atomic_load(&k->want_vbl) && atomic_load(&k->completed)) {
@@ -424,6 +427,7 @@ plat_kms *plat_kms_open(const plat_kms_params *p, char *err, int errlen)
         return NULL;
     }
     k->fd = -1;
+    k->rt_priority = pp.rt_priority;
     snprintf(k->device, sizeof k->device, "%s", dev);
     k->format = DRM_FORMAT_XRGB8888;
     sem_init(&k->wake, 0, 0);
@@ -545,17 +549,22 @@ bool plat_kms_wait(plat_kms *k, int timeout_ms)
     return true;
 }
 
+/* The event never came (driver hang, CRTC switched off): count it and go on without it. */
+static void forget_flip(plat_kms *k, int waited_ms)
+{
+    atomic_store(&k->pending, false);
+    atomic_fetch_add(&k->failed, 1);
+    snprintf(k->last_error, sizeof k->last_error, "KMS %s: page flip never completed (no event in %d ms)",
+             k->ch.conn_name, waited_ms);
+}
+
 bool plat_kms_wait_flip(plat_kms *k, int timeout_ms)
 {
     int64_t until = plat_now_ns() + (int64_t)timeout_ms * PLAT_NS_PER_MS;
     while (plat_kms_flip_pending(k)) {
         int64_t left = until - plat_now_ns();
         if (left <= 0 || !k->th_up) {
-            /* the event never came (driver hang, CRTC switched off): count it and go on without it */
-            atomic_store(&k->pending, false);
-            atomic_fetch_add(&k->failed, 1);
-            snprintf(k->last_error, sizeof k->last_error, "KMS %s: page flip never completed (no event in %d ms)",
-                     k->ch.conn_name, timeout_ms);
+            forget_flip(k, timeout_ms);
             return false;
         }
         plat_kms_wait(k, (int)(left / PLAT_NS_PER_MS) + 1);
@@ -713,10 +722,13 @@ static void *kms_thread(void *arg)
 {
     kms_display *d = arg;
     plat_thread_set_name("hmdwarp-kms");
+    if (d->k->rt_priority > 0) plat_thread_set_realtime(d->k->rt_priority);
     int shown = -1, flipping = -1; /* buffers (zero copy: swapchain indices) on screen and queued */
     uint64_t flip_done_at = 0;     /* plat_kms_flips_completed() value once the queued flip is done */
     int64_t flip_since = 0;
-    const int flip_timeout_ms = 500;
+    /* the kernel sends an event for every flip it accepted unless the CRTC went off: wait long before calling one
+     * lost (a late event after that would be taken for the next flip's) */
+    const int flip_timeout_ms = 2000;
     char err[160];
     while (!atomic_load(&d->quit)) {
         plat_kms_wait(d->k, 50);
@@ -727,7 +739,7 @@ static void *kms_thread(void *arg)
                 shown = flipping;
                 flipping = -1;
             } else if (plat_now_ns() - flip_since > (int64_t)flip_timeout_ms * PLAT_NS_PER_MS) {
-                plat_kms_wait_flip(d->k, 0); /* counts it and forgets it */
+                forget_flip(d->k, flip_timeout_ms);
                 if (d->zero_copy) release(d, flipping);
                 flipping = -1;
             } else {

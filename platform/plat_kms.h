@@ -15,6 +15,10 @@ typedef struct {
     const char *connector; /* "auto" (first connected) or a name like HDMI-A-1, DSI-1, eDP-1 */
     int mode_w, mode_h;    /* 0 = the connector's preferred mode */
     double mode_hz;        /* 0 = any refresh of that size */
+    /* SCHED_FIFO priority of the compositor (0 = normal scheduling): the KMS threads are on the display path, so
+     * the event thread runs one above it (it only stamps and re-arms, like an interrupt handler) and the CPU
+     * display's copy-and-commit thread at it; a normal-priority thread starves behind a busy compositor. */
+    int rt_priority;
 } plat_kms_params;
 
 /* What plat_kms_pick chose. */
@@ -42,6 +46,7 @@ plat_kms *plat_kms_open(const plat_kms_params *p, char *err, int errlen);
 void plat_kms_close(plat_kms *k);
 
 int plat_kms_fd(const plat_kms *k);
+const char *plat_kms_device(const plat_kms *k); /* the card node (the one found for kms_device = auto) */
 const plat_kms_choice *plat_kms_chosen(const plat_kms *k);
 bool plat_kms_atomic(const plat_kms *k);
 /* Whether the primary plane scans out `fourcc` (legacy drivers without plane lists: XRGB8888 only). */

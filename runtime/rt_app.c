@@ -106,7 +106,7 @@ static bool render_init(rt_app *a, char *err, int errlen)
     if (!warp_resample_force_kernel((warp_resample_kernel_id)c->kernel))
         return fail(err, errlen, "[render] kernel = %s: this build or CPU cannot run it%s", rt_kernel_name(c->kernel),
                     "");
-    plat_kms_params kp = {c->kms_device, c->kms_connector, 0, 0, 0};
+    plat_kms_params kp = {c->kms_device, c->kms_connector, 0, 0, 0, c->rt_priority};
     if (kms) {
         if (!rt_config_parse_mode(c->kms_mode, &kp.mode_w, &kp.mode_h, &kp.mode_hz))
             return fail(err, errlen, "[display] kms_mode = '%s': %s", c->kms_mode, "expected auto, WxH or WxH@Hz");

@@ -171,7 +171,7 @@ static void test_no_device(void **state)
 {
     (void)state;
     char err[300];
-    plat_kms_params p = {"/nonexistent/dri/card0", "auto", 0, 0, 0};
+    plat_kms_params p = {"/nonexistent/dri/card0", "auto", 0, 0, 0, 0};
     assert_null(plat_kms_open(&p, err, sizeof err));
     assert_string_equal(err, "no DRM device: /nonexistent/dri/card0: No such file or directory");
     FILE *probe = fopen("/dev/dri/card0", "r");
