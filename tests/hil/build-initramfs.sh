@@ -1,6 +1,7 @@
 #!/bin/sh
 # Builds the HIL test VM's initramfs: busybox, /init (tests/hil/init), the kernel modules the mock devices need
-# (from Debian's image package, dependencies resolved with its modules.dep, plus our out-of-tree gpio-sim.ko),
+# (from Debian's image package, dependencies resolved with its modules.dep, plus our out-of-tree gpio-sim.ko and
+# vkms.ko),
 # hmdwarpd, hmdwarp-feed and the in-VM device programs (build/hil/*), every shared library they load, the
 # scenarios and the HIL board files. Also extracts the uncompressed vmlinux (qemu boots it directly via PVH,
 # skipping the decompressor, which is slow under TCG).
@@ -25,7 +26,11 @@ BUSYBOX=$(command -v busybox) || die "no busybox (busybox-static)"
 # Modules the scenarios load (modprobe resolves the rest inside the VM from the depmod output below).
 MODULES="configfs uhid hid hid-generic usbhid i2c-dev i2c-stub vivid dummy_hcd libcomposite usb_f_fs"
 
-KO=$("$here/kmod/build.sh" "$CACHE" "$BUILD/hil/kmod") || die "gpio-sim module build failed"
+KOS=$("$here/kmod/build.sh" "$CACHE" "$BUILD/hil/kmod") || die "gpio-sim/vkms module build failed"
+# The out-of-tree modules' dependencies (vkms: drm, drm_kms_helper, drm_shmem_helper) come from the image.
+for ko in $KOS; do
+    MODULES="$MODULES $(modinfo -F depends "$ko" | tr , ' ')"
+done
 
 S=$BUILD/hil/initramfs
 rm -rf "$S"
@@ -53,7 +58,7 @@ for m in $MODULES; do
     done
     modprobe -d "$KR" -S "$KABI" --show-depends "$m" >/dev/null 2>&1 || die "module $m not in $KABI"
 done
-cp "$KO" "$M/extra/gpio-sim.ko"
+for ko in $KOS; do cp "$ko" "$M/extra/"; done
 for f in modules.order modules.builtin modules.builtin.modinfo; do
     [ -f "$KR/lib/modules/$KABI/$f" ] && cp "$KR/lib/modules/$KABI/$f" "$M/"
 done

@@ -1,7 +1,7 @@
 #!/bin/sh
 # 00-devices: every kernel mock device the other scenarios use appears and works at the kernel level, before
 # hmdwarpd is involved: uhid/hidraw, i2c-stub registers, gpio-sim edges seen by libgpiod, vivid's loop,
-# dummy_hcd's UDC and USB host side.
+# dummy_hcd's UDC and USB host side, vkms's card, connector modes and CRC files.
 # hil-timeout: 90
 . /hil/scenarios/lib.sh
 
@@ -77,5 +77,16 @@ hil_usb_udc
 hil_wait_for /dev/bus/usb/001/001 5 || hil_fail "dummy_hcd: no /dev/bus/usb/001/001 (root hub)"
 [ -d "$CFS/usb_gadget" ] || hil_fail "libcomposite: no $CFS/usb_gadget"
 hil_log "usb: $(ls /sys/class/udc), root hub $(cat /sys/bus/usb/devices/usb1/product 2>/dev/null)"
+
+# KMS: vkms's card node, its virtual connector connected with the no-EDID modes (640x480 among them: 05-kms
+# uses it) and the CRC capture files in debugfs.
+hil_vkms
+[ "$(cat "$HIL_DRI_CONN/status")" = connected ] || hil_fail "vkms: connector ${HIL_DRI_CONN##*/} is $(cat "$HIL_DRI_CONN/status")"
+grep -qx 640x480 "$HIL_DRI_CONN/modes" || hil_fail "vkms: no 640x480 mode on ${HIL_DRI_CONN##*/} ($(head -n 5 "$HIL_DRI_CONN/modes" | tr '\n' ' '))"
+for f in control data; do
+    [ -e "$HIL_DRI_DEBUG/crtc-0/crc/$f" ] || hil_fail "vkms: no $HIL_DRI_DEBUG/crtc-0/crc/$f (debugfs)"
+done
+hil_log "kms: $HIL_DRI_CARD ($(cat "$HIL_DRI_DEBUG/name")), ${HIL_DRI_CONN##*/} $(wc -l <"$HIL_DRI_CONN/modes") modes"
+hil_rmmod vkms
 
 hil_pass

@@ -199,6 +199,50 @@ hil_vivid_loop() {
     v4l2-ctl -d "$HIL_VID_CAP" --set-ctrl=loop_video=1 >/dev/null || hil_fail "vivid: cannot turn Loop Video on"
 }
 
+# --- KMS: vkms -------------------------------------------------------------------------------------------------
+
+# hil_vkms: load vkms (out-of-tree, kmod/) without fbdev emulation, so the CRTC stays off until a KMS client
+# commits and no fbcon cursor blinks into the CRCs between runs. Sets HIL_DRI_CARD (/dev/dri/cardN), HIL_DRI_DEBUG
+# (its debugfs folder: crtc-0/crc/{control,data}) and HIL_DRI_CONN (the connector's sysfs folder: status, modes).
+hil_vkms() {
+    if ! grep -q '^drm_kms_helper ' /proc/modules; then
+        hil_modprobe drm_kms_helper fbdev_emulation=0
+    else
+        echo N >/sys/module/drm_kms_helper/parameters/fbdev_emulation
+    fi
+    grep -q '^vkms ' /proc/modules || hil_modprobe vkms
+    HIL_DRI_CARD=; HIL_DRI_CONN=
+    for d in /sys/class/drm/card[0-9]*; do
+        case "$d" in *-*) continue ;; esac        # connectors are card0-Virtual-1, ...
+        # vkms registers a bare platform device named vkms (no driver binds it)
+        [ "$(basename "$(readlink -f "$d/device")")" = vkms ] || continue
+        HIL_DRI_CARD=/dev/dri/${d##*/}
+        HIL_DRI_DEBUG=/sys/kernel/debug/dri/${d##*/card}
+        HIL_DRI_CONN=$(ls -d "$d"-Virtual-* 2>/dev/null | head -n 1)
+    done
+    [ -n "$HIL_DRI_CARD" ] || hil_fail "vkms loaded but no card in /sys/class/drm ($(ls /sys/class/drm | tr '\n' ' '))"
+    hil_wait_for "$HIL_DRI_CARD" 5 || hil_fail "vkms: no $HIL_DRI_CARD node"
+    [ -n "$HIL_DRI_CONN" ] || hil_fail "vkms: no Virtual connector under /sys/class/drm"
+    # Nothing has probed the connector yet (no fbdev, no client): status "unknown", no modes until a detect.
+    echo detect >"$HIL_DRI_CONN/status"
+}
+# hil_vkms_crc_on / hil_vkms_crc_off: capture CRCs of what the CRTC shows. With the "auto" source in crc/control,
+# vkms composes the planes at every vblank and CRCs the result for as long as crc/data is open (opening it starts
+# capture, closing it stops it): a background reader (HIL_CRC_PID) copies the "0xFRAME 0xCRC" lines to
+# $HIL_WORK/crc.txt. Start it after the client's modeset (the DRM CRC ABI: a modeset may reset capture).
+hil_vkms_crc_on() {
+    c=$HIL_DRI_DEBUG/crtc-0/crc
+    [ -e "$c/control" ] || hil_fail "vkms: no $c/control (debugfs mounted?)"
+    echo auto >"$c/control" || hil_fail "vkms: CRC source auto refused"
+    cat "$c/data" >"$HIL_WORK/crc.txt" 2>"$HIL_WORK/crc.err" &
+    HIL_CRC_PID=$!
+}
+hil_vkms_crc_off() {
+    [ -n "${HIL_CRC_PID:-}" ] || return 0
+    kill "$HIL_CRC_PID" 2>/dev/null; wait "$HIL_CRC_PID" 2>/dev/null
+    HIL_CRC_PID=
+}
+
 # --- USB: dummy_hcd + FunctionFS gadget ------------------------------------------------------------------------
 
 # hil_usb_udc: load dummy_hcd (one UDC, dummy_udc.0) and usbfs-visible host side.
@@ -370,6 +414,6 @@ hil_cleanup() {
     done
     gadget.sh --ffs-dir "$FFS_DIR" stop >/dev/null 2>&1
     for g in "$CFS"/gpio-sim/*; do [ -d "$g" ] && hil_gpio_sim_remove "${g##*/}"; done
-    hil_rmmod i2c_stub vivid gpio_sim usb_f_fs dummy_hcd uhid
+    hil_rmmod i2c_stub vivid gpio_sim usb_f_fs dummy_hcd uhid vkms
     return 0
 }
