@@ -187,9 +187,13 @@ results: deps
 # unit (pointing at PREFIX/bin), the USB-gadget drop-in for boards whose host link is USB, sysusers and udev rules.
 # `make install PREFIX=/usr DESTDIR=/tmp/root BOARD=rpi5 CROSS_COMPILE=aarch64-linux-gnu-`, then board/flash.sh.
 BOARDS := $(patsubst board/%/board.ini,%,$(wildcard board/*/board.ini))
-UNITDIR ?= /lib/systemd/system
-UDEVDIR ?= /lib/udev/rules.d
-SYSUSERSDIR ?= /usr/lib/sysusers.d
+# Unit, udev and sysusers directories as the target's systemd/udev .pc files name them (a cross build's PKG_CONFIG
+# asks the board's), else Debian 12's. Debian 12's .pc files still say /lib: on its merged /usr that is usr/lib,
+# and a DESTDIR tree with a real lib/ would replace the board's /lib -> usr/lib symlink when unpacked.
+pc_dir = $(patsubst /lib/%,/usr/lib/%,$(patsubst //%,/%,$(or $(shell $(PKG_CONFIG) --variable=$(2) $(1) 2>/dev/null),$(3))))
+UNITDIR ?= $(call pc_dir,systemd,systemdsystemunitdir,/usr/lib/systemd/system)
+UDEVDIR ?= $(call pc_dir,udev,udevdir,/usr/lib/udev)/rules.d
+SYSUSERSDIR ?= $(call pc_dir,systemd,sysusersdir,/usr/lib/sysusers.d)
 install: $(PROGRAMS)
 	@test -f board/$(BOARD)/board.ini || { echo "install: no board/$(BOARD)/board.ini (BOARD= one of: $(BOARDS))"; exit 1; }
 	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/share/doc/hmdwarp $(DESTDIR)$(SYSCONFDIR)/hmdwarp \

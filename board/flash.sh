@@ -46,21 +46,31 @@ done
 [ -n "$ROOT$SSH" ] || [ "$DRY" -eq 1 ] || die "say where to: --root DIR, --ssh USER@HOST, or --dry-run"
 [ -z "$ROOT" ] || [ -z "$SSH" ] || die "--root and --ssh exclude each other"
 
+# tree_file REL...: the first of these paths that the tree has (the unit and udev rules may be under usr/lib or,
+# from an older or overridden install, lib); nothing when none.
+tree_file() {
+    for tf in "$@"; do
+        if [ -e "$TREE/$tf" ]; then echo "$tf"; return 0; fi
+    done
+}
+
 # ---- check the tree ----
 problems=0
 need() {
-    if [ -e "$TREE/$1" ]; then echo "ok      /$1"; else echo "MISSING /$1 ($2)"; problems=$((problems + 1)); fi
+    if [ -n "$1" ]; then echo "ok      /$1"; else echo "MISSING /$2 ($3)"; problems=$((problems + 1)); fi
 }
 bin=$(find "$TREE" -path '*/bin/hmdwarpd' -type f | head -n 1)
 [ -n "$bin" ] || { echo "MISSING bin/hmdwarpd (make install)"; problems=$((problems + 1)); }
 [ -z "$bin" ] || echo "ok      ${bin#"$TREE"}"
-need etc/hmdwarp/board.ini "make install BOARD=name"
-need lib/systemd/system/hmdwarpd.service "the systemd unit"
-need lib/udev/rules.d/99-hmdwarp.rules "device access for the service user"
-need usr/lib/sysusers.d/hmdwarp.conf "the service user"
+need "$(tree_file etc/hmdwarp/board.ini)" etc/hmdwarp/board.ini "make install BOARD=name"
+unit=$(tree_file usr/lib/systemd/system/hmdwarpd.service lib/systemd/system/hmdwarpd.service)
+need "$unit" usr/lib/systemd/system/hmdwarpd.service "the systemd unit"
+need "$(tree_file usr/lib/udev/rules.d/99-hmdwarp.rules lib/udev/rules.d/99-hmdwarp.rules)" \
+    usr/lib/udev/rules.d/99-hmdwarp.rules "device access for the service user"
+need "$(tree_file usr/lib/sysusers.d/hmdwarp.conf)" usr/lib/sysusers.d/hmdwarp.conf "the service user"
 if [ -n "$bin" ]; then
     # The unit must start the binary that is in the tree.
-    exec_path=$(sed -n 's/^ExecStart=\([^ ]*\).*/\1/p' "$TREE/lib/systemd/system/hmdwarpd.service" 2>/dev/null || true)
+    exec_path=$(sed -n 's/^ExecStart=\([^ ]*\).*/\1/p' "$TREE/$unit" 2>/dev/null || true)
     if [ -n "$exec_path" ] && [ ! -e "$TREE$exec_path" ]; then
         echo "WRONG   hmdwarpd.service starts $exec_path, which is not in the tree (PREFIX mismatch?)"
         problems=$((problems + 1))
@@ -103,7 +113,7 @@ if [ -n "$ROOT" ] || [ "$DRY" -eq 1 ] && [ -z "$SSH" ]; then
     [ "$DRY" -eq 1 ] || [ -d "$dest/etc" ] || die "--root $dest does not look like a root filesystem (no etc/)"
     run cp -a "$TREE/." "$dest/"
     run mkdir -p "$dest/etc/systemd/system/multi-user.target.wants"
-    run ln -sf /lib/systemd/system/hmdwarpd.service "$dest/etc/systemd/system/multi-user.target.wants/hmdwarpd.service"
+    run ln -sf "/$unit" "$dest/etc/systemd/system/multi-user.target.wants/hmdwarpd.service"
     if [ "$DRY" -eq 1 ]; then
         echo "flash.sh: the tree is usable (dry run: nothing was written)"
     else
