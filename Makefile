@@ -203,7 +203,11 @@ install: $(PROGRAMS)
 	for b in $(BOARDS); do \
 	  install -d $(DESTDIR)$(PREFIX)/share/hmdwarp/boards/$$b && \
 	  install -m 0644 board/$$b/* $(DESTDIR)$(PREFIX)/share/hmdwarp/boards/$$b/ || exit 1; done
-	install -m 0644 board/$(BOARD)/board.ini $(DESTDIR)$(SYSCONFDIR)/hmdwarp/board.ini
+	@# A calibrated board.ini is never overwritten: the new one goes beside it, as dpkg does with conffiles.
+	if [ -e $(DESTDIR)$(SYSCONFDIR)/hmdwarp/board.ini ]; then \
+	  install -m 0644 board/$(BOARD)/board.ini $(DESTDIR)$(SYSCONFDIR)/hmdwarp/board.ini.dist && \
+	  echo "install: kept $(DESTDIR)$(SYSCONFDIR)/hmdwarp/board.ini; board/$(BOARD)/board.ini is beside it as board.ini.dist"; \
+	else install -m 0644 board/$(BOARD)/board.ini $(DESTDIR)$(SYSCONFDIR)/hmdwarp/board.ini; fi
 	sed 's|/usr/bin/|$(PREFIX)/bin/|g; s|/etc/hmdwarp/|$(SYSCONFDIR)/hmdwarp/|g' board/systemd/hmdwarpd.service \
 	  > $(DESTDIR)$(UNITDIR)/hmdwarpd.service
 	if grep -Eq '^backend *= *usb' board/$(BOARD)/board.ini; then \

@@ -8,6 +8,7 @@ ROOT=
 SSH=
 BOARD=
 DRY=0
+CONF=etc/hmdwarp/board.ini
 
 usage() {
     cat <<'USAGE'
@@ -20,8 +21,9 @@ usage: board/flash.sh --tree DIR (--root DIR | --ssh USER@HOST | --dry-run) [opt
   --dry-run      check the tree and print every action without doing it (the exit code says if it is usable)
   -h, --help     this text
 
-The tree must hold hmdwarpd, its systemd unit, udev rules, sysusers entry and /etc/hmdwarp/board.ini; the
-service is enabled (multi-user.target) and, over ssh, reloaded and started.
+The tree must hold hmdwarpd, its systemd unit, udev rules, sysusers entry and /etc/hmdwarp/board.ini.
+Everything is unpacked with GNU tar keeping the board's directory symlinks (merged /usr: /lib -> usr/lib); a
+board.ini already on the board is kept and the tree's one goes beside it as board.ini.dist. The service is enabled (multi-user.target) and, over ssh, reloaded and started.
 USAGE
 }
 
@@ -45,6 +47,7 @@ done
 [ -d "$TREE" ] || die "--tree $TREE: not a directory"
 [ -n "$ROOT$SSH" ] || [ "$DRY" -eq 1 ] || die "say where to: --root DIR, --ssh USER@HOST, or --dry-run"
 [ -z "$ROOT" ] || [ -z "$SSH" ] || die "--root and --ssh exclude each other"
+[ -z "$ROOT" ] || [ -d "$ROOT" ] || die "--root $ROOT: not a directory"
 
 # tree_file REL...: the first of these paths that the tree has (the unit and udev rules may be under usr/lib or,
 # from an older or overridden install, lib); nothing when none.
@@ -62,7 +65,7 @@ need() {
 bin=$(find "$TREE" -path '*/bin/hmdwarpd' -type f | head -n 1)
 [ -n "$bin" ] || { echo "MISSING bin/hmdwarpd (make install)"; problems=$((problems + 1)); }
 [ -z "$bin" ] || echo "ok      ${bin#"$TREE"}"
-need "$(tree_file etc/hmdwarp/board.ini)" etc/hmdwarp/board.ini "make install BOARD=name"
+need "$(tree_file "$CONF")" "$CONF" "make install BOARD=name"
 unit=$(tree_file usr/lib/systemd/system/hmdwarpd.service lib/systemd/system/hmdwarpd.service)
 need "$unit" usr/lib/systemd/system/hmdwarpd.service "the systemd unit"
 need "$(tree_file usr/lib/udev/rules.d/99-hmdwarp.rules lib/udev/rules.d/99-hmdwarp.rules)" \
@@ -84,10 +87,10 @@ if [ -n "$bin" ]; then
     esac
     echo "info    hmdwarpd is built for $arch"
 fi
-if [ -n "$BOARD" ] && [ -e "$TREE/etc/hmdwarp/board.ini" ]; then
-    name=$(sed -n 's/^name *= *\([^ ;]*\).*/\1/p' "$TREE/etc/hmdwarp/board.ini" | head -n 1)
+if [ -n "$BOARD" ] && [ -e "$TREE/$CONF" ]; then
+    name=$(sed -n 's/^name *= *\([^ ;]*\).*/\1/p' "$TREE/$CONF" | head -n 1)
     if [ "$name" != "$BOARD" ]; then
-        echo "WRONG   /etc/hmdwarp/board.ini is for board '$name', not '$BOARD'"
+        echo "WRONG   /$CONF is for board '$name', not '$BOARD'"
         problems=$((problems + 1))
     fi
 fi
@@ -96,8 +99,8 @@ checker=
 if [ -n "$bin" ] && "$bin" --help >/dev/null 2>&1; then checker=$bin
 elif [ -x build/hmdwarpd ]; then checker=build/hmdwarpd
 fi
-if [ -n "$checker" ] && [ -e "$TREE/etc/hmdwarp/board.ini" ]; then
-    if "$checker" --check-config --config "$TREE/etc/hmdwarp/board.ini" >/dev/null 2>"${TMPDIR:-/tmp}/flash-check.$$"; then
+if [ -n "$checker" ] && [ -e "$TREE/$CONF" ]; then
+    if "$checker" --check-config --config "$TREE/$CONF" >/dev/null 2>"${TMPDIR:-/tmp}/flash-check.$$"; then
         echo "ok      board.ini validates"
     else
         echo "INVALID board.ini:"; sed 's/^/          /' "${TMPDIR:-/tmp}/flash-check.$$"
@@ -108,23 +111,57 @@ fi
 [ "$problems" -eq 0 ] || die "$problems problem(s) in $TREE: not installing"
 
 # ---- install ----
-if [ -n "$ROOT" ] || [ "$DRY" -eq 1 ] && [ -z "$SSH" ]; then
+# GNU tar, not cp -a: --keep-directory-symlink follows the board's directory symlinks (merged /usr) instead of
+# replacing them, --no-overwrite-dir leaves existing directories' owners and modes alone, and the files become
+# root's, not the build user's. A board.ini already there is kept; the tree's is renamed board.ini.dist on the way.
+TAR_X="--keep-directory-symlink --no-overwrite-dir"
+TO_DIST="--transform=s,^[.]/etc/hmdwarp/board[.]ini\$,./$CONF.dist,"
+KEPT="kept the board's /$CONF; the tree's one is beside it as /$CONF.dist"
+wants=etc/systemd/system/multi-user.target.wants
+if [ -z "$SSH" ]; then
     dest=${ROOT:-/ROOT}
     [ "$DRY" -eq 1 ] || [ -d "$dest/etc" ] || die "--root $dest does not look like a root filesystem (no etc/)"
-    run cp -a "$TREE/." "$dest/"
-    run mkdir -p "$dest/etc/systemd/system/multi-user.target.wants"
-    run ln -sf "/$unit" "$dest/etc/systemd/system/multi-user.target.wants/hmdwarpd.service"
+    if [ -n "$ROOT" ]; then
+        # tar follows a symlink with an absolute target on this machine, not inside the root: refuse rather than
+        # write into this machine's directories.
+        abs=$(cd "$TREE" && find . -mindepth 1 -type d | while IFS= read -r d; do
+            d=${d#./}
+            if [ -L "$ROOT/$d" ]; then
+                case "$(readlink "$ROOT/$d")" in /*) echo "/$d -> $(readlink "$ROOT/$d")"; break ;; esac
+            fi
+        done)
+        [ -z "$abs" ] || die "the root's $abs is a symlink to an absolute path, which tar would follow on this" \
+            "machine, not in the root: make it relative (ln -sfn with a path inside the root)"
+    fi
+    xform=
+    if [ -e "$dest/$CONF" ] || [ -L "$dest/$CONF" ]; then xform=$TO_DIST; fi
+    if [ "$DRY" -eq 1 ]; then
+        echo "would run: tar -C $TREE --owner=0 --group=0 -cf - . | tar -C $dest $TAR_X -xf -${xform:+ $xform}"
+    else
+        # shellcheck disable=SC2086
+        tar -C "$TREE" --owner=0 --group=0 --numeric-owner -cf - . | tar -C "$dest" $TAR_X -xf - ${xform:+"$xform"}
+    fi
+    if [ -n "$xform" ]; then
+        if [ "$DRY" -eq 1 ]; then echo "would keep $dest/$CONF (the tree's one beside it as board.ini.dist)"
+        else echo "flash.sh: $KEPT"; fi
+    fi
+    run mkdir -p "$dest/$wants"
+    run ln -sf "/$unit" "$dest/$wants/hmdwarpd.service"
     if [ "$DRY" -eq 1 ]; then
         echo "flash.sh: the tree is usable (dry run: nothing was written)"
     else
         echo "flash.sh: installed into $dest: the service starts at the next boot (systemd-sysusers creates its"
         echo "          user and groups then)"
     fi
-elif [ -n "$SSH" ]; then
+else
+    # One remote command decides about board.ini on the board itself (reading /etc/hmdwarp needs no root).
+    remote="if [ -e /$CONF ]; then sudo tar -C / $TAR_X '$TO_DIST' -xzf - && echo \"flash.sh: $KEPT\";"
+    remote="$remote else sudo tar -C / $TAR_X -xzf -; fi"
     if [ "$DRY" -eq 1 ]; then
-        echo "would run: tar -C $TREE -cz . | ssh $SSH sudo tar -C / -xz"
+        echo "would run: tar -C $TREE --owner=0 --group=0 -cz . | ssh $SSH \"$remote\""
     else
-        tar -C "$TREE" -cz . | ssh "$SSH" sudo tar -C / -xz
+        tar -C "$TREE" --owner=0 --group=0 --numeric-owner -cz . | ssh "$SSH" "$remote"
     fi
     run ssh "$SSH" "sudo systemd-sysusers && sudo udevadm control --reload && sudo udevadm trigger && sudo systemctl daemon-reload && sudo systemctl enable --now hmdwarpd && systemctl --no-pager status hmdwarpd"
+    [ "$DRY" -eq 0 ] || echo "flash.sh: the tree is usable (dry run: nothing was written)"
 fi
