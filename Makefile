@@ -70,6 +70,8 @@ HIL_SRC  := $(wildcard tests/hil/src/*.c)
 HIL_BINS := $(patsubst tests/hil/src/%.c,$(BUILD)/hil/%,$(HIL_SRC))
 TEST_SUPPORT_SRC := $(wildcard tests/support/*.c)
 TEST_BINS := $(patsubst tests/%.c,$(BUILD)/tests/%,$(TEST_SRC))
+# Shell tests (TAP on stdout, like the cmocka binaries): make install and board/flash.sh against a fake board root.
+TEST_SCRIPTS := tests/flash/test_flash.sh
 
 .PHONY: all deps run test asan install clean results bench stability hil check-cross
 all: $(PROGRAMS) $(TEST_BINS) $(HIL_BINS)
@@ -150,7 +152,7 @@ run: deps
 # saying so; .ci/run sets HIL_REQUIRED=1 so CI fails rather than skips).
 test: deps
 	@$(MAKE) --no-print-directory all
-	@BUILD=$(BUILD) HIL_SOAK_S=$${HIL_SOAK_S:-60} tests/run.sh --hil $(BUILD)/tests $(TEST_BINS)
+	@BUILD=$(BUILD) HIL_SOAK_S=$${HIL_SOAK_S:-60} tests/run.sh --hil $(BUILD)/tests $(TEST_BINS) $(TEST_SCRIPTS)
 
 # The numerical-stability suite alone (it is part of `make test` too).
 stability: deps
