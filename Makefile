@@ -206,7 +206,7 @@ install: $(PROGRAMS)
 	  install -d $(DESTDIR)$(PREFIX)/share/hmdwarp/boards/$$b && \
 	  install -m 0644 board/$$b/* $(DESTDIR)$(PREFIX)/share/hmdwarp/boards/$$b/ || exit 1; done
 	@# A calibrated board.ini is never overwritten: the new one goes beside it, as dpkg does with conffiles.
-	if [ -e $(DESTDIR)$(SYSCONFDIR)/hmdwarp/board.ini ]; then \
+	@if [ -e $(DESTDIR)$(SYSCONFDIR)/hmdwarp/board.ini ]; then \
 	  install -m 0644 board/$(BOARD)/board.ini $(DESTDIR)$(SYSCONFDIR)/hmdwarp/board.ini.dist && \
 	  echo "install: kept $(DESTDIR)$(SYSCONFDIR)/hmdwarp/board.ini; board/$(BOARD)/board.ini is beside it as board.ini.dist"; \
 	else install -m 0644 board/$(BOARD)/board.ini $(DESTDIR)$(SYSCONFDIR)/hmdwarp/board.ini; fi
