@@ -70,6 +70,8 @@ HIL_SRC  := $(wildcard tests/hil/src/*.c)
 HIL_BINS := $(patsubst tests/hil/src/%.c,$(BUILD)/hil/%,$(HIL_SRC))
 TEST_SUPPORT_SRC := $(wildcard tests/support/*.c)
 TEST_BINS := $(patsubst tests/%.c,$(BUILD)/tests/%,$(TEST_SRC))
+# Shell tests (TAP on stdout, like the cmocka binaries): make install and board/flash.sh against a fake board root.
+TEST_SCRIPTS := tests/flash/test_flash.sh
 
 .PHONY: all deps run test asan install clean results bench stability hil check-cross
 all: $(PROGRAMS) $(TEST_BINS) $(HIL_BINS)
@@ -150,7 +152,7 @@ run: deps
 # saying so; .ci/run sets HIL_REQUIRED=1 so CI fails rather than skips).
 test: deps
 	@$(MAKE) --no-print-directory all
-	@BUILD=$(BUILD) HIL_SOAK_S=$${HIL_SOAK_S:-60} tests/run.sh --hil $(BUILD)/tests $(TEST_BINS)
+	@BUILD=$(BUILD) HIL_SOAK_S=$${HIL_SOAK_S:-60} tests/run.sh --hil $(BUILD)/tests $(TEST_BINS) $(TEST_SCRIPTS)
 
 # The numerical-stability suite alone (it is part of `make test` too).
 stability: deps
@@ -187,9 +189,13 @@ results: deps
 # unit (pointing at PREFIX/bin), the USB-gadget drop-in for boards whose host link is USB, sysusers and udev rules.
 # `make install PREFIX=/usr DESTDIR=/tmp/root BOARD=rpi5 CROSS_COMPILE=aarch64-linux-gnu-`, then board/flash.sh.
 BOARDS := $(patsubst board/%/board.ini,%,$(wildcard board/*/board.ini))
-UNITDIR ?= /lib/systemd/system
-UDEVDIR ?= /lib/udev/rules.d
-SYSUSERSDIR ?= /usr/lib/sysusers.d
+# Unit, udev and sysusers directories as the target's systemd/udev .pc files name them (a cross build's PKG_CONFIG
+# asks the board's), else Debian 12's. Debian 12's .pc files still say /lib: on its merged /usr that is usr/lib,
+# and a DESTDIR tree with a real lib/ would replace the board's /lib -> usr/lib symlink when unpacked.
+pc_dir = $(patsubst /lib/%,/usr/lib/%,$(patsubst //%,/%,$(or $(shell $(PKG_CONFIG) --variable=$(2) $(1) 2>/dev/null),$(3))))
+UNITDIR ?= $(call pc_dir,systemd,systemdsystemunitdir,/usr/lib/systemd/system)
+UDEVDIR ?= $(call pc_dir,udev,udevdir,/usr/lib/udev)/rules.d
+SYSUSERSDIR ?= $(call pc_dir,systemd,sysusersdir,/usr/lib/sysusers.d)
 install: $(PROGRAMS)
 	@test -f board/$(BOARD)/board.ini || { echo "install: no board/$(BOARD)/board.ini (BOARD= one of: $(BOARDS))"; exit 1; }
 	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/share/doc/hmdwarp $(DESTDIR)$(SYSCONFDIR)/hmdwarp \
@@ -199,7 +205,11 @@ install: $(PROGRAMS)
 	for b in $(BOARDS); do \
 	  install -d $(DESTDIR)$(PREFIX)/share/hmdwarp/boards/$$b && \
 	  install -m 0644 board/$$b/* $(DESTDIR)$(PREFIX)/share/hmdwarp/boards/$$b/ || exit 1; done
-	install -m 0644 board/$(BOARD)/board.ini $(DESTDIR)$(SYSCONFDIR)/hmdwarp/board.ini
+	@# A calibrated board.ini is never overwritten: the new one goes beside it, as dpkg does with conffiles.
+	@if [ -e $(DESTDIR)$(SYSCONFDIR)/hmdwarp/board.ini ]; then \
+	  install -m 0644 board/$(BOARD)/board.ini $(DESTDIR)$(SYSCONFDIR)/hmdwarp/board.ini.dist && \
+	  echo "install: kept $(DESTDIR)$(SYSCONFDIR)/hmdwarp/board.ini; board/$(BOARD)/board.ini is beside it as board.ini.dist"; \
+	else install -m 0644 board/$(BOARD)/board.ini $(DESTDIR)$(SYSCONFDIR)/hmdwarp/board.ini; fi
 	sed 's|/usr/bin/|$(PREFIX)/bin/|g; s|/etc/hmdwarp/|$(SYSCONFDIR)/hmdwarp/|g' board/systemd/hmdwarpd.service \
 	  > $(DESTDIR)$(UNITDIR)/hmdwarpd.service
 	if grep -Eq '^backend *= *usb' board/$(BOARD)/board.ini; then \
