@@ -90,6 +90,21 @@ $(BUILD)/obj/%.o: %.c
 	@$(if $(Q),echo "  CC      $<")
 	$(Q)$(CC) $(CPPFLAGS) $(ALL_CFLAGS) -c $< -o $@
 
+# The version (scripts/version.sh: VERSION, git describe, or HMDWARP_VERSION=...) goes into one generated header
+# that only platform/plat_version.c includes, rewritten only when the string changes: a new commit recompiles that
+# one file and relinks, and an unchanged version rebuilds nothing.
+VERSION_H := $(BUILD)/gen/hmdwarp_version.h
+$(VERSION_H): FORCE
+	@mkdir -p $(dir $@)
+	@v=$$(scripts/version.sh) && printf '#define HMDWARP_VERSION "%s"\n' "$$v" >$@.tmp && \
+	  if cmp -s $@.tmp $@; then rm -f $@.tmp; else mv $@.tmp $@ && echo "  GEN     $@ ($$v)"; fi
+$(BUILD)/obj/platform/plat_version.o: platform/plat_version.c $(VERSION_H)
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  CC      $<")
+	$(Q)$(CC) $(CPPFLAGS) -I$(BUILD)/gen $(ALL_CFLAGS) -c $< -o $@
+.PHONY: FORCE
+FORCE:
+
 $(BUILD)/obj/tests/%.o: tests/%.c
 	@mkdir -p $(dir $@)
 	@$(if $(Q),echo "  CC      $<")
