@@ -70,8 +70,10 @@ HIL_SRC  := $(wildcard tests/hil/src/*.c)
 HIL_BINS := $(patsubst tests/hil/src/%.c,$(BUILD)/hil/%,$(HIL_SRC))
 TEST_SUPPORT_SRC := $(wildcard tests/support/*.c)
 TEST_BINS := $(patsubst tests/%.c,$(BUILD)/tests/%,$(TEST_SRC))
+# Shell tests printing TAP, run by tests/run.sh like the binaries (after `make all man`).
+TEST_SCRIPTS := $(wildcard tests/packaging/test_*.sh)
 
-.PHONY: all deps run test asan install clean results bench stability hil check-cross
+.PHONY: all deps run test asan install clean results bench stability hil check-cross man install-man
 all: $(PROGRAMS) $(TEST_BINS) $(HIL_BINS)
 .SECONDARY:
 
@@ -164,8 +166,8 @@ run: deps
 # The unit, accuracy and stability binaries, then the HIL scenarios (a one-minute soak here; HIL=0 skips them,
 # saying so; .ci/run sets HIL_REQUIRED=1 so CI fails rather than skips).
 test: deps
-	@$(MAKE) --no-print-directory all
-	@BUILD=$(BUILD) HIL_SOAK_S=$${HIL_SOAK_S:-60} tests/run.sh --hil $(BUILD)/tests $(TEST_BINS)
+	@$(MAKE) --no-print-directory all man
+	@BUILD=$(BUILD) HIL_SOAK_S=$${HIL_SOAK_S:-60} tests/run.sh --hil $(BUILD)/tests $(TEST_BINS) $(TEST_SCRIPTS)
 
 # The numerical-stability suite alone (it is part of `make test` too).
 stability: deps
@@ -224,6 +226,35 @@ install: $(PROGRAMS)
 	install -m 0644 board/systemd/hmdwarp.sysusers.conf $(DESTDIR)$(SYSUSERSDIR)/hmdwarp.conf
 	install -m 0644 board/udev/99-hmdwarp.rules $(DESTDIR)$(UDEVDIR)/99-hmdwarp.rules
 	install -m 0644 README.md docs/*.md $(DESTDIR)$(PREFIX)/share/doc/hmdwarp/
+
+# Manual pages: section 1 by help2man from each program's --help and --version, hmdwarp-board.ini(5) from
+# hmdwarpd's own key table (--help-config), so neither can drift from the code. A cross build reads the programs'
+# --help under qemu-user (board/deps-cross.sh installs it).
+MANDIR ?= $(PREFIX)/share/man
+MAN_RUNNER ?= $(if $(CROSS_COMPILE),qemu-$(firstword $(subst -, ,$(CROSS_COMPILE)))-static)
+MAN_DESC_hmdwarpd      := display runtime of an HMD controller board
+MAN_DESC_hmdwarp-feed  := send host frames to an hmdwarp board over USB
+MAN_DESC_hmdwarp-warp  := score hmdwarp's warps on rendered frames or the simulator's scenes
+MAN_DESC_hmdwarp-lens  := render a lens calibration pattern through the board's distortion
+MAN_DESC_hmdwarp-bench := measure what hmdwarp's warp accuracy costs in time
+MANPAGES := $(patsubst $(BUILD)/%,$(BUILD)/man/%.1,$(PROGRAMS)) $(BUILD)/man/hmdwarp-board.ini.5
+man: $(MANPAGES)
+$(BUILD)/man/%.1: $(BUILD)/% man/see-also.h2m
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  MAN     $@")
+	$(Q)help2man --no-info --name "$(or $(MAN_DESC_$*),$*)" --include man/see-also.h2m --output $@.tmp \
+	  "$(strip $(MAN_RUNNER) $<)" && mv $@.tmp $@
+$(BUILD)/man/hmdwarp-board.ini.5: $(BUILD)/hmdwarpd man/board-ini-man.sh
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  MAN     $@")
+	$(Q)$(MAN_RUNNER) $(BUILD)/hmdwarpd --help-config >$@.keys && \
+	  man/board-ini-man.sh "$$(scripts/version.sh)" <$@.keys >$@.tmp && mv $@.tmp $@ && rm -f $@.keys
+# `make install` installs these too (a rule of its own, so the install recipe stays the board layout's).
+install-man: man
+	install -d $(DESTDIR)$(MANDIR)/man1 $(DESTDIR)$(MANDIR)/man5
+	install -m 0644 $(filter %.1,$(MANPAGES)) $(DESTDIR)$(MANDIR)/man1/
+	install -m 0644 $(filter %.5,$(MANPAGES)) $(DESTDIR)$(MANDIR)/man5/
+install: install-man
 
 # The board build, proven: every cross-built test program runs under qemu-user (Debian's qemu-user-static) against
 # the arm64 multiarch libraries (/lib/ld-linux-aarch64.so.1 from libc6:arm64; not the cross toolchain's copy in
