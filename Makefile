@@ -73,8 +73,11 @@ TEST_BINS := $(patsubst tests/%.c,$(BUILD)/tests/%,$(TEST_SRC))
 # Shell tests printing TAP, run by tests/run.sh like the binaries (after `make all man`).
 TEST_SCRIPTS := $(wildcard tests/packaging/test_*.sh)
 
-.PHONY: all deps run test asan install clean results bench stability hil check-cross man install-man
+.PHONY: all programs deps run test asan install clean results bench stability hil check-cross man install-man deb \
+        deb-arm64 deb-check
 all: $(PROGRAMS) $(TEST_BINS) $(HIL_BINS)
+# The programs alone (what `make install` and the Debian packages need; no test dependencies).
+programs: $(PROGRAMS)
 .SECONDARY:
 
 # Quiet by default; `make V=1` shows the commands.
@@ -255,6 +258,30 @@ install-man: man
 	install -m 0644 $(filter %.1,$(MANPAGES)) $(DESTDIR)$(MANDIR)/man1/
 	install -m 0644 $(filter %.5,$(MANPAGES)) $(DESTDIR)$(MANDIR)/man5/
 install: install-man
+
+# Debian packages hmdwarpd (the board) and hmdwarp-host (the host tools) from debian/, built in a copy of the
+# working tree under $(BUILD)/deb/ (dpkg-buildpackage writes its results to the parent directory), for this
+# machine or, with ARCH=arm64 (or `make deb-arm64`), cross-built for the board; lintian checks them.
+# `make deb-check` installs the packages into a throwaway root and checks what landed there.
+ARCH ?=
+DEB_ARCH = $(or $(ARCH),$(shell dpkg --print-architecture))
+DEB_OUT = $(BUILD)/deb/$(DEB_ARCH)
+deb:
+	@board/deps.sh && ARCH=$(ARCH) board/deps-deb.sh
+	@v=$$(cat VERSION); c=$$(dpkg-parsechangelog -S Version); [ "$${c%%-*}" = "$$v" ] || \
+	  { echo "deb: debian/changelog is at $$c but VERSION says $$v: add an entry (dch -v $$v)"; exit 1; }
+	rm -rf $(DEB_OUT) && mkdir -p $(DEB_OUT)/hmdwarp
+	{ git ls-files --cached --others --exclude-standard 2>/dev/null || find . -path ./build -prune -o -type f -print; } | \
+	  grep -v '^build/' | tar -cf - -T - | tar -xf - -C $(DEB_OUT)/hmdwarp
+	cd $(DEB_OUT)/hmdwarp && dpkg-buildpackage -us -uc -b -J$(shell nproc) $(if $(ARCH),-a$(ARCH)) >../build.log 2>&1 || \
+	  { tail -n 30 ../build.log; echo "deb: dpkg-buildpackage failed; log: $(DEB_OUT)/build.log"; exit 1; }
+	rm -rf $(DEB_OUT)/hmdwarp
+	lintian --fail-on error $(DEB_OUT)/*.changes | tee $(DEB_OUT)/lintian.txt
+	@ls $(DEB_OUT)/*.deb
+deb-arm64:
+	@$(MAKE) --no-print-directory deb ARCH=arm64
+deb-check: deb
+	@tests/packaging/deb-check.sh $(DEB_OUT)
 
 # The board build, proven: every cross-built test program runs under qemu-user (Debian's qemu-user-static) against
 # the arm64 multiarch libraries (/lib/ld-linux-aarch64.so.1 from libc6:arm64; not the cross toolchain's copy in
