@@ -7,6 +7,7 @@
 #   make install PREFIX=/usr DESTDIR=...           make clean
 #   make hil             hardware-in-the-loop scenarios in a qemu VM on Debian's kernel (tests/hil/README.md)
 #   make CROSS_COMPILE=aarch64-linux-gnu-          cross build for the board (make check-cross tests it)
+#   make man             manual pages              make deb     Debian packages (deb-arm64, deb-check)
 
 CROSS_COMPILE ?=
 ifeq ($(origin CC),default)
