@@ -74,7 +74,7 @@ TEST_BINS := $(patsubst tests/%.c,$(BUILD)/tests/%,$(TEST_SRC))
 # Shell tests printing TAP, run by tests/run.sh like the binaries (after `make all man`).
 TEST_SCRIPTS := $(wildcard tests/packaging/test_*.sh)
 
-.PHONY: all programs deps run test asan install clean results bench stability hil check-cross man install-man deb \
+.PHONY: all programs deps run test asan install clean results bench stability hil check-cross man install-man have-help2man deb \
         deb-arm64 deb-check
 all: $(PROGRAMS) $(TEST_BINS) $(HIL_BINS)
 # The programs alone (what `make install` and the Debian packages need; no test dependencies).
@@ -243,6 +243,9 @@ MAN_DESC_hmdwarp-lens  := render a lens calibration pattern through the board's 
 MAN_DESC_hmdwarp-bench := measure what hmdwarp's warp accuracy costs in time
 MANPAGES := $(patsubst $(BUILD)/%,$(BUILD)/man/%.1,$(PROGRAMS)) $(BUILD)/man/hmdwarp-board.ini.5
 man: $(MANPAGES)
+$(MANPAGES): | have-help2man
+have-help2man:
+	@command -v help2man >/dev/null || { echo "man: help2man is not installed (board/deps.sh installs it)"; exit 1; }
 $(BUILD)/man/%.1: $(BUILD)/% man/see-also.h2m
 	@mkdir -p $(dir $@)
 	@$(if $(Q),echo "  MAN     $@")
