@@ -71,7 +71,7 @@ HIL_SRC  := $(wildcard tests/hil/src/*.c)
 HIL_BINS := $(patsubst tests/hil/src/%.c,$(BUILD)/hil/%,$(HIL_SRC))
 TEST_SUPPORT_SRC := $(wildcard tests/support/*.c)
 TEST_BINS := $(patsubst tests/%.c,$(BUILD)/tests/%,$(TEST_SRC))
-# Shell tests printing TAP, run by tests/run.sh like the binaries (after `make all man`).
+# Shell tests printing TAP, run by tests/run.sh like the binaries (after `make all man deb`).
 TEST_SCRIPTS := $(wildcard tests/packaging/test_*.sh)
 
 .PHONY: all programs deps run test asan install clean results bench stability hil check-cross man install-man have-help2man deb \
@@ -170,7 +170,7 @@ run: deps
 # The unit, accuracy and stability binaries, then the HIL scenarios (a one-minute soak here; HIL=0 skips them,
 # saying so; .ci/run sets HIL_REQUIRED=1 so CI fails rather than skips).
 test: deps
-	@$(MAKE) --no-print-directory all man
+	@$(MAKE) --no-print-directory all man deb
 	@BUILD=$(BUILD) HIL_SOAK_S=$${HIL_SOAK_S:-60} tests/run.sh --hil $(BUILD)/tests $(TEST_BINS) $(TEST_SCRIPTS)
 
 # The numerical-stability suite alone (it is part of `make test` too).
@@ -266,7 +266,7 @@ install: install-man
 # Debian packages hmdwarpd (the board) and hmdwarp-host (the host tools) from debian/, built in a copy of the
 # working tree under $(BUILD)/deb/ (dpkg-buildpackage writes its results to the parent directory), for this
 # machine or, with ARCH=arm64 (or `make deb-arm64`), cross-built for the board; lintian checks them.
-# `make deb-check` installs the packages into a throwaway root and checks what landed there.
+# `make deb-check` installs the packages into a throwaway root and checks what landed there (make test does too).
 ARCH ?=
 DEB_ARCH = $(or $(ARCH),$(shell dpkg --print-architecture))
 DEB_OUT = $(BUILD)/deb/$(DEB_ARCH)
@@ -274,18 +274,21 @@ deb:
 	@board/deps.sh && ARCH=$(ARCH) board/deps-deb.sh
 	@v=$$(cat VERSION); c=$$(dpkg-parsechangelog -S Version); [ "$${c%%-*}" = "$$v" ] || \
 	  { echo "deb: debian/changelog is at $$c but VERSION says $$v: add an entry (dch -v $$v)"; exit 1; }
-	rm -rf $(DEB_OUT) && mkdir -p $(DEB_OUT)/hmdwarp
-	{ git ls-files --cached --others --exclude-standard 2>/dev/null || find . -path ./build -prune -o -type f -print; } | \
+	$(Q)rm -rf $(DEB_OUT) && mkdir -p $(DEB_OUT)/hmdwarp
+	$(Q){ git ls-files --cached --others --exclude-standard 2>/dev/null || find . -path ./build -prune -o -type f -print; } | \
 	  grep -v '^build/' | tar -cf - -T - | tar -xf - -C $(DEB_OUT)/hmdwarp
-	cd $(DEB_OUT)/hmdwarp && dpkg-buildpackage -us -uc -b -J$(shell nproc) $(if $(ARCH),-a$(ARCH)) >../build.log 2>&1 || \
+	@echo "  DEB     $(DEB_OUT) (dpkg-buildpackage$(if $(ARCH), -a$(ARCH)); log: $(DEB_OUT)/build.log)"
+	$(Q)cd $(DEB_OUT)/hmdwarp && dpkg-buildpackage -us -uc -b -J$(shell nproc) $(if $(ARCH),-a$(ARCH)) >../build.log 2>&1 || \
 	  { tail -n 30 ../build.log; echo "deb: dpkg-buildpackage failed; log: $(DEB_OUT)/build.log"; exit 1; }
-	rm -rf $(DEB_OUT)/hmdwarp
-	lintian --fail-on error $(DEB_OUT)/*.changes | tee $(DEB_OUT)/lintian.txt
-	@ls $(DEB_OUT)/*.deb
+	$(Q)rm -rf $(DEB_OUT)/hmdwarp
+	@echo "  LINTIAN $(DEB_OUT)/lintian.txt"
+	$(Q)lintian --fail-on error $(DEB_OUT)/*.changes >$(DEB_OUT)/lintian.txt 2>&1; rc=$$?; \
+	  grep -v 'running with root privileges' $(DEB_OUT)/lintian.txt | sed 's/^/          /'; \
+	  [ $$rc -eq 0 ] || { echo "deb: lintian reports errors (E: lines above)"; exit 1; }
 deb-arm64:
 	@$(MAKE) --no-print-directory deb ARCH=arm64
 deb-check: deb
-	@tests/packaging/deb-check.sh $(DEB_OUT)
+	@tests/packaging/test_deb.sh $(DEB_OUT)
 
 # The board build, proven: every cross-built test program runs under qemu-user (Debian's qemu-user-static) against
 # the arm64 multiarch libraries (/lib/ld-linux-aarch64.so.1 from libc6:arm64; not the cross toolchain's copy in

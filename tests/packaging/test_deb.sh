@@ -5,18 +5,26 @@
 # survives a reinstall and that a purge removes it. TAP output. Maintainer scripts run chrootless with
 # DPKG_ROOT set (the root has no shell; systemd-sysusers and deb-systemd-helper honour DPKG_ROOT), and the
 # packages' library dependencies are not in the root (--force-depends); the programs run with this host's libraries.
-# usage: tests/packaging/deb-check.sh DIR   (DIR: the .deb files, e.g. build/deb/amd64; make deb-check)
+# Not root: under fakeroot. Part of make test (after `make deb`, under a minute here) and of make deb-check.
+# usage: tests/packaging/test_deb.sh [DIR]   (DIR: the .deb files; default $BUILD/deb/<this machine's arch>)
 set -u
-dir=${1:?usage: tests/packaging/deb-check.sh DIR}
+dir=${1:-${BUILD:-build}/deb/$(dpkg --print-architecture)}
+if ! ls "$dir"/hmdwarpd_*.deb >/dev/null 2>&1; then
+    echo "1..1"
+    echo "not ok 1 - no hmdwarpd package in $dir (make deb builds it)"
+    exit 1
+fi
 root=$(cd "$dir" && pwd)/root
+fake=""
+[ "$(id -u)" -eq 0 ] || fake=fakeroot
 version=$(dpkg-parsechangelog -S Version)
 n=0
 fails=0
 ok() { n=$((n + 1)); echo "ok $n - $1"; }
 not_ok() { n=$((n + 1)); fails=$((fails + 1)); echo "not ok $n - $1"; shift; for l in "$@"; do echo "#   $l"; done; }
 check() { d=$1; shift; if "$@" >"$dir/check.out" 2>&1; then ok "$d"; else not_ok "$d" "$(head -n 3 "$dir/check.out")"; fi; }
-dpkg_root() { dpkg --root="$root" --force-script-chrootless --force-depends "$@"; }
-echo "1..16"
+dpkg_root() { $fake dpkg --root="$root" --force-script-chrootless --force-depends "$@"; }
+echo "1..17"
 
 rm -rf "$root"
 mkdir -p "$root/var/lib/dpkg/info" "$root/var/lib/dpkg/updates" "$root/etc"
@@ -24,7 +32,7 @@ touch "$root/var/lib/dpkg/status" "$root/var/lib/dpkg/available"
 check "dpkg -i hmdwarpd and hmdwarp-host into $root" \
     dpkg_root -i "$dir"/hmdwarpd_"$version"_*.deb "$dir"/hmdwarp-host_"$version"_*.deb
 for p in hmdwarpd hmdwarp-host; do
-    check "$p is installed" sh -c "dpkg --root='$root' -s $p | grep -qx 'Status: install ok installed'"
+    check "$p is installed" sh -c "$fake dpkg --root='$root' -s $p | grep -qx 'Status: install ok installed'"
 done
 check "the unit is installed and enabled" \
     sh -c "[ -f '$root/lib/systemd/system/hmdwarpd.service' ] && [ -L '$root/etc/systemd/system/multi-user.target.wants/hmdwarpd.service' ]"
@@ -41,8 +49,11 @@ for p in hmdwarpd hmdwarp-feed; do
 done
 check "man pages: five in section 1, board.ini's in 5" sh -c "[ \$(ls '$root'/usr/share/man/man1/hmdwarp*.1.gz | wc -l) -eq 5 ] &&
     zcat '$root/usr/share/man/man5/hmdwarp-board.ini.5.gz' | grep -q '^\.TH HMDWARP-BOARD.INI 5'"
-check "hmdwarp-gadget and the board definitions" \
-    sh -c "[ -x '$root/usr/bin/hmdwarp-gadget' ] && [ -f '$root/usr/share/hmdwarp/boards/rpi5/board.ini' ]"
+check "hmdwarp-gadget and the board definitions with the generic board's README" \
+    sh -c "[ -x '$root/usr/bin/hmdwarp-gadget' ] && [ -f '$root/usr/share/hmdwarp/boards/rpi5/board.ini' ] &&
+    grep -q 'FILL IN' '$root/usr/share/hmdwarp/boards/generic-aarch64/README.md'"
+check "the project's README in /usr/share/doc/hmdwarpd" \
+    sh -c "zcat -f '$root'/usr/share/doc/hmdwarpd/README.md* | head -n 1 | grep -qx '# hmdwarp'"
 
 # An edited conffile survives a reinstall; a purge removes it with the unit's enablement.
 echo "; edited on the board" >>"$root/etc/hmdwarp/board.ini"
