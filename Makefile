@@ -74,8 +74,8 @@ TEST_BINS := $(patsubst tests/%.c,$(BUILD)/tests/%,$(TEST_SRC))
 # Shell tests printing TAP, run by tests/run.sh like the binaries (after `make all man deb`).
 TEST_SCRIPTS := $(wildcard tests/packaging/test_*.sh)
 
-.PHONY: all programs deps run test asan install clean results bench stability hil check-cross man install-man have-help2man deb \
-        deb-arm64 deb-check
+.PHONY: all programs deps run test asan install clean results bench stability hil check-cross man install-man \
+        have-help2man deb deb-arm64 deb-check
 all: $(PROGRAMS) $(TEST_BINS) $(HIL_BINS)
 # The programs alone (what `make install` and the Debian packages need; no test dependencies).
 programs: $(PROGRAMS)
@@ -254,8 +254,8 @@ $(BUILD)/man/%.1: $(BUILD)/% man/see-also.h2m
 $(BUILD)/man/hmdwarp-board.ini.5: $(BUILD)/hmdwarpd man/board-ini-man.sh
 	@mkdir -p $(dir $@)
 	@$(if $(Q),echo "  MAN     $@")
-	$(Q)$(MAN_RUNNER) $(BUILD)/hmdwarpd --help-config >$@.keys && \
-	  man/board-ini-man.sh "$$(scripts/version.sh)" <$@.keys >$@.tmp && mv $@.tmp $@ && rm -f $@.keys
+	$(Q)$(MAN_RUNNER) $(BUILD)/hmdwarpd --help-config >$@.keys && v=$$($(MAN_RUNNER) $(BUILD)/hmdwarpd --version) && \
+	  man/board-ini-man.sh "$${v#hmdwarpd }" <$@.keys >$@.tmp && mv $@.tmp $@ && rm -f $@.keys
 # `make install` installs these too (a rule of its own, so the install recipe stays the board layout's).
 install-man: man
 	install -d $(DESTDIR)$(MANDIR)/man1 $(DESTDIR)$(MANDIR)/man5
@@ -267,18 +267,21 @@ install: install-man
 # working tree under $(BUILD)/deb/ (dpkg-buildpackage writes its results to the parent directory), for this
 # machine or, with ARCH=arm64 (or `make deb-arm64`), cross-built for the board; lintian checks them.
 # `make deb-check` installs the packages into a throwaway root and checks what landed there (make test does too).
-ARCH ?=
-DEB_ARCH = $(or $(ARCH),$(shell dpkg --print-architecture))
+# ARCH only from the command line: kernel builds often leave ARCH=x86_64 and the like in the environment.
+DEB_HOST = $(if $(filter command line,$(origin ARCH)),$(ARCH))
+DEB_ARCH = $(or $(DEB_HOST),$(shell dpkg --print-architecture))
 DEB_OUT = $(BUILD)/deb/$(DEB_ARCH)
 deb:
-	@board/deps.sh && ARCH=$(ARCH) board/deps-deb.sh
+	@board/deps.sh && ARCH=$(DEB_HOST) board/deps-deb.sh
 	@v=$$(cat VERSION); c=$$(dpkg-parsechangelog -S Version); [ "$${c%%-*}" = "$$v" ] || \
 	  { echo "deb: debian/changelog is at $$c but VERSION says $$v: add an entry (dch -v $$v)"; exit 1; }
 	$(Q)rm -rf $(DEB_OUT) && mkdir -p $(DEB_OUT)/hmdwarp
-	$(Q){ git ls-files --cached --others --exclude-standard 2>/dev/null || find . -path ./build -prune -o -type f -print; } | \
-	  grep -v '^build/' | tar -cf - -T - | tar -xf - -C $(DEB_OUT)/hmdwarp
-	@echo "  DEB     $(DEB_OUT) (dpkg-buildpackage$(if $(ARCH), -a$(ARCH)); log: $(DEB_OUT)/build.log)"
-	$(Q)cd $(DEB_OUT)/hmdwarp && dpkg-buildpackage -us -uc -b -J$(shell nproc) $(if $(ARCH),-a$(ARCH)) >../build.log 2>&1 || \
+	$(Q){ git ls-files --cached --others --exclude-standard 2>/dev/null || \
+	  find . -path ./build -prune -o -type f -print; } | grep -v '^build/' | tar -cf - -T - | \
+	  tar -xf - -C $(DEB_OUT)/hmdwarp
+	@echo "  DEB     $(DEB_OUT) (dpkg-buildpackage$(if $(DEB_HOST), -a$(DEB_HOST)); log: $(DEB_OUT)/build.log)"
+	$(Q)cd $(DEB_OUT)/hmdwarp && dpkg-buildpackage -us -uc -b -J$(shell nproc) $(if $(DEB_HOST),-a$(DEB_HOST)) \
+	  >../build.log 2>&1 || \
 	  { tail -n 30 ../build.log; echo "deb: dpkg-buildpackage failed; log: $(DEB_OUT)/build.log"; exit 1; }
 	$(Q)rm -rf $(DEB_OUT)/hmdwarp
 	@echo "  LINTIAN $(DEB_OUT)/lintian.txt"

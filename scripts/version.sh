@@ -8,7 +8,10 @@ src=${1:-$(dirname "$0")/..}
 if [ -n "${HMDWARP_VERSION:-}" ]; then
     # It becomes a C string and a file name part: only what Debian allows in a version.
     case $HMDWARP_VERSION in
-    *[!A-Za-z0-9.+~:-]*) echo "version.sh: HMDWARP_VERSION '$HMDWARP_VERSION': only A-Z a-z 0-9 . + ~ : - allowed" >&2; exit 1 ;;
+    *[!A-Za-z0-9.+~:-]*)
+        echo "version.sh: HMDWARP_VERSION '$HMDWARP_VERSION': only A-Z a-z 0-9 . + ~ : - allowed" >&2
+        exit 1
+        ;;
     esac
     echo "$HMDWARP_VERSION"
     exit 0
