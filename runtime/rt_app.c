@@ -12,6 +12,7 @@
 
 #include "drivers/drv_sim.h"
 #include "platform/plat_clock.h"
+#include "platform/plat_version.h"
 #include "warp/warp_resample.h"
 
 static bool predict_for_host(void *ctx, int64_t t_ns, warp_pose *head)
@@ -488,8 +489,8 @@ void rt_app_summary(rt_app *a, FILE *out)
     const rt_telemetry *t = a->tel;
     char buf[400];
     double secs = (double)t->vsyncs / c->refresh_hz;
-    fprintf(out, "\nhmdwarpd summary — board '%s', scene '%s', head motion '%s', %.1f s\n", c->board_name, c->scene,
-            c->trace, secs);
+    fprintf(out, "\nhmdwarpd %s summary — board '%s', scene '%s', head motion '%s', %.1f s\n", plat_version(),
+            c->board_name, c->scene, c->trace, secs);
     if (a->use_gles)
         fprintf(out, "  renderer                   gles: %s (%s; %s), warp method %s\n", plat_egl_renderer(a->egl),
                 plat_egl_version(a->egl), a->realtime ? "SCHED_FIFO" : "normal priority", rt_method_name(c->method));
@@ -649,6 +650,7 @@ void rt_app_stats_kv(rt_app *a, FILE *out)
     const rt_telemetry *t = a->tel;
 #define KV(k, fmt, v) fprintf(out, "%s=" fmt "\n", k, v)
 #define KVU(k, v) KV(k, "%llu", (unsigned long long)(v))
+    KV("version", "%s", plat_version());
     KV("board", "%s", c->board_name);
     KV("imu_backend", "%s", a->imu ? a->imu->name : "");
     KV("frames_backend", "%s", a->frames ? a->frames->name : "");
