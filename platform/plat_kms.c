@@ -402,8 +402,9 @@ static bool find_card(const plat_kms_params *p, char *dev, size_t len, char *err
             snprintf(dev, len, "%s", path);
             return true;
         }
-        strncat(tried, *tried ? "; " : "", sizeof tried - strlen(tried) - 1);
-        strncat(tried, e, sizeof tried - strlen(tried) - 1);
+        size_t used = strlen(tried);
+        /* cut where it does not fit: the first cards tried are named */
+        if (snprintf(tried + used, sizeof tried - used, "%s%s", used ? "; " : "", e) < 0) break;
     }
     set_err(err, errlen, "kms_device = auto: no /dev/dri/cardN with a connected connector%s%s%s",
             *tried ? " (" : " (no card at all)", tried, *tried ? ")" : "");
