@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # hmdwarp build: every program into build/, one static library per layer.
 # Layers link downwards only: runtime -> drivers -> platform -> sim -> warp (see DEVELOPERS.md).
 #

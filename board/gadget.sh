@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: MIT
 # gadget.sh: sets up the board as a USB gadget for the host frame link (configfs + FunctionFS), starts hmdwarpd
 # (which writes the FunctionFS descriptors), binds the UDC; and tears it all down again. See docs/framelink.md.
 set -eu

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* drv_framelink: the frame wire protocol between host and board (one codec for both ends): frames host -> board,
  * pose messages board -> host. Little-endian, versioned, CRC32-checked; byte layout in docs/framelink.md. */
 #ifndef DRV_FRAMELINK_H

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* drv_frames_usb: host frames over USB, the board being a FunctionFS gadget (bulk OUT frames, bulk IN poses), and
  * a mock whose simulated host talks the same framelink byte streams through socket pairs instead of endpoints. */
 #include "drivers/drv_frames_usb.h"

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* drv_frames_v4l2: host frames captured over V4L2 (HDMI/CSI capture of the host's video output) in the in-band
  * layout of drv_v4l2_inband, a mock capture device fed by the simulated host, and the host tool's output writer. */
 #include "drivers/drv_frames_v4l2.h"

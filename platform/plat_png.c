@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* plat_png: PNG image file I/O through libpng, for snapshots, tools and test artefacts.
  * Never called on the vsync path (file I/O). */
 #include "platform/plat_png.h"

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* hmdwarpd: the display runtime of an HMD controller board: command line, configuration, signals, and the run
  * summary. Everything else lives in rt_app and below. */
 #include <signal.h>

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* rt_app: one hmdwarpd instance: devices chosen by board.ini, the IMU, frames, compositor and helper threads, and
  * the run summary. hmdwarpd_main parses arguments; tests drive an instance directly. */
 #ifndef RT_APP_H

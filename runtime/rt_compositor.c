@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* rt_compositor: the vsync-paced loop: just before each vsync it predicts the head pose at photon time, takes the
  * newest host frame, warps and distorts it into a free swapchain image and presents it. No allocation, no I/O, no
  * locks on this path. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* rt_config: hmdwarpd's settings: defaults, board.ini parsing (inih) with errors naming line and key, command-line
  * overrides (section.key=value) and validation. One table defines every key, its range and its help text. */
 #ifndef RT_CONFIG_H

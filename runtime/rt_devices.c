@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* rt_devices: opens the IMU, host-frame and vsync backends board.ini names, real or mock, with one clear error
  * naming the key and the device when one cannot be opened. */
 #include <stdio.h>

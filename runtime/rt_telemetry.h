@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* rt_telemetry: counters and latency histograms of a run (vsyncs, misses, warp times per method, motion-to-photon,
  * frame age, rejected input by reason), written allocation-free from the real-time threads, summarised at exit. */
 #ifndef RT_TELEMETRY_H

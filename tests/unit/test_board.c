@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* The board definitions and the install tree: every board/NAME/board.ini loads and validates; `make install` for a
  * USB-gadget board gives a tree board/flash.sh --dry-run accepts (unit, drop-in, udev rules, sysusers, config);
  * the unit passes systemd-analyze verify where it exists; the udev rules parse; a broken tree is refused. */

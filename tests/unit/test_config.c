@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Tests of configuration loading: defaults and every shipped board.ini validate, errors name the line and key,
  * command-line overrides apply, and cross-key validation catches a lens that folds over. */
 #include <setjmp.h>

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Unit tests for drv_framelink: bit-exact round trips of every plane combination, each rejection with its named
  * error, header peeking on partial streams, fixed-seed corruption fuzzing, and the board -> host pose message. */
 #include <math.h>

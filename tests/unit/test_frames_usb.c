@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Unit tests for drv_frames_usb through its mock (socket pairs for the endpoints, a simulated host behind them):
  * frames arrive with the board's own poses echoed, faults are rejected by name and the stream resynchronises,
  * oversize frames are skipped unstored, stalls are ridden out, and a missing FunctionFS mount gives a clear error. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Unit tests for the I2C IMU backend: per-chip init sequences against the datasheets, scaling at every range,
  * big-endian burst decoding, identification errors, auto-detection, the mock chip fed by the simulated IMU end to end,
  * saturation, invalid / missing data, and recovery after a failing bus. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* rt_telemetry: the latency histograms' percentiles and the attribution of missed vsyncs to hmdwarpd's own work
  * or to the system (late wake-up, descheduled, no free image), which HIL and soak runs assert on. */
 #include <setjmp.h>

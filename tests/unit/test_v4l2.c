@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Unit tests for the V4L2 frame path: pixel conversions (75 % bars, round trips), the in-band layout (metadata
  * bit exact through YUYV, NV12, RGB and RGB->YUV->RGB; depth within quantisation; garbled bands rejected), and the
  * capture backend end to end over the mock device fed by the simulated host (formats, faults, reconnect). */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* hmdwarp-warp end to end: the inputs it writes from the simulator (PNG colour, PFM depth, 16-bit ids, view file)
  * read back through its file loaders give the same warp and the same score; ray-distance depth and 16-bit
  * reversed-Z depth convert to the same result; bad inputs are refused with a message naming them. */

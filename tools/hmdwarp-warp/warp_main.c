@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* hmdwarp-warp: scores any warp of the catalogue on frames from the user's own renderer (PNG colour, PFM/raw/16-bit
  * PNG depth, ids, motion, a view file with intrinsics and poses), or on the simulator's scenes; writes the result,
  * its mask and, given the true target view, PSNR/SSIM/error-%. Also generates the results table in docs/. */
