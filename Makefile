@@ -251,7 +251,9 @@ MAN_DESC_hmdwarp-feed  := send host frames to an hmdwarp board over USB
 MAN_DESC_hmdwarp-warp  := score hmdwarp's warps on rendered frames or the simulator's scenes
 MAN_DESC_hmdwarp-lens  := render a lens calibration pattern through the board's distortion
 MAN_DESC_hmdwarp-bench := measure what hmdwarp's warp accuracy costs in time
-MANPAGES := $(patsubst $(BUILD)/%,$(BUILD)/man/%.1,$(PROGRAMS)) $(BUILD)/man/hmdwarp-board.ini.5
+MAN_DESC_hmdwarp-gadget := set up the board's USB gadget for the host frame link
+MANPAGES := $(patsubst $(BUILD)/%,$(BUILD)/man/%.1,$(PROGRAMS)) $(BUILD)/man/hmdwarp-gadget.1 \
+            $(BUILD)/man/hmdwarp-board.ini.5
 man: $(MANPAGES)
 $(MANPAGES): | have-help2man
 have-help2man:
@@ -261,6 +263,12 @@ $(BUILD)/man/%.1: $(BUILD)/% man/see-also.h2m
 	@$(if $(Q),echo "  MAN     $@")
 	$(Q)help2man --no-info --name "$(or $(MAN_DESC_$*),$*)" --include man/see-also.h2m --output $@.tmp \
 	  "$(strip $(MAN_RUNNER) $<)" && mv $@.tmp $@
+# board/gadget.sh is installed as hmdwarp-gadget: a script of the build host's shell, whose version is the tree's.
+$(BUILD)/man/hmdwarp-gadget.1: board/gadget.sh man/see-also.h2m
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  MAN     $@")
+	$(Q)help2man --no-info --name "$(MAN_DESC_hmdwarp-gadget)" --include man/see-also.h2m \
+	  --version-string "hmdwarp-gadget $$(scripts/version.sh)" --output $@.tmp board/gadget.sh && mv $@.tmp $@
 $(BUILD)/man/hmdwarp-board.ini.5: $(BUILD)/hmdwarpd man/board-ini-man.sh
 	@mkdir -p $(dir $@)
 	@$(if $(Q),echo "  MAN     $@")

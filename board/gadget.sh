@@ -18,7 +18,8 @@ WAIT_S=10
 
 usage() {
     cat <<EOF
-usage: board/gadget.sh [options] start|stop|status|setup|bind
+Usage: hmdwarp-gadget [options] start|stop|status|setup|bind
+(installed as hmdwarp-gadget; board/gadget.sh in the source tree)
 
   start   load libcomposite, create the configfs gadget "$GADGET" with an ffs.$GADGET function,
           mount FunctionFS at the ffs dir, start hmdwarpd (it writes the USB descriptors to ep0),
