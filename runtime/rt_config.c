@@ -162,7 +162,8 @@ static const keydef keys[] = {
     {"sim", "eval_every_ms", K_DOUBLE, F(eval_every_ms), 0, 0, 1e6, NULL,
      "compare a displayed frame with ground truth this often (0 = off)"},
     {"mock", "corrupt_every", K_INT, F(mock_corrupt_every), 0, 0, 1000000, NULL,
-     "mock devices: garble every Nth HID report / host frame (0 = never)"},
+     "mock devices: garble every Nth HID report / host frame (USB: a flipped byte; V4L2: a damaged band or a "
+     "picture without it, in turn) (0 = never)"},
     {"mock", "truncate_every", K_INT, F(mock_truncate_every), 0, 0, 1000000, NULL,
      "mock host link: cut every Nth frame short (0 = never)"},
     {"mock", "imu_unplug_at_s", K_DOUBLE, F(mock_imu_unplug_at_s), 0, 0, 1e6, NULL,
