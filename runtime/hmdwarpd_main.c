@@ -142,6 +142,8 @@ int main(int argc, char **argv)
     for (int i = 0; i < warn.count && i < 16; i++) fprintf(stderr, "hmdwarpd: warning: %s\n", warn.msg[i]);
     if (check) {
         printf("; %s: valid\n", config ? config : "built-in defaults");
+        printf("; allocates about %.0f MiB at start ([render] max_memory_mb = %g)\n",
+               (double)rt_config_memory_bytes(&cfg) / (1024.0 * 1024.0), cfg.max_memory_mb);
         rt_config_print(&cfg, stdout);
         return 0;
     }
