@@ -790,7 +790,8 @@ bool rt_app_showed_frames(const rt_app *a, char *why, int whylen)
     else if (!t->frames_received)
         snprintf(why, (size_t)whylen, "no host frame arrived in %llu vsyncs", (unsigned long long)t->vsyncs);
     else
-        snprintf(why, (size_t)whylen, "%llu host frames arrived, none was shown", (unsigned long long)t->frames_received);
+        snprintf(why, (size_t)whylen, "%llu host frames arrived, none was shown",
+                 (unsigned long long)t->frames_received);
     return false;
 }
 

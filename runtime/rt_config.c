@@ -670,6 +670,19 @@ bool rt_config_parse_axes(const char *s, int map[3], int sign[3])
     return n == 3;
 }
 
+/* Index in keys[] of "section.key" given as the first n characters of s, or -1. */
+static int key_index(const char *s, size_t n)
+{
+    const char *dot = memchr(s, '.', n);
+    if (!dot) return -1;
+    size_t ls = (size_t)(dot - s), lk = n - ls - 1;
+    for (int i = 0; i < NKEYS; i++)
+        if (strlen(keys[i].section) == ls && !strncmp(keys[i].section, s, ls) && strlen(keys[i].key) == lk &&
+            !strncmp(keys[i].key, dot + 1, lk))
+            return i;
+    return -1;
+}
+
 /* "[sec] key (file:line)" for each "sec.key" of the space-separated list: where each key of a cross-key error was
  * set (or that it was left at its default). */
 static const char *keys_at(const rt_config *c, const char *list, char *buf, size_t len)
@@ -677,12 +690,7 @@ static const char *keys_at(const rt_config *c, const char *list, char *buf, size
     buf[0] = 0;
     while (*list) {
         size_t n = strcspn(list, " ");
-        const char *dot = memchr(list, '.', n);
-        int idx = -1;
-        for (int i = 0; dot && i < NKEYS && idx < 0; i++)
-            if (strlen(keys[i].section) == (size_t)(dot - list) && !strncmp(keys[i].section, list, (size_t)(dot - list)) &&
-                strlen(keys[i].key) == n - (size_t)(dot - list) - 1 && !strncmp(keys[i].key, dot + 1, n - (size_t)(dot - list) - 1))
-                idx = i;
+        int idx = key_index(list, n);
         char one[300];
         if (idx < 0)
             snprintf(one, sizeof one, "%.*s", (int)n, list); /* a typo in this file; shows in the message */
@@ -796,11 +804,15 @@ bool rt_config_validate(const rt_config *c, rt_config_errors *err)
      * run and show nothing. */
     const double mib = 1024.0 * 1024.0;
     const uint64_t frame = rt_config_frame_bytes(c);
-    if (strcmp(c->frames_backend, "usb") == 0 && (double)frame > c->max_frame_mb * mib)
+    if (strcmp(c->frames_backend, "usb") == 0 && (double)frame > c->max_frame_mb * mib) {
+        const char *planes = wants_layers(c) ? "colour, depth, ids, layers"
+                             : wants_ids(c)  ? "colour, depth, ids"
+                                             : "colour, depth";
         add_error(err, "[frames] max_frame_mb = %g: a host frame of two %dx%d eyes (%s) takes %.1f MiB, more than "
-                       "the limit, so every frame would be rejected; %s", c->max_frame_mb, c->eye_w, c->eye_h,
-                  wants_layers(c) ? "colour, depth, ids, layers" : wants_ids(c) ? "colour, depth, ids" : "colour, depth",
-                  (double)frame / mib, keys_at(c, "frames.max_frame_mb eye.width eye.height warp.method", at, sizeof at));
+                       "the limit, so every frame would be rejected; %s", c->max_frame_mb, c->eye_w, c->eye_h, planes,
+                  (double)frame / mib,
+                  keys_at(c, "frames.max_frame_mb eye.width eye.height warp.method", at, sizeof at));
+    }
     const uint64_t mem = rt_config_memory_bytes(c);
     if ((double)mem > c->max_memory_mb * mib)
         add_error(err, "[render] max_memory_mb = %g: this configuration allocates about %.0f MiB at start "
