@@ -839,6 +839,13 @@ void rt_config_warnings(const rt_config *c, rt_config_errors *warn)
         strcmp(c->sink, "null") == 0)
         add_error(warn, "board '%s' displays nowhere: [display] output = offscreen and sink = null (set output = kms "
                         "to show the panel)", c->board_name);
+    /* max_memory_mb is the board's budget; this machine may have less (a warning only: a board's configuration is
+     * also checked on the host that builds it) */
+    long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+    const uint64_t mem = rt_config_memory_bytes(c);
+    if (pages > 0 && page > 0 && mem > (uint64_t)pages * (uint64_t)page)
+        add_error(warn, "this configuration allocates about %.0f MiB at start, more than this machine's %.0f MiB",
+                  (double)mem / (1024.0 * 1024.0), (double)pages * (double)page / (1024.0 * 1024.0));
 }
 
 static void format_value(const rt_config *c, const keydef *k, char *buf, size_t len)

@@ -139,7 +139,8 @@ uint64_t rt_config_frame_bytes(const rt_config *c);
 uint64_t rt_config_memory_bytes(const rt_config *c);
 
 /* Warnings that do not stop a run (--check-config prints them as `warning:` lines): a real board (named, or with
- * a real device backend) that displays nowhere (output = offscreen, sink = null). */
+ * a real device backend) that displays nowhere (output = offscreen, sink = null); a configuration whose memory
+ * estimate exceeds this machine's physical memory (sysconf). */
 void rt_config_warnings(const rt_config *c, rt_config_errors *warn);
 
 /* Parses a [display] kms_mode: "auto" gives 0 x 0 at 0 Hz, "WxH" any refresh (hz 0), "WxH@Hz". */

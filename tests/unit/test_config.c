@@ -294,6 +294,21 @@ static void test_frame_and_memory_limits(void **state)
     assert_false(rt_config_validate(&c, &e));
     assert_non_null(strstr(e.msg[0], "[frames] max_frame_mb (command line, override 3)"));
     assert_true(rt_config_memory_bytes(&c) > 4096ull << 20);
+
+    /* more than this machine has: a warning (the budget is the board's; this may be the host that builds it) */
+    rt_config_defaults(&c);
+    const char *huge[] = {"eye.width=8192", "eye.height=8192", "warp.method=auto", "render.max_memory_mb=1048576"};
+    for (int i = 0; i < 4; i++) assert_true(rt_config_set(&c, huge[i], &e));
+    e.count = 0;
+    assert_true(rt_config_validate(&c, &e));
+    rt_config_errors w = {0};
+    rt_config_warnings(&c, &w);
+    const uint64_t phys = (uint64_t)sysconf(_SC_PHYS_PAGES) * (uint64_t)sysconf(_SC_PAGESIZE);
+    assert_int_equal(has_error(&w, "more than this machine's"), rt_config_memory_bytes(&c) > phys);
+    rt_config_defaults(&c);
+    rt_config_errors w2 = {0};
+    rt_config_warnings(&c, &w2);
+    assert_int_equal(w2.count, 0);
 }
 
 static char tmpdir[64];
