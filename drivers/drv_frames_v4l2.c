@@ -263,6 +263,8 @@ typedef struct {
     int fail_opens;      /* opens left to fail with ENOENT (unplugged) */
     bool unplugged;      /* the current fd is dead: POLLERR, DQBUF ENODEV */
     bool garble, blank;
+    int corrupt_every;   /* [mock] corrupt_every: every Nth frame damaged, a flipped block and a blank in turn */
+    uint64_t packed;     /* frames the host delivered into a buffer */
     drv_v4l2_geom g;
     drv_v4l2_colorspace cs;
     bool fmt_set, streaming;
@@ -486,6 +488,14 @@ static int mock_poll(void *ctx, int fd, short events, int timeout_ms, short *rev
     }
     int r = drv_frames_receive(m->host, &m->hf, timeout_ms);
     if (r <= 0) return 0;
+    m->packed++;
+    if (m->corrupt_every > 0 && m->packed % (uint64_t)m->corrupt_every == 0) {
+        /* both ways a capture goes wrong in the band: a dropped symbol (CRC) and a picture without it (magic) */
+        if ((m->packed / (uint64_t)m->corrupt_every) % 2)
+            m->garble = true;
+        else
+            m->blank = true;
+    }
     uint8_t *mem = m->b[q].mem;
     if (m->blank) {
         memset(mem, 0x80, m->g.size); /* a mid-grey picture: the host is not running our renderer */
@@ -856,6 +866,12 @@ void drv_frames_v4l2_mock_fault(drv_frames *fr, drv_v4l2_fault fault)
     case DRV_V4L2_FAULT_GARBLE: c->mock->garble = true; break;
     case DRV_V4L2_FAULT_BLANK: c->mock->blank = true; break;
     }
+}
+
+void drv_frames_v4l2_mock_corrupt_every(drv_frames *fr, int n)
+{
+    v4l2_cap *c = (v4l2_cap *)fr;
+    if (c->mock) c->mock->corrupt_every = n > 0 ? n : 0;
 }
 
 /* ---- output writer (host tool) ---- */

@@ -43,6 +43,9 @@ static void usage(FILE *out)
             "  --help-config       only the configuration keys below (the source of hmdwarp-board.ini(5))\n"
             "  --version           print the version and exit\n"
             "\n"
+            "exit status: 0 the run showed host frames; 1 it could not start, or showed none (no vsync, no host\n"
+            "frame, or every one rejected: the summary's result line says which); 2 configuration or option error\n"
+            "\n"
             "configuration keys (board.ini sections):\n");
     rt_config_print_keys(out);
 }
@@ -142,6 +145,8 @@ int main(int argc, char **argv)
     for (int i = 0; i < warn.count && i < 16; i++) fprintf(stderr, "hmdwarpd: warning: %s\n", warn.msg[i]);
     if (check) {
         printf("; %s: valid\n", config ? config : "built-in defaults");
+        printf("; allocates about %.0f MiB at start ([render] max_memory_mb = %g)\n",
+               (double)rt_config_memory_bytes(&cfg) / (1024.0 * 1024.0), cfg.max_memory_mb);
         rt_config_print(&cfg, stdout);
         return 0;
     }
@@ -168,6 +173,14 @@ int main(int argc, char **argv)
     sd_notify(0, "STOPPING=1");
     rt_app_summary(&app, stdout);
     int rc = 0;
+    char why[256];
+    if (!rt_app_showed_frames(&app, why, sizeof why)) {
+        /* A board that showed nothing has failed, whatever ended the run: systemd and scripts must see it. */
+        printf("result                       FAILED, nothing shown: %s\n", why);
+        fflush(stdout);
+        fprintf(stderr, "hmdwarpd: nothing shown: %s\n", why);
+        rc = 1;
+    }
     if (cfg.stats[0]) {
         FILE *f = fopen(cfg.stats, "w");
         if (f) {

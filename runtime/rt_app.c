@@ -769,6 +769,32 @@ void rt_app_stats_kv(rt_app *a, FILE *out)
 #undef KVU
 }
 
+bool rt_app_showed_frames(const rt_app *a, char *why, int whylen)
+{
+    const rt_telemetry *t = a->tel;
+    uint64_t rejected = 0;
+    int most = 0;
+    for (int e = 1; e < DRV_FRAME_ERR_COUNT; e++) {
+        rejected += t->frames_rejected[e];
+        if (t->frames_rejected[e] > t->frames_rejected[most]) most = e;
+    }
+    why[0] = 0;
+    if (t->vsyncs == 0)
+        snprintf(why, (size_t)whylen, "no vsync was presented (the configuration is more than this machine can "
+                                      "warp at %.0f Hz, or the vsync source gave nothing)", a->cfg.refresh_hz);
+    else if (t->new_frames_shown > 0)
+        return true;
+    else if (rejected && !t->frames_received)
+        snprintf(why, (size_t)whylen, "every host frame was rejected (%llu, most as %s)",
+                 (unsigned long long)rejected, drv_frame_err_str((drv_frame_err)most));
+    else if (!t->frames_received)
+        snprintf(why, (size_t)whylen, "no host frame arrived in %llu vsyncs", (unsigned long long)t->vsyncs);
+    else
+        snprintf(why, (size_t)whylen, "%llu host frames arrived, none was shown",
+                 (unsigned long long)t->frames_received);
+    return false;
+}
+
 void rt_app_free(rt_app *a)
 {
     drv_imu_destroy(a->imu);

@@ -171,6 +171,9 @@ void rt_app_request_stop(rt_app *a);
 void rt_app_summary(rt_app *a, FILE *out);
 /* The summary as key=value lines, one per counter, for scripts (hardware-in-the-loop scenarios). */
 void rt_app_stats_kv(rt_app *a, FILE *out);
+/* Whether the run showed at least one host frame. False, with the reason in one line, when it presented no vsync,
+ * received no host frame, or rejected every one it received: such a run fails (hmdwarpd exits 1). */
+bool rt_app_showed_frames(const rt_app *a, char *why, int whylen);
 void rt_app_free(rt_app *a);
 
 /* Opens the IMU, frames and vsync backends board.ini names (rt_devices.c); sp describes the simulated host,

@@ -653,6 +653,37 @@ static void test_mock_faults_and_reconnect(void **state)
     drv_frames_destroy(fr);
 }
 
+/* [mock] corrupt_every: every third frame damaged, a garbled band and a blank picture in turn, each rejected by its
+ * reason and counted; the frames between them arrive whole. */
+static void test_mock_corrupt_every(void **state)
+{
+    (void)state;
+    drv_frames_sim_params sp = host_params();
+    drv_frames_v4l2_params p = cap_params("auto", false);
+    char err[256] = "";
+    drv_frames *fr = drv_frames_v4l2_create_mock(&sp, &p, err, sizeof err);
+    if (!fr) fail_msg("%s", err);
+    drv_frames_v4l2_mock_corrupt_every(fr, 3);
+    drv_frame f;
+    assert_true(drv_frame_alloc(&f, EW, EH, drv_frames_planes(fr), 1));
+    for (int i = 1; i <= 12; i++) {
+        int want = i % 3 ? 1 : (i / 3) % 2 ? -DRV_FRAME_ERR_CRC : -DRV_FRAME_ERR_BAD_MAGIC;
+        int got = receive_one(fr, &f);
+        if (got != want) fail_msg("frame %d: receive gave %d, want %d", i, got, want);
+        if (got == 1) assert_int_equal(drv_frame_validate(&f), DRV_FRAME_OK);
+    }
+    drv_frames_v4l2_stats st;
+    drv_frames_v4l2_stats_get(fr, &st);
+    assert_int_equal(st.frames, 8);
+    assert_int_equal(st.rejected[DRV_FRAME_ERR_CRC], 2);
+    assert_int_equal(st.rejected[DRV_FRAME_ERR_BAD_MAGIC], 2);
+    /* 0 turns it off */
+    drv_frames_v4l2_mock_corrupt_every(fr, 0);
+    for (int i = 0; i < 4; i++) assert_int_equal(receive_one(fr, &f), 1);
+    drv_frame_free(&f);
+    drv_frames_destroy(fr);
+}
+
 static void test_missing_device_and_bad_params(void **state)
 {
     (void)state;
@@ -696,6 +727,7 @@ int main(void)
         cmocka_unit_test(test_mock_end_to_end_yuyv),
         cmocka_unit_test(test_mock_formats_with_depth),
         cmocka_unit_test(test_mock_faults_and_reconnect),
+        cmocka_unit_test(test_mock_corrupt_every),
         cmocka_unit_test(test_missing_device_and_bad_params),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
