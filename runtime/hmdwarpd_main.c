@@ -16,9 +16,12 @@
 
 static rt_app app;
 
+static volatile sig_atomic_t stopped_by_signal;
+
 static void on_signal(int sig)
 {
     (void)sig;
+    stopped_by_signal = 1;
     rt_app_request_stop(&app); /* an atomic store: async-signal-safe */
 }
 
@@ -44,7 +47,8 @@ static void usage(FILE *out)
             "  --version           print the version and exit\n"
             "\n"
             "exit status: 0 the run showed host frames; 1 it could not start, or showed none (no vsync, no host\n"
-            "frame, or every one rejected: the summary's result line says which); 2 configuration or option error\n"
+            "frame, or every one rejected: the summary's result line says which; stopped by a signal while waiting\n"
+            "for a host that sent nothing: 0); 2 configuration or option error\n"
             "\n"
             "configuration keys (board.ini sections):\n");
     rt_config_print_keys(out);
@@ -175,11 +179,14 @@ int main(int argc, char **argv)
     int rc = 0;
     char why[256];
     if (!rt_app_showed_frames(&app, why, sizeof why)) {
-        /* A board that showed nothing has failed, whatever ended the run: systemd and scripts must see it. */
-        printf("result                       FAILED, nothing shown: %s\n", why);
+        /* A board that showed nothing has failed: systemd and scripts must see it. Except a board stopped (systemctl
+         * stop, Ctrl-C) while it waited for a host that never sent anything: nothing was wrong with it, and a unit
+         * marked failed for that would send the user looking for a fault. */
+        bool waiting = stopped_by_signal && rt_telemetry_waiting_for_host(app.tel);
+        printf("result                       %s, nothing shown: %s\n", waiting ? "stopped" : "FAILED", why);
         fflush(stdout);
-        fprintf(stderr, "hmdwarpd: nothing shown: %s\n", why);
-        rc = 1;
+        fprintf(stderr, "hmdwarpd: nothing shown: %s%s\n", why, waiting ? " (stopped while waiting for a host)" : "");
+        rc = waiting ? 0 : 1;
     }
     if (cfg.stats[0]) {
         FILE *f = fopen(cfg.stats, "w");

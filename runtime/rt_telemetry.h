@@ -78,6 +78,15 @@ typedef struct {
     _Atomic uint64_t imu_lost;   /* times the IMU went away (read() reported the device gone) */
 } rt_telemetry;
 
+/* Whether the display ran (vsyncs presented) but no host sent anything at all, not even a rejected frame: a board
+ * waiting for its host, which is no failure when it is stopped so (hmdwarpd's exit status). */
+static inline bool rt_telemetry_waiting_for_host(const rt_telemetry *t)
+{
+    uint64_t rejected = 0;
+    for (int e = 1; e < DRV_FRAME_ERR_COUNT; e++) rejected += t->frames_rejected[e];
+    return t->vsyncs > 0 && t->frames_received == 0 && rejected == 0;
+}
+
 /* The telemetry block is large (histograms); allocate it, do not put it on a stack. */
 rt_telemetry *rt_telemetry_create(void);
 void rt_telemetry_destroy(rt_telemetry *t);
