@@ -3,7 +3,8 @@
 # Runs the libFuzzer harnesses built by `make fuzz-build` (make fuzz, make fuzz-merge).
 #   run.sh run   FUZZ_BUILD SECONDS JOBS NAME...  each harness for SECONDS, JOBS at a time, from the checked-in corpus
 #                plus fresh seeds; prints executions, coverage (cov = edges, ft = features) and crashes per harness
-#                and a total line; exits 1 when anything crashed. Crashes: FUZZ_BUILD/crashes/NAME/.
+#                and a total line; exits 1 when anything crashed. Crashes: FUZZ_BUILD/crashes/NAME/, with the
+#                commands that reproduce them in reproduce.sh there.
 #   run.sh merge FUZZ_BUILD 0 1 NAME...         minimises seeds + checked-in + found inputs (-merge=1) into
 #                tests/fuzz/corpus/NAME, keeping every crash-* reproducer there as it is.
 set -u
@@ -46,7 +47,7 @@ run_one() { # NAME: one harness for $seconds, results into logs/NAME.result
     last=$(grep -E '^#[0-9]+' "$log" | tail -n 1)
     cov=$(echo "$last" | sed -n 's/.* cov: \([0-9]*\).*/\1/p')
     ft=$(echo "$last" | sed -n 's/.* ft: \([0-9]*\).*/\1/p')
-    crashes=$(ls "$build/crashes/$n" 2>/dev/null | wc -l)
+    crashes=$(ls "$build/crashes/$n" 2>/dev/null | grep -vc '^reproduce\.sh$')
     echo "$n ${execs:-0} ${cov:-0} ${ft:-0} $crashes $rc" >"$build/logs/$n.result"
 }
 
@@ -70,8 +71,9 @@ for n in "$@"; do
         crashed=$((crashed + ($5 > 0 ? $5 : 1)))
         [ "$6" -ne 0 ] && [ "$5" -eq 0 ] && echo "        $1 exited $6 without a crash file: $build/logs/$1.log"
         for c in "$build/crashes/$1"/*; do
-            [ -e "$c" ] || continue
+            [ -e "$c" ] && [ "${c##*/}" != reproduce.sh ] || continue
             echo "        reproduce: $bin/$1 $c   (or, without clang: build/tests/fuzz/fuzz_$1 $c)"
+            echo "$bin/$1 $c" >>"$build/crashes/$1/reproduce.sh"
         done
     fi
 done
