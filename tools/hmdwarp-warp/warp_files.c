@@ -48,6 +48,12 @@ bool warpfile_load_view(const char *path, warpfile_view *vf, char *err, int errl
     int n = 0;
     while (fgets(line, sizeof line, f)) {
         n++;
+        /* A longer line would come back in pieces, the rest read as lines of their own with shifted numbers. */
+        if (!strchr(line, '\n') && !feof(f)) {
+            fclose(f);
+            return snprintf(err, (size_t)errlen, "%s:%d: line longer than %zu characters", path, n,
+                            sizeof line - 2), false;
+        }
         char *s = line + strspn(line, " \t");
         if (*s == '#' || *s == '\n' || !*s) continue;
         char key[32];
