@@ -1,10 +1,11 @@
 /* SPDX-License-Identifier: MIT */
 /* Fuzzes the HID IMU report decoder (drivers/drv_hid_report.c) and what the HID backend does with a decoded report:
- * device time unwrapping and the device-to-host time map. Input: records of [u8 length][report][u8 host delay ms];
- * mapped sample times must move strictly forward whatever the device sends. */
+ * device time unwrapping and the device-to-host time map. Input: records of [u8 length, bit 7: repair the vendor
+ * report's CRC][report][u8 host delay ms]; mapped sample times must move strictly forward whatever the device sends. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <zlib.h>
 
 #include "drivers/drv_hid_report.h"
 #include "tests/fuzz/fuzz.h"
@@ -23,10 +24,16 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     fuzz_in in = {data, size};
     while (in.n) {
         int len = fuzz_u8(&in);
+        bool repair = len & 0x80; /* rewrite the vendor report's CRC first: reach the checks behind it */
+        len &= 0x7f;
         if ((size_t)len > in.n) len = (int)in.n;
-        uint8_t buf[256];
+        uint8_t buf[128];
         memcpy(buf, in.p, (size_t)len);
         in.p += len, in.n -= (size_t)len;
+        if (repair && len == DRV_HID_VENDOR_REPORT_SIZE) {
+            uint32_t c = (uint32_t)crc32(0, buf, DRV_HID_VENDOR_REPORT_SIZE - 4);
+            for (int i = 0; i < 4; i++) buf[DRV_HID_VENDOR_REPORT_SIZE - 4 + i] = (uint8_t)(c >> (8 * i));
+        }
         host_ns += (int64_t)fuzz_u8(&in) * 1000000;
         drv_hid_err e = drv_hid_decode(buf, len, &rep, msg, sizeof msg);
         if (e != DRV_HID_OK) {
@@ -59,7 +66,7 @@ void fuzz_write_seeds(void)
                                .interval_us = 1000, .gyro_code = r % 6, .accel_code = r % 5};
         for (int i = 0; i < v.n; i++)
             for (int k = 0; k < 3; k++) v.gyro[i][k] = 0.1 * (k + 1), v.accel[i][k] = k == 1 ? 9.8 : 0.2;
-        out[n++] = DRV_HID_VENDOR_REPORT_SIZE;
+        out[n++] = (uint8_t)(DRV_HID_VENDOR_REPORT_SIZE | (r % 2 ? 0x80 : 0));
         if (drv_hid_encode_vendor(&v, out + n) != DRV_HID_VENDOR_REPORT_SIZE) abort();
         n += DRV_HID_VENDOR_REPORT_SIZE;
         out[n++] = 4;
