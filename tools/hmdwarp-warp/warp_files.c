@@ -62,7 +62,7 @@ bool warpfile_load_view(const char *path, warpfile_view *vf, char *err, int errl
         const char *rest = s + used;
         bool ok = true;
         if (strcmp(key, "size") == 0) {
-            ok = sscanf(rest, "%d %d", &vf->cam.width, &vf->cam.height) == 2;
+            ok = sscanf(rest, "%6d %6d", &vf->cam.width, &vf->cam.height) == 2; /* 6 digits: no int overflow */
             have_size = ok;
         } else if (strcmp(key, "tan") == 0) {
             ok = sscanf(rest, "%lf %lf %lf %lf", &vf->cam.tan_left, &vf->cam.tan_right, &vf->cam.tan_up,
@@ -119,7 +119,7 @@ float *warpfile_read_pfm(const char *path, int *w, int *h, int *channels, char *
     if (!f) return snprintf(err, (size_t)errlen, "%s: %s", path, strerror(errno)), NULL;
     char magic[3] = {0};
     double scale;
-    if (fscanf(f, "%2s %d %d %lf", magic, w, h, &scale) != 4 || (strcmp(magic, "Pf") && strcmp(magic, "PF")) ||
+    if (fscanf(f, "%2s %6d %6d %lf", magic, w, h, &scale) != 4 || (strcmp(magic, "Pf") && strcmp(magic, "PF")) ||
         *w <= 0 || *h <= 0 || *w > 16384 || *h > 16384 || fgetc(f) == EOF) {
         fclose(f);
         return snprintf(err, (size_t)errlen, "%s: not a PFM file (expected Pf/PF, width, height, scale)", path), NULL;
