@@ -9,6 +9,7 @@
 #   make hil             hardware-in-the-loop scenarios in a qemu VM on Debian's kernel (tests/hil/README.md)
 #   make CROSS_COMPILE=aarch64-linux-gnu-          cross build for the board (make check-cross tests it)
 #   make man             manual pages              make deb     Debian packages (deb-arm64, deb-check)
+#   make fuzz FUZZ_SECONDS=N   every parser under libFuzzer (tests/fuzz/; make fuzz-merge keeps the corpus)
 
 CROSS_COMPILE ?=
 ifeq ($(origin CC),default)
@@ -72,12 +73,17 @@ HIL_SRC  := $(wildcard tests/hil/src/*.c)
 HIL_BINS := $(patsubst tests/hil/src/%.c,$(BUILD)/hil/%,$(HIL_SRC))
 TEST_SUPPORT_SRC := $(wildcard tests/support/*.c)
 TEST_BINS := $(patsubst tests/%.c,$(BUILD)/tests/%,$(TEST_SRC))
+# The fuzz harnesses' regression runners (tests/fuzz/standalone.c replays tests/fuzz/corpus/NAME; gcc, no libFuzzer).
+FUZZ_SRC := $(wildcard tests/fuzz/fuzz_*.c)
+FUZZ_NAMES := $(patsubst tests/fuzz/fuzz_%.c,%,$(FUZZ_SRC))
+FUZZ_REG_BINS := $(patsubst tests/%.c,$(BUILD)/tests/%,$(FUZZ_SRC))
+TEST_BINS += $(FUZZ_REG_BINS)
 # Shell tests printing TAP, run by tests/run.sh like the binaries (after `make all man deb`): make install and
 # board/flash.sh against a fake merged-/usr board root; the version, licence lines and Debian packages.
 TEST_SCRIPTS := tests/flash/test_flash.sh $(wildcard tests/packaging/test_*.sh)
 
 .PHONY: all programs deps run test asan install clean results bench stability hil check-cross man install-man \
-        have-help2man deb deb-arm64 deb-check
+        have-help2man deb deb-arm64 deb-check fuzz fuzz-build fuzz-bins fuzz-merge
 all: $(PROGRAMS) $(TEST_BINS) $(HIL_BINS)
 # The programs alone (what `make install` and the Debian packages need; no test dependencies).
 programs: $(PROGRAMS)
@@ -154,6 +160,42 @@ $(BUILD)/tests/%: $(BUILD)/obj/tests/%.o $(TEST_SUPPORT_OBJ) $(LIBS)
 	@mkdir -p $(dir $@)
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_ALL) $(TEST_LIBS)
+
+# Fuzz harnesses (tests/fuzz/README.md): linked with the helpers and the hmdwarp-warp file readers they fuzz; as
+# regression runners (standalone.c, any compiler) in make test, with libFuzzer (clang) in make fuzz.
+FUZZ_LINK_OBJ := $(patsubst %.c,$(BUILD)/obj/%.o,tests/fuzz/util.c tools/hmdwarp-warp/warp_files.c)
+$(FUZZ_REG_BINS): $(BUILD)/tests/fuzz/%: $(BUILD)/obj/tests/fuzz/%.o $(BUILD)/obj/tests/fuzz/standalone.o \
+                  $(FUZZ_LINK_OBJ) $(LIBS)
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_ALL)
+$(BUILD)/obj/tests/fuzz/standalone.o: CPPFLAGS += -DFUZZ_CORPUS='"$(CURDIR)/tests/fuzz/corpus"'
+$(BUILD)/fuzzers/seeds_%: $(BUILD)/obj/tests/fuzz/fuzz_%.o $(BUILD)/obj/tests/fuzz/seeds_main.o $(FUZZ_LINK_OBJ) $(LIBS)
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_ALL)
+$(BUILD)/fuzzers/%: $(BUILD)/obj/tests/fuzz/fuzz_%.o $(FUZZ_LINK_OBJ) $(LIBS)
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -fsanitize=fuzzer -o $@ $^ $(LDLIBS_ALL)
+fuzz-bins: $(addprefix $(BUILD)/fuzzers/,$(FUZZ_NAMES) $(addprefix seeds_,$(FUZZ_NAMES)))
+
+# `make fuzz FUZZ_SECONDS=N`: every harness under libFuzzer with ASan + UBSan for N seconds, two at a time, from
+# the checked-in corpus plus seeds from the project's encoders; prints executions, coverage and crashes (saved in
+# build/fuzz/crashes/NAME/ with the command that reproduces them). `make fuzz-merge` minimises what the runs found
+# into tests/fuzz/corpus/ (make test replays it).
+FUZZ_BUILD ?= build/fuzz
+FUZZ_SECONDS ?= 60
+FUZZ_JOBS ?= 2
+FUZZ_CFLAGS := -O1 -g -fno-omit-frame-pointer -fsanitize=address,undefined -fno-sanitize-recover=undefined
+fuzz-build:
+	@board/deps.sh && board/deps-fuzz.sh
+	@$(MAKE) --no-print-directory BUILD=$(FUZZ_BUILD) CC=clang OPT=-O1 CFLAGS="$(FUZZ_CFLAGS) -fsanitize=fuzzer-no-link" \
+	  LDFLAGS="-fsanitize=address,undefined" fuzz-bins
+fuzz: fuzz-build
+	@tests/fuzz/run.sh run $(FUZZ_BUILD) $(FUZZ_SECONDS) $(FUZZ_JOBS) $(FUZZ_NAMES)
+fuzz-merge: fuzz-build
+	@tests/fuzz/run.sh merge $(FUZZ_BUILD) 0 1 $(FUZZ_NAMES)
 
 # `make run` knobs, forwarded to hmdwarpd as config overrides (see README).
 RUN_ARGS ?=

@@ -737,12 +737,15 @@ static int cap_receive(drv_frames *fr, drv_frame *f, int timeout_ms)
         if (e) snprintf(why, sizeof why, "drv_frame_validate");
     }
     if (e != DRV_FRAME_OK) return cap_reject(c, have, e, why);
-    /* The buffer's timestamp is when the frame was complete (V4L2 default: end of frame), if on our clock. */
+    /* The buffer's timestamp is when the frame was complete (V4L2 default: end of frame), if on our clock. A driver's
+     * timestamp is checked before it is multiplied (a huge tv_sec would overflow) and must not lie in the future. */
+    f->received_ns = now;
     if ((vb.flags & V4L2_BUF_FLAG_TIMESTAMP_MASK) == V4L2_BUF_FLAG_TIMESTAMP_MONOTONIC &&
-        (vb.timestamp.tv_sec || vb.timestamp.tv_usec))
-        f->received_ns = (int64_t)vb.timestamp.tv_sec * PLAT_NS_PER_S + (int64_t)vb.timestamp.tv_usec * 1000;
-    else
-        f->received_ns = now;
+        (vb.timestamp.tv_sec || vb.timestamp.tv_usec) && vb.timestamp.tv_sec >= 0 &&
+        vb.timestamp.tv_sec <= now / PLAT_NS_PER_S && vb.timestamp.tv_usec >= 0 && vb.timestamp.tv_usec < 1000000) {
+        int64_t t = (int64_t)vb.timestamp.tv_sec * PLAT_NS_PER_S + (int64_t)vb.timestamp.tv_usec * 1000;
+        if (t <= now) f->received_ns = t;
+    }
     pthread_mutex_lock(&c->lock);
     c->st.frames++;
     pthread_mutex_unlock(&c->lock);

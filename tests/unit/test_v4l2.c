@@ -288,6 +288,51 @@ static void test_band_survives_formats(void **state)
     drv_frame_free(&out);
 }
 
+/* Board times outside [0, 2^62] and a non-finite scene time or position, sealed with a valid CRC by the encoder,
+ * are refused by the decoder with a reason, the output frame untouched (issue #16: they reached the runtime). */
+static void test_meta_values_checked(void **state)
+{
+    (void)state;
+    drv_frame f, out;
+    frame_random(&f, DRV_PLANE_COLOR, 3);
+    assert_true(drv_frame_alloc(&out, EW, EH, DRV_PLANE_COLOR, 1));
+    int w, h;
+    assert_true(drv_v4l2_layout(EW, EH, false, &w, &h));
+    drv_v4l2_geom g;
+    uint8_t *img = image_new(&g, DRV_V4L2_YUYV, w, h, 0);
+    drv_v4l2_colorspace cs = DRV_V4L2_CS_DEFAULT;
+    const int64_t max = (int64_t)1 << 62;
+    struct {
+        int64_t pose_t, render_start;
+        double scene_time, px;
+        drv_frame_err want;
+        const char *why;
+    } cases[] = {
+        {max, max, 1.0, 0, DRV_FRAME_OK, ""},
+        {-1, 5, 1.0, 0, DRV_FRAME_ERR_BAD_FORMAT, "pose_t_ns -1"},
+        {INT64_MIN, 5, 1.0, 0, DRV_FRAME_ERR_BAD_FORMAT, "outside [0, 2^62]"},
+        {5, INT64_MAX, 1.0, 0, DRV_FRAME_ERR_BAD_FORMAT, "render_start_ns 9223372036854775807"},
+        {5, 5, NAN, 0, DRV_FRAME_ERR_BAD_FORMAT, "scene_time"},
+        {5, 5, 1.0, INFINITY, DRV_FRAME_ERR_BAD_POSE, "eye 0 pose"},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        f.pose_t_ns = cases[i].pose_t, f.render_start_ns = cases[i].render_start;
+        f.scene_time = cases[i].scene_time;
+        warp_pose keep = f.eye_pose[0];
+        f.eye_pose[0].p.x = cases[i].px;
+        assert_int_equal(drv_v4l2_pack(&f, false, &g, &cs, img), DRV_FRAME_OK);
+        f.eye_pose[0] = keep;
+        out.seq = 0xDEAD;
+        char why[160] = "";
+        assert_int_equal(drv_v4l2_unpack(img, &g, &cs, &out, why, sizeof why), cases[i].want);
+        assert_non_null(strstr(why, cases[i].why));
+        if (cases[i].want) assert_int_equal(out.seq, 0xDEAD);
+    }
+    free(img);
+    drv_frame_free(&f);
+    drv_frame_free(&out);
+}
+
 /* Whole-image conversion, as a capture chain converting between RGB and YUV would do. */
 static uint8_t *convert_image(const uint8_t *img, const drv_v4l2_geom *g, const drv_v4l2_colorspace *cs_in,
                               uint32_t fourcc, const drv_v4l2_colorspace *cs_out, drv_v4l2_geom *g2)
@@ -717,6 +762,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_fourcc_and_geometry),
         cmocka_unit_test(test_bars),
+        cmocka_unit_test(test_meta_values_checked),
         cmocka_unit_test(test_round_trips),
         cmocka_unit_test(test_grey_levels),
         cmocka_unit_test(test_layout),
