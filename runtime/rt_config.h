@@ -98,6 +98,8 @@ typedef struct {
     /* [telemetry] */
     char csv[256];
     char stats[256];            /* key=value summary written at exit (tests, hardware-in-the-loop scenarios) */
+    char live_stats[256];       /* the same key=value set, rewritten each second while running ("" = off, auto) */
+    double csv_max_mb;          /* the per-vsync CSV moves to CSV.1 at this size (0 = never) */
 } rt_config;
 
 void rt_config_defaults(rt_config *c);
