@@ -251,6 +251,7 @@ MAN_DESC_hmdwarp-feed  := send host frames to an hmdwarp board over USB
 MAN_DESC_hmdwarp-warp  := score hmdwarp's warps on rendered frames or the simulator's scenes
 MAN_DESC_hmdwarp-lens  := render a lens calibration pattern through the board's distortion
 MAN_DESC_hmdwarp-bench := measure what hmdwarp's warp accuracy costs in time
+MAN_DESC_hmdwarp-top   := show a running hmdwarpd's live statistics
 MANPAGES := $(patsubst $(BUILD)/%,$(BUILD)/man/%.1,$(PROGRAMS)) $(BUILD)/man/hmdwarp-board.ini.5
 man: $(MANPAGES)
 $(MANPAGES): | have-help2man

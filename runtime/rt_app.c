@@ -855,7 +855,11 @@ static void stats_kv(rt_app *a, FILE *out, bool live)
 #define KVU(k, v) KV(k, "%llu", (unsigned long long)(v))
     KV("version", "%s", plat_version());
     KV("running", "%d", live);
-    KV("run_s", "%.1f", a->run_start_ns ? (double)(plat_now_ns() - a->run_start_ns) * 1e-9 : 0.0);
+    {
+        /* since the display started (after the simulated IMU's rest): the span the vsync counts cover */
+        int64_t since = a->run_start_ns ? plat_now_ns() - a->t0_ns : 0;
+        KV("run_s", "%.1f", since > 0 ? (double)since * 1e-9 : 0.0);
+    }
     KV("board", "%s", c->board_name);
     KV("imu_backend", "%s", a->imu ? a->imu->name : "");
     KV("frames_backend", "%s", a->frames ? a->frames->name : "");
