@@ -165,9 +165,12 @@ RUN_OVERRIDES = $(call run_set,sim.scene,$(SCENE)) $(call run_set,sim.trace,$(TR
 # backend, TE edges through the GPIO estimator).
 MOCK_DEVICES = --set imu.backend=hid --set imu.device=mock --set frames.backend=usb --set frames.device=mock \
                --set vsync.backend=gpio --set vsync.chip=mock
+# The live statistics go to $(BUILD)/run/stats, where $(BUILD)/hmdwarp-top looks when /run/hmdwarp has none.
 run: deps
-	@$(MAKE) --no-print-directory $(BUILD)/hmdwarpd
-	$(BUILD)/hmdwarpd --config board/sim/board.ini $(RUN_OVERRIDES) $(RUN_ARGS)
+	@$(MAKE) --no-print-directory $(BUILD)/hmdwarpd $(BUILD)/hmdwarp-top
+	@mkdir -p $(BUILD)/run
+	$(BUILD)/hmdwarpd --config board/sim/board.ini --set telemetry.live_stats=$(BUILD)/run/stats $(RUN_OVERRIDES) \
+	  $(RUN_ARGS)
 
 # The unit, accuracy and stability binaries, then the HIL scenarios (a one-minute soak here; HIL=0 skips them,
 # saying so; .ci/run sets HIL_REQUIRED=1 so CI fails rather than skips).
