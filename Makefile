@@ -7,6 +7,7 @@
 #   make bench           accuracy vs time          make results every warp vs ground truth
 #   make install PREFIX=/usr DESTDIR=...           make clean
 #   make hil             hardware-in-the-loop scenarios in a qemu VM on Debian's kernel (tests/hil/README.md)
+#   make soak            ten minutes with mocked devices and faults: RSS, fds, threads flat (SOAK_S=seconds)
 #   make CROSS_COMPILE=aarch64-linux-gnu-          cross build for the board (make check-cross tests it)
 #   make man             manual pages              make deb     Debian packages (deb-arm64, deb-check)
 
@@ -77,7 +78,7 @@ TEST_BINS := $(patsubst tests/%.c,$(BUILD)/tests/%,$(TEST_SRC))
 TEST_SCRIPTS := tests/flash/test_flash.sh $(wildcard tests/packaging/test_*.sh)
 
 .PHONY: all programs deps run test asan install clean results bench stability hil check-cross man install-man \
-        have-help2man deb deb-arm64 deb-check
+        have-help2man deb deb-arm64 deb-check soak
 all: $(PROGRAMS) $(TEST_BINS) $(HIL_BINS)
 # The programs alone (what `make install` and the Debian packages need; no test dependencies).
 programs: $(PROGRAMS)
@@ -182,6 +183,13 @@ test: deps
 stability: deps
 	@$(MAKE) --no-print-directory $(STABILITY_BINS)
 	@tests/run.sh $(BUILD)/tests $(STABILITY_BINS)
+
+# Ten minutes (SOAK_S=600) on the simulated board behind the mocked devices with faults throughout: RSS, fds and
+# threads must stay flat, every fault be recovered, no crash (tests/soak/soak.sh; not part of make test).
+SOAK_S ?= 600
+soak: deps
+	@$(MAKE) --no-print-directory $(BUILD)/hmdwarpd
+	@BUILD=$(BUILD) SOAK_S=$(SOAK_S) tests/soak/soak.sh
 
 # Hardware-in-the-loop: real kernel drivers (uhid, i2c-stub, vivid, dummy_hcd + FunctionFS, gpio-sim) in a qemu VM.
 hil:
