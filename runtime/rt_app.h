@@ -149,7 +149,7 @@ typedef struct {
     bool csv_dead;             /* rotation could not reopen the CSV: rows are dropped, a->csv is closed */
     /* live telemetry, from the helper thread once a second: the key=value set of --stats in one of two buffers,
      * the other being rewritten; the abort handler writes the published one (rt_app_write_last_stats) */
-    int64_t run_start_ns;
+    int64_t run_start_ns, run_end_ns; /* rt_app_run's start; the compositor's return (0 while running) */
     char live_path[256];       /* [telemetry] live_stats resolved ("" = off) */
     char *live_buf[2];
     _Atomic size_t live_len[2];
