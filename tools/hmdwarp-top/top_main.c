@@ -105,7 +105,15 @@ static double rate(const kv_set *cur, const kv_set *prev, const char *key)
         double dt = t - kv_num(prev, "run_s");
         if (dt > 0.05) return (now - kv_num(prev, key)) / dt;
     }
-    return t > 0 ? now / t : NAN;
+    return t >= 0.05 ? now / t : NAN;
+}
+
+/* a rate with `prec` decimals, "-" before there is one (the first second) */
+static const char *fmt_rate(double r, int prec, char *buf, size_t len)
+{
+    if (!isfinite(r)) return "-";
+    snprintf(buf, len, "%.*f", prec, r);
+    return buf;
 }
 
 /* "12" or "-" for a missing key: a file from an older hmdwarpd lacks some */
@@ -130,8 +138,8 @@ static void screen(FILE *out, const char *path, const kv_set *s, const kv_set *p
             kv_str(s, "version"), running ? "running" : "finished after", kv_num(s, "run_s"),
             running && age > STALE_S ? "; NOT UPDATED for over 3 s: hmdwarpd stopped or hung" : "");
     double v = kv_num(s, "vsyncs"), m = kv_num(s, "missed");
-    fprintf(out, "display    %6.1f vsyncs/s%s   vsyncs %s   missed %s (%.2f %%)\n", rate(s, prev, "vsyncs"), avg,
-            num(s, "vsyncs", b[0], 64), num(s, "missed", b[1], 64), v > 0 ? 100.0 * m / v : 0.0);
+    fprintf(out, "display    %6s vsyncs/s%s   vsyncs %s   missed %s (%.2f %%)\n",
+            fmt_rate(rate(s, prev, "vsyncs"), 1, b[7], 64), avg, num(s, "vsyncs", b[0], 64), num(s, "missed", b[1], 64), v > 0 ? 100.0 * m / v : 0.0);
     fprintf(out, "  missed   own %s, woken late %s, descheduled %s, no free image %s; no frame yet %s\n",
             num(s, "missed_own", b[0], 64), num(s, "missed_late_wake", b[1], 64),
             num(s, "missed_descheduled", b[2], 64), num(s, "missed_no_buffer", b[3], 64), num(s, "no_frame", b[4], 64));
@@ -140,9 +148,9 @@ static void screen(FILE *out, const char *path, const kv_set *s, const kv_set *p
             num(s, "frame_age_ms_max", b[3], 64));
     fprintf(out, "           warp p50 %s ms, p99 %s ms\n", num(s, "warp_ms_p50", b[0], 64),
             num(s, "warp_ms_p99", b[1], 64));
-    fprintf(out, "host link  %s: %.1f MB/s, %.1f frames/s%s; received %s, shown %s, dropped unseen %s, rejected %s\n",
-            kv_str(s, "frames_backend") ?: "?", rate(s, prev, "frames_bytes") / (1024 * 1024),
-            rate(s, prev, "frames_received"), avg, num(s, "frames_received", b[0], 64), num(s, "frames_shown", b[1], 64),
+    fprintf(out, "host link  %s: %s MB/s, %s frames/s%s; received %s, shown %s, dropped unseen %s, rejected %s\n",
+            kv_str(s, "frames_backend") ?: "?", fmt_rate(rate(s, prev, "frames_bytes") / (1024 * 1024), 1, b[6], 64),
+            fmt_rate(rate(s, prev, "frames_received"), 1, b[7], 64), avg, num(s, "frames_received", b[0], 64), num(s, "frames_shown", b[1], 64),
             num(s, "frames_dropped", b[2], 64), num(s, "frames_rejected", b[3], 64));
     /* the reasons, only those that occurred */
     bool any = false;
@@ -152,8 +160,8 @@ static void screen(FILE *out, const char *path, const kv_set *s, const kv_set *p
             any = true;
         }
     if (any) fputc('\n', out);
-    fprintf(out, "IMU        %s: %.0f samples/s%s, read errors %s, lost %s, held orientation %s vsyncs", kv_str(s, "imu_backend") ?: "?",
-            rate(s, prev, "imu_samples"), avg, num(s, "imu_read_errors", b[0], 64), num(s, "imu_lost", b[1], 64),
+    fprintf(out, "IMU        %s: %s samples/s%s, read errors %s, lost %s, held orientation %s vsyncs",
+            kv_str(s, "imu_backend") ?: "?", fmt_rate(rate(s, prev, "imu_samples"), 0, b[7], 64), avg, num(s, "imu_read_errors", b[0], 64), num(s, "imu_lost", b[1], 64),
             num(s, "imu_stale_vsyncs", b[2], 64));
     if (kv_str(s, "imu_connected"))
         fprintf(out, "; %s, reconnects %s", kv_num(s, "imu_connected") == 1 ? "connected" : "NOT connected",
