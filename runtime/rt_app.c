@@ -396,7 +396,8 @@ static drv_frame_err prepare_frame(rt_frame *s)
     return DRV_FRAME_OK;
 }
 
-/* What a frame's planes hold: the bytes the host link carried for it, less framing and compression. */
+/* What a frame's dense planes hold: about what the host link carried for it (the link's MB/s), less framing and
+ * compression. The A-buffer's fragments are left out: counting them would walk every pixel's count again. */
 static uint64_t frame_bytes(const drv_frame *f)
 {
     uint64_t px = 0, b = 0;
@@ -405,13 +406,7 @@ static uint64_t frame_bytes(const drv_frame *f)
     if (f->planes & DRV_PLANE_DEPTH) b += px * 4;
     if (f->planes & DRV_PLANE_IDS) b += px * 2;
     if (f->planes & DRV_PLANE_MOTION) b += px * 8;
-    if (f->planes & DRV_PLANE_LAYERS)
-        for (int e = 0; e < 2; e++) {
-            const warp_image_layers *l = &f->layers[e];
-            uint64_t n = (uint64_t)l->w * (uint64_t)l->h;
-            b += n; /* the per-pixel counts, and the fragments stored */
-            for (uint64_t i = 0; l->count && i < n; i++) b += (uint64_t)l->count[i] * sizeof(warp_fragment);
-        }
+    if (f->planes & DRV_PLANE_LAYERS) b += px; /* the per-pixel fragment counts */
     return b;
 }
 
