@@ -7,6 +7,7 @@
 #   make bench           accuracy vs time          make results every warp vs ground truth
 #   make install PREFIX=/usr DESTDIR=...           make clean
 #   make hil             hardware-in-the-loop scenarios in a qemu VM on Debian's kernel (tests/hil/README.md)
+#   make soak            ten minutes with mocked devices and faults: RSS, fds, threads flat (SOAK_S=seconds)
 #   make CROSS_COMPILE=aarch64-linux-gnu-          cross build for the board (make check-cross tests it)
 #   make man             manual pages              make deb     Debian packages (deb-arm64, deb-check)
 #   make fuzz FUZZ_SECONDS=N   every parser under libFuzzer (tests/fuzz/; make fuzz-merge keeps the corpus)
@@ -83,7 +84,7 @@ TEST_BINS += $(FUZZ_REG_BINS)
 TEST_SCRIPTS := tests/flash/test_flash.sh $(wildcard tests/packaging/test_*.sh)
 
 .PHONY: all programs deps run test asan install clean results bench stability hil check-cross man install-man \
-        have-help2man deb deb-arm64 deb-check fuzz fuzz-build fuzz-bins fuzz-merge
+        have-help2man deb deb-arm64 deb-check fuzz fuzz-build fuzz-bins fuzz-merge soak
 all: $(PROGRAMS) $(TEST_BINS) $(HIL_BINS)
 # The programs alone (what `make install` and the Debian packages need; no test dependencies).
 programs: $(PROGRAMS)
@@ -207,9 +208,12 @@ RUN_OVERRIDES = $(call run_set,sim.scene,$(SCENE)) $(call run_set,sim.trace,$(TR
 # backend, TE edges through the GPIO estimator).
 MOCK_DEVICES = --set imu.backend=hid --set imu.device=mock --set frames.backend=usb --set frames.device=mock \
                --set vsync.backend=gpio --set vsync.chip=mock
+# The live statistics go to $(BUILD)/run/stats, where $(BUILD)/hmdwarp-top looks when /run/hmdwarp has none.
 run: deps
-	@$(MAKE) --no-print-directory $(BUILD)/hmdwarpd
-	$(BUILD)/hmdwarpd --config board/sim/board.ini $(RUN_OVERRIDES) $(RUN_ARGS)
+	@$(MAKE) --no-print-directory $(BUILD)/hmdwarpd $(BUILD)/hmdwarp-top
+	@mkdir -p $(BUILD)/run
+	$(BUILD)/hmdwarpd --config board/sim/board.ini --set telemetry.live_stats=$(BUILD)/run/stats $(RUN_OVERRIDES) \
+	  $(RUN_ARGS)
 
 # The unit, accuracy and stability binaries, then the HIL scenarios (a one-minute soak here; HIL=0 skips them,
 # saying so; .ci/run sets HIL_REQUIRED=1 so CI fails rather than skips).
@@ -221,6 +225,13 @@ test: deps
 stability: deps
 	@$(MAKE) --no-print-directory $(STABILITY_BINS)
 	@tests/run.sh $(BUILD)/tests $(STABILITY_BINS)
+
+# Ten minutes (SOAK_S=600) on the simulated board behind the mocked devices with faults throughout: RSS, fds and
+# threads must stay flat, every fault be recovered, no crash (tests/soak/soak.sh; not part of make test).
+SOAK_S ?= 600
+soak: deps
+	@$(MAKE) --no-print-directory $(BUILD)/hmdwarpd
+	@BUILD=$(BUILD) SOAK_S=$(SOAK_S) tests/soak/soak.sh
 
 # Hardware-in-the-loop: real kernel drivers (uhid, i2c-stub, vivid, dummy_hcd + FunctionFS, gpio-sim) in a qemu VM.
 hil:
@@ -293,6 +304,7 @@ MAN_DESC_hmdwarp-feed  := send host frames to an hmdwarp board over USB
 MAN_DESC_hmdwarp-warp  := score hmdwarp's warps on rendered frames or the simulator's scenes
 MAN_DESC_hmdwarp-lens  := render a lens calibration pattern through the board's distortion
 MAN_DESC_hmdwarp-bench := measure what hmdwarp's warp accuracy costs in time
+MAN_DESC_hmdwarp-top   := show a running hmdwarpd's live statistics
 MAN_DESC_hmdwarp-gadget := set up the board's USB gadget for the host frame link
 MANPAGES := $(patsubst $(BUILD)/%,$(BUILD)/man/%.1,$(PROGRAMS)) $(BUILD)/man/hmdwarp-gadget.1 \
             $(BUILD)/man/hmdwarp-board.ini.5

@@ -5,9 +5,11 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include <systemd/sd-daemon.h>
 
+#include "platform/plat_log.h"
 #include "platform/plat_version.h"
 #include "runtime/rt_app.h"
 #include "runtime/rt_config.h"
@@ -23,6 +25,16 @@ static void on_signal(int sig)
     (void)sig;
     stopped_by_signal = 1;
     rt_app_request_stop(&app); /* an atomic store: async-signal-safe */
+}
+
+/* systemd's watchdog ends a hung run with SIGABRT, which stops nothing cleanly: say what the run saw (the helper
+ * thread's last key=value set, at most a second old) with write(2) alone, then die of the signal as before. */
+static void on_abort(int sig)
+{
+    static const char head[] = "\nhmdwarpd: aborted (SIGABRT: systemd's watchdog or a failed check); the last "
+                               "statistics, at most a second old:\n";
+    if (write(STDOUT_FILENO, head, sizeof head - 1) > 0) rt_app_write_last_stats(&app, STDOUT_FILENO);
+    raise(sig); /* SA_RESETHAND: the default action now */
 }
 
 static void usage(FILE *out)
@@ -157,7 +169,7 @@ int main(int argc, char **argv)
 
     char msg[512];
     if (!rt_app_init(&app, &cfg, msg, sizeof msg)) {
-        fprintf(stderr, "hmdwarpd: %s\n", msg);
+        plat_log(PLAT_LOG_ERR, "%s", msg);
         rt_app_free(&app);
         return 1;
     }
@@ -166,6 +178,9 @@ int main(int argc, char **argv)
     sa.sa_handler = on_signal;
     sigaction(SIGINT, &sa, NULL);
     sigaction(SIGTERM, &sa, NULL);
+    sa.sa_handler = on_abort;
+    sa.sa_flags = SA_RESETHAND;
+    sigaction(SIGABRT, &sa, NULL);
     printf("hmdwarpd: board '%s', scene '%s', trace '%s', method %s, %s\n", cfg.board_name, cfg.scene, cfg.trace,
            rt_method_name(cfg.method),
            cfg.duration_s > 0 ? "running" : "running until Ctrl-C");
@@ -175,6 +190,7 @@ int main(int argc, char **argv)
     sd_notify(0, "READY=1");
     rt_app_run(&app);
     sd_notify(0, "STOPPING=1");
+    signal(SIGABRT, SIG_DFL); /* the stats buffers go with rt_app_free */
     rt_app_summary(&app, stdout);
     int rc = 0;
     char why[256];
@@ -194,7 +210,7 @@ int main(int argc, char **argv)
             rt_app_stats_kv(&app, f);
             fclose(f);
         } else {
-            fprintf(stderr, "hmdwarpd: [telemetry] stats = %s: cannot write\n", cfg.stats);
+            plat_log(PLAT_LOG_ERR, "[telemetry] stats = %s: cannot write", cfg.stats);
             rc = 1;
         }
     }

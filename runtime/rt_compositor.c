@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "platform/plat_clock.h"
+#include "platform/plat_log.h"
 #include "runtime/rt_app.h"
 #include "warp/warp_raytrace.h"
 #include "warp/warp_resample.h"
@@ -350,8 +351,8 @@ void rt_compositor_run(rt_app *a)
     j.a = a;
     bool gles = a->use_gles;
     if (gles && !plat_egl_make_current(a->egl)) {
-        fprintf(stderr, "hmdwarpd: cannot make the EGL context current on the compositor thread: using the CPU "
-                        "path\n");
+        plat_log(PLAT_LOG_WARNING, "cannot make the EGL context current on the compositor thread: using the CPU "
+                                   "path");
         snprintf(a->render_why + strlen(a->render_why), sizeof a->render_why - strlen(a->render_why),
                  "; the EGL context could not be made current: fell back to cpu");
         a->use_gles = gles = false;

@@ -188,6 +188,11 @@ static const keydef keys[] = {
     {"telemetry", "csv", K_STR, F(csv), S(csv), 0, 0, NULL, "write one CSV row per vsync to this file"},
     {"telemetry", "stats", K_STR, F(stats), S(stats), 0, 0, NULL,
      "write the run summary as key=value lines to this file at exit (for scripts)"},
+    {"telemetry", "live_stats", K_STR, F(live_stats), S(live_stats), 0, 0, NULL,
+     "rewrite those key=value lines to this file every second while running, for hmdwarp-top (empty = off; auto = "
+     "/run/hmdwarp/stats when that directory is writable)"},
+    {"telemetry", "csv_max_mb", K_DOUBLE, F(csv_max_mb), 0, 0, 1e6, NULL,
+     "rotate the per-vsync CSV at this size: the full one becomes FILE.1 (0 = never)"},
 };
 #define NKEYS (int)(sizeof keys / sizeof keys[0])
 _Static_assert(NKEYS <= RT_CONFIG_MAX_KEYS, "rt_config's origin table is smaller than the key table");
@@ -209,6 +214,8 @@ void rt_config_defaults(rt_config *c)
     snprintf(c->kms_connector, sizeof c->kms_connector, "auto");
     snprintf(c->kms_mode, sizeof c->kms_mode, "auto");
     snprintf(c->renderer, sizeof c->renderer, "auto");
+    snprintf(c->live_stats, sizeof c->live_stats, "auto");
+    c->csv_max_mb = 64; /* 16 MB an hour at 90 Hz: four hours in CSV, four in CSV.1 */
     c->kernel = 0; /* auto */
     c->threads = 2;
     c->rt_priority = 10;

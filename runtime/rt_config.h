@@ -109,6 +109,8 @@ typedef struct {
     int32_t origin[RT_CONFIG_MAX_KEYS];
     int overrides;              /* command-line overrides applied so far */
     char origin_file[256];
+    char live_stats[256];       /* the same key=value set, rewritten each second while running ("" = off, auto) */
+    double csv_max_mb;          /* the per-vsync CSV moves to CSV.1 at this size (0 = never) */
 } rt_config;
 
 void rt_config_defaults(rt_config *c);
