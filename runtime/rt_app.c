@@ -909,11 +909,8 @@ static void stats_kv(rt_app *a, FILE *out, bool live)
     KV("frame_age_ms_p50", "%.3f", rt_hist_pct(&t->frame_age_ms, 50));
     KV("frame_age_ms_max", "%.3f", rt_hist_pct(&t->frame_age_ms, 100));
     for (int w = 0; w < RT_WHY_COUNT; w++) {
-        static const char *const keys[RT_WHY_COUNT] = {"configured", "no_frame", "rotation_only", "parallax_small",
-                                                       "parallax", "transparency", "object_motion", "held",
-                                                       "time_budget"};
         char k[64];
-        snprintf(k, sizeof k, "select_%s", keys[w]);
+        snprintf(k, sizeof k, "select_%s", rt_select_why_key((rt_select_why)w));
         KVU(k, t->select_why[w]);
     }
     KVU("method_switches", t->method_switches);
@@ -963,13 +960,12 @@ static void stats_kv(rt_app *a, FILE *out, bool live)
             KV("orientation_error_deg", "%.4f", warp_quat_angle_between(truth, st.q) * 180 / WARP_PI);
         }
     }
-    static const char *const names[RT_EVAL_METHODS] = {"none", "rotation", "raytrace", "raytrace_mesh"};
     for (int m = 0; m < RT_EVAL_METHODS && !live; m++)
         if (a->eval[m].n) {
             char k[64];
-            snprintf(k, sizeof k, "psnr_%s", names[m]);
+            snprintf(k, sizeof k, "psnr_%s", rt_method_name(rt_eval_methods[m]));
             KV(k, "%.3f", a->eval[m].psnr_sum / a->eval[m].n);
-            snprintf(k, sizeof k, "ssim_%s", names[m]);
+            snprintf(k, sizeof k, "ssim_%s", rt_method_name(rt_eval_methods[m]));
             KV(k, "%.5f", a->eval[m].ssim_sum / a->eval[m].n);
         }
 #undef KV

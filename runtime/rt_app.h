@@ -63,6 +63,8 @@ typedef struct {
 } rt_eval_acc;
 
 enum { RT_EVAL_NONE, RT_EVAL_ROTATION, RT_EVAL_RAYTRACE, RT_EVAL_RAYTRACE_MESH, RT_EVAL_METHODS };
+/* The registry methods the evaluator scores, by RT_EVAL_* (their --stats keys are psnr_NAME, ssim_NAME). */
+extern const rt_method rt_eval_methods[RT_EVAL_METHODS];
 
 /* One CSV row per vsync, produced on the vsync path and written by the telemetry thread. */
 typedef struct {

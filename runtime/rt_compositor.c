@@ -10,6 +10,7 @@
 #include "platform/plat_log.h"
 #include "runtime/rt_app.h"
 #include "warp/warp_raytrace.h"
+#include "warp/warp_registry.h"
 #include "warp/warp_resample.h"
 
 #define TILE_W 128
@@ -137,54 +138,9 @@ static void lens_pass_eye_space(rt_app *a, job *j)
     lens_pass(a, j);
 }
 
-/* Warps `frame` to the eye poses `eyes` into `out`. Returns the method actually used. */
-static rt_method compose(rt_app *a, job *j, const rt_frame *frame, const warp_pose eyes[2], rt_method method)
+/* none and rotation: both eyes' meshes, then the resampling from the host frame. */
+static rt_method pass_lens(rt_app *a, job *j, const rt_frame *frame, const warp_pose eyes[2], rt_method method)
 {
-    j->frame = frame;
-    /* The further depth warps need their planes; without them the raytrace is the next best. */
-    if ((method == RT_METHOD_TRANSPARENCY && (!(frame->f.planes & DRV_PLANE_LAYERS) || !a->can_transparency)) ||
-        (method == RT_METHOD_OBJECTS && (!(frame->f.planes & DRV_PLANE_IDS) || !a->can_objects))) {
-        a->plane_fallbacks++;
-        method = RT_METHOD_RAYTRACE;
-    }
-    if ((method == RT_METHOD_TRANSPARENCY || method == RT_METHOD_OBJECTS) && frame->has_depth) {
-        j->method = method;
-        for (int e = 0; e < 2; e++) {
-            j->views[e] = rt_frame_view(frame, e);
-            j->eyes[e] = eyes[e];
-        }
-        plat_workers_run(a->workers, 2, depth_task, j);
-        lens_pass_eye_space(a, j);
-        return method;
-    }
-    if (method == RT_METHOD_TRANSPARENCY || method == RT_METHOD_OBJECTS) method = RT_METHOD_RAYTRACE;
-    if ((method == RT_METHOD_RAYTRACE || method == RT_METHOD_RAYTRACE_MESH) && !frame->has_depth) {
-        /* The host sent no depth (a rotation-only scene): nothing to raytrace against. */
-        a->raytrace_fallbacks++;
-        method = RT_METHOD_ROTATION;
-    }
-    if (method == RT_METHOD_RAYTRACE || method == RT_METHOD_RAYTRACE_MESH) {
-        bool ok = true;
-        for (int e = 0; e < 2 && ok; e++) {
-            j->views[e] = rt_frame_view(frame, e);
-            ok = warp_raytrace_prepare(&j->rts[e], &j->views[e], &frame->f.cam[e], eyes[e], &a->rt_params) == NULL;
-            if (ok) warp_raytrace_use_blockmax(&j->rts[e], &frame->blockmax[e], RT_BLOCK);
-        }
-        if (ok && method == RT_METHOD_RAYTRACE_MESH) {
-            /* no eye-space image: depth warp, lens and CA in the one resampling pass from the host frame */
-            plat_workers_run(a->workers, 2, mesh_raytrace_task, j);
-            for (int e = 0; e < 2; e++) j->src[e] = &frame->planar[e];
-            run_resample(a, j);
-            return method;
-        }
-        if (ok) {
-            j->bands = (a->inter[0].h + BAND_H - 1) / BAND_H;
-            plat_workers_run(a->workers, 2 * j->bands, raytrace_task, j);
-            lens_pass_eye_space(a, j);
-            return method;
-        }
-        method = RT_METHOD_ROTATION;
-    }
     for (int e = 0; e < 2; e++) {
         /* 003 §3.4: only orientations matter; NONE shows the frame as rendered, through the lens. */
         j->src_from_dst[e] = method == RT_METHOD_ROTATION
@@ -196,6 +152,94 @@ static rt_method compose(rt_app *a, job *j, const rt_frame *frame, const warp_po
     return method;
 }
 
+/* raytrace and raytrace_mesh: the per-host-frame setup (prepare, skipping grid), then per pixel in bands, or at
+ * the mesh's vertices. A setup the frame cannot give falls to rotation. */
+static rt_method pass_raytrace(rt_app *a, job *j, const rt_frame *frame, const warp_pose eyes[2], rt_method method)
+{
+    bool ok = true;
+    for (int e = 0; e < 2 && ok; e++) {
+        j->views[e] = rt_frame_view(frame, e);
+        ok = warp_raytrace_prepare(&j->rts[e], &j->views[e], &frame->f.cam[e], eyes[e], &a->rt_params) == NULL;
+        if (ok) warp_raytrace_use_blockmax(&j->rts[e], &frame->blockmax[e], RT_BLOCK);
+    }
+    if (!ok) return pass_lens(a, j, frame, eyes, RT_METHOD_ROTATION);
+    if (method == RT_METHOD_RAYTRACE_MESH) {
+        /* no eye-space image: depth warp, lens and CA in the one resampling pass from the host frame */
+        plat_workers_run(a->workers, 2, mesh_raytrace_task, j);
+        for (int e = 0; e < 2; e++) j->src[e] = &frame->planar[e];
+        run_resample(a, j);
+        return method;
+    }
+    j->bands = (a->inter[0].h + BAND_H - 1) / BAND_H;
+    plat_workers_run(a->workers, 2 * j->bands, raytrace_task, j);
+    lens_pass_eye_space(a, j);
+    return method;
+}
+
+/* transparency and objects: a whole eye at once into eye space (depth_task), then the lens. */
+static rt_method pass_depth(rt_app *a, job *j, const rt_frame *frame, const warp_pose eyes[2], rt_method method)
+{
+    j->method = method;
+    for (int e = 0; e < 2; e++) {
+        j->views[e] = rt_frame_view(frame, e);
+        j->eyes[e] = eyes[e];
+    }
+    plat_workers_run(a->workers, 2, depth_task, j);
+    lens_pass_eye_space(a, j);
+    return method;
+}
+
+/* The runtime half of the warp registry (warp/warp_registry.h has names, planes and fallbacks), indexed the same:
+ * per method its CPU pass and the method the GLES renderer runs for it (no GLES pass for the A-buffer and object
+ * warps yet: the raytrace is the GPU's depth warp; and the GPU traces every pixel, so the mesh raytrace, a CPU
+ * economy, is the raytrace there). */
+typedef rt_method (*cpu_pass)(rt_app *a, job *j, const rt_frame *frame, const warp_pose eyes[2], rt_method method);
+static const struct {
+    cpu_pass cpu;
+    rt_method gles;
+} passes[] = {
+    [RT_METHOD_NONE] = {pass_lens, RT_METHOD_NONE},
+    [RT_METHOD_ROTATION] = {pass_lens, RT_METHOD_ROTATION},
+    [RT_METHOD_RAYTRACE] = {pass_raytrace, RT_METHOD_RAYTRACE},
+    [RT_METHOD_TRANSPARENCY] = {pass_depth, RT_METHOD_RAYTRACE},
+    [RT_METHOD_OBJECTS] = {pass_depth, RT_METHOD_RAYTRACE},
+    [RT_METHOD_RAYTRACE_MESH] = {pass_raytrace, RT_METHOD_RAYTRACE},
+};
+_Static_assert(sizeof passes / sizeof passes[0] == RT_METHOD_COUNT, "a pass per runtime method");
+_Static_assert((int)RT_METHOD_COUNT == (int)WARP_METHOD_RUNTIME_COUNT, "rt_method is the registry's runtime part");
+#define SAME_(id, name) _Static_assert((int)RT_METHOD_##id == (int)WARP_METHOD_##id, "rt_method order: " name);
+WARP_RUNTIME_METHODS(SAME_)
+#undef SAME_
+/* the registry's plane bits are the frames' */
+_Static_assert((unsigned)WARP_NEEDS_DEPTH == (unsigned)DRV_PLANE_DEPTH &&
+                   (unsigned)WARP_NEEDS_IDS == (unsigned)DRV_PLANE_IDS &&
+                   (unsigned)WARP_NEEDS_MOTION == (unsigned)DRV_PLANE_MOTION &&
+                   (unsigned)WARP_NEEDS_LAYERS == (unsigned)DRV_PLANE_LAYERS,
+               "WARP_NEEDS_* == DRV_PLANE_*");
+
+/* The registry method `method` can run on `frame`: down its fallback ladder past what lacks a plane, counted as a
+ * plane fallback (ids, layers, or a warp this run did not allocate for) or a raytrace fallback (no depth). */
+static rt_method usable(rt_app *a, const rt_frame *frame, rt_method method, unsigned planes)
+{
+    unsigned have = planes & ~(unsigned)DRV_PLANE_DEPTH;
+    if (frame->has_depth) have |= DRV_PLANE_DEPTH;
+    if (!a->can_transparency) have &= ~(unsigned)DRV_PLANE_LAYERS;
+    if (!a->can_objects) have &= ~(unsigned)DRV_PLANE_IDS;
+    unsigned missing = 0;
+    rt_method m = (rt_method)warp_method_usable((warp_method)method, have, &missing);
+    if (missing & ~(unsigned)DRV_PLANE_DEPTH) a->plane_fallbacks++;
+    if (missing & DRV_PLANE_DEPTH) a->raytrace_fallbacks++;
+    return m;
+}
+
+/* Warps `frame` to the eye poses `eyes` into `out`. Returns the method actually used. */
+static rt_method compose(rt_app *a, job *j, const rt_frame *frame, const warp_pose eyes[2], rt_method method)
+{
+    j->frame = frame;
+    method = usable(a, frame, method, frame->f.planes);
+    return passes[method].cpu(a, j, frame, eyes, method);
+}
+
 /* compose() on the GPU: the frame's planes go to textures once per host frame, then the same warps as the CPU
  * path (same mesh, same raytrace setup) draw the panel, which is read back into `out` (offscreen) or page-flipped
  * onto the panel (KMS). */
@@ -204,14 +248,8 @@ static rt_method compose_gles(rt_app *a, job *j, const rt_frame *frame, const wa
 {
     plat_gles *g = a->gles;
     char err[200];
-    /* no GLES pass for the A-buffer and object warps yet: the raytrace is the GPU's depth warp; and the GPU traces
-     * every pixel, so the mesh raytrace (a CPU economy) is the raytrace there */
-    if (method == RT_METHOD_TRANSPARENCY || method == RT_METHOD_OBJECTS || method == RT_METHOD_RAYTRACE_MESH)
-        method = RT_METHOD_RAYTRACE;
-    if (method == RT_METHOD_RAYTRACE && !frame->has_depth) {
-        a->raytrace_fallbacks++;
-        method = RT_METHOD_ROTATION;
-    }
+    /* the GPU's methods need depth at most: the other planes are not asked for */
+    method = usable(a, frame, passes[method].gles, 0);
     if (frame != a->gles_frame || frame->f.seq != a->gles_frame_seq) {
         bool ok = true;
         for (int e = 0; e < 2; e++)

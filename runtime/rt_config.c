@@ -16,9 +16,10 @@
 
 #include "drivers/drv_framelink.h"
 #include "warp/warp_head.h"
+#include "warp/warp_registry.h"
 
-static const char *const method_names[] = {"none",    "rotation",      "raytrace", "transparency",
-                                           "objects", "raytrace_mesh", "auto",     NULL};
+/* [warp] method: the registry's runtime methods, then auto (RT_METHOD_AUTO, rt_select's choice per vsync). */
+static const char *const method_names[] = {WARP_RUNTIME_METHOD_NAMES "auto", NULL};
 static const char *const edge_fill_names[] = {"far", "linear", NULL};
 static const char *const sink_names[] = {"null", "png", "raw", NULL};
 static const char *const renderer_names[] = {"auto", "cpu", "gles", NULL};
@@ -110,12 +111,11 @@ static const keydef keys[] = {
     {"lens", "scale", K_DOUBLE, F(lens_scale), 0, 1, 100000, NULL, "panel pixels per unit of normalised radius"},
     {"lens", "center", K_DLIST, F(lens_center), 2, -100000, 100000, NULL,
      "left eye's lens centre x y in pixels within its half of the panel (mirrored for the right eye)"},
+    /* the methods themselves are listed from the registry (method_help) */
     {"warp", "method", K_ENUM, F(method), 0, 0, 0, method_names,
-     "none (lens only), rotation (003 §3.4), raytrace (003 §3.5, every eye-buffer pixel, then the lens pass), "
-     "raytrace_mesh (the raytrace at the lens mesh's vertices only, one pass from the host frame: near the display "
-     "path's cost, parallax smeared across depth edges within a mesh cell; the GLES renderer traces per pixel), "
-     "transparency (000 §5.3), objects (002 §3.2) or auto (per vsync, the cheapest warp whose predicted error "
-     "stays under pixel_budget; short of time, raytrace steps down to raytrace_mesh, then rotation)"},
+     "or auto (per vsync, the cheapest warp whose predicted error stays under pixel_budget; short of time, a warp "
+     "steps down its fallback: objects and transparency to raytrace, raytrace to raytrace_mesh, then rotation; the "
+     "GLES renderer traces per pixel)"},
     {"warp", "pixel_budget", K_DOUBLE, F(pixel_budget), 0, 0.01, 100, NULL,
      "auto: largest on-screen error in eye-buffer pixels accepted from a cheaper warp (004 eqs. 5-7 bound)"},
     {"warp", "raytrace_steps", K_INT, F(raytrace_steps), 0, 1, 100000, NULL, "raytrace step budget per ray"},
@@ -889,6 +889,17 @@ void rt_config_print_keys(FILE *out)
         }
         char v[128];
         format_value(&d, &keys[i], v, sizeof v);
+        if (keys[i].names == method_names) {
+            /* [warp] method: the registry's runtime methods, each with its paper and what it does */
+            fprintf(out, "    %-17s ", keys[i].key);
+            for (int m = 0; m < RT_METHOD_COUNT; m++) {
+                const warp_method_info *w = warp_method_get((warp_method)m);
+                const bool cited = strcmp(w->cite, "-") != 0;
+                fprintf(out, "%s (%s%s%s), ", w->name, cited ? w->cite : "", cited ? ": " : "", w->summary);
+            }
+            fprintf(out, "%s (default: %s)\n", keys[i].help, v[0] ? v : "empty");
+            continue;
+        }
         fprintf(out, "    %-17s %s (default: %s)\n", keys[i].key, keys[i].help, v[0] ? v : "empty");
     }
 }

@@ -14,6 +14,13 @@
 #include "warp/warp_resample.h"
 #include "warp/warp_view.h"
 
+const rt_method rt_eval_methods[RT_EVAL_METHODS] = {
+    [RT_EVAL_NONE] = RT_METHOD_NONE,
+    [RT_EVAL_ROTATION] = RT_METHOD_ROTATION,
+    [RT_EVAL_RAYTRACE] = RT_METHOD_RAYTRACE,
+    [RT_EVAL_RAYTRACE_MESH] = RT_METHOD_RAYTRACE_MESH,
+};
+
 static void score(rt_eval_acc *acc, const warp_image_rgba8 *img, const warp_image_rgba8 *truth)
 {
     double p = warp_psnr(img, truth, NULL, 0);

@@ -6,6 +6,15 @@
 #include <math.h>
 
 #include "warp/warp_forward.h"
+#include "warp/warp_registry.h"
+
+const char *rt_select_why_key(rt_select_why w)
+{
+    static const char *const keys[RT_WHY_COUNT] = {"configured",    "no_frame",     "rotation_only",
+                                                   "parallax_small", "parallax",     "transparency",
+                                                   "object_motion",  "held",         "time_budget"};
+    return w >= 0 && w < RT_WHY_COUNT ? keys[w] : "?";
+}
 
 const char *rt_select_why_str(rt_select_why w)
 {
@@ -41,28 +50,11 @@ double rt_select_parallax_px(const warp_camera *cam, double translation_m, doubl
     return isfinite(p) ? p : 1e6;
 }
 
-/* Methods by cost: a method "escalates" over another when it is more expensive (and more capable). */
-static int rank(rt_method m)
-{
-    switch (m) {
-    case RT_METHOD_NONE: return 0;
-    case RT_METHOD_ROTATION: return 1;
-    case RT_METHOD_RAYTRACE_MESH: return 2;
-    case RT_METHOD_RAYTRACE: return 3;
-    default: return 4; /* transparency, objects: the depth warps that also handle what raytrace cannot */
-    }
-}
+/* A method "escalates" over another when the registry ranks it dearer (and more capable). */
+static int rank(rt_method m) { return warp_method_get((warp_method)m)->cost_rank; }
 
-/* One rung down the ladder of depth warps, towards rotation. */
-static rt_method cheaper(rt_method m)
-{
-    switch (m) {
-    case RT_METHOD_TRANSPARENCY:
-    case RT_METHOD_OBJECTS: return RT_METHOD_RAYTRACE;
-    case RT_METHOD_RAYTRACE: return RT_METHOD_RAYTRACE_MESH;
-    default: return RT_METHOD_ROTATION;
-    }
-}
+/* One rung down the registry's fallback ladder, towards rotation. */
+static rt_method cheaper(rt_method m) { return (rt_method)warp_method_get((warp_method)m)->fallback; }
 
 rt_method rt_select_choose(rt_select *s, rt_method configured, const rt_select_input *in, rt_select_why *why)
 {
@@ -117,9 +109,9 @@ rt_method rt_select_choose(rt_select *s, rt_method configured, const rt_select_i
     rt_method m = s->current;
     /* Short of time: the cheaper warp now beats a missed vsync (which would show a stale frame unwarped). The state
      * keeps the preferred method, so the next vsync with time to spare returns to it. */
-    /* Step down the ladder (objects/transparency -> raytrace -> raytrace at the mesh's vertices -> rotation) until
-     * the estimate fits: the mesh raytrace keeps most of the parallax at near the rotation warp's cost. */
-    while (m != RT_METHOD_ROTATION && in->cost_ns[m] > 0 && in->cost_ns[m] > in->time_left_ns) {
+    /* Step down the registry's ladder (objects/transparency -> raytrace -> raytrace at the mesh's vertices ->
+     * rotation) until the estimate fits: the mesh raytrace keeps most of the parallax at near rotation's cost. */
+    while (cheaper(m) != m && in->cost_ns[m] > 0 && in->cost_ns[m] > in->time_left_ns) {
         m = cheaper(m);
         w = RT_WHY_TIME_BUDGET;
     }

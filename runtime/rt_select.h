@@ -24,6 +24,8 @@ typedef enum {
     RT_WHY_COUNT
 } rt_select_why;
 const char *rt_select_why_str(rt_select_why w);
+/* The reason as a --stats key suffix (select_KEY): "time_budget". */
+const char *rt_select_why_key(rt_select_why w);
 
 typedef struct {
     double pixel_budget; /* px: the largest error, predicted on the panel's eye buffer, accepted from a cheaper warp */

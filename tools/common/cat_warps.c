@@ -1,9 +1,10 @@
 /* SPDX-License-Identifier: MIT */
-/* hmdwarp-warp's catalogue: every warp the tool (and the results table) can run, behind one signature, with its
- * knobs as name=value parameters and the planes it needs. */
+/* hmdwarp-warp's catalogue: every warp of the registry (warp/warp_registry.h) behind one signature; names, papers,
+ * planes and knobs come from the registry, only the entry points are here. */
 #include "tools/common/cat_warps.h"
 
 #include <math.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -15,8 +16,10 @@
 #include "warp/warp_holes.h"
 #include "warp/warp_transparency.h"
 #include "warp/warp_iterative.h"
+#include "warp/warp_mesh.h"
 #include "warp/warp_raytrace.h"
 #include "warp/warp_reproject.h"
+#include "warp/warp_resample.h"
 
 double cat_param(const char *params, const char *key, double def, bool *bad)
 {
@@ -41,29 +44,10 @@ double cat_param(const char *params, const char *key, double def, bool *bad)
     return def;
 }
 
-const char *cat_check_params(const char *params, const char *known)
+const char *cat_check_params(warp_method m, const char *params)
 {
-    static char msg[200];
-    if (!params) return NULL;
-    for (const char *p = params; *p;) {
-        const char *end = strchr(p, ',');
-        size_t len = end ? (size_t)(end - p) : strlen(p);
-        const char *eq = memchr(p, '=', len);
-        size_t kl = eq ? (size_t)(eq - p) : len;
-        bool ok = false;
-        for (const char *k = known; *k;) {
-            while (*k == ' ') k++;
-            size_t n = strcspn(k, " ");
-            if (n && n == kl && strncmp(k, p, kl) == 0) ok = true;
-            k += n;
-        }
-        if (!ok || !eq) {
-            snprintf(msg, sizeof msg, "parameter '%.*s': expected one of: %s (as key=value)", (int)len, p, known);
-            return msg;
-        }
-        p += len + (end ? 1 : 0);
-    }
-    return NULL;
+    static char msg[300];
+    return warp_method_check_params(m, params, msg, sizeof msg);
 }
 
 static void count_mask(const warp_image_u8 *mask, cat_stats *st)
@@ -84,7 +68,7 @@ static const char *run_none(const warp_view *src, const warp_camera *dst_cam, wa
 {
     (void)dst_pose;
     (void)dst_time;
-    const char *why = cat_check_params(params, "");
+    const char *why = cat_check_params(WARP_METHOD_NONE, params);
     if (why) return why;
     /* The frame as rendered: what the wearer sees without any warp. */
     warp_mat3 h = warp_reproject_homography(src, dst_cam, src->pose.q);
@@ -98,7 +82,7 @@ static const char *run_rotation(const warp_view *src, const warp_camera *dst_cam
                                 const char *params, warp_image_rgba8 *dst, warp_image_u8 *mask, cat_stats *st)
 {
     (void)dst_time;
-    const char *why = cat_check_params(params, "");
+    const char *why = cat_check_params(WARP_METHOD_ROTATION, params);
     if (why) return why;
     warp_mat3 h = warp_reproject_homography(src, dst_cam, dst_pose.q);
     warp_reproject_rows(src, &h, dst, mask, 0, dst->h);
@@ -112,7 +96,7 @@ static const char *run_raytrace(const warp_view *src, const warp_camera *dst_cam
                                 const char *params, warp_image_rgba8 *dst, warp_image_u8 *mask, cat_stats *st)
 {
     (void)dst_time;
-    const char *why = cat_check_params(params, "steps refine fill edge_jump skip");
+    const char *why = cat_check_params(WARP_METHOD_RAYTRACE, params);
     if (why) return why;
     warp_raytrace_params p = warp_raytrace_default_params();
     bool bad = false;
@@ -175,7 +159,7 @@ static const char *fill_holes(int fill, const warp_view *src, const warp_camera 
 static const char *run_iterative(const warp_view *src, const warp_camera *dst_cam, warp_pose dst_pose, double dst_time,
                                  const char *params, warp_image_rgba8 *dst, warp_image_u8 *mask, cat_stats *st)
 {
-    const char *why = cat_check_params(params, "seeds iters bound dilate awoc fill");
+    const char *why = cat_check_params(WARP_METHOD_ITERATIVE, params);
     if (why) return why;
     warp_iter_params p = warp_iter_default_params();
     bool bad = false;
@@ -229,7 +213,7 @@ static const char *run_grid(const warp_view *src, const warp_camera *dst_cam, wa
                             const char *params, warp_image_rgba8 *dst, warp_image_u8 *mask, cat_stats *st)
 {
     (void)dst_time;
-    const char *why = cat_check_params(params, "strategy tile max_error filter fill");
+    const char *why = cat_check_params(WARP_METHOD_GRID, params);
     if (why) return why;
     warp_grid_params gp;
     int fill;
@@ -258,7 +242,7 @@ static const char *run_transparency(const warp_view *src, const warp_camera *dst
                                     cat_stats *st)
 {
     (void)dst_time;
-    const char *why = cat_check_params(params, "opacity thickness strategy tile max_error filter fill");
+    const char *why = cat_check_params(WARP_METHOD_TRANSPARENCY, params);
     if (why) return why;
     if (!src->layers) return "transparency: the frame has no A-buffer layers";
     warp_grid_params gp;
@@ -322,7 +306,7 @@ static const char *run_forward(const warp_view *src, const warp_camera *dst_cam,
                                const char *params, warp_image_rgba8 *dst, warp_image_u8 *mask, cat_stats *st)
 {
     (void)dst_time;
-    const char *why = cat_check_params(params, "vis twopass fill");
+    const char *why = cat_check_params(WARP_METHOD_FORWARD, params);
     if (why) return why;
     warp_forward_params p = warp_forward_default_params();
     bool bad = false;
@@ -352,7 +336,7 @@ static const char *run_splat(const warp_view *src, const warp_camera *dst_cam, w
                              const char *params, warp_image_rgba8 *dst, warp_image_u8 *mask, cat_stats *st)
 {
     (void)dst_time;
-    const char *why = cat_check_params(params, "kind vis fill");
+    const char *why = cat_check_params(WARP_METHOD_SPLAT, params);
     if (why) return why;
     bool bad = false;
     int kind = (int)cat_param(params, "kind", WARP_SPLAT_MESH, &bad);
@@ -381,7 +365,7 @@ static const char *run_objects(const warp_view *src, const warp_camera *dst_cam,
                                const char *params, warp_image_rgba8 *dst, warp_image_u8 *mask, cat_stats *st)
 {
     (void)dst_time;
-    const char *why = cat_check_params(params, "kind fill static");
+    const char *why = cat_check_params(WARP_METHOD_OBJECTS, params);
     if (why) return why;
     if (!src->ids) return "objects: the frame has no object ids";
     bool bad = false;
@@ -413,47 +397,85 @@ static const char *run_objects(const warp_view *src, const warp_camera *dst_cam,
     return why;
 }
 
-static const cat_warp w_none = {"none", "-", "the source frame as rendered (no warp)", 0, run_none};
-static const cat_warp w_rotation = {"rotation", "003 §3.4", "rotation reprojection with clamped fringe fill", 0,
-                                    run_rotation};
-static const cat_warp w_raytrace = {"raytrace", "003 §3.5",
-                                    "height-map raytrace; steps=512 refine=4 fill=0|1 (far|linear) edge_jump=0.1 skip=1|0",
-                                    CAT_NEEDS_DEPTH, run_raytrace};
+/* ---- 003 §3.5 at the lens mesh's vertices: the display path's raytrace ---- */
 
-static const cat_warp w_iterative = {"iterative", "001 §3",
-                                     "backward warp by fixed-point iteration; seeds=8 iters=4 bound=0|1|2 "
-                                     "(global|tight|PCA) dilate=0|1 awoc=0|1 fill=0..5",
-                                     CAT_NEEDS_DEPTH, run_iterative};
+/* Rays at the vertices of a lens-free mesh over the eye buffer (mesh=N per side), the resampler in between: the
+ * runtime's raytrace_mesh scored one eye before the lens, like every other warp here. */
+static const char *run_raytrace_mesh(const warp_view *src, const warp_camera *dst_cam, warp_pose dst_pose,
+                                     double dst_time, const char *params, warp_image_rgba8 *dst, warp_image_u8 *mask,
+                                     cat_stats *st)
+{
+    (void)dst_time;
+    (void)mask; /* the resampler flags nothing */
+    const char *why = cat_check_params(WARP_METHOD_RAYTRACE_MESH, params);
+    if (why) return why;
+    int n = (int)cat_param(params, "mesh", warp_method_knob(WARP_METHOD_RAYTRACE_MESH, "mesh")->def, NULL);
+    warp_raytrace_params p = warp_raytrace_default_params();
+    warp_raytrace_setup s;
+    if ((why = warp_raytrace_prepare(&s, src, dst_cam, dst_pose, &p))) return why;
+    warp_mesh m;
+    warp_planar3 planar;
+    warp_image_f32 bmax = {0};
+    memset(&m, 0, sizeof m);
+    memset(&planar, 0, sizeof planar);
+    if (warp_mesh_init_eye(&m, n, dst_cam) && warp_planar3_alloc(&planar, src->color->w, src->color->h) &&
+        warp_image_f32_alloc(&bmax, (src->inv_depth->w + 7) / 8, (src->inv_depth->h + 7) / 8)) {
+        /* what the runtime does once per host frame: the planar source and the skipping grid */
+        warp_planar3_from_rgba_rows(&planar, src->color, 0, src->color->h);
+        warp_raytrace_blockmax(src->inv_depth, &bmax, 8);
+        warp_raytrace_use_blockmax(&s, &bmax, 8);
+        warp_mesh_update_raytrace(&m, dst_cam, &s);
+        warp_mesh_resample(&m, &planar, dst, 0, 0, m.vp_w, m.vp_h);
+        st->primitives = (long)(m.rows - 1) * (m.cols - 1);
+        st->samples = -1;
+        st->fringe = st->holes = 0;
+    } else {
+        why = "out of memory";
+    }
+    warp_mesh_free(&m);
+    warp_planar3_free(&planar);
+    warp_image_free(&bmax);
+    return why;
+}
 
-static const cat_warp w_grid = {"grid", "000 §4.1",
-                                "adaptive grid warp; strategy=3 (0 Didyk, 1 cross, 2 partial, 3 irregular) tile=32 "
-                                "max_error=0.02 filter=0|1|2 (adaptive|linear|nearest) fill=0..5",
-                                CAT_NEEDS_DEPTH, run_grid};
-static const cat_warp w_transparency = {"transparency", "000 §5.3",
-                                        "grid for the opaque surface + A-buffer ray casting; opacity=0.99 "
-                                        "thickness=0.02 and the grid's knobs",
-                                        CAT_NEEDS_DEPTH | CAT_NEEDS_LAYERS, run_transparency};
+/* The entry points, indexed like the registry. */
+typedef const char *(*cat_run_fn)(const warp_view *, const warp_camera *, warp_pose, double, const char *,
+                                  warp_image_rgba8 *, warp_image_u8 *, cat_stats *);
+static const cat_run_fn runs[] = {
+    [WARP_METHOD_NONE] = run_none,           [WARP_METHOD_ROTATION] = run_rotation,
+    [WARP_METHOD_RAYTRACE] = run_raytrace,   [WARP_METHOD_TRANSPARENCY] = run_transparency,
+    [WARP_METHOD_OBJECTS] = run_objects,     [WARP_METHOD_RAYTRACE_MESH] = run_raytrace_mesh,
+    [WARP_METHOD_ITERATIVE] = run_iterative, [WARP_METHOD_GRID] = run_grid,
+    [WARP_METHOD_FORWARD] = run_forward,     [WARP_METHOD_SPLAT] = run_splat,
+};
+_Static_assert(sizeof runs / sizeof runs[0] == WARP_METHOD_COUNT, "an entry point per registry method");
 
-static const cat_warp w_forward = {"forward", "004 §4",
-                                   "McMillan forward warp, 1-pixel points; vis=0|1|2 (z-buffer|4 sheets|8 sheets) "
-                                   "twopass=0|1 (004 §5) fill=0..5",
-                                   CAT_NEEDS_DEPTH, run_forward};
-static const cat_warp w_splat = {"splat", "002 §3.3",
-                                 "forward warp with reconstruction; kind=0|1|2 (point|quad|mesh) vis=0..2 fill=0..5",
-                                 CAT_NEEDS_DEPTH, run_splat};
-static const cat_warp w_objects = {"objects", "002 §3.2",
-                                   "per-object forward warp, objects at their target-time poses; kind=0..2 fill=2 "
-                                   "static=0|1",
-                                   CAT_NEEDS_DEPTH | CAT_NEEDS_IDS, run_objects};
+static cat_warp entries[WARP_METHOD_COUNT];
+static const cat_warp *catalogue[WARP_METHOD_COUNT + 1];
+static char helps[WARP_METHOD_COUNT][600];
+static pthread_once_t built = PTHREAD_ONCE_INIT;
 
-static const cat_warp *const catalogue[] = {&w_none,  &w_rotation, &w_raytrace, &w_iterative, &w_grid, &w_transparency,
-                                            &w_forward, &w_splat, &w_objects, NULL};
+static void build(void)
+{
+    for (int m = 0; m < WARP_METHOD_COUNT; m++) {
+        const warp_method_info *w = warp_method_get((warp_method)m);
+        char knobs[500];
+        warp_method_knobs_str((warp_method)m, knobs, sizeof knobs);
+        snprintf(helps[m], sizeof helps[m], "%s%s%s", w->summary, knobs[0] ? "; " : "", knobs);
+        entries[m] = (cat_warp){(warp_method)m, w->name, w->cite, helps[m], w->needs, runs[m]};
+        catalogue[m] = &entries[m];
+    }
+    catalogue[WARP_METHOD_COUNT] = NULL;
+}
 
-const cat_warp *const *cat_all(void) { return catalogue; }
+const cat_warp *const *cat_all(void)
+{
+    pthread_once(&built, build);
+    return catalogue;
+}
 
 const cat_warp *cat_find(const char *name)
 {
-    for (int i = 0; catalogue[i]; i++)
-        if (strcmp(catalogue[i]->name, name) == 0) return catalogue[i];
-    return NULL;
+    int m = warp_method_find(name);
+    return m < 0 ? NULL : cat_all()[m];
 }

@@ -105,9 +105,13 @@ static bool parse(int argc, char **argv, opts *o)
         case O_WARP: o->warp = optarg; break;
         case O_PARAMS: o->params = optarg; break;
         case O_LIST:
-            for (const cat_warp *const *w = cat_all(); *w; w++)
-                printf("  %-16s %-10s %s%s\n", (*w)->name, (*w)->cite, (*w)->help,
-                       (*w)->needs & CAT_NEEDS_DEPTH ? " [depth]" : "");
+            /* the registry's methods, with the planes each needs and whether hmdwarpd runs it */
+            for (const cat_warp *const *w = cat_all(); *w; w++) {
+                unsigned n = (*w)->needs;
+                printf("  %-16s %-10s %s%s%s%s%s%s\n", (*w)->name, (*w)->cite, (*w)->help, n ? " [needs" : "",
+                       n & CAT_NEEDS_DEPTH ? " depth" : "", n & CAT_NEEDS_IDS ? " ids" : "",
+                       n & CAT_NEEDS_LAYERS ? " layers" : "", n ? "]" : "");
+            }
             exit(0);
         case O_OUT: o->out = optarg; break;
         case O_MASK: o->mask = optarg; break;
