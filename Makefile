@@ -161,6 +161,11 @@ $(BUILD)/tests/%: $(BUILD)/obj/tests/%.o $(TEST_SUPPORT_OBJ) $(LIBS)
 	@mkdir -p $(dir $@)
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_ALL) $(TEST_LIBS)
+# test_registry checks the tools' catalogue against the warp registry (the catalogue before the libraries it uses).
+$(BUILD)/tests/unit/test_registry: $(BUILD)/obj/tests/unit/test_registry.o $(TOOLS_COMMON_OBJ) $(TEST_SUPPORT_OBJ) $(LIBS)
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_ALL) $(TEST_LIBS)
 
 # Fuzz harnesses (tests/fuzz/README.md): linked with the helpers and the hmdwarp-warp file readers they fuzz; as
 # regression runners (standalone.c, any compiler) in make test, with libFuzzer (clang) in make fuzz.

@@ -1,0 +1,166 @@
+/* SPDX-License-Identifier: MIT */
+/* warp_registry: every entry is consistent (unique names, ladders ending at rotation or none without cycles, knob
+ * defaults in range and equal to the modules' own), and [warp] method, --help-config and the catalogue behind
+ * hmdwarp-warp --list offer exactly the registry's methods, raytrace_mesh included. */
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <cmocka.h>
+
+#include "drivers/drv_frames.h"
+#include "runtime/rt_config.h"
+#include "tools/common/cat_warps.h"
+#include "warp/warp_raytrace.h"
+#include "warp/warp_registry.h"
+
+static void entries_consistent(void **state)
+{
+    (void)state;
+    for (int m = 0; m < WARP_METHOD_COUNT; m++) {
+        const warp_method_info *w = warp_method_get((warp_method)m);
+        assert_non_null(w);
+        assert_non_null(w->name);
+        assert_non_null(w->cite);
+        assert_non_null(w->summary);
+        assert_int_equal(warp_method_find(w->name), m); /* unique: the first with that name is this one */
+        assert_int_equal(w->runtime, m < WARP_METHOD_RUNTIME_COUNT);
+        /* the ladder: each rung cheaper, a runtime method falls to runtime methods only, and it ends (a method
+         * that is its own fallback) at rotation or none within COUNT steps */
+        warp_method at = (warp_method)m;
+        int steps = 0;
+        while (warp_method_get(at)->fallback != at && steps <= WARP_METHOD_COUNT) {
+            warp_method next = warp_method_get(at)->fallback;
+            assert_non_null(warp_method_get(next));
+            assert_true(warp_method_get(next)->cost_rank < warp_method_get(at)->cost_rank);
+            if (w->runtime) assert_true(warp_method_get(next)->runtime);
+            at = next;
+            steps++;
+        }
+        assert_true(steps < WARP_METHOD_COUNT);
+        assert_true(at == WARP_METHOD_ROTATION || at == WARP_METHOD_NONE);
+        assert_int_equal(warp_method_get(at)->needs, 0); /* the end of a ladder runs on colour alone */
+        for (int k = 0; k < w->n_knobs; k++) {
+            const warp_knob *kn = &w->knobs[k];
+            assert_true(kn->min <= kn->def && kn->def <= kn->max);
+            assert_ptr_equal(warp_method_knob((warp_method)m, kn->name), kn); /* knob names unique */
+        }
+        /* needs only what a frame can carry */
+        assert_int_equal(w->needs & ~(unsigned)(DRV_PLANE_DEPTH | DRV_PLANE_IDS | DRV_PLANE_MOTION | DRV_PLANE_LAYERS),
+                         0);
+    }
+    assert_null(warp_method_get(WARP_METHOD_COUNT));
+    assert_int_equal(warp_method_find("auto"), -1);
+    assert_string_equal(warp_method_name(WARP_METHOD_COUNT), "?");
+    /* the modules' own defaults */
+    warp_raytrace_params rp = warp_raytrace_default_params();
+    assert_int_equal(warp_method_knob(WARP_METHOD_RAYTRACE, "steps")->def, rp.max_steps);
+    assert_int_equal(warp_method_knob(WARP_METHOD_RAYTRACE, "refine")->def, rp.refine_iters);
+    assert_float_equal(warp_method_knob(WARP_METHOD_RAYTRACE, "edge_jump")->def, rp.edge_jump, 1e-6);
+}
+
+/* The planes each method needs are what the compositor checks: a frame lacking one walks the ladder to the warp
+ * the compositor ran before the registry (transparency/objects -> raytrace; no depth -> rotation). */
+static void ladders_match_compositor(void **state)
+{
+    (void)state;
+    const unsigned all = DRV_PLANE_DEPTH | DRV_PLANE_IDS | DRV_PLANE_LAYERS | DRV_PLANE_MOTION;
+    unsigned miss = 0;
+    assert_int_equal(warp_method_usable(WARP_METHOD_TRANSPARENCY, all, &miss), WARP_METHOD_TRANSPARENCY);
+    assert_int_equal(miss, 0);
+    assert_int_equal(warp_method_usable(WARP_METHOD_TRANSPARENCY, all & ~DRV_PLANE_LAYERS, &miss),
+                     WARP_METHOD_RAYTRACE);
+    assert_int_equal(miss, DRV_PLANE_LAYERS);
+    miss = 0;
+    assert_int_equal(warp_method_usable(WARP_METHOD_OBJECTS, all & ~DRV_PLANE_IDS, &miss), WARP_METHOD_RAYTRACE);
+    assert_int_equal(miss, DRV_PLANE_IDS);
+    for (int m = 0; m < WARP_METHOD_RUNTIME_COUNT; m++) {
+        miss = 0;
+        warp_method u = warp_method_usable((warp_method)m, DRV_PLANE_COLOR, &miss);
+        assert_int_equal(u, m == WARP_METHOD_NONE ? WARP_METHOD_NONE : WARP_METHOD_ROTATION);
+        assert_int_equal(miss & ~warp_method_get((warp_method)m)->needs, 0);
+    }
+    assert_int_equal(warp_method_usable(WARP_METHOD_RAYTRACE_MESH, DRV_PLANE_DEPTH, NULL), WARP_METHOD_RAYTRACE_MESH);
+}
+
+/* [warp] method takes exactly the runtime methods (by the registry's names, stored as its index) and auto. */
+static void config_lists_registry(void **state)
+{
+    (void)state;
+    for (int m = 0; m < WARP_METHOD_COUNT; m++) {
+        rt_config c;
+        rt_config_defaults(&c);
+        rt_config_errors e;
+        memset(&e, 0, sizeof e);
+        char set[64];
+        snprintf(set, sizeof set, "warp.method=%s", warp_method_name((warp_method)m));
+        bool ok = rt_config_set(&c, set, &e);
+        assert_int_equal(ok, m < WARP_METHOD_RUNTIME_COUNT);
+        if (ok) {
+            assert_int_equal(c.method, m);
+            assert_string_equal(rt_method_name(c.method), warp_method_name((warp_method)m));
+        }
+    }
+    rt_config c;
+    rt_config_defaults(&c);
+    rt_config_errors e;
+    memset(&e, 0, sizeof e);
+    assert_true(rt_config_set(&c, "warp.method=auto", &e));
+    assert_int_equal(c.method, RT_METHOD_AUTO);
+
+    /* --help-config's method line names every runtime method, and no reference-only one */
+    char *buf = NULL;
+    size_t len = 0;
+    FILE *f = open_memstream(&buf, &len);
+    rt_config_print_keys(f);
+    fclose(f);
+    char *line = strstr(buf, "    method ");
+    assert_non_null(line);
+    char *end = strchr(line, '\n');
+    *end = 0;
+    for (int m = 0; m < WARP_METHOD_COUNT; m++) {
+        char want[40];
+        snprintf(want, sizeof want, " %s (", warp_method_name((warp_method)m));
+        assert_int_equal(strstr(line, want) != NULL, m < WARP_METHOD_RUNTIME_COUNT);
+    }
+    free(buf);
+}
+
+/* The catalogue (hmdwarp-warp --list, the bench) lists every registry method once, in registry order, with the
+ * registry's paper and planes, and range-checks parameters by the registry's knobs. */
+static void catalogue_lists_registry(void **state)
+{
+    (void)state;
+    const cat_warp *const *all = cat_all();
+    int n = 0;
+    for (; all[n]; n++) {
+        const warp_method_info *w = warp_method_get((warp_method)n);
+        assert_int_equal(all[n]->id, n);
+        assert_string_equal(all[n]->name, w->name);
+        assert_string_equal(all[n]->cite, w->cite);
+        assert_int_equal(all[n]->needs, w->needs);
+        assert_non_null(all[n]->run);
+        assert_ptr_equal(cat_find(w->name), all[n]);
+    }
+    assert_int_equal(n, WARP_METHOD_COUNT);
+    assert_non_null(cat_find("raytrace_mesh"));
+    assert_null(cat_check_params(WARP_METHOD_RAYTRACE, "steps=16,refine=0"));
+    assert_non_null(strstr(cat_check_params(WARP_METHOD_RAYTRACE, "steps=0"), "steps=0"));
+    assert_non_null(strstr(cat_check_params(WARP_METHOD_RAYTRACE, "steps=1.5"), "whole number"));
+    assert_non_null(strstr(cat_check_params(WARP_METHOD_ROTATION, "steps=16"), "'steps=16'"));
+    assert_non_null(cat_check_params(WARP_METHOD_GRID, "tile="));
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(entries_consistent),
+        cmocka_unit_test(ladders_match_compositor),
+        cmocka_unit_test(config_lists_registry),
+        cmocka_unit_test(catalogue_lists_registry),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
