@@ -162,7 +162,8 @@ $(BUILD)/tests/%: $(BUILD)/obj/tests/%.o $(TEST_SUPPORT_OBJ) $(LIBS)
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_ALL) $(TEST_LIBS)
 # test_registry checks the tools' catalogue against the warp registry (the catalogue before the libraries it uses).
-$(BUILD)/tests/unit/test_registry: $(BUILD)/obj/tests/unit/test_registry.o $(TOOLS_COMMON_OBJ) $(TEST_SUPPORT_OBJ) $(LIBS)
+$(BUILD)/tests/unit/test_registry: $(BUILD)/obj/tests/unit/test_registry.o $(TOOLS_COMMON_OBJ) $(TEST_SUPPORT_OBJ) \
+                                   $(LIBS)
 	@mkdir -p $(dir $@)
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_ALL) $(TEST_LIBS)

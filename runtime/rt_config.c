@@ -716,13 +716,15 @@ static const char *keys_at(const rt_config *c, const char *list, char *buf, size
     return buf;
 }
 
-/* The planes the runtime asks a host for (rt_app_init's planes_wanted): colour and depth, ids for the object warp,
- * layers for the transparency warp. */
-static bool wants_ids(const rt_config *c) { return c->method == RT_METHOD_OBJECTS || c->method == RT_METHOD_AUTO; }
-static bool wants_layers(const rt_config *c)
+/* The planes the runtime asks a host for (rt_app_init's planes_wanted): colour and depth, and what the registry
+ * says the configured warp needs besides (ids for the object warp, layers for the transparency warp); auto may
+ * choose any of them. */
+static bool method_needs(const rt_config *c, unsigned plane)
 {
-    return c->method == RT_METHOD_TRANSPARENCY || c->method == RT_METHOD_AUTO;
+    return c->method == RT_METHOD_AUTO || (warp_method_get((warp_method)c->method)->needs & plane);
 }
+static bool wants_ids(const rt_config *c) { return method_needs(c, WARP_NEEDS_IDS); }
+static bool wants_layers(const rt_config *c) { return method_needs(c, WARP_NEEDS_LAYERS); }
 
 uint64_t rt_config_frame_bytes(const rt_config *c)
 {
@@ -746,7 +748,7 @@ uint64_t rt_config_memory_bytes(const rt_config *c)
     total += 3 * (frame + eyes * eye_px * (PLANAR + INV_DEPTH + (layers ? OPAQUE : 0)));
     /* the depth warps' eye-sized buffers (intermediate image, its planar copy, masks; transparency's depth and
      * min/max tree; the forward warp's scratch and hole filling for objects) */
-    if (c->method != RT_METHOD_NONE && c->method != RT_METHOD_ROTATION)
+    if (method_needs(c, WARP_NEEDS_DEPTH))
         total += eyes * eye_px * (4 + PLANAR + 1 + (layers ? 4 + 8 : 0) + (ids ? 24 + 11 : 0));
     /* the frame backend: a simulated host renders into frames of its own; the USB receiver holds max_frame_mb
      * (and its mock an encoded frame); V4L2 maps four capture buffers of about 4 bytes a pixel */

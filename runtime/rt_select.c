@@ -8,23 +8,25 @@
 #include "warp/warp_forward.h"
 #include "warp/warp_registry.h"
 
-const char *rt_select_why_key(rt_select_why w)
-{
-    static const char *const keys[RT_WHY_COUNT] = {"configured",    "no_frame",     "rotation_only",
-                                                   "parallax_small", "parallax",     "transparency",
-                                                   "object_motion",  "held",         "time_budget"};
-    return w >= 0 && w < RT_WHY_COUNT ? keys[w] : "?";
-}
+/* Per reason its --stats key (select_KEY) and its summary text: one table, indexed by rt_select_why. */
+static const struct {
+    const char *key, *text;
+} whys[] = {
+    [RT_WHY_CONFIGURED] = {"configured", "configured"},
+    [RT_WHY_NO_FRAME] = {"no_frame", "no frame yet"},
+    [RT_WHY_ROTATION_ONLY] = {"rotation_only", "no depth in the frame"},
+    [RT_WHY_PARALLAX_SMALL] = {"parallax_small", "parallax under budget"},
+    [RT_WHY_PARALLAX] = {"parallax", "parallax"},
+    [RT_WHY_TRANSPARENCY] = {"transparency", "transparent layers"},
+    [RT_WHY_OBJECT_MOTION] = {"object_motion", "object motion"},
+    [RT_WHY_HELD] = {"held", "held (hysteresis)"},
+    [RT_WHY_TIME_BUDGET] = {"time_budget", "time budget"},
+};
+_Static_assert(sizeof whys / sizeof whys[0] == RT_WHY_COUNT, "a key and a text per reason");
 
-const char *rt_select_why_str(rt_select_why w)
-{
-    static const char *const names[RT_WHY_COUNT] = {
-        "configured",    "no frame yet",          "no depth in the frame", "parallax under budget",
-        "parallax",      "transparent layers",    "object motion",         "held (hysteresis)",
-        "time budget",
-    };
-    return w >= 0 && w < RT_WHY_COUNT ? names[w] : "?";
-}
+const char *rt_select_why_key(rt_select_why w) { return w >= 0 && w < RT_WHY_COUNT ? whys[w].key : "?"; }
+
+const char *rt_select_why_str(rt_select_why w) { return w >= 0 && w < RT_WHY_COUNT ? whys[w].text : "?"; }
 
 rt_select_params rt_select_default_params(void)
 {

@@ -25,11 +25,12 @@ static const warp_method_info methods[WARP_METHOD_COUNT] = {
                               WARP_METHOD_ROTATION, 1, true, 0, {{0}}},
     /* Short of time the per-pixel raytrace steps down to the mesh raytrace: most of the parallax at near the
      * rotation warp's cost. */
-    [WARP_METHOD_RAYTRACE] = {"raytrace", "003 §3.5", "height-map raytrace of every eye-buffer pixel", WARP_NEEDS_DEPTH,
-                              WARP_METHOD_RAYTRACE_MESH, 3, true, 5,
+    [WARP_METHOD_RAYTRACE] = {"raytrace", "003 §3.5", "height-map raytrace of every eye-buffer pixel",
+                              WARP_NEEDS_DEPTH, WARP_METHOD_RAYTRACE_MESH, 3, true, 5,
                               {I("steps", 1, 100000, 512, "ray steps at most"), I("refine", 0, 64, 4, NULL),
                                I("fill", 0, 1, 0, "disocclusions: 0 far side, 1 linear (003 §4.4)"),
-                               R("edge_jump", 0, 1, 0.1, NULL), I("skip", 0, 1, 1, "1 the skipping grid, 0 linear search")}},
+                               R("edge_jump", 0, 1, 0.1, NULL),
+                               I("skip", 0, 1, 1, "1 the skipping grid, 0 linear search")}},
     [WARP_METHOD_TRANSPARENCY] = {"transparency", "000 §5.3",
                                   "adaptive grid for the opaque surface + A-buffer ray casting",
                                   WARP_NEEDS_DEPTH | WARP_NEEDS_LAYERS, WARP_METHOD_RAYTRACE, 4, true, 7,
@@ -56,7 +57,8 @@ static const warp_method_info methods[WARP_METHOD_COUNT] = {
                               I("twopass", 0, 1, 0, "1 two-pass binned (004 §5)"), FILL}},
     [WARP_METHOD_SPLAT] = {"splat", "002 §3.3", "forward warp with reconstruction", WARP_NEEDS_DEPTH,
                            WARP_METHOD_ROTATION, 5, false, 3,
-                           {I("kind", 0, 2, 2, "0 point, 1 quad, 2 mesh"), I("vis", 0, 2, 0, "as forward's vis"), FILL}},
+                           {I("kind", 0, 2, 2, "0 point, 1 quad, 2 mesh"), I("vis", 0, 2, 0, "as forward's vis"),
+                            FILL}},
 };
 #undef I
 #undef R
