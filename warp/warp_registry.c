@@ -141,8 +141,10 @@ const char *warp_method_check_params(warp_method m, const char *params, char *bu
             char names[200] = "";
             for (int k = 0; k < w->n_knobs; k++)
                 snprintf(names + strlen(names), sizeof names - strlen(names), "%s%s", k ? " " : "", w->knobs[k].name);
-            snprintf(buf, len, "%s: parameter '%.*s': expected one of: %s (as key=value)", w->name, (int)n, p,
-                     w->n_knobs ? names : "(none: this warp has no parameters)");
+            if (w->n_knobs)
+                snprintf(buf, len, "parameter '%.*s': expected one of: %s (as key=value)", (int)n, p, names);
+            else
+                snprintf(buf, len, "parameter '%.*s': this warp takes no parameters", (int)n, p);
             return buf;
         }
         size_t vl = n - kl - 1;
@@ -151,7 +153,7 @@ const char *warp_method_check_params(warp_method m, const char *params, char *bu
         double v = strtod(val, &e);
         if (vl == 0 || vl >= sizeof val || *e || !isfinite(v) || v < kn->min || v > kn->max ||
             (kn->integral && v != floor(v))) {
-            snprintf(buf, len, "%s: %s=%.*s: expected %s %g..%g%s%s", w->name, key, (int)vl, eq + 1,
+            snprintf(buf, len, "%s=%.*s: expected %s %g..%g%s%s", key, (int)vl, eq + 1,
                      kn->integral ? "a whole number" : "a number", kn->min, kn->max, kn->help ? " (" : "",
                      kn->help ? kn->help : "");
             if (kn->help) snprintf(buf + strlen(buf), len - strlen(buf), ")");

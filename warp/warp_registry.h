@@ -79,7 +79,7 @@ warp_method warp_method_usable(warp_method m, unsigned have, unsigned *missing);
 /* The knob called name of method m, or NULL. */
 const warp_knob *warp_method_knob(warp_method m, const char *name);
 /* Checks "k=v,k=v" parameters against m's knobs (names, numbers, ranges, whole numbers). NULL when fine, else a
- * message naming the method, the parameter and what it accepts, in buf. */
+ * message naming the parameter and what it accepts, in buf (the caller names the method). */
 const char *warp_method_check_params(warp_method m, const char *params, char *buf, size_t len);
 /* The knobs as one line: "steps=512 (1..100000) refine=4 (0..64) ..." into buf; returns buf. */
 const char *warp_method_knobs_str(warp_method m, char *buf, size_t len);
