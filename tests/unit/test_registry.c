@@ -10,6 +10,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <cmocka.h>
+#include <libgen.h>
 
 #include "drivers/drv_frames.h"
 #include "runtime/rt_config.h"
@@ -154,13 +155,43 @@ static void catalogue_lists_registry(void **state)
     assert_non_null(cat_check_params(WARP_METHOD_GRID, "tile="));
 }
 
-int main(void)
+static char tool[600]; /* build/hmdwarp-warp, beside this test's build/tests/unit/ */
+
+/* hmdwarp-warp --list prints one line per registry method, in registry order, with its paper and planes. */
+static void warp_tool_lists_registry(void **state)
 {
+    (void)state;
+    char cmd[700];
+    snprintf(cmd, sizeof cmd, "%s --list", tool);
+    FILE *p = popen(cmd, "r");
+    assert_non_null(p);
+    char line[2048];
+    int n = 0;
+    while (fgets(line, sizeof line, p)) {
+        assert_true(n < WARP_METHOD_COUNT);
+        const warp_method_info *w = warp_method_get((warp_method)n);
+        char want[100];
+        snprintf(want, sizeof want, "  %-16s %-10s %s", w->name, w->cite, w->summary);
+        assert_memory_equal(line, want, strlen(want));
+        assert_int_equal(strstr(line, "[needs depth") != NULL, (w->needs & WARP_NEEDS_DEPTH) != 0);
+        n++;
+    }
+    assert_int_equal(pclose(p), 0);
+    assert_int_equal(n, WARP_METHOD_COUNT);
+}
+
+int main(int argc, char **argv)
+{
+    (void)argc;
+    char tmp[512];
+    snprintf(tmp, sizeof tmp, "%s", argv[0]);
+    snprintf(tool, sizeof tool, "%s/hmdwarp-warp", dirname(dirname(dirname(tmp))));
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(entries_consistent),
         cmocka_unit_test(ladders_match_compositor),
         cmocka_unit_test(config_lists_registry),
         cmocka_unit_test(catalogue_lists_registry),
+        cmocka_unit_test(warp_tool_lists_registry),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
