@@ -114,8 +114,7 @@ static const keydef keys[] = {
     /* the methods themselves are listed from the registry (method_help) */
     {"warp", "method", K_ENUM, F(method), 0, 0, 0, method_names,
      "or auto (per vsync, the cheapest warp whose predicted error stays under pixel_budget; short of time, a warp "
-     "steps down its fallback: objects and transparency to raytrace, raytrace to raytrace_mesh, then rotation; the "
-     "GLES renderer traces per pixel)"},
+     "steps down its fallback:"},
     {"warp", "pixel_budget", K_DOUBLE, F(pixel_budget), 0, 0.01, 100, NULL,
      "auto: largest on-screen error in eye-buffer pixels accepted from a cheaper warp (004 eqs. 5-7 bound)"},
     {"warp", "raytrace_steps", K_INT, F(raytrace_steps), 0, 1, 100000, NULL, "raytrace step budget per ray"},
@@ -899,7 +898,15 @@ void rt_config_print_keys(FILE *out)
                 const bool cited = strcmp(w->cite, "-") != 0;
                 fprintf(out, "%s (%s%s%s), ", w->name, cited ? w->cite : "", cited ? ": " : "", w->summary);
             }
-            fprintf(out, "%s (default: %s)\n", keys[i].help, v[0] ? v : "empty");
+            fprintf(out, "%s", keys[i].help);
+            const char *sep = " ";
+            for (int m = 0; m < RT_METHOD_COUNT; m++) {
+                const warp_method_info *w = warp_method_get((warp_method)m);
+                if (w->fallback == (warp_method)m) continue;
+                fprintf(out, "%s%s to %s", sep, w->name, warp_method_name(w->fallback));
+                sep = ", ";
+            }
+            fprintf(out, "; the GLES renderer traces per pixel) (default: %s)\n", v[0] ? v : "empty");
             continue;
         }
         fprintf(out, "    %-17s %s (default: %s)\n", keys[i].key, keys[i].help, v[0] ? v : "empty");
