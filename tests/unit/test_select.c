@@ -149,6 +149,20 @@ static void test_time_budget_degrades(void **state)
     assert_int_equal(rt_select_choose(&s, RT_METHOD_AUTO, &in, &why), RT_METHOD_RAYTRACE);
 }
 
+/* The reasons' --stats keys (select_KEY) are an interface: exactly these, one per reason, and a summary text each. */
+static void test_reason_keys(void **state)
+{
+    (void)state;
+    static const char *const keys[RT_WHY_COUNT] = {"configured", "no_frame",      "rotation_only",
+                                                   "parallax_small", "parallax", "transparency",
+                                                   "object_motion", "held",      "time_budget"};
+    for (int w = 0; w < RT_WHY_COUNT; w++) {
+        assert_string_equal(rt_select_why_key((rt_select_why)w), keys[w]);
+        assert_string_not_equal(rt_select_why_str((rt_select_why)w), "?");
+    }
+    assert_string_equal(rt_select_why_key(RT_WHY_COUNT), "?");
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -157,6 +171,7 @@ int main(void)
         cmocka_unit_test(test_translation_near_object_escalates),
         cmocka_unit_test(test_stable_near_threshold),
         cmocka_unit_test(test_time_budget_degrades),
+        cmocka_unit_test(test_reason_keys),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
