@@ -27,16 +27,11 @@ struct plat_egl {
     char *extensions;
     /* KMS */
     bool kms;
+    plat_kms *k; /* device, CRTC, flips and their events */
     int fd;
     struct gbm_device *gbm;
     struct gbm_surface *gs;
-    uint32_t conn_id, crtc_id;
-    drmModeModeInfo mode;
-    char conn_name[32];
-    drmModeCrtc *saved_crtc; /* restored at close */
     struct gbm_bo *shown_bo, *pending_bo;
-    bool crtc_set, flip_pending;
-    uint64_t flips, flip_failed;
 };
 
 #if defined(__GNUC__)
@@ -194,113 +189,6 @@ plat_egl *plat_egl_open_offscreen(char *err, int errlen)
 
 /* ---- KMS ---- */
 
-static void connector_name(const drmModeConnector *c, char *buf, size_t len)
-{
-    const char *t = drmModeGetConnectorTypeName(c->connector_type);
-    snprintf(buf, len, "%s-%u", t ? t : "Unknown", c->connector_type_id);
-}
-
-static bool pick_mode(const drmModeConnector *c, const plat_egl_kms_params *p, drmModeModeInfo *out)
-{
-    const drmModeModeInfo *best = NULL;
-    for (int i = 0; i < c->count_modes; i++) {
-        const drmModeModeInfo *m = &c->modes[i];
-        if (p->mode_w > 0) {
-            if (m->hdisplay != p->mode_w || m->vdisplay != p->mode_h) continue;
-            if (p->mode_hz > 0 && (m->vrefresh < p->mode_hz - 0.5 || m->vrefresh > p->mode_hz + 0.5)) continue;
-            best = m;
-            break;
-        }
-        if (m->type & DRM_MODE_TYPE_PREFERRED) {
-            best = m;
-            break;
-        }
-        if (!best) best = m;
-    }
-    if (!best) return false;
-    *out = *best;
-    return true;
-}
-
-static uint32_t pick_crtc(int fd, const drmModeRes *res, const drmModeConnector *c)
-{
-    if (c->encoder_id) {
-        drmModeEncoder *enc = drmModeGetEncoder(fd, c->encoder_id);
-        if (enc) {
-            uint32_t id = enc->crtc_id;
-            drmModeFreeEncoder(enc);
-            if (id) return id;
-        }
-    }
-    for (int i = 0; i < c->count_encoders; i++) {
-        drmModeEncoder *enc = drmModeGetEncoder(fd, c->encoders[i]);
-        if (!enc) continue;
-        for (int k = 0; k < res->count_crtcs; k++)
-            if (enc->possible_crtcs & (1u << k)) {
-                drmModeFreeEncoder(enc);
-                return res->crtcs[k];
-            }
-        drmModeFreeEncoder(enc);
-    }
-    return 0;
-}
-
-/* Finds the connector, mode and CRTC; fills e; false with err. */
-static bool kms_setup(plat_egl *e, const plat_egl_kms_params *p, char *err, int errlen)
-{
-    drmModeRes *res = drmModeGetResources(e->fd);
-    if (!res) {
-        fail(err, errlen, "DRM device %s: no KMS resources (%s): not a display controller (a render node?)",
-             p->device, strerror(errno));
-        return false;
-    }
-    const bool any = !p->connector || !*p->connector || strcmp(p->connector, "auto") == 0;
-    char seen[256] = "";
-    bool ok = false;
-    for (int i = 0; i < res->count_connectors && !ok; i++) {
-        drmModeConnector *c = drmModeGetConnector(e->fd, res->connectors[i]);
-        if (!c) continue;
-        char name[32];
-        connector_name(c, name, sizeof name);
-        strncat(seen, *seen ? ", " : "", sizeof seen - strlen(seen) - 1);
-        strncat(seen, name, sizeof seen - strlen(seen) - 1);
-        strncat(seen, c->connection == DRM_MODE_CONNECTED ? " (connected)" : " (not connected)",
-                sizeof seen - strlen(seen) - 1);
-        bool wanted = any ? c->connection == DRM_MODE_CONNECTED : strcmp(name, p->connector) == 0;
-        if (wanted) {
-            if (c->connection != DRM_MODE_CONNECTED) {
-                fail(err, errlen, "DRM device %s: connector %s is not connected", p->device, name);
-            } else if (!pick_mode(c, p, &e->mode)) {
-                if (p->mode_w > 0)
-                    fail(err, errlen, "DRM device %s: connector %s has no mode %dx%d%s", p->device, name, p->mode_w,
-                         p->mode_h, p->mode_hz > 0 ? " at that refresh" : "");
-                else
-                    fail(err, errlen, "DRM device %s: connector %s reports no modes", p->device, name);
-            } else if (!(e->crtc_id = pick_crtc(e->fd, res, c))) {
-                fail(err, errlen, "DRM device %s: no CRTC can drive connector %s", p->device, name);
-            } else {
-                e->conn_id = c->connector_id;
-                snprintf(e->conn_name, sizeof e->conn_name, "%s", name);
-                ok = true;
-            }
-            drmModeFreeConnector(c);
-            if (!ok) break;
-            continue;
-        }
-        drmModeFreeConnector(c);
-    }
-    drmModeFreeResources(res);
-    if (!ok && !*err) {
-        if (any)
-            fail(err, errlen, "DRM device %s: no connected connector (connectors: %s)", p->device,
-                 *seen ? seen : "none");
-        else
-            fail(err, errlen, "DRM device %s: no connector named %s (connectors: %s)", p->device, p->connector,
-                 *seen ? seen : "none");
-    }
-    return ok;
-}
-
 plat_egl *plat_egl_open_kms(const plat_egl_kms_params *p, char *err, int errlen)
 {
     if (errlen > 0) err[0] = 0;
@@ -311,28 +199,27 @@ plat_egl *plat_egl_open_kms(const plat_egl_kms_params *p, char *err, int errlen)
     if (!e) return fail(err, errlen, "KMS: out of memory");
     e->kms = true;
     e->surf = EGL_NO_SURFACE;
-    e->fd = open(dev, O_RDWR | O_CLOEXEC);
-    if (e->fd < 0) {
-        int code = errno;
-        plat_egl_close(e);
-        return fail(err, errlen, "no DRM device: %s: %s", dev, strerror(code));
-    }
-    if (!kms_setup(e, &pp, err, errlen)) {
+    e->fd = -1;
+    e->k = plat_kms_open(&pp, err, errlen);
+    if (!e->k) {
         plat_egl_close(e);
         return NULL;
     }
-    e->saved_crtc = drmModeGetCrtc(e->fd, e->crtc_id);
+    e->fd = plat_kms_fd(e->k);
+    dev = plat_kms_device(e->k); /* the card kms_device = auto found */
+    plat_kms_set_format(e->k, GBM_FORMAT_XRGB8888);
+    const drmModeModeInfo *mode = &plat_kms_chosen(e->k)->mode;
     e->gbm = gbm_create_device(e->fd);
     if (!e->gbm) {
         plat_egl_close(e);
         return fail(err, errlen, "DRM device %s: GBM cannot use it (%s)", dev, strerror(errno));
     }
-    e->gs = gbm_surface_create(e->gbm, e->mode.hdisplay, e->mode.vdisplay, GBM_FORMAT_XRGB8888,
+    e->gs = gbm_surface_create(e->gbm, mode->hdisplay, mode->vdisplay, GBM_FORMAT_XRGB8888,
                                GBM_BO_USE_SCANOUT | GBM_BO_USE_RENDERING);
     if (!e->gs) {
         plat_egl_close(e);
-        return fail(err, errlen, "DRM device %s: no GBM scanout surface %dx%d XRGB8888", dev, e->mode.hdisplay,
-                    e->mode.vdisplay);
+        return fail(err, errlen, "DRM device %s: no GBM scanout surface %dx%d XRGB8888", dev, mode->hdisplay,
+                    mode->vdisplay);
     }
     const char *client = eglQueryString(EGL_NO_DISPLAY, EGL_EXTENSIONS);
     if (!has_word(client, "EGL_KHR_platform_gbm") && !has_word(client, "EGL_MESA_platform_gbm")) {
@@ -394,83 +281,58 @@ static uint32_t bo_fb(plat_egl *e, struct gbm_bo *bo)
     return fb;
 }
 
-static void flip_done(int fd, unsigned seq, unsigned sec, unsigned usec, void *data)
-{
-    (void)fd;
-    (void)seq;
-    (void)sec;
-    (void)usec;
-    plat_egl *e = data;
-    if (e->shown_bo) gbm_surface_release_buffer(e->gs, e->shown_bo);
-    e->shown_bo = e->pending_bo;
-    e->pending_bo = NULL;
-    e->flip_pending = false;
-}
-
-/* Waits up to timeout_ms for the pending flip's event. */
-static bool wait_flip(plat_egl *e, int timeout_ms)
-{
-    drmEventContext ev = {.version = 2, .page_flip_handler = flip_done};
-    while (e->flip_pending) {
-        struct pollfd pfd = {e->fd, POLLIN, 0};
-        int r = poll(&pfd, 1, timeout_ms);
-        if (r <= 0) return false;
-        if (drmHandleEvent(e->fd, &ev) != 0) return false;
-    }
-    return true;
-}
-
 bool plat_egl_present(plat_egl *e, char *err, int errlen)
 {
     if (!e->kms) return true;
-    if (e->flip_pending && !wait_flip(e, 100)) {
-        e->flip_failed++;
-        snprintf(err, (size_t)errlen, "KMS %s: previous page flip never completed", e->conn_name);
-        return false;
+    /* The flip queued last vsync has normally completed long ago; its buffer is on screen from then on, and the
+     * one it replaced can be drawn into again. */
+    if (e->pending_bo) {
+        if (!plat_kms_wait_flip(e->k, 100)) {
+            snprintf(err, (size_t)errlen, "KMS %s: previous page flip never completed", plat_kms_chosen(e->k)->conn_name);
+            gbm_surface_release_buffer(e->gs, e->pending_bo);
+            e->pending_bo = NULL;
+            return false;
+        }
+        if (e->shown_bo) gbm_surface_release_buffer(e->gs, e->shown_bo);
+        e->shown_bo = e->pending_bo;
+        e->pending_bo = NULL;
     }
+    const char *conn = plat_kms_chosen(e->k)->conn_name;
     if (!eglSwapBuffers(e->dpy, e->surf)) {
-        e->flip_failed++;
-        snprintf(err, (size_t)errlen, "KMS %s: eglSwapBuffers failed (%s)", e->conn_name, egl_err_str(eglGetError()));
+        snprintf(err, (size_t)errlen, "KMS %s: eglSwapBuffers failed (%s)", conn, egl_err_str(eglGetError()));
         return false;
     }
     struct gbm_bo *bo = gbm_surface_lock_front_buffer(e->gs);
     uint32_t fb = bo ? bo_fb(e, bo) : 0;
     if (!fb) {
         if (bo) gbm_surface_release_buffer(e->gs, bo);
-        e->flip_failed++;
-        snprintf(err, (size_t)errlen, "KMS %s: cannot make a framebuffer of the rendered buffer", e->conn_name);
+        snprintf(err, (size_t)errlen, "KMS %s: cannot make a framebuffer of the rendered buffer", conn);
         return false;
     }
-    if (!e->crtc_set) {
-        if (drmModeSetCrtc(e->fd, e->crtc_id, fb, 0, 0, &e->conn_id, 1, &e->mode) != 0) {
-            gbm_surface_release_buffer(e->gs, bo);
-            e->flip_failed++;
-            snprintf(err, (size_t)errlen, "KMS %s: drmModeSetCrtc %dx%d failed: %s", e->conn_name, e->mode.hdisplay,
-                     e->mode.vdisplay, strerror(errno));
-            return false;
-        }
-        e->crtc_set = true;
-        e->shown_bo = bo;
-        e->flips++;
-        return true;
-    }
-    if (drmModePageFlip(e->fd, e->crtc_id, fb, DRM_MODE_PAGE_FLIP_EVENT, e) != 0) {
+    uint64_t before = plat_kms_flips_completed(e->k);
+    if (!plat_kms_commit(e->k, fb, err, errlen)) {
         gbm_surface_release_buffer(e->gs, bo);
-        e->flip_failed++;
-        snprintf(err, (size_t)errlen, "KMS %s: drmModePageFlip failed: %s", e->conn_name, strerror(errno));
         return false;
     }
-    e->pending_bo = bo;
-    e->flip_pending = true;
-    e->flips++;
+    if (plat_kms_flips_completed(e->k) > before && !plat_kms_flip_pending(e->k)) {
+        /* the modeset: shown at once */
+        if (e->shown_bo) gbm_surface_release_buffer(e->gs, e->shown_bo);
+        e->shown_bo = bo;
+    } else {
+        e->pending_bo = bo;
+    }
     return true;
 }
 
 void plat_egl_flip_stats(const plat_egl *e, uint64_t *flips, uint64_t *failed)
 {
-    *flips = e->flips;
-    *failed = e->flip_failed;
+    plat_kms_stats st = {0};
+    if (e->k) plat_kms_stats_get(e->k, &st);
+    *flips = st.flips;
+    *failed = st.failed;
 }
+
+plat_kms *plat_egl_kms(const plat_egl *e) { return e->k; }
 
 bool plat_egl_make_current(plat_egl *e) { return eglMakeCurrent(e->dpy, e->surf, e->surf, e->ctx) == EGL_TRUE; }
 
@@ -483,16 +345,17 @@ bool plat_egl_is_kms(const plat_egl *e) { return e->kms; }
 
 void plat_egl_kms_mode(const plat_egl *e, int *w, int *h, double *hz, const char **connector)
 {
-    if (w) *w = e->kms ? e->mode.hdisplay : 0;
-    if (h) *h = e->kms ? e->mode.vdisplay : 0;
-    if (hz) *hz = e->kms ? e->mode.vrefresh : 0;
-    if (connector) *connector = e->conn_name;
+    const plat_kms_choice *ch = e->k ? plat_kms_chosen(e->k) : NULL;
+    if (w) *w = ch ? ch->mode.hdisplay : 0;
+    if (h) *h = ch ? ch->mode.vdisplay : 0;
+    if (hz) *hz = ch ? ch->mode.vrefresh : 0;
+    if (connector) *connector = ch ? ch->conn_name : "";
 }
 
 void plat_egl_close(plat_egl *e)
 {
     if (!e) return;
-    if (e->kms && e->flip_pending) wait_flip(e, 100);
+    if (e->k && e->pending_bo) plat_kms_wait_flip(e->k, 100);
     if (e->dpy != EGL_NO_DISPLAY && e->dpy) {
         eglMakeCurrent(e->dpy, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
         if (e->ctx) eglDestroyContext(e->dpy, e->ctx);
@@ -501,19 +364,15 @@ void plat_egl_close(plat_egl *e)
         /* frees the calling thread's EGL state (otherwise left to thread exit, or never for the main thread) */
         eglReleaseThread();
     }
-    if (e->saved_crtc) {
-        /* Give the console (or whoever had the CRTC) its framebuffer back. */
-        drmModeSetCrtc(e->fd, e->saved_crtc->crtc_id, e->saved_crtc->buffer_id, e->saved_crtc->x, e->saved_crtc->y,
-                       &e->conn_id, 1, &e->saved_crtc->mode);
-        drmModeFreeCrtc(e->saved_crtc);
-    }
+    /* gives the CRTC back and closes the device (after GBM is done with it, below) */
+    plat_kms *k = e->k;
     if (e->gs) {
         if (e->shown_bo) gbm_surface_release_buffer(e->gs, e->shown_bo);
         if (e->pending_bo) gbm_surface_release_buffer(e->gs, e->pending_bo);
         gbm_surface_destroy(e->gs);
     }
     if (e->gbm) gbm_device_destroy(e->gbm);
-    if (e->kms && e->fd >= 0) close(e->fd);
+    plat_kms_close(k);
     free(e->extensions);
     free(e);
 }

@@ -6,15 +6,12 @@
 #include <stdbool.h>
 #include <stdint.h>
 
+#include "platform/plat_kms.h"
+
 typedef struct plat_egl plat_egl;
 
-/* Where KMS output goes. Strings are copied. */
-typedef struct {
-    const char *device;    /* DRM card node, e.g. /dev/dri/card0 */
-    const char *connector; /* "auto" (first connected) or a name like HDMI-A-1, DSI-1, eDP-1 */
-    int mode_w, mode_h;    /* 0 = the connector's preferred mode */
-    double mode_hz;        /* 0 = any refresh of that size */
-} plat_egl_kms_params;
+/* Where KMS output goes (the connector/mode/CRTC choice is plat_kms's, shared with the CPU path). */
+typedef plat_kms_params plat_egl_kms_params;
 
 /* A context for rendering into FBOs only: Mesa's EGL_MESA_platform_surfaceless when the client library has it,
  * else the default display with a 1x1 pbuffer. NULL with a message naming what is missing in err. */
@@ -45,11 +42,14 @@ bool plat_egl_is_kms(const plat_egl *e);
 void plat_egl_kms_mode(const plat_egl *e, int *w, int *h, double *hz, const char **connector);
 
 /* KMS: shows what was rendered into the default framebuffer since the last call: eglSwapBuffers, then a page
- * flip of the new front buffer at the next vblank (the first call sets the CRTC instead). Waits for the previous
- * flip's event first, which has normally arrived long before (one flip per vsync). Offscreen: nothing.
+ * flip of the new front buffer at the next vblank (plat_kms_commit: atomic where the driver has it; the first call
+ * sets the mode instead). Waits for the previous flip's completion first, which plat_kms's event thread has
+ * normally reported long before (one flip per vsync). Offscreen: nothing.
  * False with err when the flip failed (counted; the next call tries again). */
 bool plat_egl_present(plat_egl *e, char *err, int errlen);
 /* Page flips done and failed so far. */
 void plat_egl_flip_stats(const plat_egl *e, uint64_t *flips, uint64_t *failed);
+/* The KMS output under the context (flip statistics, vblank times for a vsync source), NULL when offscreen. */
+plat_kms *plat_egl_kms(const plat_egl *e);
 
 #endif

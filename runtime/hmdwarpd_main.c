@@ -127,6 +127,9 @@ int main(int argc, char **argv)
         if (err.count > 16) fprintf(stderr, "hmdwarpd: ... and %d more\n", err.count - 16);
         return 2;
     }
+    rt_config_errors warn = {0};
+    rt_config_warnings(&cfg, &warn);
+    for (int i = 0; i < warn.count && i < 16; i++) fprintf(stderr, "hmdwarpd: warning: %s\n", warn.msg[i]);
     if (check) {
         printf("; %s: valid\n", config ? config : "built-in defaults");
         rt_config_print(&cfg, stdout);

@@ -61,25 +61,42 @@ bool rt_render_choose(const char *setting, const char *gl_renderer, const char *
             snprintf(why, n, "renderer = gles, but no EGL: %s", egl_err ? egl_err : "unknown error");
         return true;
     }
+    /* with output = kms the CPU path shows through dumb buffers, so the choice is the same as offscreen */
+    const char *via = kms ? "; KMS through dumb buffers" : "";
     if (!gl_renderer) {
-        snprintf(why, n, "auto: no usable EGL / OpenGL ES 3 (%s)", egl_err ? egl_err : "unknown error");
-        return kms;
+        snprintf(why, n, "auto: no usable EGL / OpenGL ES 3 (%s)%s", egl_err ? egl_err : "unknown error", via);
+        return false;
     }
     if (!plat_egl_renderer_is_software(gl_renderer)) {
         snprintf(why, n, "auto: EGL offers a hardware GPU");
         return true;
     }
-    if (kms) {
-        snprintf(why, n, "auto: only a software rasterizer, but output = kms needs GLES");
-        return true;
-    }
     snprintf(why, n, "auto: EGL offers only a software rasterizer (%s); the CPU path is faster there and vsync "
-                     "comes first",
-             gl_renderer);
+                     "comes first%s",
+             gl_renderer, via);
     return false;
 }
 
-/* Opens EGL and the GLES renderer when [render] renderer and [display] output call for them. */
+/* The CPU path's KMS output: dumb buffers on the panel's connector (a->display; a->kms borrowed from it). */
+static bool cpu_kms_init(rt_app *a, const plat_kms_params *kp, char *err, int errlen)
+{
+    char e[300];
+    plat_kms *k = plat_kms_open(kp, e, sizeof e);
+    if (!k) return fail(err, errlen, "[display] output = kms: %s%s", e, "");
+    const plat_kms_choice *ch = plat_kms_chosen(k);
+    if (ch->mode.hdisplay != a->cfg.panel_w || ch->mode.vdisplay != a->cfg.panel_h) {
+        snprintf(e, sizeof e, "%dx%d, the panel is %dx%d", ch->mode.hdisplay, ch->mode.vdisplay, a->cfg.panel_w,
+                 a->cfg.panel_h);
+        plat_kms_close(k);
+        return fail(err, errlen, "[display] output = kms: the mode is %s%s", e, "");
+    }
+    a->display = plat_display_kms(k, &a->sc, e, sizeof e);
+    if (!a->display) return fail(err, errlen, "[display] output = kms: %s%s", e, "");
+    a->kms = k;
+    return true;
+}
+
+/* Opens EGL and the GLES renderer when [render] renderer and [display] output call for them, and the KMS output. */
 static bool render_init(rt_app *a, char *err, int errlen)
 {
     const rt_config *c = &a->cfg;
@@ -89,23 +106,29 @@ static bool render_init(rt_app *a, char *err, int errlen)
     if (!warp_resample_force_kernel((warp_resample_kernel_id)c->kernel))
         return fail(err, errlen, "[render] kernel = %s: this build or CPU cannot run it%s", rt_kernel_name(c->kernel),
                     "");
-    if (strcmp(c->renderer, "cpu") != 0 || kms) {
+    plat_kms_params kp = {c->kms_device, c->kms_connector, 0, 0, 0, c->rt_priority};
+    if (kms) {
+        if (!rt_config_parse_mode(c->kms_mode, &kp.mode_w, &kp.mode_h, &kp.mode_hz))
+            return fail(err, errlen, "[display] kms_mode = '%s': %s", c->kms_mode, "expected auto, WxH or WxH@Hz");
+        if (kp.mode_w == 0) {
+            kp.mode_w = c->panel_w;
+            kp.mode_h = c->panel_h;
+        }
+    }
+    if (strcmp(c->renderer, "cpu") != 0) {
         if (kms) {
-            plat_egl_kms_params kp = {c->kms_device, c->kms_connector, 0, 0, 0};
-            if (!rt_config_parse_mode(c->kms_mode, &kp.mode_w, &kp.mode_h, &kp.mode_hz))
-                return fail(err, errlen, "[display] kms_mode = '%s': %s", c->kms_mode, "expected auto, WxH or WxH@Hz");
-            if (kp.mode_w == 0) {
-                kp.mode_w = c->panel_w;
-                kp.mode_h = c->panel_h;
-            }
             a->egl = plat_egl_open_kms(&kp, eerr, sizeof eerr);
-            if (!a->egl) return fail(err, errlen, "[display] output = kms: %s%s", eerr, "");
-            int mw, mh;
-            plat_egl_kms_mode(a->egl, &mw, &mh, NULL, NULL);
-            if (mw != c->panel_w || mh != c->panel_h) {
-                char m[64];
-                snprintf(m, sizeof m, "%dx%d, the panel is %dx%d", mw, mh, c->panel_w, c->panel_h);
-                return fail(err, errlen, "[display] output = kms: the mode is %s%s", m, "");
+            /* a missing device fails the same way on the CPU path: say so now, in the KMS terms */
+            if (!a->egl && (forced || strncmp(eerr, "no DRM device", 13) == 0 || strncmp(eerr, "kms_device", 10) == 0))
+                return fail(err, errlen, "[display] output = kms: %s%s", eerr, "");
+            if (a->egl) {
+                int mw, mh;
+                plat_egl_kms_mode(a->egl, &mw, &mh, NULL, NULL);
+                if (mw != c->panel_w || mh != c->panel_h) {
+                    char m[64];
+                    snprintf(m, sizeof m, "%dx%d, the panel is %dx%d", mw, mh, c->panel_w, c->panel_h);
+                    return fail(err, errlen, "[display] output = kms: the mode is %s%s", m, "");
+                }
             }
         } else {
             a->egl = plat_egl_open_offscreen(eerr, sizeof eerr);
@@ -115,9 +138,10 @@ static bool render_init(rt_app *a, char *err, int errlen)
                                    sizeof a->render_why);
     if (a->use_gles && !a->egl) return fail(err, errlen, "[render] renderer = gles: %s%s", eerr, "");
     if (!a->use_gles) {
+        /* closed before the CPU path opens the device: one master, one owner of the CRTC */
         plat_egl_close(a->egl);
         a->egl = NULL;
-        return true;
+        return !kms || cpu_kms_init(a, &kp, err, errlen);
     }
     /* the GPU path runs transparency and object warps as its raytrace (no GLES pass for them yet) */
     a->gles_depth = c->method != RT_METHOD_NONE && c->method != RT_METHOD_ROTATION;
@@ -125,15 +149,16 @@ static bool render_init(rt_app *a, char *err, int errlen)
                            a->gles_depth, kms, true, false};
     a->gles = plat_gles_create(a->egl, &gp, eerr, sizeof eerr);
     if (!a->gles) {
-        if (forced || kms) return fail(err, errlen, "[render] renderer = %s: %s", c->renderer, eerr);
-        /* auto on a GPU whose driver cannot run our shaders: the CPU path still works */
+        if (forced) return fail(err, errlen, "[render] renderer = %s: %s", c->renderer, eerr);
+        /* auto on a GPU whose driver cannot run our shaders: the CPU path still works, on KMS too */
         snprintf(a->render_why, sizeof a->render_why, "auto: the GPU (%.60s) cannot run the GLES renderer: %.140s",
                  plat_egl_renderer(a->egl), eerr);
         plat_egl_close(a->egl);
         a->egl = NULL;
         a->use_gles = false;
-        return true;
+        return !kms || cpu_kms_init(a, &kp, err, errlen);
     }
+    if (kms) a->kms = plat_egl_kms(a->egl);
     a->gles_ms = calloc(PLAT_GLES_PASSES, sizeof *a->gles_ms);
     if (!a->gles_ms) return fail(err, errlen, "%s%s", "out of memory", "");
     /* The compositor thread makes the context current for itself. */
@@ -238,7 +263,9 @@ bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen)
     if (!rt_frameq_init(&a->fq, c->eye_w, c->eye_h, drv_frames_planes(a->frames), 4))
         return fail(err, errlen, "cannot allocate %s%s", "the frame slots", "");
 
-    if (strcmp(c->sink, "null") == 0) {
+    if (a->display) {
+        /* the CPU path's KMS output, opened with the renderer */
+    } else if (strcmp(c->sink, "null") == 0) {
         a->display = plat_display_null();
     } else {
         char e2[300];
@@ -501,16 +528,14 @@ void rt_app_summary(rt_app *a, FILE *out)
         if (a->gles_errors)
             fprintf(out, "  GLES errors                %llu; last: %s\n", (unsigned long long)a->gles_errors,
                     a->gles_last_error);
-        if (plat_egl_is_kms(a->egl)) {
-            uint64_t flips, failed;
-            int mw, mh;
-            double hz;
-            const char *conn;
-            plat_egl_flip_stats(a->egl, &flips, &failed);
-            plat_egl_kms_mode(a->egl, &mw, &mh, &hz, &conn);
-            fprintf(out, "  KMS output                 %s %dx%d@%.0f: %llu page flips, %llu failed\n", conn, mw, mh, hz,
-                    (unsigned long long)flips, (unsigned long long)failed);
-        }
+    }
+    if (a->kms) {
+        plat_kms_stats ks;
+        plat_kms_stats_get(a->kms, &ks);
+        fprintf(out, "  KMS output                 %s %dx%d@%.0f, %s, %s: %llu page flips, %llu failed, %llu late%s%s\n",
+                ks.connector, ks.w, ks.h, ks.hz, ks.api, ks.format, (unsigned long long)ks.flips,
+                (unsigned long long)ks.failed, (unsigned long long)ks.late, ks.last_error[0] ? "; last: " : "",
+                ks.last_error);
     }
     if (a->raytrace_fallbacks)
         fprintf(out, "  raytrace fallbacks         %llu vsyncs used rotation: the frame had no depth\n",
@@ -628,6 +653,18 @@ void rt_app_stats_kv(rt_app *a, FILE *out)
     KV("renderer", "%s", a->use_gles ? "gles" : "cpu");
     KV("gl_renderer", "%s", a->use_gles ? plat_egl_renderer(a->egl) : "");
     KV("renderer_reason", "%s", a->render_why);
+    KV("display_output", "%s", a->kms ? "kms" : "offscreen");
+    {
+        /* always present (zeros offscreen), so scripts need not test for the keys */
+        plat_kms_stats ks = {.api = "", .format = ""};
+        if (a->kms) plat_kms_stats_get(a->kms, &ks);
+        KVU("kms_flips", ks.flips);
+        KVU("kms_flips_failed", ks.failed);
+        KVU("kms_flips_late", ks.late);
+        KVU("kms_vblanks", ks.vblanks);
+        KV("kms_api", "%s", ks.api);
+        KV("kms_format", "%s", ks.format);
+    }
     if (a->use_gles) {
         for (int p = 0; p < PLAT_GLES_PASSES; p++) {
             char k[64];

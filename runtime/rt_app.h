@@ -87,6 +87,7 @@ typedef struct {
     drv_frames *frames;
     drv_vsync *vsync;
     plat_display *display;
+    plat_kms *kms;         /* the KMS output (owned by display on the CPU path, by egl on GLES), NULL offscreen */
 
     /* tracking and frames */
     rt_fusion *fusion;
@@ -178,7 +179,8 @@ bool rt_devices_open(rt_app *a, const drv_frames_sim_params *sp, char *err, int 
  * EGL gave (NULL when it gave none; egl_err then says why) and whether the output is KMS. Returns true for GLES
  * and writes the reason in one line to why. auto picks GLES on a hardware GPU and the CPU path when only a
  * software rasterizer (llvmpipe) or no EGL is there: there the CPU path is faster, and vsync comes first. With
- * KMS output GLES is the only way to the panel. A forced gles without EGL returns true: the caller fails. */
+ * KMS output the choice is the same (the CPU path shows through dumb buffers). A forced gles without EGL returns
+ * true: the caller fails. */
 bool rt_render_choose(const char *setting, const char *gl_renderer, const char *egl_err, bool kms, char *why,
                       int whylen);
 

@@ -21,7 +21,7 @@ static const char *const kernel_names[] = {"auto", "scalar", "vector", "avx2", "
 static const char *const output_names[] = {"offscreen", "kms", NULL};
 static const char *const imu_names[] = {"sim", "hid", "i2c", NULL};
 static const char *const frames_names[] = {"sim", "usb", "v4l2", NULL};
-static const char *const vsync_names[] = {"sim", "gpio", "timer", NULL};
+static const char *const vsync_names[] = {"sim", "gpio", "timer", "kms", NULL};
 static const char *const chip_names[] = {"auto", "mpu6050", "mpu9250", "icm42688", NULL};
 static const char *const v4l2_format_names[] = {"auto", "yuyv", "nv12", "bgr32", "rgb24", NULL};
 static const char *const bool_names[] = {"false", "true", NULL};
@@ -61,8 +61,10 @@ static const keydef keys[] = {
     {"display", "sink_every", K_INT, F(sink_every), 0, 1, 1000000, NULL, "write every Nth vsync (png/raw sinks)"},
     {"display", "sink_path", K_STR, F(sink_path), S(sink_path), 0, 0, NULL, "directory for png/raw sink output"},
     {"display", "output", K_CHOICE, F(output), S(output), 0, 0, output_names,
-     "offscreen (images go to the sink) or kms (the panel through DRM/KMS page flips; needs the GLES renderer)"},
-    {"display", "kms_device", K_STR, F(kms_device), S(kms_device), 0, 0, NULL, "DRM card node for output = kms"},
+     "offscreen (images go to the sink) or kms (the panel through DRM/KMS page flips: GBM buffers on the GLES "
+     "renderer, dumb buffers on the CPU path)"},
+    {"display", "kms_device", K_STR, F(kms_device), S(kms_device), 0, 0, NULL,
+     "DRM card node for output = kms, or auto (the first /dev/dri/cardN with a connected connector)"},
     {"display", "kms_connector", K_STR, F(kms_connector), S(kms_connector), 0, 0, NULL,
      "connector for output = kms: auto (first connected) or a name like HDMI-A-1, DSI-1"},
     {"display", "kms_mode", K_STR, F(kms_mode), S(kms_mode), 0, 0, NULL,
@@ -134,7 +136,8 @@ static const keydef keys[] = {
     {"frames", "pose_rate_hz", K_DOUBLE, F(pose_rate_hz), 0, 1, 2000, NULL,
      "usb: how often the board sends its predicted head pose to the host"},
     {"vsync", "backend", K_CHOICE, F(vsync_backend), S(vsync_backend), 0, 0, vsync_names,
-     "vsync source: sim (simulated panel), gpio (panel TE line via libgpiod) or timer (free running)"},
+     "vsync source: sim (simulated panel), gpio (panel TE line via libgpiod), timer (free running) or kms (the "
+     "display controller's vblank times; needs output = kms)"},
     {"vsync", "chip", K_STR, F(vsync_chip), S(vsync_chip), 0, 0, NULL,
      "gpio: gpiochipN, N or /dev/gpiochipN; mock: simulated TE edges through the real edge handling"},
     {"vsync", "line", K_INT, F(vsync_line), 0, 0, 1023, NULL, "gpio: line offset of the TE signal on the chip"},
@@ -541,9 +544,13 @@ bool rt_config_validate(const rt_config *c, rt_config_errors *err)
     if (strcmp(c->frames_backend, "sim") != 0 && !c->frames_device[0])
         add_error(err, "[frames] device: required for backend = %s (%s, or mock)", c->frames_backend,
                   strcmp(c->frames_backend, "usb") == 0 ? "the FunctionFS mount directory" : "a /dev/videoN path");
-    if (strcmp(c->output, "kms") == 0 && strcmp(c->renderer, "cpu") == 0)
-        add_error(err, "[display] output = kms: needs [render] renderer = gles or auto (the CPU path has no KMS "
-                       "output)");
+    const bool kms = strcmp(c->output, "kms") == 0;
+    if (strcmp(c->vsync_backend, "kms") == 0 && !kms)
+        add_error(err, "[vsync] backend = kms: needs [display] output = kms (the vblanks come from the KMS output; "
+                       "output is %s)", c->output);
+    if (kms && strcmp(c->sink, "null") != 0)
+        add_error(err, "[display] sink = %s: output = kms shows the images on the panel; sinks take them only with "
+                       "output = offscreen", c->sink);
     int mw, mh;
     double mhz;
     if (!rt_config_parse_mode(c->kms_mode, &mw, &mh, &mhz))
@@ -551,6 +558,21 @@ bool rt_config_validate(const rt_config *c, rt_config_errors *err)
     if (c->host_rate_hz > c->refresh_hz * 2)
         add_error(err, "[sim] host_rate_hz = %g: more than twice the display rate makes no sense", c->host_rate_hz);
     return (err ? err->count : 0) == before;
+}
+
+void rt_config_warnings(const rt_config *c, rt_config_errors *warn)
+{
+    /* A real board: named (the built-in default is "unnamed"), or with a device that is neither simulated nor
+     * mocked. Such a board that displays nowhere is almost certainly a mistake in its board.ini. */
+    bool named = c->board_name[0] && strcmp(c->board_name, "sim") != 0 && strcmp(c->board_name, "unnamed") != 0;
+    bool real_imu = strcmp(c->imu_backend, "sim") != 0 && strcmp(c->imu_device, "mock") != 0;
+    bool real_frames = strcmp(c->frames_backend, "sim") != 0 && strcmp(c->frames_device, "mock") != 0;
+    bool real_vsync = strcmp(c->vsync_backend, "kms") == 0 ||
+                      (strcmp(c->vsync_backend, "gpio") == 0 && strcmp(c->vsync_chip, "mock") != 0);
+    if ((named || real_imu || real_frames || real_vsync) && strcmp(c->output, "offscreen") == 0 &&
+        strcmp(c->sink, "null") == 0)
+        add_error(warn, "board '%s' displays nowhere: [display] output = offscreen and sink = null (set output = kms "
+                        "to show the panel)", c->board_name);
 }
 
 static void format_value(const rt_config *c, const keydef *k, char *buf, size_t len)

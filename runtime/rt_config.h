@@ -116,6 +116,10 @@ bool rt_config_set(rt_config *c, const char *assignment, rt_config_errors *err);
 /* Cross-key checks (camera, lens folding over the viewport, sizes). */
 bool rt_config_validate(const rt_config *c, rt_config_errors *err);
 
+/* Warnings that do not stop a run (--check-config prints them as `warning:` lines): a real board (named, or with
+ * a real device backend) that displays nowhere (output = offscreen, sink = null). */
+void rt_config_warnings(const rt_config *c, rt_config_errors *warn);
+
 /* Parses a [display] kms_mode: "auto" gives 0 x 0 at 0 Hz, "WxH" any refresh (hz 0), "WxH@Hz". */
 bool rt_config_parse_mode(const char *s, int *w, int *h, double *hz);
 

@@ -9,6 +9,7 @@
 #include "drivers/drv_imu_i2c.h"
 #include "drivers/drv_sim.h"
 #include "drivers/drv_vsync_gpio.h"
+#include "drivers/drv_vsync_kms.h"
 #include "platform/plat_clock.h"
 #include "runtime/rt_app.h"
 
@@ -91,6 +92,13 @@ static bool open_vsync(rt_app *a, char *err, int errlen)
         a->vsync = drv_vsync_sim_create(c->refresh_hz, a->t0_ns);
     } else if (strcmp(c->vsync_backend, "timer") == 0) {
         a->vsync = drv_vsync_timer_create(c->refresh_hz);
+    } else if (strcmp(c->vsync_backend, "kms") == 0) {
+        /* the KMS output is open by now (rt_app's render_init); its event thread hands over the vblank times */
+        a->vsync = drv_vsync_kms_create(a->kms, c->refresh_hz, e, sizeof e);
+        if (!a->vsync) {
+            snprintf(err, (size_t)errlen, "[vsync] backend = kms: %s", e[0] ? e : "cannot start");
+            return false;
+        }
     } else if (is_mock(c->vsync_chip)) {
         drv_vsync_mock_params mp;
         memset(&mp, 0, sizeof mp);

@@ -436,7 +436,7 @@ static void test_kms_without_drm_device(void **state)
 {
     (void)state;
     char err[300];
-    plat_egl_kms_params kp = {"/dev/dri/card0", "auto", 0, 0, 0};
+    plat_egl_kms_params kp = {"/dev/dri/card0", "auto", 0, 0, 0, 0};
     FILE *probe = fopen("/dev/dri/card0", "r");
     if (!probe) {
         assert_null(plat_egl_open_kms(&kp, err, sizeof err));

@@ -33,9 +33,14 @@ static void test_choose(void **state)
     assert_non_null(strstr(why, "forced onto a software rasterizer"));
     assert_true(rt_render_choose("gles", "V3D 7.1", NULL, false, why, sizeof why));
     assert_string_equal(why, "renderer = gles");
-    /* KMS output has no CPU path */
-    assert_true(rt_render_choose("auto", llvm, NULL, true, why, sizeof why));
-    assert_true(rt_render_choose("auto", NULL, "no DRM device", true, why, sizeof why));
+    /* KMS output: the same choice, the CPU path showing through dumb buffers */
+    assert_false(rt_render_choose("auto", llvm, NULL, true, why, sizeof why));
+    assert_non_null(strstr(why, "KMS through dumb buffers"));
+    assert_false(rt_render_choose("auto", NULL, "EGL (GBM): no display", true, why, sizeof why));
+    assert_non_null(strstr(why, "KMS through dumb buffers"));
+    assert_true(rt_render_choose("auto", "V3D 7.1", NULL, true, why, sizeof why));
+    assert_false(rt_render_choose("cpu", "V3D 7.1", NULL, true, why, sizeof why));
+    assert_true(rt_render_choose("gles", llvm, NULL, true, why, sizeof why));
 }
 
 static void test_config_keys(void **state)
@@ -56,10 +61,8 @@ static void test_config_keys(void **state)
     assert_false(rt_config_set(&c, "display.output=hdmi", &e));
     e.count = 0;
     assert_true(rt_config_set(&c, "display.output=kms", &e));
-    /* cpu cannot drive KMS */
-    assert_false(rt_config_validate(&c, &e));
-    assert_non_null(strstr(e.msg[e.count - 1], "output = kms"));
-    e.count = 0;
+    /* the CPU path drives KMS too (dumb buffers) */
+    assert_true(rt_config_validate(&c, &e));
     assert_true(rt_config_set(&c, "render.renderer=auto", &e));
     assert_true(rt_config_validate(&c, &e));
     int w, h;
