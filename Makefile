@@ -7,6 +7,7 @@
 #   make install PREFIX=/usr DESTDIR=...           make clean
 #   make hil             hardware-in-the-loop scenarios in a qemu VM on Debian's kernel (tests/hil/README.md)
 #   make CROSS_COMPILE=aarch64-linux-gnu-          cross build for the board (make check-cross tests it)
+#   make man             manual pages              make deb     Debian packages (deb-arm64, deb-check)
 
 CROSS_COMPILE ?=
 ifeq ($(origin CC),default)
@@ -70,9 +71,15 @@ HIL_SRC  := $(wildcard tests/hil/src/*.c)
 HIL_BINS := $(patsubst tests/hil/src/%.c,$(BUILD)/hil/%,$(HIL_SRC))
 TEST_SUPPORT_SRC := $(wildcard tests/support/*.c)
 TEST_BINS := $(patsubst tests/%.c,$(BUILD)/tests/%,$(TEST_SRC))
+# Shell tests printing TAP, run by tests/run.sh like the binaries (after `make all man deb`): make install and
+# board/flash.sh against a fake merged-/usr board root; the version, licence lines and Debian packages.
+TEST_SCRIPTS := tests/flash/test_flash.sh $(wildcard tests/packaging/test_*.sh)
 
-.PHONY: all deps run test asan install clean results bench stability hil check-cross
+.PHONY: all programs deps run test asan install clean results bench stability hil check-cross man install-man \
+        have-help2man deb deb-arm64 deb-check
 all: $(PROGRAMS) $(TEST_BINS) $(HIL_BINS)
+# The programs alone (what `make install` and the Debian packages need; no test dependencies).
+programs: $(PROGRAMS)
 .SECONDARY:
 
 # Quiet by default; `make V=1` shows the commands.
@@ -89,6 +96,21 @@ $(BUILD)/obj/%.o: %.c
 	@mkdir -p $(dir $@)
 	@$(if $(Q),echo "  CC      $<")
 	$(Q)$(CC) $(CPPFLAGS) $(ALL_CFLAGS) -c $< -o $@
+
+# The version (scripts/version.sh: VERSION, git describe, or HMDWARP_VERSION=...) goes into one generated header
+# that only platform/plat_version.c includes, rewritten only when the string changes: a new commit recompiles that
+# one file and relinks, and an unchanged version rebuilds nothing.
+VERSION_H := $(BUILD)/gen/hmdwarp_version.h
+$(VERSION_H): FORCE
+	@mkdir -p $(dir $@)
+	@v=$$(scripts/version.sh) && printf '#define HMDWARP_VERSION "%s"\n' "$$v" >$@.tmp && \
+	  if cmp -s $@.tmp $@; then rm -f $@.tmp; else mv $@.tmp $@ && echo "  GEN     $@ ($$v)"; fi
+$(BUILD)/obj/platform/plat_version.o: platform/plat_version.c $(VERSION_H)
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  CC      $<")
+	$(Q)$(CC) $(CPPFLAGS) -I$(BUILD)/gen $(ALL_CFLAGS) -c $< -o $@
+.PHONY: FORCE
+FORCE:
 
 $(BUILD)/obj/tests/%.o: tests/%.c
 	@mkdir -p $(dir $@)
@@ -149,8 +171,8 @@ run: deps
 # The unit, accuracy and stability binaries, then the HIL scenarios (a one-minute soak here; HIL=0 skips them,
 # saying so; .ci/run sets HIL_REQUIRED=1 so CI fails rather than skips).
 test: deps
-	@$(MAKE) --no-print-directory all
-	@BUILD=$(BUILD) HIL_SOAK_S=$${HIL_SOAK_S:-60} tests/run.sh --hil $(BUILD)/tests $(TEST_BINS)
+	@$(MAKE) --no-print-directory all man deb
+	@BUILD=$(BUILD) HIL_SOAK_S=$${HIL_SOAK_S:-60} tests/run.sh --hil $(BUILD)/tests $(TEST_BINS) $(TEST_SCRIPTS)
 
 # The numerical-stability suite alone (it is part of `make test` too).
 stability: deps
@@ -187,9 +209,13 @@ results: deps
 # unit (pointing at PREFIX/bin), the USB-gadget drop-in for boards whose host link is USB, sysusers and udev rules.
 # `make install PREFIX=/usr DESTDIR=/tmp/root BOARD=rpi5 CROSS_COMPILE=aarch64-linux-gnu-`, then board/flash.sh.
 BOARDS := $(patsubst board/%/board.ini,%,$(wildcard board/*/board.ini))
-UNITDIR ?= /lib/systemd/system
-UDEVDIR ?= /lib/udev/rules.d
-SYSUSERSDIR ?= /usr/lib/sysusers.d
+# Unit, udev and sysusers directories as the target's systemd/udev .pc files name them (a cross build's PKG_CONFIG
+# asks the board's), else Debian 12's. Debian 12's .pc files still say /lib: on its merged /usr that is usr/lib,
+# and a DESTDIR tree with a real lib/ would replace the board's /lib -> usr/lib symlink when unpacked.
+pc_dir = $(patsubst /lib/%,/usr/lib/%,$(patsubst //%,/%,$(or $(shell $(PKG_CONFIG) --variable=$(2) $(1) 2>/dev/null),$(3))))
+UNITDIR ?= $(call pc_dir,systemd,systemdsystemunitdir,/usr/lib/systemd/system)
+UDEVDIR ?= $(call pc_dir,udev,udevdir,/usr/lib/udev)/rules.d
+SYSUSERSDIR ?= $(call pc_dir,systemd,sysusersdir,/usr/lib/sysusers.d)
 install: $(PROGRAMS)
 	@test -f board/$(BOARD)/board.ini || { echo "install: no board/$(BOARD)/board.ini (BOARD= one of: $(BOARDS))"; exit 1; }
 	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/share/doc/hmdwarp $(DESTDIR)$(SYSCONFDIR)/hmdwarp \
@@ -199,7 +225,11 @@ install: $(PROGRAMS)
 	for b in $(BOARDS); do \
 	  install -d $(DESTDIR)$(PREFIX)/share/hmdwarp/boards/$$b && \
 	  install -m 0644 board/$$b/* $(DESTDIR)$(PREFIX)/share/hmdwarp/boards/$$b/ || exit 1; done
-	install -m 0644 board/$(BOARD)/board.ini $(DESTDIR)$(SYSCONFDIR)/hmdwarp/board.ini
+	@# A calibrated board.ini is never overwritten: the new one goes beside it, as dpkg does with conffiles.
+	@if [ -e $(DESTDIR)$(SYSCONFDIR)/hmdwarp/board.ini ]; then \
+	  install -m 0644 board/$(BOARD)/board.ini $(DESTDIR)$(SYSCONFDIR)/hmdwarp/board.ini.dist && \
+	  echo "install: kept $(DESTDIR)$(SYSCONFDIR)/hmdwarp/board.ini; board/$(BOARD)/board.ini is beside it as board.ini.dist"; \
+	else install -m 0644 board/$(BOARD)/board.ini $(DESTDIR)$(SYSCONFDIR)/hmdwarp/board.ini; fi
 	sed 's|/usr/bin/|$(PREFIX)/bin/|g; s|/etc/hmdwarp/|$(SYSCONFDIR)/hmdwarp/|g' board/systemd/hmdwarpd.service \
 	  > $(DESTDIR)$(UNITDIR)/hmdwarpd.service
 	if grep -Eq '^backend *= *usb' board/$(BOARD)/board.ini; then \
@@ -209,6 +239,68 @@ install: $(PROGRAMS)
 	install -m 0644 board/systemd/hmdwarp.sysusers.conf $(DESTDIR)$(SYSUSERSDIR)/hmdwarp.conf
 	install -m 0644 board/udev/99-hmdwarp.rules $(DESTDIR)$(UDEVDIR)/99-hmdwarp.rules
 	install -m 0644 README.md docs/*.md $(DESTDIR)$(PREFIX)/share/doc/hmdwarp/
+
+# Manual pages: section 1 by help2man from each program's --help and --version, hmdwarp-board.ini(5) from
+# hmdwarpd's own key table (--help-config), so neither can drift from the code. A cross build reads the programs'
+# --help under qemu-user (board/deps-cross.sh installs it).
+MANDIR ?= $(PREFIX)/share/man
+MAN_RUNNER ?= $(if $(CROSS_COMPILE),qemu-$(firstword $(subst -, ,$(CROSS_COMPILE)))-static)
+MAN_DESC_hmdwarpd      := display runtime of an HMD controller board
+MAN_DESC_hmdwarp-feed  := send host frames to an hmdwarp board over USB
+MAN_DESC_hmdwarp-warp  := score hmdwarp's warps on rendered frames or the simulator's scenes
+MAN_DESC_hmdwarp-lens  := render a lens calibration pattern through the board's distortion
+MAN_DESC_hmdwarp-bench := measure what hmdwarp's warp accuracy costs in time
+MANPAGES := $(patsubst $(BUILD)/%,$(BUILD)/man/%.1,$(PROGRAMS)) $(BUILD)/man/hmdwarp-board.ini.5
+man: $(MANPAGES)
+$(MANPAGES): | have-help2man
+have-help2man:
+	@command -v help2man >/dev/null || { echo "man: help2man is not installed (board/deps.sh installs it)"; exit 1; }
+$(BUILD)/man/%.1: $(BUILD)/% man/see-also.h2m
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  MAN     $@")
+	$(Q)help2man --no-info --name "$(or $(MAN_DESC_$*),$*)" --include man/see-also.h2m --output $@.tmp \
+	  "$(strip $(MAN_RUNNER) $<)" && mv $@.tmp $@
+$(BUILD)/man/hmdwarp-board.ini.5: $(BUILD)/hmdwarpd man/board-ini-man.sh
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  MAN     $@")
+	$(Q)$(MAN_RUNNER) $(BUILD)/hmdwarpd --help-config >$@.keys && v=$$($(MAN_RUNNER) $(BUILD)/hmdwarpd --version) && \
+	  man/board-ini-man.sh "$${v#hmdwarpd }" <$@.keys >$@.tmp && mv $@.tmp $@ && rm -f $@.keys
+# `make install` installs these too (a rule of its own, so the install recipe stays the board layout's).
+install-man: man
+	install -d $(DESTDIR)$(MANDIR)/man1 $(DESTDIR)$(MANDIR)/man5
+	install -m 0644 $(filter %.1,$(MANPAGES)) $(DESTDIR)$(MANDIR)/man1/
+	install -m 0644 $(filter %.5,$(MANPAGES)) $(DESTDIR)$(MANDIR)/man5/
+install: install-man
+
+# Debian packages hmdwarpd (the board) and hmdwarp-host (the host tools) from debian/, built in a copy of the
+# working tree under $(BUILD)/deb/ (dpkg-buildpackage writes its results to the parent directory), for this
+# machine or, with ARCH=arm64 (or `make deb-arm64`), cross-built for the board; lintian checks them.
+# `make deb-check` installs the packages into a throwaway root and checks what landed there (make test does too).
+# ARCH only from the command line: kernel builds often leave ARCH=x86_64 and the like in the environment.
+DEB_HOST = $(if $(filter command line,$(origin ARCH)),$(ARCH))
+DEB_ARCH = $(or $(DEB_HOST),$(shell dpkg --print-architecture))
+DEB_OUT = $(BUILD)/deb/$(DEB_ARCH)
+deb:
+	@board/deps.sh && ARCH=$(DEB_HOST) board/deps-deb.sh
+	@v=$$(cat VERSION); c=$$(dpkg-parsechangelog -S Version); [ "$${c%%-*}" = "$$v" ] || \
+	  { echo "deb: debian/changelog is at $$c but VERSION says $$v: add an entry (dch -v $$v)"; exit 1; }
+	$(Q)rm -rf $(DEB_OUT) && mkdir -p $(DEB_OUT)/hmdwarp
+	$(Q){ git ls-files --cached --others --exclude-standard 2>/dev/null || \
+	  find . -path ./build -prune -o -type f -print; } | grep -v '^build/' | tar -cf - -T - | \
+	  tar -xf - -C $(DEB_OUT)/hmdwarp
+	@echo "  DEB     $(DEB_OUT) (dpkg-buildpackage$(if $(DEB_HOST), -a$(DEB_HOST)); log: $(DEB_OUT)/build.log)"
+	$(Q)cd $(DEB_OUT)/hmdwarp && dpkg-buildpackage -us -uc -b -J$(shell nproc) $(if $(DEB_HOST),-a$(DEB_HOST)) \
+	  >../build.log 2>&1 || \
+	  { tail -n 30 ../build.log; echo "deb: dpkg-buildpackage failed; log: $(DEB_OUT)/build.log"; exit 1; }
+	$(Q)rm -rf $(DEB_OUT)/hmdwarp
+	@echo "  LINTIAN $(DEB_OUT)/lintian.txt"
+	$(Q)lintian --fail-on error $(DEB_OUT)/*.changes >$(DEB_OUT)/lintian.txt 2>&1; rc=$$?; \
+	  grep -v 'running with root privileges' $(DEB_OUT)/lintian.txt | sed 's/^/          /'; \
+	  [ $$rc -eq 0 ] || { echo "deb: lintian reports errors (E: lines above)"; exit 1; }
+deb-arm64:
+	@$(MAKE) --no-print-directory deb ARCH=arm64
+deb-check: deb
+	@tests/packaging/test_deb.sh $(DEB_OUT)
 
 # The board build, proven: every cross-built test program runs under qemu-user (Debian's qemu-user-static) against
 # the arm64 multiarch libraries (/lib/ld-linux-aarch64.so.1 from libc6:arm64; not the cross toolchain's copy in

@@ -3,14 +3,16 @@
 # As root it runs apt-get; otherwise it prints the exact command and fails, so `make run`/`make test` stop early.
 set -eu
 
-# Keep in step with the README's dependency list. g++, libopencv-imgproc-dev and gnuplot-nox are for `make bench`
-# (OpenCV's cv::remap is the peer it measures against; gnuplot draws the plots).
+# Keep in step with the README's dependency list. help2man writes the manual pages (`make man`). g++,
+# libopencv-imgproc-dev and gnuplot-nox are for `make bench` (OpenCV's cv::remap is the peer it measures against;
+# gnuplot draws the plots).
 PKGS="gcc libc6-dev make pkg-config
 libinih-dev libpng-dev zlib1g-dev
 libhidapi-dev libusb-1.0-0-dev libgpiod-dev libi2c-dev linux-libc-dev
 libcmocka-dev
 libegl-dev libgles-dev libgbm-dev libdrm-dev libegl-mesa0 libgl1-mesa-dri
 libsystemd-dev
+help2man
 g++ libopencv-imgproc-dev gnuplot-nox"
 
 missing=""

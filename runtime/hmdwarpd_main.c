@@ -7,6 +7,7 @@
 
 #include <systemd/sd-daemon.h>
 
+#include "platform/plat_version.h"
 #include "runtime/rt_app.h"
 #include "runtime/rt_config.h"
 #include "sim/sim_scene.h"
@@ -23,7 +24,7 @@ static void on_signal(int sig)
 static void usage(FILE *out)
 {
     fprintf(out,
-            "usage: hmdwarpd [options]\n"
+            "Usage: hmdwarpd [options]\n"
             "Warps the newest host frame to the predicted head pose at every vsync, corrects the lens, and shows it.\n"
             "\n"
             "options:\n"
@@ -38,6 +39,8 @@ static void usage(FILE *out)
             "  --check-config      load and validate the configuration, print it, and exit (0 = valid)\n"
             "  --list              list simulated scenes and head-motion traces\n"
             "  --help              this text\n"
+            "  --help-config       only the configuration keys below (the source of hmdwarp-board.ini(5))\n"
+            "  --version           print the version and exit\n"
             "\n"
             "configuration keys (board.ini sections):\n");
     rt_config_print_keys(out);
@@ -87,6 +90,12 @@ int main(int argc, char **argv)
         const char *v = i + 1 < argc ? argv[i + 1] : NULL;
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
             usage(stdout);
+            return 0;
+        } else if (strcmp(a, "--help-config") == 0) {
+            rt_config_print_keys(stdout);
+            return 0;
+        } else if (strcmp(a, "--version") == 0) {
+            printf("hmdwarpd %s\n", plat_version());
             return 0;
         } else if (strcmp(a, "--list") == 0) {
             list();

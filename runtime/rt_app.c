@@ -12,6 +12,7 @@
 
 #include "drivers/drv_sim.h"
 #include "platform/plat_clock.h"
+#include "platform/plat_version.h"
 #include "warp/warp_resample.h"
 
 static bool predict_for_host(void *ctx, int64_t t_ns, warp_pose *head)
@@ -137,6 +138,7 @@ static bool render_init(rt_app *a, char *err, int errlen)
     a->use_gles = rt_render_choose(c->renderer, a->egl ? plat_egl_renderer(a->egl) : NULL, eerr, kms, a->render_why,
                                    sizeof a->render_why);
     if (a->use_gles && !a->egl) return fail(err, errlen, "[render] renderer = gles: %s%s", eerr, "");
+    a->gles_software = a->egl && plat_egl_renderer_is_software(plat_egl_renderer(a->egl));
     if (!a->use_gles) {
         /* closed before the CPU path opens the device: one master, one owner of the CRTC */
         plat_egl_close(a->egl);
@@ -487,8 +489,8 @@ void rt_app_summary(rt_app *a, FILE *out)
     const rt_telemetry *t = a->tel;
     char buf[400];
     double secs = (double)t->vsyncs / c->refresh_hz;
-    fprintf(out, "\nhmdwarpd summary — board '%s', scene '%s', head motion '%s', %.1f s\n", c->board_name, c->scene,
-            c->trace, secs);
+    fprintf(out, "\nhmdwarpd %s summary — board '%s', scene '%s', head motion '%s', %.1f s\n", plat_version(),
+            c->board_name, c->scene, c->trace, secs);
     if (a->use_gles)
         fprintf(out, "  renderer                   gles: %s (%s; %s), warp method %s\n", plat_egl_renderer(a->egl),
                 plat_egl_version(a->egl), a->realtime ? "SCHED_FIFO" : "normal priority", rt_method_name(c->method));
@@ -512,6 +514,8 @@ void rt_app_summary(rt_app *a, FILE *out)
                      "%llu, descheduled %llu; no free image %llu\n",
                 (unsigned long long)t->missed_by[RT_MISS_OWN], (unsigned long long)t->missed_by[RT_MISS_LATE_WAKE],
                 (unsigned long long)t->missed_by[RT_MISS_DESCHEDULED], (unsigned long long)t->missed_by[RT_MISS_NO_BUFFER]);
+    rt_miss_advice(t->missed_by, a->use_gles, a->gles_software, buf, sizeof buf);
+    if (buf[0]) fprintf(out, "  misses, what to do         %s\n", buf);
     for (int m = 0; m < RT_METHOD_COUNT; m++)
         if (t->method_count[m]) {
             snprintf(buf, sizeof buf, "warp time (%s)", rt_method_name((rt_method)m));
@@ -646,6 +650,7 @@ void rt_app_stats_kv(rt_app *a, FILE *out)
     const rt_telemetry *t = a->tel;
 #define KV(k, fmt, v) fprintf(out, "%s=" fmt "\n", k, v)
 #define KVU(k, v) KV(k, "%llu", (unsigned long long)(v))
+    KV("version", "%s", plat_version());
     KV("board", "%s", c->board_name);
     KV("imu_backend", "%s", a->imu ? a->imu->name : "");
     KV("frames_backend", "%s", a->frames ? a->frames->name : "");

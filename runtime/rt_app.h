@@ -126,6 +126,7 @@ typedef struct {
 
     /* renderer ([render] renderer, rt_render_choose) */
     bool use_gles;
+    bool gles_software; /* the GLES renderer is a software rasterizer: its GPU time is CPU time after the submit */
     char render_why[256];       /* why this renderer was chosen, for the summary */
     plat_egl *egl;              /* EGL display + context (GLES only) */
     plat_gles *gles;

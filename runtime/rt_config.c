@@ -26,6 +26,7 @@ static const char *const chip_names[] = {"auto", "mpu6050", "mpu9250", "icm42688
 static const char *const v4l2_format_names[] = {"auto", "yuyv", "nv12", "bgr32", "rgb24", NULL};
 static const char *const bool_names[] = {"false", "true", NULL};
 static const char *const edge_names[] = {"rising", "falling", NULL};
+static const char *const arch_names[] = {"any", "aarch64", "x86_64", "arm", NULL};
 
 const char *rt_kernel_name(int k)
 {
@@ -51,6 +52,8 @@ typedef struct {
 
 static const keydef keys[] = {
     {"board", "name", K_STR, F(board_name), S(board_name), 0, 0, NULL, "board name shown in the summary"},
+    {"board", "arch", K_CHOICE, F(board_arch), S(board_arch), 0, 0, arch_names,
+     "the board's CPU architecture (any, aarch64, x86_64, arm): board/flash.sh refuses a tree built for another"},
     {"display", "width", K_INT, F(panel_w), 0, 16, 16384, NULL, "panel width in pixels (both eyes side by side)"},
     {"display", "height", K_INT, F(panel_h), 0, 16, 16384, NULL, "panel height in pixels"},
     {"display", "refresh_hz", K_DOUBLE, F(refresh_hz), 0, 10, 500, NULL, "panel refresh rate"},
@@ -181,6 +184,7 @@ void rt_config_defaults(rt_config *c)
 {
     memset(c, 0, sizeof *c);
     snprintf(c->board_name, sizeof c->board_name, "unnamed");
+    snprintf(c->board_arch, sizeof c->board_arch, "any");
     c->panel_w = 2880;
     c->panel_h = 1600;
     c->refresh_hz = 90;

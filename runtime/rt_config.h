@@ -28,6 +28,7 @@ const char *rt_kernel_name(int k);
 
 typedef struct {
     char board_name[64];
+    char board_arch[16];        /* any | aarch64 | x86_64 | arm: what board/flash.sh expects of a tree's binaries */
     /* [display] */
     int panel_w, panel_h;       /* whole panel; the left eye gets the left half, the right eye the right half */
     double refresh_hz;

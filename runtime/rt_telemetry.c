@@ -3,6 +3,7 @@
 #include "runtime/rt_telemetry.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 
 void rt_hist_add(rt_hist *h, double ms)
@@ -37,4 +38,31 @@ const char *rt_miss_name(rt_miss m)
 {
     static const char *const names[RT_MISS_COUNT] = {"own", "late_wake", "descheduled", "no_buffer"};
     return m >= 0 && m < RT_MISS_COUNT ? names[m] : "?";
+}
+
+void rt_miss_advice(const uint64_t missed_by[RT_MISS_COUNT], bool gles, bool software_gpu, char *buf, int len)
+{
+    uint64_t total = 0, top = 0;
+    rt_miss cause = RT_MISS_OWN;
+    for (int m = 0; m < RT_MISS_COUNT; m++) {
+        total += missed_by[m];
+        if (missed_by[m] > top) top = missed_by[m], cause = (rt_miss)m;
+    }
+    buf[0] = 0;
+    /* a stray miss or two says nothing about the set-up; advice follows the cause of most of them */
+    if (total < 3) return;
+    const char *s;
+    if (cause == RT_MISS_OWN)
+        s = !gles ? "the warp is too dear for this panel: a cheaper [warp] method, smaller eye buffers or more [render] "
+                    "threads"
+            : software_gpu ? "the GPU pass is too dear: this GPU is a software rasterizer, on which the CPU path is "
+                             "faster ([render] renderer = cpu, or auto)"
+                           : "the GPU pass is too dear for this panel: a cheaper [warp] method or smaller eye buffers";
+    else if (cause == RT_MISS_NO_BUFFER)
+        s = "the display held every swapchain image: a slow sink (png/raw: raise sink_every) or page flips that do not "
+            "complete";
+    else
+        s = "the scheduler kept the compositor from its CPU: SCHED_FIFO ([render] rt_priority with CAP_SYS_NICE), "
+            "cores of its own (CPUAffinity), or [render] stall_reserve_ms on a shared machine";
+    snprintf(buf, (size_t)len, "%s", s);
 }

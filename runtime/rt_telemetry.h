@@ -31,16 +31,28 @@ double rt_hist_pct(const rt_hist *h, double p);
  * cores only OWN should occur; elsewhere the split says what to mend. */
 typedef enum { RT_MISS_OWN, RT_MISS_LATE_WAKE, RT_MISS_DESCHEDULED, RT_MISS_NO_BUFFER, RT_MISS_COUNT } rt_miss;
 
-/* Classifies a missed pass planned to wake at `wake` for the vsync at `t_vs`, that woke at `t_start` and used
- * `cpu_ns` of its own thread's CPU time, not counting time spent waiting for a worker kept off its CPU. */
-static inline rt_miss rt_miss_classify(int64_t wake, int64_t t_start, int64_t t_vs, int64_t cpu_ns, bool buffer)
+/* Classifies a missed pass planned to wake at `wake` for the vsync at `t_vs`, that woke at `t_start` and whose own
+ * work took `work_ns`: on the CPU path its thread's CPU time, not counting time spent waiting for a worker kept off
+ * its CPU; on the GLES path that plus the GPU's time (rt_miss_gles_work), which the thread spends waiting, not
+ * running, and which is the pass's own work all the same. */
+static inline rt_miss rt_miss_classify(int64_t wake, int64_t t_start, int64_t t_vs, int64_t work_ns, bool buffer)
 {
     if (!buffer) return RT_MISS_NO_BUFFER;
     int64_t planned = t_vs - wake;
-    if (cpu_ns > planned) return RT_MISS_OWN;
-    /* on CPU for all of its work yet late: woken so late the work could not fit, or kept off the CPU meanwhile */
-    return t_start - wake > planned - cpu_ns ? RT_MISS_LATE_WAKE : RT_MISS_DESCHEDULED;
+    if (work_ns > planned) return RT_MISS_OWN;
+    /* all of its work fitted yet late: woken so late the work could not fit, or kept off the CPU meanwhile */
+    return t_start - wake > planned - work_ns ? RT_MISS_LATE_WAKE : RT_MISS_DESCHEDULED;
 }
+/* A GLES pass's own work from its thread's CPU time and the GPU time the timer queries (or glFinish bracketing)
+ * measured. A software rasterizer (llvmpipe) draws on the CPUs after the submission, so the two add up; a hardware
+ * GPU runs beside the submitting thread, so the longer one is the least the pass needed. */
+static inline int64_t rt_miss_gles_work(int64_t cpu_ns, int64_t gpu_ns, bool software_gpu)
+{
+    if (gpu_ns < 0) gpu_ns = 0;
+    return software_gpu ? cpu_ns + gpu_ns : cpu_ns > gpu_ns ? cpu_ns : gpu_ns;
+}
+/* One line of advice for the summary, from how the misses split (empty when there are too few to say). */
+void rt_miss_advice(const uint64_t missed_by[RT_MISS_COUNT], bool gles, bool software_gpu, char *buf, int len);
 const char *rt_miss_name(rt_miss m);
 
 typedef struct {

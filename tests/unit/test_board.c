@@ -57,31 +57,36 @@ static void test_install_tree_flashes(void **state)
              build, tmp);
     if (sh(cmd, out, sizeof out) != 0) fail_msg("make install: %s", out);
     const char *files[] = {"usr/bin/hmdwarpd", "usr/bin/hmdwarp-feed", "usr/bin/hmdwarp-gadget",
-                           "etc/hmdwarp/board.ini", "lib/systemd/system/hmdwarpd.service",
-                           "etc/systemd/system/hmdwarpd.service.d/usb-gadget.conf", "lib/udev/rules.d/99-hmdwarp.rules",
+                           "etc/hmdwarp/board.ini", "usr/lib/systemd/system/hmdwarpd.service",
+                           "etc/systemd/system/hmdwarpd.service.d/usb-gadget.conf",
+                           "usr/lib/udev/rules.d/99-hmdwarp.rules",
                            "usr/lib/sysusers.d/hmdwarp.conf", "usr/share/hmdwarp/boards/rpi5/hmdwarp-rpi5.dts"};
     for (size_t i = 0; i < sizeof files / sizeof files[0]; i++) {
         snprintf(cmd, sizeof cmd, "test -e %s/root/%s", tmp, files[i]);
         if (sh(cmd, NULL, 0) != 0) fail_msg("missing in the install tree: %s", files[i]);
     }
-    snprintf(cmd, sizeof cmd, "board/flash.sh --tree %s/root --board rpi5 --dry-run", tmp);
+    /* the layout is what this test checks; the architecture check (rpi5 is aarch64, this build may not be) is
+     * tests/flash/test_flash.sh's */
+    snprintf(cmd, sizeof cmd, "sed -i 's/^arch = .*/arch = any/' %s/root/etc/hmdwarp/board.ini && "
+             "board/flash.sh --tree %s/root --board rpi5 --dry-run", tmp, tmp);
     int rc = sh(cmd, out, sizeof out);
     /* (not echoed: its "ok" lines would read as TAP results) */
     if (rc != 0) fail_msg("flash.sh --dry-run refused the tree:\n%s", out);
     assert_non_null(strstr(out, "board.ini validates"));
-    assert_non_null(strstr(out, "would run: cp -a"));
+    assert_non_null(strstr(out, "would run: tar -C"));
     /* the wrong board, and a tree without its unit, are refused */
     snprintf(cmd, sizeof cmd, "board/flash.sh --tree %s/root --board sim --dry-run", tmp);
     assert_int_not_equal(sh(cmd, out, sizeof out), 0);
     assert_non_null(strstr(out, "is for board 'rpi5'"));
-    snprintf(cmd, sizeof cmd, "mv %s/root/lib/systemd/system/hmdwarpd.service %s/unit && board/flash.sh --tree %s/root "
-                              "--dry-run; rc=$?; mv %s/unit %s/root/lib/systemd/system/hmdwarpd.service; exit $rc",
+    snprintf(cmd, sizeof cmd, "mv %s/root/usr/lib/systemd/system/hmdwarpd.service %s/unit && board/flash.sh --tree "
+                              "%s/root --dry-run; rc=$?; mv %s/unit %s/root/usr/lib/systemd/system/hmdwarpd.service; "
+                              "exit $rc",
              tmp, tmp, tmp, tmp, tmp);
     assert_int_not_equal(sh(cmd, out, sizeof out), 0);
-    assert_non_null(strstr(out, "MISSING /lib/systemd/system/hmdwarpd.service"));
+    assert_non_null(strstr(out, "MISSING /usr/lib/systemd/system/hmdwarpd.service"));
     /* the unit starts the binary in the tree, with the tree's config */
     snprintf(cmd, sizeof cmd, "grep -q '^ExecStart=/usr/bin/hmdwarpd --config /etc/hmdwarp/board.ini' "
-                              "%s/root/lib/systemd/system/hmdwarpd.service", tmp);
+                              "%s/root/usr/lib/systemd/system/hmdwarpd.service", tmp);
     assert_int_equal(sh(cmd, NULL, 0), 0);
 }
 

@@ -45,11 +45,57 @@ static void test_miss_causes(void **state)
     assert_string_equal(rt_miss_name(RT_MISS_COUNT), "?");
 }
 
+/* GLES: the compositor thread waits for the GPU without running, so its CPU time alone would put a pass whose GPU
+ * work outran the plan on the scheduler (make run RENDER=gles on llvmpipe once showed 906 of 906 so). */
+static void test_miss_gles(void **state)
+{
+    (void)state;
+    const int64_t wake = 6 * MS, vs = 10 * MS;
+    /* 1 ms of submission, 157 ms of llvmpipe drawing: the warp's own miss, not the scheduler's */
+    assert_int_equal(rt_miss_classify(wake, wake, vs, 1 * MS, true), RT_MISS_DESCHEDULED);
+    assert_int_equal(rt_miss_classify(wake, wake, vs, rt_miss_gles_work(1 * MS, 157 * MS, true), true), RT_MISS_OWN);
+    assert_int_equal(rt_miss_classify(wake, wake, vs, rt_miss_gles_work(1 * MS, 157 * MS, false), true), RT_MISS_OWN);
+    /* a software rasterizer draws after the submission: 2 + 3 ms outrun a 4 ms plan */
+    assert_int_equal(rt_miss_gles_work(2 * MS, 3 * MS, true), 5 * MS);
+    assert_int_equal(rt_miss_classify(wake, wake, vs, rt_miss_gles_work(2 * MS, 3 * MS, true), true), RT_MISS_OWN);
+    /* a hardware GPU runs beside the submitting thread: the longer one is what the pass needed, and 3 ms fit */
+    assert_int_equal(rt_miss_gles_work(2 * MS, 3 * MS, false), 3 * MS);
+    assert_int_equal(rt_miss_classify(wake, wake, vs, rt_miss_gles_work(2 * MS, 3 * MS, false), true),
+                     RT_MISS_DESCHEDULED);
+    assert_int_equal(rt_miss_gles_work(2 * MS, -1, false), 2 * MS); /* no GPU time measured yet */
+}
+
+/* The summary's advice names what to change for the cause of most misses, and stays quiet about a stray one. */
+static void test_miss_advice(void **state)
+{
+    (void)state;
+    char buf[400];
+    uint64_t by[RT_MISS_COUNT] = {0};
+    by[RT_MISS_DESCHEDULED] = 2;
+    rt_miss_advice(by, false, false, buf, sizeof buf);
+    assert_string_equal(buf, "");
+    by[RT_MISS_OWN] = 906;
+    rt_miss_advice(by, true, true, buf, sizeof buf);
+    assert_non_null(strstr(buf, "renderer = cpu"));
+    rt_miss_advice(by, false, false, buf, sizeof buf);
+    assert_non_null(strstr(buf, "cheaper [warp] method"));
+    assert_null(strstr(buf, "renderer"));
+    by[RT_MISS_DESCHEDULED] = 1000;
+    rt_miss_advice(by, true, true, buf, sizeof buf);
+    assert_non_null(strstr(buf, "scheduler"));
+    memset(by, 0, sizeof by);
+    by[RT_MISS_NO_BUFFER] = 10;
+    rt_miss_advice(by, false, false, buf, sizeof buf);
+    assert_non_null(strstr(buf, "swapchain"));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_hist_percentiles),
         cmocka_unit_test(test_miss_causes),
+        cmocka_unit_test(test_miss_gles),
+        cmocka_unit_test(test_miss_advice),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -18,6 +18,7 @@
 #include "platform/plat_clock.h"
 #include "platform/plat_egl.h"
 #include "platform/plat_gles.h"
+#include "platform/plat_version.h"
 #include "platform/plat_workers.h"
 #include "runtime/rt_config.h"
 #include "sim/sim_scene.h"
@@ -361,7 +362,7 @@ static soak_result soak(const char *hmdwarpd, const opts *o, const char *name, c
 
 static void usage(FILE *f)
 {
-    fprintf(f, "usage: hmdwarp-bench [options]\n"
+    fprintf(f, "Usage: hmdwarp-bench [options]\n"
                "Measures what accuracy costs in time on this machine and writes a CSV, a Markdown table and plots.\n"
                "  --quick          smaller eyes (720x800), fewer repetitions, a 5 s soak: a smoke run for CI\n"
                "  --eye WxH        eye size instead (panel 2W x H, lens scaled alike), e.g. a tiny one to check that\n"
@@ -372,6 +373,7 @@ static void usage(FILE *f)
                "  --soak S         seconds of hmdwarpd at 90 Hz on the simulated board (default 60, quick 5; 0 = skip)\n"
                "  --hmdwarpd PATH  the hmdwarpd to soak (default: next to this program)\n"
                "  -h, --help       this text\n"
+               "  --version        print the version and exit\n"
                "Times are wall-clock on a noisy machine: the ratios to memcpy and OpenCV, measured interleaved in the\n"
                "same run, are what carries over; absolute times do not.\n");
 }
@@ -381,7 +383,7 @@ int main(int argc, char **argv)
     opts o = {.out = "docs/bench", .soak_s = -1, .reps = 0, .threads = 2};
     static const struct option lo[] = {{"quick", 0, 0, 'q'}, {"out", 1, 0, 'o'},      {"reps", 1, 0, 'r'},
                                        {"soak", 1, 0, 's'},  {"hmdwarpd", 1, 0, 'd'}, {"threads", 1, 0, 't'},
-                                       {"eye", 1, 0, 'e'},   {"help", 0, 0, 'h'},  {0, 0, 0, 0}};
+                                       {"eye", 1, 0, 'e'},   {"help", 0, 0, 'h'},  {"version", 0, 0, 'V'}, {0, 0, 0, 0}};
     int c;
     while ((c = getopt_long(argc, argv, "h", lo, NULL)) != -1) {
         switch (c) {
@@ -399,6 +401,7 @@ int main(int argc, char **argv)
         case 'd': o.hmdwarpd = optarg; break;
         case 't': o.threads = atoi(optarg); break;
         case 'h': usage(stdout); return 0;
+        case 'V': printf("hmdwarp-bench %s\n", plat_version()); return 0;
         default: usage(stderr); return 2;
         }
     }

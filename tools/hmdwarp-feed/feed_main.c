@@ -15,6 +15,7 @@
 #include "drivers/drv_frames_v4l2.h"
 #include "platform/plat_clock.h"
 #include "platform/plat_png.h"
+#include "platform/plat_version.h"
 #include "platform/plat_workers.h"
 #include "sim/sim_scene.h"
 #include "warp/warp_head.h"
@@ -58,7 +59,7 @@ static void usage(FILE *f)
     for (const char *const *n = sim_scene_names(); *n; n++)
         snprintf(scenes + strlen(scenes), sizeof scenes - strlen(scenes), "%s%s", scenes[0] ? " " : "", *n);
     fprintf(f,
-            "usage: hmdwarp-feed [options]\n"
+            "Usage: hmdwarp-feed [options]\n"
             "Feeds host frames to an hmdwarp board over USB (the board runs as a FunctionFS gadget, see\n"
             "board/gadget.sh) or into a file: waits for the board's pose messages on bulk IN, renders each eye at the\n"
             "pose received, and writes framelink frames (docs/framelink.md) to bulk OUT.\n"
@@ -100,6 +101,7 @@ static void usage(FILE *f)
             "Other:\n"
             "  -v, --verbose       per-frame lines\n"
             "  -h, --help          this text\n"
+            "  --version           print the version and exit\n"
             "Prints throughput (MB/s, frames/s) and latency (board pose received -> frame sent, ms) every second.\n",
             DEFAULT_VID, DEFAULT_PID, scenes);
 }
@@ -134,7 +136,7 @@ static bool parse_opts(int argc, char **argv, feed_opts *o)
         {"frames", 1, 0, O_FRAMES}, {"duration", 1, 0, O_DURATION}, {"file", 1, 0, O_FILE},
         {"stdout", 0, 0, O_STDOUT}, {"synth-rate", 1, 0, O_SYNTH}, {"v4l2", 1, 0, O_V4L2},
         {"v4l2-format", 1, 0, O_V4L2_FMT}, {"v4l2-depth", 0, 0, O_V4L2_DEPTH}, {"synth-poses", 0, 0, O_SYNTH_POSES}, {"damage-every", 1, 0, O_DAMAGE}, {"verbose", 0, 0, 'v'}, {"help", 0, 0, 'h'},
-        {0, 0, 0, 0}};
+        {"version", 0, 0, 'V'}, {0, 0, 0, 0}};
     int c;
     while ((c = getopt_long(argc, argv, "vh", lo, NULL)) != -1) {
         switch (c) {
@@ -183,6 +185,7 @@ static bool parse_opts(int argc, char **argv, feed_opts *o)
             break;
         case 'v': o->verbose = true; break;
         case 'h': usage(stdout); exit(0);
+        case 'V': printf("hmdwarp-feed %s\n", plat_version()); exit(0);
         default: usage(stderr); return false;
         }
     }

@@ -9,6 +9,7 @@
 #include <string.h>
 
 #include "platform/plat_png.h"
+#include "platform/plat_version.h"
 #include "runtime/rt_config.h"
 #include "warp/warp_lens.h"
 #include "warp/warp_mesh.h"
@@ -16,7 +17,7 @@
 
 static void usage(FILE *f)
 {
-    fprintf(f, "usage: hmdwarp-lens [options]\n"
+    fprintf(f, "Usage: hmdwarp-lens [options]\n"
                "Renders a calibration pattern through the configured lens distortion and chromatic aberration.\n"
                "  --config FILE      board.ini (default board/sim/board.ini)\n"
                "  --set SEC.KEY=VAL  override a key, e.g. --set lens.k_green=\"1 0.25 0.2 0\" (repeatable)\n"
@@ -25,6 +26,7 @@ static void usage(FILE *f)
                "  --pattern P        grid (default), checker or dots\n"
                "  --spacing PX       pattern pitch in eye-buffer pixels (default 64)\n"
                "  -h, --help         this text\n"
+               "  --version          print the version and exit\n"
                "Show the image on the panel (e.g. as hmdwarpd's output with [warp] method = none and a host frame of\n"
                "the pattern, or any image viewer on the display) and look through the lenses: barrel or pincushion\n"
                "curvature of the lines means k1/k2 are off, coloured fringes at the edge mean the per-channel k0\n"
@@ -66,7 +68,7 @@ int main(int argc, char **argv)
     }
     static const struct option lo[] = {{"config", 1, 0, 'c'}, {"set", 1, 0, 's'},     {"out", 1, 0, 'o'},
                                        {"source", 1, 0, 'S'}, {"pattern", 1, 0, 'p'}, {"spacing", 1, 0, 'g'},
-                                       {"help", 0, 0, 'h'},   {0, 0, 0, 0}};
+                                       {"help", 0, 0, 'h'},   {"version", 0, 0, 'V'}, {0, 0, 0, 0}};
     int o;
     while ((o = getopt_long(argc, argv, "h", lo, NULL)) != -1) {
         switch (o) {
@@ -77,6 +79,7 @@ int main(int argc, char **argv)
         case 'p': kind = optarg; break;
         case 'g': spacing = atoi(optarg); break;
         case 'h': usage(stdout); return 0;
+        case 'V': printf("hmdwarp-lens %s\n", plat_version()); return 0;
         default: usage(stderr); return 2;
         }
     }

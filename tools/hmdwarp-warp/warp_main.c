@@ -10,6 +10,7 @@
 #include <sys/stat.h>
 
 #include "platform/plat_png.h"
+#include "platform/plat_version.h"
 #include "sim/sim_scene.h"
 #include "warp/warp_metrics.h"
 #include "tools/common/cat_warps.h"
@@ -30,7 +31,7 @@ typedef struct {
 static void usage(FILE *f)
 {
     fprintf(f,
-            "usage: hmdwarp-warp [options]\n"
+            "Usage: hmdwarp-warp [options]\n"
             "Runs one warp of hmdwarp's catalogue on a rendered frame and scores it against the true target view.\n"
             "\n"
             "Input (your renderer's frame):\n"
@@ -66,7 +67,8 @@ static void usage(FILE *f)
             "Results table:\n"
             "  --table FILE.md        run every warp on every scene of the catalogue's cases and write the table\n"
             "  --quick                smaller images for the table (smoke runs)\n"
-            "  -h, --help             this text\n");
+            "  -h, --help             this text\n"
+            "  --version              print the version and exit\n");
 }
 
 static bool parse(int argc, char **argv, opts *o)
@@ -80,7 +82,7 @@ static bool parse(int argc, char **argv, opts *o)
         {"motion", 1, 0, O_MOTION}, {"layers", 1, 0, O_LAYERS}, {"view", 1, 0, O_VIEW}, {"ref", 1, 0, O_REF}, {"sim", 1, 0, O_SIM},
         {"time", 1, 0, O_TIME}, {"target-time", 1, 0, O_TTIME}, {"write-inputs", 1, 0, O_WRITE}, {"warp", 1, 0, O_WARP},
         {"params", 1, 0, O_PARAMS}, {"list", 0, 0, O_LIST}, {"out", 1, 0, O_OUT}, {"mask", 1, 0, O_MASK},
-        {"table", 1, 0, O_TABLE}, {"quick", 0, 0, O_QUICK}, {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
+        {"table", 1, 0, O_TABLE}, {"quick", 0, 0, O_QUICK}, {"help", 0, 0, 'h'}, {"version", 0, 0, 'V'}, {0, 0, 0, 0}};
     int c;
     while ((c = getopt_long(argc, argv, "h", lo, NULL)) != -1) {
         switch (c) {
@@ -110,6 +112,7 @@ static bool parse(int argc, char **argv, opts *o)
         case O_TABLE: o->table = optarg; break;
         case O_QUICK: o->table_quick = true; break;
         case 'h': usage(stdout); exit(0);
+        case 'V': printf("hmdwarp-warp %s\n", plat_version()); exit(0);
         default: usage(stderr); return false;
         }
     }
