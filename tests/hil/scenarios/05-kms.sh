@@ -85,7 +85,8 @@ kms_same_picture() {
         --set sim.trace=still
     hil_feed_usb --rate 30 --duration 16
     # capture after the modeset (a modeset may reset it) and once host frames are shown
-    hil_wait_until 30 grep -q 'active=1' "$HIL_DRI_DEBUG/state" || hil_miss "$r: vkms's CRTC never went active"
+    # (sysfs's lock-free "enabled", not debugfs's state, which takes every modeset lock a stuck commit may hold)
+    hil_wait_until 30 grep -qx enabled "$HIL_DRI_CONN/enabled" || hil_miss "$r: vkms's connector never got a CRTC"
     sleep 4
     hil_vkms_crc_on
     hil_wait_until 15 hil_vkms_crc_has 45 || hil_miss "$r: only $(hil_vkms_crc_count) CRCs in 15 s"
