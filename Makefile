@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # hmdwarp build: every program into build/, one static library per layer.
 # Layers link downwards only: runtime -> drivers -> platform -> sim -> warp (see DEVELOPERS.md).
 #
@@ -6,8 +7,10 @@
 #   make bench           accuracy vs time          make results every warp vs ground truth
 #   make install PREFIX=/usr DESTDIR=...           make clean
 #   make hil             hardware-in-the-loop scenarios in a qemu VM on Debian's kernel (tests/hil/README.md)
+#   make soak            ten minutes with mocked devices and faults: RSS, fds, threads flat (SOAK_S=seconds)
 #   make CROSS_COMPILE=aarch64-linux-gnu-          cross build for the board (make check-cross tests it)
 #   make man             manual pages              make deb     Debian packages (deb-arm64, deb-check)
+#   make fuzz FUZZ_SECONDS=N   every parser under libFuzzer (tests/fuzz/; make fuzz-merge keeps the corpus)
 
 CROSS_COMPILE ?=
 ifeq ($(origin CC),default)
@@ -71,12 +74,17 @@ HIL_SRC  := $(wildcard tests/hil/src/*.c)
 HIL_BINS := $(patsubst tests/hil/src/%.c,$(BUILD)/hil/%,$(HIL_SRC))
 TEST_SUPPORT_SRC := $(wildcard tests/support/*.c)
 TEST_BINS := $(patsubst tests/%.c,$(BUILD)/tests/%,$(TEST_SRC))
+# The fuzz harnesses' regression runners (tests/fuzz/standalone.c replays tests/fuzz/corpus/NAME; gcc, no libFuzzer).
+FUZZ_SRC := $(wildcard tests/fuzz/fuzz_*.c)
+FUZZ_NAMES := $(patsubst tests/fuzz/fuzz_%.c,%,$(FUZZ_SRC))
+FUZZ_REG_BINS := $(patsubst tests/%.c,$(BUILD)/tests/%,$(FUZZ_SRC))
+TEST_BINS += $(FUZZ_REG_BINS)
 # Shell tests printing TAP, run by tests/run.sh like the binaries (after `make all man deb`): make install and
 # board/flash.sh against a fake merged-/usr board root; the version, licence lines and Debian packages.
 TEST_SCRIPTS := tests/flash/test_flash.sh $(wildcard tests/packaging/test_*.sh)
 
 .PHONY: all programs deps run test asan install clean results bench stability hil check-cross man install-man \
-        have-help2man deb deb-arm64 deb-check
+        have-help2man deb deb-arm64 deb-check fuzz fuzz-build fuzz-bins fuzz-merge soak
 all: $(PROGRAMS) $(TEST_BINS) $(HIL_BINS)
 # The programs alone (what `make install` and the Debian packages need; no test dependencies).
 programs: $(PROGRAMS)
@@ -154,6 +162,42 @@ $(BUILD)/tests/%: $(BUILD)/obj/tests/%.o $(TEST_SUPPORT_OBJ) $(LIBS)
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_ALL) $(TEST_LIBS)
 
+# Fuzz harnesses (tests/fuzz/README.md): linked with the helpers and the hmdwarp-warp file readers they fuzz; as
+# regression runners (standalone.c, any compiler) in make test, with libFuzzer (clang) in make fuzz.
+FUZZ_LINK_OBJ := $(patsubst %.c,$(BUILD)/obj/%.o,tests/fuzz/util.c tools/hmdwarp-warp/warp_files.c)
+$(FUZZ_REG_BINS): $(BUILD)/tests/fuzz/%: $(BUILD)/obj/tests/fuzz/%.o $(BUILD)/obj/tests/fuzz/standalone.o \
+                  $(FUZZ_LINK_OBJ) $(LIBS)
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_ALL)
+$(BUILD)/obj/tests/fuzz/standalone.o: CPPFLAGS += -DFUZZ_CORPUS='"$(CURDIR)/tests/fuzz/corpus"'
+$(BUILD)/fuzzers/seeds_%: $(BUILD)/obj/tests/fuzz/fuzz_%.o $(BUILD)/obj/tests/fuzz/seeds_main.o $(FUZZ_LINK_OBJ) $(LIBS)
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_ALL)
+$(BUILD)/fuzzers/%: $(BUILD)/obj/tests/fuzz/fuzz_%.o $(FUZZ_LINK_OBJ) $(LIBS)
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -fsanitize=fuzzer -o $@ $^ $(LDLIBS_ALL)
+fuzz-bins: $(addprefix $(BUILD)/fuzzers/,$(FUZZ_NAMES) $(addprefix seeds_,$(FUZZ_NAMES)))
+
+# `make fuzz FUZZ_SECONDS=N`: every harness under libFuzzer with ASan + UBSan for N seconds, two at a time, from
+# the checked-in corpus plus seeds from the project's encoders; prints executions, coverage and crashes (saved in
+# build/fuzz/crashes/NAME/ with the command that reproduces them). `make fuzz-merge` minimises what the runs found
+# into tests/fuzz/corpus/ (make test replays it).
+FUZZ_BUILD ?= build/fuzz
+FUZZ_SECONDS ?= 60
+FUZZ_JOBS ?= 2
+FUZZ_CFLAGS := -O1 -g -fno-omit-frame-pointer -fsanitize=address,undefined -fno-sanitize-recover=undefined
+fuzz-build:
+	@board/deps.sh && board/deps-fuzz.sh
+	@$(MAKE) --no-print-directory BUILD=$(FUZZ_BUILD) CC=clang OPT=-O1 CFLAGS="$(FUZZ_CFLAGS) -fsanitize=fuzzer-no-link" \
+	  LDFLAGS="-fsanitize=address,undefined" fuzz-bins
+fuzz: fuzz-build
+	@tests/fuzz/run.sh run $(FUZZ_BUILD) $(FUZZ_SECONDS) $(FUZZ_JOBS) $(FUZZ_NAMES)
+fuzz-merge: fuzz-build
+	@tests/fuzz/run.sh merge $(FUZZ_BUILD) 0 1 $(FUZZ_NAMES)
+
 # `make run` knobs, forwarded to hmdwarpd as config overrides (see README).
 RUN_ARGS ?=
 run_set = $(if $(2),--set $(1)=$(2))
@@ -164,9 +208,12 @@ RUN_OVERRIDES = $(call run_set,sim.scene,$(SCENE)) $(call run_set,sim.trace,$(TR
 # backend, TE edges through the GPIO estimator).
 MOCK_DEVICES = --set imu.backend=hid --set imu.device=mock --set frames.backend=usb --set frames.device=mock \
                --set vsync.backend=gpio --set vsync.chip=mock
+# The live statistics go to $(BUILD)/run/stats, where $(BUILD)/hmdwarp-top looks when /run/hmdwarp has none.
 run: deps
-	@$(MAKE) --no-print-directory $(BUILD)/hmdwarpd
-	$(BUILD)/hmdwarpd --config board/sim/board.ini $(RUN_OVERRIDES) $(RUN_ARGS)
+	@$(MAKE) --no-print-directory $(BUILD)/hmdwarpd $(BUILD)/hmdwarp-top
+	@mkdir -p $(BUILD)/run
+	$(BUILD)/hmdwarpd --config board/sim/board.ini --set telemetry.live_stats=$(BUILD)/run/stats $(RUN_OVERRIDES) \
+	  $(RUN_ARGS)
 
 # The unit, accuracy and stability binaries, then the HIL scenarios (a one-minute soak here; HIL=0 skips them,
 # saying so; .ci/run sets HIL_REQUIRED=1 so CI fails rather than skips).
@@ -178,6 +225,13 @@ test: deps
 stability: deps
 	@$(MAKE) --no-print-directory $(STABILITY_BINS)
 	@tests/run.sh $(BUILD)/tests $(STABILITY_BINS)
+
+# Ten minutes (SOAK_S=600) on the simulated board behind the mocked devices with faults throughout: RSS, fds and
+# threads must stay flat, every fault be recovered, no crash (tests/soak/soak.sh; not part of make test).
+SOAK_S ?= 600
+soak: deps
+	@$(MAKE) --no-print-directory $(BUILD)/hmdwarpd
+	@BUILD=$(BUILD) SOAK_S=$(SOAK_S) tests/soak/soak.sh
 
 # Hardware-in-the-loop: real kernel drivers (uhid, i2c-stub, vivid, dummy_hcd + FunctionFS, gpio-sim) in a qemu VM.
 hil:
@@ -250,7 +304,10 @@ MAN_DESC_hmdwarp-feed  := send host frames to an hmdwarp board over USB
 MAN_DESC_hmdwarp-warp  := score hmdwarp's warps on rendered frames or the simulator's scenes
 MAN_DESC_hmdwarp-lens  := render a lens calibration pattern through the board's distortion
 MAN_DESC_hmdwarp-bench := measure what hmdwarp's warp accuracy costs in time
-MANPAGES := $(patsubst $(BUILD)/%,$(BUILD)/man/%.1,$(PROGRAMS)) $(BUILD)/man/hmdwarp-board.ini.5
+MAN_DESC_hmdwarp-top   := show a running hmdwarpd's live statistics
+MAN_DESC_hmdwarp-gadget := set up the board's USB gadget for the host frame link
+MANPAGES := $(patsubst $(BUILD)/%,$(BUILD)/man/%.1,$(PROGRAMS)) $(BUILD)/man/hmdwarp-gadget.1 \
+            $(BUILD)/man/hmdwarp-board.ini.5
 man: $(MANPAGES)
 $(MANPAGES): | have-help2man
 have-help2man:
@@ -260,6 +317,12 @@ $(BUILD)/man/%.1: $(BUILD)/% man/see-also.h2m
 	@$(if $(Q),echo "  MAN     $@")
 	$(Q)help2man --no-info --name "$(or $(MAN_DESC_$*),$*)" --include man/see-also.h2m --output $@.tmp \
 	  "$(strip $(MAN_RUNNER) $<)" && mv $@.tmp $@
+# board/gadget.sh is installed as hmdwarp-gadget: a script of the build host's shell, whose version is the tree's.
+$(BUILD)/man/hmdwarp-gadget.1: board/gadget.sh man/see-also.h2m
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  MAN     $@")
+	$(Q)help2man --no-info --name "$(MAN_DESC_hmdwarp-gadget)" --include man/see-also.h2m \
+	  --version-string "hmdwarp-gadget $$(scripts/version.sh)" --output $@.tmp board/gadget.sh && mv $@.tmp $@
 $(BUILD)/man/hmdwarp-board.ini.5: $(BUILD)/hmdwarpd man/board-ini-man.sh
 	@mkdir -p $(dir $@)
 	@$(if $(Q),echo "  MAN     $@")
@@ -306,14 +369,14 @@ deb-check: deb
 # the arm64 multiarch libraries (/lib/ld-linux-aarch64.so.1 from libc6:arm64; not the cross toolchain's copy in
 # /usr/aarch64-linux-gnu, under which qemu-user 7.2 hangs in the guest's first pthread_create), and the programs
 # they start run under it too (TEST_RUNNER, tests/support/test_util.h). Left out, because an emulator running
-# 10-50x slower cannot keep real time: the end-to-end runs paced by simulated devices (test_sim_board,
+# 10-50x slower cannot keep real time: the end-to-end runs paced by simulated devices (test_sim_board, test_config_cli,
 # test_backends, test_gles_runtime) and the HID mock's timed unplug/corruption (test_imu_hid); and
 # test_gles_parity, whose raytrace+lens parity on llvmpipe under qemu measures 43.4 dB against its 45 dB bar (the
 # CPU side's FMA contraction on aarch64 or llvmpipe's arm64 JIT; not tracked down). They all run in `make test`.
 CROSS ?= aarch64-linux-gnu-
 CROSS_BUILD = build/$(patsubst %-,%,$(CROSS))
 CROSS_SKIP := accuracy/test_sim_board accuracy/test_backends unit/test_gles_runtime unit/test_imu_hid \
-              unit/test_gles_parity
+              unit/test_gles_parity unit/test_config_cli
 CROSS_TESTS := $(filter-out $(CROSS_SKIP),$(patsubst tests/%.c,%,$(TEST_SRC)))
 check-cross:
 	@board/deps.sh && board/deps-cross.sh

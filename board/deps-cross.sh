@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: MIT
 # Installs what the aarch64 board build needs on a Debian 12 host: the cross compilers, qemu-user to run the
 # cross-built tests, and the arm64 (multiarch) -dev packages of every library hmdwarp links.
 # As root it runs apt-get (adding the arm64 architecture once); otherwise it prints the exact commands and fails.

@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: MIT
 # Installs what `make hil` needs (qemu, busybox, module tools) and fetches Debian's own kernel into a cache:
 # the linux-image, -headers (+ -common, linux-kbuild) and linux-source packages of one ABI, downloaded with
 # `apt-get download` (never installed on this host) and unpacked under build/hil/cache.

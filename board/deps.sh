@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: MIT
 # Installs the Debian 12 packages hmdwarp needs to build, run and test.
 # As root it runs apt-get; otherwise it prints the exact command and fails, so `make run`/`make test` stop early.
 set -eu

@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: MIT
 # flash.sh: puts a `make install DESTDIR=...` tree onto a board: into a mounted SD-card root filesystem, or over
 # ssh onto a running board; enables the service. --dry-run checks the tree and prints what it would do.
 set -eu

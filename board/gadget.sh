@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: MIT
 # gadget.sh: sets up the board as a USB gadget for the host frame link (configfs + FunctionFS), starts hmdwarpd
 # (which writes the FunctionFS descriptors), binds the UDC; and tears it all down again. See docs/framelink.md.
 set -eu
@@ -17,7 +18,8 @@ WAIT_S=10
 
 usage() {
     cat <<EOF
-usage: board/gadget.sh [options] start|stop|status|setup|bind
+Usage: hmdwarp-gadget [options] start|stop|status|setup|bind
+(installed as hmdwarp-gadget; board/gadget.sh in the source tree)
 
   start   load libcomposite, create the configfs gadget "$GADGET" with an ffs.$GADGET function,
           mount FunctionFS at the ffs dir, start hmdwarpd (it writes the USB descriptors to ep0),

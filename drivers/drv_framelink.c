@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* drv_framelink: the frame wire protocol between host and board (one codec for both ends): frames host -> board,
  * pose messages board -> host. Little-endian, versioned, CRC32-checked; byte layout in docs/framelink.md. */
 #include "drivers/drv_framelink.h"
@@ -75,6 +76,9 @@ static warp_pose get_pose(const uint8_t *p)
     a.p.z = get_f64(p + 48);
     return a;
 }
+
+static bool pose_ok(warp_pose a) { return warp_pose_isfinite(a) && fabs(warp_quat_norm(a.q) - 1.0) <= 1e-3; }
+static bool time_ok(int64_t t) { return t >= 0 && t <= DRV_FRAMELINK_TIME_MAX_NS; }
 
 /* ---- frame layout ---- */
 
@@ -567,6 +571,30 @@ drv_frame_err drv_framelink_decode_ex(const uint8_t *buf, size_t len, size_t max
                         pd[i].param, deepest);
     }
 
+    /* Times and poses: the host's values must be usable as they are, the warps and the runtime's time arithmetic
+     * never check them again (DRV_FRAMELINK_TIME_MAX_NS). */
+    static const struct {
+        int off;
+        const char *name;
+    } times[] = {{OFF_POSE_T, "pose_t_ns"},           {OFF_POSE_SENT, "pose_sent_ns"},
+                 {OFF_HOST_POSE_RX, "host_pose_rx_ns"}, {OFF_HOST_START, "host_render_start_ns"},
+                 {OFF_HOST_END, "host_render_end_ns"},  {OFF_HOST_SEND, "host_send_ns"}};
+    for (size_t i = 0; i < sizeof times / sizeof times[0]; i++) {
+        int64_t t = (int64_t)get_u64(buf + times[i].off);
+        if (!time_ok(t))
+            return fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "%s %lld outside [0, 2^62]", times[i].name,
+                        (long long)t);
+    }
+    if (!isfinite(get_f64(buf + OFF_SCENE_TIME)))
+        return fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "scene_time not finite");
+    for (int e = 0; e < 2; e++)
+        if (!pose_ok(get_pose(buf + OFF_EYES + e * EYE_BYTES)))
+            return fail(detail, dl, DRV_FRAME_ERR_BAD_POSE, "eye %d pose not finite or not a unit quaternion", e);
+    for (int i = 0; i < n_obj; i++)
+        if (!pose_ok(get_pose(buf + DRV_FRAMELINK_FIXED_BYTES + (size_t)i * DRV_FRAMELINK_OBJECT_BYTES)))
+            return fail(detail, dl, DRV_FRAME_ERR_BAD_POSE, "object %d pose not finite or not a unit quaternion",
+                        i + 1);
+
     /* All checks passed: write the frame. */
     drv_framelink_tx tx;
     tx.pose_sent_ns = (int64_t)get_u64(buf + OFF_POSE_SENT);
@@ -580,10 +608,13 @@ drv_frame_err drv_framelink_decode_ex(const uint8_t *buf, size_t len, size_t max
     out->seq = get_u64(buf + OFF_SEQ);
     out->pose_t_ns = (int64_t)get_u64(buf + OFF_POSE_T);
     /* The host's render start on the board clock: the board's send time of the pose plus the host's delay
-     * between receiving it and starting (ignores the pose message's own transit, well under a millisecond). */
+     * between receiving it and starting (ignores the pose message's own transit, well under a millisecond). All
+     * three are in [0, 2^62], so this cannot overflow; a result outside that range (a host clock that jumped)
+     * means unknown, like a 0. */
     out->render_start_ns = tx.pose_sent_ns && tx.host_pose_rx_ns && tx.host_render_start_ns
                                ? tx.pose_sent_ns + (tx.host_render_start_ns - tx.host_pose_rx_ns)
                                : 0;
+    if (!time_ok(out->render_start_ns)) out->render_start_ns = 0;
     out->planes = planes;
     out->depth_encoding = (warp_depth_encoding)depth_enc;
     out->scene_time = get_f64(buf + OFF_SCENE_TIME);
@@ -643,8 +674,6 @@ size_t drv_framelink_pose_encode(const drv_framelink_pose *p, uint8_t *buf, size
     return DRV_FRAMELINK_POSE_BYTES;
 }
 
-static bool pose_ok(warp_pose a) { return warp_pose_isfinite(a) && fabs(warp_quat_norm(a.q) - 1.0) <= 1e-3; }
-
 drv_frame_err drv_framelink_pose_decode(const uint8_t *buf, size_t len, drv_framelink_pose *out)
 {
     if (len < 4) return DRV_FRAME_ERR_TRUNCATED;
@@ -662,6 +691,7 @@ drv_frame_err drv_framelink_pose_decode(const uint8_t *buf, size_t len, drv_fram
     p.eye[0] = get_pose(buf + 88);
     p.eye[1] = get_pose(buf + 144);
     if (!pose_ok(p.head) || !pose_ok(p.eye[0]) || !pose_ok(p.eye[1])) return DRV_FRAME_ERR_BAD_POSE;
+    if (!time_ok(p.board_t_ns) || !time_ok(p.target_t_ns)) return DRV_FRAME_ERR_BAD_POSE;
     *out = p;
     return DRV_FRAME_OK;
 }

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* drv_framelink: the frame wire protocol between host and board (one codec for both ends): frames host -> board,
  * pose messages board -> host. Little-endian, versioned, CRC32-checked; byte layout in docs/framelink.md. */
 #ifndef DRV_FRAMELINK_H
@@ -23,6 +24,10 @@
 /* Bytes peek needs before it can tell the header size (magic, version, header size, total size). */
 #define DRV_FRAMELINK_PREFIX_BYTES 12
 #define DRV_FRAMELINK_POSE_BYTES 204
+/* Every time on the wire (board or host clock, ns) lies in [0, DRV_FRAMELINK_TIME_MAX_NS] (146 years of uptime):
+ * decoders reject anything else, so differences of two times, and sums of a time and such a difference, can never
+ * overflow an int64_t on either side (the runtime's `t_photon - pose_t_ns`, the render start mapping). */
+#define DRV_FRAMELINK_TIME_MAX_NS ((int64_t)1 << 62)
 
 /* Plane types on the wire (the DRV_PLANE_* bit index) and their formats. */
 enum {
@@ -87,7 +92,8 @@ typedef struct {
 
 /* Always DRV_FRAMELINK_POSE_BYTES; returns 0 when cap is too small. */
 size_t drv_framelink_pose_encode(const drv_framelink_pose *p, uint8_t *buf, size_t cap);
-/* TRUNCATED, BAD_MAGIC, BAD_VERSION, BAD_SIZE, CRC, or BAD_POSE (non-finite or non-unit quaternion). */
+/* TRUNCATED, BAD_MAGIC, BAD_VERSION, BAD_SIZE, CRC, or BAD_POSE (non-finite or non-unit quaternion, non-finite
+ * position, a time outside [0, DRV_FRAMELINK_TIME_MAX_NS]). */
 drv_frame_err drv_framelink_pose_decode(const uint8_t *buf, size_t len, drv_framelink_pose *out);
 
 #endif

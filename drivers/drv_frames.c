@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* drv_frames: the interface of host frame sources (simulated host, USB gadget, V4L2 capture) and the frame they
  * deliver: per-eye planes plus the exact pose, camera and time each eye was rendered with. */
 #include "drivers/drv_frames.h"

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* drv_frames_usb: host frames over USB, the board being a FunctionFS gadget (bulk OUT frames, bulk IN poses), and
  * a mock whose simulated host talks the same framelink byte streams through socket pairs instead of endpoints. */
 #include "drivers/drv_frames_usb.h"
@@ -115,86 +116,103 @@ static void link_lost(usb_frames *u, ssize_t rc)
     plat_sleep_ns(10 * PLAT_NS_PER_MS); /* a persistent failure must not spin */
 }
 
+/* The receive state machine, apart from the transport: what is buffered is parsed by stream_parse, the next read
+ * goes where stream_space says, and stream_got accounts for it. usb_receive drives it from the endpoint, and
+ * drv_frames_usb_feed from memory (tests, the fuzzer), so both run the same code. */
+
+/* 1 when a frame was stored in *f, -drv_frame_err when one was rejected, 0 when more bytes are needed. */
+static int stream_parse(usb_frames *u, drv_frame *f)
+{
+    if (u->discard_left != 0 || u->have == 0) return 0;
+    size_t k = drv_framelink_find_magic(u->buf, u->have);
+    if (k > 0) {
+        pthread_mutex_lock(&u->lock);
+        u->st.skipped_bytes += k;
+        pthread_mutex_unlock(&u->lock);
+        drop(u, k);
+        if (!u->resyncing) return reject(u, DRV_FRAME_ERR_BAD_MAGIC, 0, true, "garbage between frames");
+    }
+    size_t total = 0;
+    drv_frame_err e = drv_framelink_peek(u->buf, u->have, u->p.max_frame_bytes, &total);
+    if (e == DRV_FRAME_ERR_TOO_LARGE) {
+        /* A sound header for a frame too big to keep: skip exactly its bytes, never storing them. */
+        size_t in_buf = u->have < total ? u->have : total;
+        u->discard_left = total - in_buf;
+        pthread_mutex_lock(&u->lock);
+        u->st.discarded_bytes += in_buf;
+        pthread_mutex_unlock(&u->lock);
+        char d[80];
+        snprintf(d, sizeof d, "%zu bytes, limit %zu", total, u->p.max_frame_bytes);
+        return reject(u, e, in_buf, false, d);
+    }
+    if (e == DRV_FRAME_OK && u->have >= total) {
+        char detail[160];
+        drv_framelink_rx rx;
+        e = drv_framelink_decode_ex(u->buf, total, u->p.max_frame_bytes, f, &rx, detail, sizeof detail);
+        if (e != DRV_FRAME_OK) return reject(u, e, 1, true, detail);
+        f->received_ns = plat_now_ns();
+        drop(u, total);
+        u->resyncing = false;
+        e = drv_frame_validate(f);
+        if (e != DRV_FRAME_OK) return reject(u, e, 0, false, "content invalid");
+        if (rx.tx.pose_sent_ns > 0 && f->received_ns > rx.tx.pose_sent_ns) {
+            /* The lead the next poses are predicted with: how long the host took to answer one. */
+            double ms = (double)(f->received_ns - rx.tx.pose_sent_ns) * 1e-6;
+            double lead = (double)atomic_load(&u->lead_ns) * 1e-6;
+            lead = 0.9 * lead + 0.1 * (ms < LEAD_MIN_MS ? LEAD_MIN_MS : ms > LEAD_MAX_MS ? LEAD_MAX_MS : ms);
+            atomic_store(&u->lead_ns, (int64_t)(lead * 1e6));
+        }
+        pthread_mutex_lock(&u->lock);
+        u->st.frames++;
+        pthread_mutex_unlock(&u->lock);
+        return 1;
+    }
+    if (e != DRV_FRAME_OK && e != DRV_FRAME_ERR_TRUNCATED) return reject(u, e, 1, true, "bad header");
+    return 0;
+}
+
+/* Where the next bytes of the stream go (*dst) and how many fit. */
+static size_t stream_space(usb_frames *u, uint8_t **dst)
+{
+    if (u->discard_left) {
+        *dst = u->scratch;
+        return u->discard_left < CHUNK ? u->discard_left : CHUNK;
+    }
+    if (u->have == u->cap) drop(u, 1); /* cannot happen (frames fit the buffer); never stall on a full buffer */
+    *dst = u->buf + u->have;
+    return u->cap - u->have < CHUNK ? u->cap - u->have : CHUNK;
+}
+
+/* n bytes arrived where stream_space said. */
+static void stream_got(usb_frames *u, size_t n)
+{
+    pthread_mutex_lock(&u->lock);
+    u->st.bytes += (uint64_t)n;
+    if (u->discard_left) u->st.discarded_bytes += (uint64_t)n;
+    pthread_mutex_unlock(&u->lock);
+    if (u->discard_left)
+        u->discard_left -= n;
+    else
+        u->have += n;
+}
+
 static int usb_receive(drv_frames *fr, drv_frame *f, int timeout_ms)
 {
     usb_frames *u = (usb_frames *)fr;
     int64_t deadline = plat_now_ns() + (int64_t)timeout_ms * PLAT_NS_PER_MS;
     for (;;) {
-        if (u->discard_left == 0 && u->have > 0) {
-            size_t k = drv_framelink_find_magic(u->buf, u->have);
-            if (k > 0) {
-                pthread_mutex_lock(&u->lock);
-                u->st.skipped_bytes += k;
-                pthread_mutex_unlock(&u->lock);
-                drop(u, k);
-                if (!u->resyncing) return reject(u, DRV_FRAME_ERR_BAD_MAGIC, 0, true, "garbage between frames");
-            }
-            size_t total = 0;
-            drv_frame_err e = drv_framelink_peek(u->buf, u->have, u->p.max_frame_bytes, &total);
-            if (e == DRV_FRAME_ERR_TOO_LARGE) {
-                /* A sound header for a frame too big to keep: skip exactly its bytes, never storing them. */
-                size_t in_buf = u->have < total ? u->have : total;
-                u->discard_left = total - in_buf;
-                pthread_mutex_lock(&u->lock);
-                u->st.discarded_bytes += in_buf;
-                pthread_mutex_unlock(&u->lock);
-                char d[80];
-                snprintf(d, sizeof d, "%zu bytes, limit %zu", total, u->p.max_frame_bytes);
-                return reject(u, e, in_buf, false, d);
-            }
-            if (e == DRV_FRAME_OK && u->have >= total) {
-                char detail[160];
-                drv_framelink_rx rx;
-                e = drv_framelink_decode_ex(u->buf, total, u->p.max_frame_bytes, f, &rx, detail, sizeof detail);
-                if (e != DRV_FRAME_OK) return reject(u, e, 1, true, detail);
-                f->received_ns = plat_now_ns();
-                drop(u, total);
-                u->resyncing = false;
-                e = drv_frame_validate(f);
-                if (e != DRV_FRAME_OK) return reject(u, e, 0, false, "content invalid");
-                if (rx.tx.pose_sent_ns > 0 && f->received_ns > rx.tx.pose_sent_ns) {
-                    /* The lead the next poses are predicted with: how long the host took to answer one. */
-                    double ms = (double)(f->received_ns - rx.tx.pose_sent_ns) * 1e-6;
-                    double lead = (double)atomic_load(&u->lead_ns) * 1e-6;
-                    lead = 0.9 * lead + 0.1 * (ms < LEAD_MIN_MS ? LEAD_MIN_MS : ms > LEAD_MAX_MS ? LEAD_MAX_MS : ms);
-                    atomic_store(&u->lead_ns, (int64_t)(lead * 1e6));
-                }
-                pthread_mutex_lock(&u->lock);
-                u->st.frames++;
-                pthread_mutex_unlock(&u->lock);
-                return 1;
-            }
-            if (e != DRV_FRAME_OK && e != DRV_FRAME_ERR_TRUNCATED) return reject(u, e, 1, true, "bad header");
-        }
+        int r = stream_parse(u, f);
+        if (r != 0) return r;
         int64_t left = deadline - plat_now_ns();
         if (left <= 0) return 0;
         uint8_t *dst;
-        size_t want;
-        if (u->discard_left) {
-            dst = u->scratch;
-            want = u->discard_left < CHUNK ? u->discard_left : CHUNK;
-        } else {
-            dst = u->buf + u->have;
-            want = u->cap - u->have < CHUNK ? u->cap - u->have : CHUNK;
-            if (want == 0) { /* cannot happen (frames fit the buffer); never spin on a full buffer */
-                drop(u, 1);
-                continue;
-            }
-        }
+        size_t want = stream_space(u, &dst);
         ssize_t n = u->t->read(u->t, dst, want, (int)((left + PLAT_NS_PER_MS - 1) / PLAT_NS_PER_MS));
         if (n < 0) {
             link_lost(u, n);
             continue; /* the transport waits for the link up to the deadline */
         }
-        if (n == 0) continue;
-        pthread_mutex_lock(&u->lock);
-        u->st.bytes += (uint64_t)n;
-        if (u->discard_left) u->st.discarded_bytes += (uint64_t)n;
-        pthread_mutex_unlock(&u->lock);
-        if (u->discard_left)
-            u->discard_left -= (size_t)n;
-        else
-            u->have += (size_t)n;
+        if (n > 0) stream_got(u, (size_t)n);
     }
 }
 
@@ -318,6 +336,64 @@ static void usb_last_error(drv_frames *fr, char *buf, int len)
     pthread_mutex_lock(&u->lock);
     snprintf(buf, (size_t)len, "%s", u->st.last_error);
     pthread_mutex_unlock(&u->lock);
+}
+
+/* ---- fed from memory: the receive state machine alone ---- */
+
+/* No link: the bytes come from drv_frames_usb_feed, so a read only waits out its timeout. */
+static ssize_t fed_read(usb_transport *t, uint8_t *buf, size_t cap, int timeout_ms)
+{
+    (void)t, (void)buf, (void)cap;
+    if (timeout_ms > 0) plat_sleep_ns((int64_t)timeout_ms * PLAT_NS_PER_MS);
+    return 0;
+}
+static ssize_t fed_write(usb_transport *t, const uint8_t *buf, size_t len, int timeout_ms)
+{
+    (void)t, (void)buf, (void)timeout_ms;
+    return (ssize_t)len;
+}
+static bool fed_connected(usb_transport *t) { return (void)t, true; }
+static void fed_destroy(usb_transport *t) { free(t); }
+static bool no_poses(void *ctx, int64_t t_ns, warp_pose *head) { return (void)ctx, (void)t_ns, (void)head, false; }
+
+drv_frames *drv_frames_usb_create_fed(const drv_frames_usb_params *p, char *err, int errlen)
+{
+    drv_frames_usb_params q = *p;
+    if (!q.poses.predict) q.poses.predict = no_poses; /* no pose thread runs: nothing is asked */
+    if (!(q.pose_rate_hz > 0)) q.pose_rate_hz = 1;
+    usb_frames *u = board_new(&q, err, errlen);
+    if (!u) return NULL;
+    u->t = calloc(1, sizeof *u->t);
+    if (!u->t) {
+        usb_destroy(&u->base);
+        set_err(err, errlen, "usb frames: out of memory");
+        return NULL;
+    }
+    *u->t = (usb_transport){fed_read, fed_write, fed_connected, fed_destroy};
+    u->base.name = "usb (fed)";
+    return &u->base;
+}
+
+size_t drv_frames_usb_feed(drv_frames *fr, const uint8_t *data, size_t n)
+{
+    usb_frames *u = (usb_frames *)fr;
+    size_t taken = 0;
+    while (taken < n) {
+        /* Never past a complete frame: the caller receives it first (a full buffer would drop bytes). */
+        if (!u->discard_left && u->have >= DRV_FRAMELINK_PREFIX_BYTES) {
+            size_t total = 0;
+            if (drv_framelink_peek(u->buf, u->have, u->p.max_frame_bytes, &total) != DRV_FRAME_ERR_TRUNCATED &&
+                u->have >= total)
+                break;
+        }
+        if (u->have == u->cap) break;
+        uint8_t *dst;
+        size_t want = stream_space(u, &dst), k = n - taken < want ? n - taken : want;
+        memcpy(dst, data + taken, k);
+        stream_got(u, k);
+        taken += k;
+    }
+    return taken;
 }
 
 /* ---- FunctionFS transport ---- */

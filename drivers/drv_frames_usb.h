@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* drv_frames_usb: host frames over USB, the board being a FunctionFS gadget (bulk OUT frames, bulk IN poses), and
  * a mock whose simulated host talks the same framelink byte streams through socket pairs instead of endpoints. */
 #ifndef DRV_FRAMES_USB_H
@@ -34,6 +35,14 @@ typedef struct {
  * at the poses received (its own poses source is replaced), encodes with the codec and applies the faults. */
 drv_frames *drv_frames_usb_create_mock(const drv_frames_sim_params *host, const drv_frames_usb_params *p,
                                        const drv_frames_usb_mock_params *mp, char *err, int errlen);
+
+/* The board side's receive state machine without a transport (tests, the fuzzer): bytes of the OUT stream are
+ * given with drv_frames_usb_feed, and drv_frames_receive(fr, f, 0) parses what was fed exactly as the gadget does
+ * (returning 0 once it needs more). No pose thread; p->poses may be empty. */
+drv_frames *drv_frames_usb_create_fed(const drv_frames_usb_params *p, char *err, int errlen);
+/* Appends up to n bytes to the stream; returns how many were taken: fewer once a whole frame (or a rejection) is
+ * waiting to be received, or the buffer is full. */
+size_t drv_frames_usb_feed(drv_frames *fr, const uint8_t *data, size_t n);
 
 typedef struct {
     uint64_t frames;                            /* accepted */

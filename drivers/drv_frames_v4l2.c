@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* drv_frames_v4l2: host frames captured over V4L2 (HDMI/CSI capture of the host's video output) in the in-band
  * layout of drv_v4l2_inband, a mock capture device fed by the simulated host, and the host tool's output writer. */
 #include "drivers/drv_frames_v4l2.h"
@@ -262,6 +263,8 @@ typedef struct {
     int fail_opens;      /* opens left to fail with ENOENT (unplugged) */
     bool unplugged;      /* the current fd is dead: POLLERR, DQBUF ENODEV */
     bool garble, blank;
+    int corrupt_every;   /* [mock] corrupt_every: every Nth frame damaged, a flipped block and a blank in turn */
+    uint64_t packed;     /* frames the host delivered into a buffer */
     drv_v4l2_geom g;
     drv_v4l2_colorspace cs;
     bool fmt_set, streaming;
@@ -485,6 +488,14 @@ static int mock_poll(void *ctx, int fd, short events, int timeout_ms, short *rev
     }
     int r = drv_frames_receive(m->host, &m->hf, timeout_ms);
     if (r <= 0) return 0;
+    m->packed++;
+    if (m->corrupt_every > 0 && m->packed % (uint64_t)m->corrupt_every == 0) {
+        /* both ways a capture goes wrong in the band: a dropped symbol (CRC) and a picture without it (magic) */
+        if ((m->packed / (uint64_t)m->corrupt_every) % 2)
+            m->garble = true;
+        else
+            m->blank = true;
+    }
     uint8_t *mem = m->b[q].mem;
     if (m->blank) {
         memset(mem, 0x80, m->g.size); /* a mid-grey picture: the host is not running our renderer */
@@ -726,12 +737,15 @@ static int cap_receive(drv_frames *fr, drv_frame *f, int timeout_ms)
         if (e) snprintf(why, sizeof why, "drv_frame_validate");
     }
     if (e != DRV_FRAME_OK) return cap_reject(c, have, e, why);
-    /* The buffer's timestamp is when the frame was complete (V4L2 default: end of frame), if on our clock. */
+    /* The buffer's timestamp is when the frame was complete (V4L2 default: end of frame), if on our clock. A driver's
+     * timestamp is checked before it is multiplied (a huge tv_sec would overflow) and must not lie in the future. */
+    f->received_ns = now;
     if ((vb.flags & V4L2_BUF_FLAG_TIMESTAMP_MASK) == V4L2_BUF_FLAG_TIMESTAMP_MONOTONIC &&
-        (vb.timestamp.tv_sec || vb.timestamp.tv_usec))
-        f->received_ns = (int64_t)vb.timestamp.tv_sec * PLAT_NS_PER_S + (int64_t)vb.timestamp.tv_usec * 1000;
-    else
-        f->received_ns = now;
+        (vb.timestamp.tv_sec || vb.timestamp.tv_usec) && vb.timestamp.tv_sec >= 0 &&
+        vb.timestamp.tv_sec <= now / PLAT_NS_PER_S && vb.timestamp.tv_usec >= 0 && vb.timestamp.tv_usec < 1000000) {
+        int64_t t = (int64_t)vb.timestamp.tv_sec * PLAT_NS_PER_S + (int64_t)vb.timestamp.tv_usec * 1000;
+        if (t <= now) f->received_ns = t;
+    }
     pthread_mutex_lock(&c->lock);
     c->st.frames++;
     pthread_mutex_unlock(&c->lock);
@@ -855,6 +869,12 @@ void drv_frames_v4l2_mock_fault(drv_frames *fr, drv_v4l2_fault fault)
     case DRV_V4L2_FAULT_GARBLE: c->mock->garble = true; break;
     case DRV_V4L2_FAULT_BLANK: c->mock->blank = true; break;
     }
+}
+
+void drv_frames_v4l2_mock_corrupt_every(drv_frames *fr, int n)
+{
+    v4l2_cap *c = (v4l2_cap *)fr;
+    if (c->mock) c->mock->corrupt_every = n > 0 ? n : 0;
 }
 
 /* ---- output writer (host tool) ---- */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* drv_frames_v4l2: host frames captured over V4L2 (HDMI/CSI capture of the host's video output) in the in-band
  * layout of drv_v4l2_inband, a mock capture device fed by the simulated host, and the host tool's output writer. */
 #ifndef DRV_FRAMES_V4L2_H
@@ -44,6 +45,8 @@ typedef enum {
     DRV_V4L2_FAULT_BLANK = 3,  /* the next frame is a plain picture without band (BAD_MAGIC) */
 } drv_v4l2_fault;
 void drv_frames_v4l2_mock_fault(drv_frames *fr, drv_v4l2_fault fault);
+/* [mock] corrupt_every: from now on every nth frame arrives damaged, in turn GARBLE and BLANK (0 = never). */
+void drv_frames_v4l2_mock_corrupt_every(drv_frames *fr, int n);
 
 /* The host tool's side: a V4L2 output device (e.g. vivid's loop) fed packed frames. */
 typedef struct drv_v4l2_output drv_v4l2_output;

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* drv_gpiod1: the TE-line edge source on libgpiod 1.6 (the v1 GPIO character device API). All libgpiod use is in
  * this file, so a libgpiod v2 source can sit beside it behind the same drv_edge_source interface.
  *

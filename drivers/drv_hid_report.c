@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* drv_hid_report: pure decoding/encoding of IMU input reports from USB HID trackers (our vendor bridge format and
  * the Oculus Rift DK2/CV1 sensor report), 32-bit device timestamp unwrapping, and device-to-host time mapping. */
 #include "drivers/drv_hid_report.h"

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* drv_i2c_chips: register-level drivers for I2C IMUs (InvenSense MPU-6050, MPU-9250/9255, TDK ICM-42688-P) on top of
  * a minimal register bus interface, so the same init sequence, burst read and scaling run on i2c-dev and on the mock. */
 #include "drivers/drv_i2c_chips.h"
@@ -95,9 +96,11 @@ static int mpu_plan(const drv_i2c_request *rq, drv_i2c_setup *s, bool is9250, ch
     if (!a) return -EINVAL;
     /* With the DLPF on, the internal rate is 1 kHz and sample rate = 1 kHz / (1 + SMPLRT_DIV). */
     double want = rq->rate_hz > DRV_I2C_MAX_RATE_HZ ? DRV_I2C_MAX_RATE_HZ : rq->rate_hz;
-    long div = lround(1000.0 / want) - 1;
+    /* Clamped as a double first: 1000 / a tiny rate does not fit a long (lround's result is then unspecified and
+     * the - 1 overflowed). */
+    double q = 1000.0 / want;
+    long div = q >= 256.0 ? 255 : lround(q) - 1;
     if (div < 0) div = 0;
-    if (div > 255) div = 255;
     memset(s, 0, sizeof *s);
     s->rate_hz = 1000.0 / (double)(1 + div);
     const dlpf *gd = is9250 ? pick_dlpf(mpu9250_gyro_dlpf, N(mpu9250_gyro_dlpf), s->rate_hz)

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* drv_i2c_chips: register-level drivers for I2C IMUs (InvenSense MPU-6050, MPU-9250/9255, TDK ICM-42688-P) on top of
  * a minimal register bus interface, so the same init sequence, burst read and scaling run on i2c-dev and on the mock. */
 #ifndef DRV_I2C_CHIPS_H

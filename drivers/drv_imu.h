@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* drv_imu: the interface every IMU backend implements (sim, USB HID, I2C), Monado-style: a struct of function
  * pointers plus static inline wrappers. Samples arrive already mapped to CLOCK_MONOTONIC and SI units. */
 #ifndef DRV_IMU_H

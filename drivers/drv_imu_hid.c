@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* drv_imu_hid: IMU over USB HID (hidapi, hidraw backend): vendor IMU-bridge and Rift sensor reports decoded, device
  * time mapped to CLOCK_MONOTONIC, unplug/replug survived. A mock transport turns another drv_imu into reports. */
 #include "drivers/drv_imu_hid.h"

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* drv_imu_i2c: the drv_imu backend for IMUs on an I2C bus (Linux i2c-dev + libi2c SMBus), polled at the sample rate,
  * plus a mock bus that emulates the chip's register file from another drv_imu so the real chip driver runs unchanged. */
 #include "drivers/drv_imu_i2c.h"

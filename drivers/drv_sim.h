@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* drv_sim: the simulated board's devices: an IMU replaying a head-motion trace in real time, a vsync timer, and a
  * host PC rendering the scene at the poses the board sends it. The same interfaces as the real backends. */
 #ifndef DRV_SIM_H

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* drv_v4l2_convert: pixel formats of V4L2 capture/output buffers (YUYV, NV12, BGR32/XBGR32, RGB24) to and from
  * RGBA8 with integer BT.601/BT.709 limited/full-range math, plus the luma-level access the in-band layout uses. */
 #ifndef DRV_V4L2_CONVERT_H

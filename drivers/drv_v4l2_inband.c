@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* drv_v4l2_inband: the in-band layout of a host frame in one video frame (HDMI/CSI capture): a metadata band of
  * luma-only bit blocks, both eyes' colour side by side, optional 16-bit depth as luma byte pairs (docs/v4l2-inband.md). */
 #include "drivers/drv_v4l2_inband.h"
@@ -239,6 +240,8 @@ drv_frame_err drv_v4l2_pack(const drv_frame *f, bool depth, const drv_v4l2_geom 
     return DRV_FRAME_OK;
 }
 
+#define TIME_MAX_NS ((int64_t)1 << 62)
+
 static bool pose_ok(warp_pose p) { return warp_pose_isfinite(p) && fabs(warp_quat_norm(p.q) - 1.0) <= 1e-3; }
 
 drv_frame_err drv_v4l2_read_meta(const uint8_t *img, const drv_v4l2_geom *g, int eye_w, drv_v4l2_meta *m,
@@ -284,6 +287,12 @@ drv_frame_err drv_v4l2_read_meta(const uint8_t *img, const drv_v4l2_geom *g, int
     m->pose_t_ns = (int64_t)get64(b + O_POSE_T);
     m->render_start_ns = (int64_t)get64(b + O_RENDER_START);
     m->scene_time = getd(b + O_SCENE_TIME);
+    /* Board-clock times in [0, 2^62] (as framelink's DRV_FRAMELINK_TIME_MAX_NS): the runtime subtracts them from its
+     * clock unchecked, which cannot overflow then. */
+    if (m->pose_t_ns < 0 || m->pose_t_ns > TIME_MAX_NS || m->render_start_ns < 0 || m->render_start_ns > TIME_MAX_NS)
+        return fail(why, whylen, DRV_FRAME_ERR_BAD_FORMAT, "pose_t_ns %lld / render_start_ns %lld outside [0, 2^62]",
+                    (long long)m->pose_t_ns, (long long)m->render_start_ns);
+    if (!isfinite(m->scene_time)) return fail(why, whylen, DRV_FRAME_ERR_BAD_FORMAT, "scene_time not finite");
     for (int e = 0; e < 2; e++) {
         const uint8_t *p = b + O_EYE + e * EYE_BYTES;
         double v[13];

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* drv_v4l2_inband: the in-band layout of a host frame in one video frame (HDMI/CSI capture): a metadata band of
  * luma-only bit blocks, both eyes' colour side by side, optional 16-bit depth as luma byte pairs (docs/v4l2-inband.md). */
 #ifndef DRV_V4L2_INBAND_H

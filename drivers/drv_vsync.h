@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* drv_vsync: the interface of vsync sources (simulated timer, GPIO TE line): the compositor asks when the next
  * vsync will be and schedules its warp just before it. */
 #ifndef DRV_VSYNC_H

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* drv_vsync_est: estimates the panel's vsync period and phase from TE-line edge timestamps, robust to jitter, missed
  * and spurious edges and a panel slightly off its nominal rate. Pure and deterministic: no OS calls, no allocation. */
 #ifndef DRV_VSYNC_EST_H

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* drv_vsync_gpio: the vsync backend on the panel's TE line: a thread waits for edges and feeds the estimator; next()
  * reads the published estimate without locks. When edges stop for more than 3.5 periods the source free-runs on the
  * estimate (or the nominal rate) and relocks as soon as edges return. Also the mock edge source for tests. */

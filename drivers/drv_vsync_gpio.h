@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* drv_vsync_gpio: vsync sources for the real board: the panel's TE line on a GPIO (edges through libgpiod, a robust
  * estimator, a timer fallback when the edges stop), its mock with simulated edges, and a free-running timer. */
 #ifndef DRV_VSYNC_GPIO_H

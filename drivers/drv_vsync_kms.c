@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* drv_vsync_kms: vsync from the display controller itself: the DRM device's vblank times, fed to the same robust
  * estimator as TE-line edges (drv_vsync_edges_create), for boards without a TE line. */
 #include "drivers/drv_vsync_kms.h"

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* drv_vsync_timer: a free-running CLOCK_MONOTONIC vsync source at the configured rate, vsync 0 at creation: for a
  * board whose panel has no TE line wired (the compositor then drifts against the panel's own timing). */
 #include <math.h>

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* plat_clock: the one time base of hmdwarp (CLOCK_MONOTONIC in int64 nanoseconds), absolute sleeps, and thread
  * set-up for the real-time path (SCHED_FIFO priority, CPU affinity, locked memory) where the system allows it. */
 #include "platform/plat_clock.h"

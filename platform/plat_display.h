@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* plat_display: where composited panel images go: a swapchain of panel-sized buffers and display sinks (null,
  * PNG snapshots, raw stream; KMS on a board). Presenting never blocks and never does I/O on the vsync path. */
 #ifndef PLAT_DISPLAY_H

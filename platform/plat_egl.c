@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* plat_egl: EGL display and OpenGL ES 3 context for the GPU renderer: surfaceless (rendering into FBOs, tests
  * and the simulated board) or a real panel through DRM/KMS + GBM with page flips on its connector. */
 #include "platform/plat_egl.h"

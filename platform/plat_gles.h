@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* plat_gles: the warp on the GPU with OpenGL ES 3.0 (GLSL ES 3.00): host frame upload, the min-max depth pyramid,
  * the height-map raytrace with its edge fills, and the lens pass through the distortion mesh; per-pass GPU times. */
 #ifndef PLAT_GLES_H

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* plat_kms: DRM/KMS output for both renderers: the connector/mode/CRTC choice, atomic (or legacy) page flips, one
  * event thread that reads the DRM fd, and the CPU path's display on dumb buffers.
  *
@@ -402,8 +403,9 @@ static bool find_card(const plat_kms_params *p, char *dev, size_t len, char *err
             snprintf(dev, len, "%s", path);
             return true;
         }
-        strncat(tried, *tried ? "; " : "", sizeof tried - strlen(tried) - 1);
-        strncat(tried, e, sizeof tried - strlen(tried) - 1);
+        size_t used = strlen(tried);
+        /* cut where it does not fit: the first cards tried are named */
+        if (snprintf(tried + used, sizeof tried - used, "%s%s", used ? "; " : "", e) < 0) break;
     }
     set_err(err, errlen, "kms_device = auto: no /dev/dri/cardN with a connected connector%s%s%s",
             *tried ? " (" : " (no card at all)", tried, *tried ? ")" : "");

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* plat_kms: DRM/KMS output for both renderers: the connector/mode/CRTC choice, atomic (or legacy) page flips, one
  * event thread that reads the DRM fd, and the CPU path's display on dumb buffers. */
 #ifndef PLAT_KMS_H

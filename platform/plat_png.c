@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* plat_png: PNG image file I/O through libpng, for snapshots, tools and test artefacts.
  * Never called on the vsync path (file I/O). */
 #include "platform/plat_png.h"
@@ -7,6 +8,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 static bool fail(char *err, int errlen, const char *fmt, const char *path, const char *why)
 {
@@ -83,44 +85,95 @@ bool plat_png_write_u8(const char *path, const warp_image_u8 *img, char *err, in
     return ok;
 }
 
-bool plat_png_read(const char *path, warp_image_rgba8 *img, char *err, int errlen)
+/* Opens path and starts libpng's simplified read; checks the declared size before anything is allocated. A header
+ * is 33 bytes, so a file could declare 2^31 x 2^31 pixels: the size must fit max_pixels and also the file itself.
+ * Deflate expands at most 1032:1, and every row holds a filter byte plus at least w/8 bytes (1-bit pixels), so a
+ * file of n bytes can only hold rows adding up to about 1032 n bytes (plus slack for the chunks around them). */
+static bool begin_read(const char *path, png_image *pi, FILE **fp, size_t max_pixels, char *err, int errlen)
+{
+    memset(pi, 0, sizeof *pi);
+    pi->version = PNG_IMAGE_VERSION;
+    FILE *f = fopen(path, "rb");
+    if (!f) return fail(err, errlen, "cannot read %s: %s", path, strerror(errno));
+    struct stat st;
+    if (fstat(fileno(f), &st) != 0 || !S_ISREG(st.st_mode)) {
+        fclose(f);
+        return fail(err, errlen, "cannot read %s: %s", path, "not a regular file");
+    }
+    if (!png_image_begin_read_from_stdio(pi, f)) {
+        fclose(f);
+        return fail(err, errlen, "cannot read %s: %s", path, pi->message);
+    }
+    size_t w = pi->width, h = pi->height;
+    unsigned long long raw_min = (unsigned long long)h * (1 + (w + 7) / 8);
+    unsigned long long raw_max = 1032ull * (unsigned long long)st.st_size + 65536;
+    char why[160];
+    if (w == 0 || h == 0 || w > PLAT_PNG_MAX_SIDE || h > PLAT_PNG_MAX_SIDE || w * h > max_pixels) {
+        snprintf(why, sizeof why, "%zux%zu pixels is larger than this reader takes (%d per side, %zu in all)", w, h,
+                 PLAT_PNG_MAX_SIDE, max_pixels);
+    } else if (raw_min > raw_max) {
+        snprintf(why, sizeof why, "declares %zux%zu pixels, more than a file of %lld bytes can hold", w, h,
+                 (long long)st.st_size);
+    } else {
+        *fp = f;
+        return true;
+    }
+    png_image_free(pi);
+    fclose(f);
+    return fail(err, errlen, "cannot read %s: %s", path, why);
+}
+
+bool plat_png_read_max(const char *path, warp_image_rgba8 *img, size_t max_pixels, char *err, int errlen)
 {
     /* libpng's simplified API converts every PNG flavour to RGBA8 for us. */
     png_image pi;
-    memset(&pi, 0, sizeof pi);
-    pi.version = PNG_IMAGE_VERSION;
-    if (!png_image_begin_read_from_file(&pi, path)) return fail(err, errlen, "cannot read %s: %s", path, pi.message);
+    FILE *f;
+    memset(img, 0, sizeof *img);
+    if (!begin_read(path, &pi, &f, max_pixels, err, errlen)) return false;
     pi.format = PNG_FORMAT_RGBA;
     if (!warp_image_rgba8_alloc(img, (int)pi.width, (int)pi.height)) {
         png_image_free(&pi);
-        return fail(err, errlen, "cannot read %s: %s", path, "image too large or out of memory");
+        fclose(f);
+        return fail(err, errlen, "cannot read %s: %s", path, "out of memory");
     }
-    if (!png_image_finish_read(&pi, NULL, img->px, (png_int_32)(img->stride * 4), NULL)) {
+    bool ok = png_image_finish_read(&pi, NULL, img->px, (png_int_32)(img->stride * 4), NULL);
+    fclose(f);
+    if (!ok) {
         warp_image_free(img);
         return fail(err, errlen, "cannot read %s: %s", path, pi.message);
     }
     return true;
 }
 
-bool plat_png_read_u16(const char *path, uint16_t **px, int *w, int *h, char *err, int errlen)
+bool plat_png_read(const char *path, warp_image_rgba8 *img, char *err, int errlen)
+{
+    return plat_png_read_max(path, img, PLAT_PNG_MAX_PIXELS, err, errlen);
+}
+
+bool plat_png_read_u16_max(const char *path, uint16_t **px, int *w, int *h, size_t max_pixels, char *err,
+                           int errlen)
 {
     png_image pi;
-    memset(&pi, 0, sizeof pi);
-    pi.version = PNG_IMAGE_VERSION;
-    if (!png_image_begin_read_from_file(&pi, path)) return fail(err, errlen, "cannot read %s: %s", path, pi.message);
+    FILE *f;
+    *px = NULL;
+    if (!begin_read(path, &pi, &f, max_pixels, err, errlen)) return false;
     /* libpng's simplified API reads 16-bit files as linear data, exactly; an 8-bit file would be taken as sRGB
      * and converted, which would corrupt depth values and object ids: refuse it. */
     if (!(pi.format & PNG_FORMAT_FLAG_LINEAR)) {
         png_image_free(&pi);
+        fclose(f);
         return fail(err, errlen, "cannot read %s: %s", path, "expected a 16-bit PNG (depth or id plane)");
     }
     pi.format = PNG_FORMAT_LINEAR_Y;
-    *px = malloc(PNG_IMAGE_SIZE(pi));
+    *px = malloc(sizeof(uint16_t) * (size_t)pi.width * (size_t)pi.height); /* bounded by begin_read */
     if (!*px) {
         png_image_free(&pi);
+        fclose(f);
         return fail(err, errlen, "cannot read %s: %s", path, "out of memory");
     }
-    if (!png_image_finish_read(&pi, NULL, *px, 0, NULL)) {
+    bool ok = png_image_finish_read(&pi, NULL, *px, 0, NULL);
+    fclose(f);
+    if (!ok) {
         free(*px);
         *px = NULL;
         return fail(err, errlen, "cannot read %s: %s", path, pi.message);
@@ -128,6 +181,11 @@ bool plat_png_read_u16(const char *path, uint16_t **px, int *w, int *h, char *er
     *w = (int)pi.width;
     *h = (int)pi.height;
     return true;
+}
+
+bool plat_png_read_u16(const char *path, uint16_t **px, int *w, int *h, char *err, int errlen)
+{
+    return plat_png_read_u16_max(path, px, w, h, PLAT_PNG_MAX_PIXELS, err, errlen);
 }
 
 bool plat_png_write_u16(const char *path, const uint16_t *px, int w, int h, char *err, int errlen)

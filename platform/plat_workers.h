@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* plat_workers: the CPU backend's thread pool. The calling thread takes part in every job and claims tasks from a
  * shared counter, so the vsync thread never waits for a worker to start: at worst for one task it already claimed. */
 #ifndef PLAT_WORKERS_H

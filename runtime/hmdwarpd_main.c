@@ -1,12 +1,15 @@
+/* SPDX-License-Identifier: MIT */
 /* hmdwarpd: the display runtime of an HMD controller board: command line, configuration, signals, and the run
  * summary. Everything else lives in rt_app and below. */
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include <systemd/sd-daemon.h>
 
+#include "platform/plat_log.h"
 #include "platform/plat_version.h"
 #include "runtime/rt_app.h"
 #include "runtime/rt_config.h"
@@ -15,10 +18,23 @@
 
 static rt_app app;
 
+static volatile sig_atomic_t stopped_by_signal;
+
 static void on_signal(int sig)
 {
     (void)sig;
+    stopped_by_signal = 1;
     rt_app_request_stop(&app); /* an atomic store: async-signal-safe */
+}
+
+/* systemd's watchdog ends a hung run with SIGABRT, which stops nothing cleanly: say what the run saw (the helper
+ * thread's last key=value set, at most a second old) with write(2) alone, then die of the signal as before. */
+static void on_abort(int sig)
+{
+    static const char head[] = "\nhmdwarpd: aborted (SIGABRT: systemd's watchdog or a failed check); the last "
+                               "statistics, at most a second old:\n";
+    if (write(STDOUT_FILENO, head, sizeof head - 1) > 0) rt_app_write_last_stats(&app, STDOUT_FILENO);
+    raise(sig); /* SA_RESETHAND: the default action now */
 }
 
 static void usage(FILE *out)
@@ -41,6 +57,10 @@ static void usage(FILE *out)
             "  --help              this text\n"
             "  --help-config       only the configuration keys below (the source of hmdwarp-board.ini(5))\n"
             "  --version           print the version and exit\n"
+            "\n"
+            "exit status: 0 the run showed host frames; 1 it could not start, or showed none (no vsync, no host\n"
+            "frame, or every one rejected: the summary's result line says which; stopped by a signal while waiting\n"
+            "for a host that sent nothing: 0); 2 configuration or option error\n"
             "\n"
             "configuration keys (board.ini sections):\n");
     rt_config_print_keys(out);
@@ -141,13 +161,15 @@ int main(int argc, char **argv)
     for (int i = 0; i < warn.count && i < 16; i++) fprintf(stderr, "hmdwarpd: warning: %s\n", warn.msg[i]);
     if (check) {
         printf("; %s: valid\n", config ? config : "built-in defaults");
+        printf("; allocates about %.0f MiB at start ([render] max_memory_mb = %g)\n",
+               (double)rt_config_memory_bytes(&cfg) / (1024.0 * 1024.0), cfg.max_memory_mb);
         rt_config_print(&cfg, stdout);
         return 0;
     }
 
     char msg[512];
     if (!rt_app_init(&app, &cfg, msg, sizeof msg)) {
-        fprintf(stderr, "hmdwarpd: %s\n", msg);
+        plat_log(PLAT_LOG_ERR, "%s", msg);
         rt_app_free(&app);
         return 1;
     }
@@ -156,6 +178,9 @@ int main(int argc, char **argv)
     sa.sa_handler = on_signal;
     sigaction(SIGINT, &sa, NULL);
     sigaction(SIGTERM, &sa, NULL);
+    sa.sa_handler = on_abort;
+    sa.sa_flags = SA_RESETHAND;
+    sigaction(SIGABRT, &sa, NULL);
     printf("hmdwarpd: board '%s', scene '%s', trace '%s', method %s, %s\n", cfg.board_name, cfg.scene, cfg.trace,
            rt_method_name(cfg.method),
            cfg.duration_s > 0 ? "running" : "running until Ctrl-C");
@@ -165,15 +190,27 @@ int main(int argc, char **argv)
     sd_notify(0, "READY=1");
     rt_app_run(&app);
     sd_notify(0, "STOPPING=1");
+    signal(SIGABRT, SIG_DFL); /* the stats buffers go with rt_app_free */
     rt_app_summary(&app, stdout);
     int rc = 0;
+    char why[256];
+    if (!rt_app_showed_frames(&app, why, sizeof why)) {
+        /* A board that showed nothing has failed: systemd and scripts must see it. Except a board stopped (systemctl
+         * stop, Ctrl-C) while it waited for a host that never sent anything: nothing was wrong with it, and a unit
+         * marked failed for that would send the user looking for a fault. */
+        bool waiting = stopped_by_signal && rt_telemetry_waiting_for_host(app.tel);
+        printf("result                       %s, nothing shown: %s\n", waiting ? "stopped" : "FAILED", why);
+        fflush(stdout);
+        fprintf(stderr, "hmdwarpd: nothing shown: %s%s\n", why, waiting ? " (stopped while waiting for a host)" : "");
+        rc = waiting ? 0 : 1;
+    }
     if (cfg.stats[0]) {
         FILE *f = fopen(cfg.stats, "w");
         if (f) {
             rt_app_stats_kv(&app, f);
             fclose(f);
         } else {
-            fprintf(stderr, "hmdwarpd: [telemetry] stats = %s: cannot write\n", cfg.stats);
+            plat_log(PLAT_LOG_ERR, "[telemetry] stats = %s: cannot write", cfg.stats);
             rc = 1;
         }
     }

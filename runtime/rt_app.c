@@ -1,17 +1,21 @@
+/* SPDX-License-Identifier: MIT */
 /* rt_app: one hmdwarpd instance: devices chosen by board.ini, the IMU, frames, compositor and helper threads, and
  * the run summary. hmdwarpd_main parses arguments; tests drive an instance directly. */
 #include "runtime/rt_app.h"
 
 #include <ctype.h>
 #include <errno.h>
+#include <fcntl.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include <systemd/sd-daemon.h>
 
 #include "drivers/drv_sim.h"
 #include "platform/plat_clock.h"
+#include "platform/plat_log.h"
 #include "platform/plat_version.h"
 #include "warp/warp_resample.h"
 
@@ -168,9 +172,41 @@ static bool render_init(rt_app *a, char *err, int errlen)
     return true;
 }
 
+static void stats_kv(rt_app *a, FILE *out, bool live);
+
+#define CSV_HEADER "vsync,vsync_ns,frame_seq,method,warp_ms,missed,m2p_ms,frame_age_ms\n"
+/* The key=value text of one live update: the --stats set is about 3 KB. */
+#define LIVE_BUF_BYTES (32 * 1024)
+#define LIVE_AUTO_DIR "/run/hmdwarp"
+
+/* [telemetry] live_stats: auto means the runtime directory systemd makes (RuntimeDirectory=hmdwarp) when it is
+ * there; a path named outright must be writable now, not first fail a second into the run. */
+static bool live_init(rt_app *a, char *err, int errlen)
+{
+    const char *want = a->cfg.live_stats;
+    if (strcmp(want, "auto") == 0)
+        want = access(LIVE_AUTO_DIR, W_OK) == 0 ? LIVE_AUTO_DIR "/stats" : "";
+    if (want[0]) {
+        char tmp[300];
+        snprintf(tmp, sizeof tmp, "%s.tmp", want);
+        int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+        if (fd < 0) return fail(err, errlen, "[telemetry] live_stats = %s: %s", want, strerror(errno));
+        close(fd);
+        unlink(tmp);
+        snprintf(a->live_path, sizeof a->live_path, "%s", want);
+    }
+    for (int i = 0; i < 2; i++) a->live_buf[i] = malloc(LIVE_BUF_BYTES);
+    a->live_m2p = calloc(1, sizeof *a->live_m2p);
+    a->live_age = calloc(1, sizeof *a->live_age);
+    if (!a->live_buf[0] || !a->live_buf[1] || !a->live_m2p || !a->live_age)
+        return fail(err, errlen, "%s%s", "out of memory", "");
+    return true;
+}
+
 bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen)
 {
     memset(a, 0, sizeof *a);
+    atomic_store(&a->live_pub, -1);
     a->cfg = *cfg;
     const rt_config *c = &a->cfg;
     char list[512];
@@ -281,11 +317,11 @@ bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen)
     if (c->csv[0]) {
         a->csv = fopen(c->csv, "w");
         if (!a->csv) return fail(err, errlen, "[telemetry] csv = %s: %s", c->csv, strerror(errno));
-        fprintf(a->csv, "vsync,vsync_ns,frame_seq,method,warp_ms,missed,m2p_ms,frame_age_ms\n");
+        a->csv_bytes = (uint64_t)fprintf(a->csv, "%s", CSV_HEADER);
         if (!rt_ring_init(&a->csv_ring, sizeof(rt_csv_row), 8192))
             return fail(err, errlen, "%s%s", "out of memory", "");
     }
-    return true;
+    return live_init(a, err, errlen);
 }
 
 /* Board mounting: the IMU's axes into the head frame the tracker works in. */
@@ -318,7 +354,7 @@ static void *imu_thread(void *arg)
                 atomic_fetch_add(&a->tel->imu_lost, 1);
                 drv_imu_stats ds;
                 drv_imu_stats_get(a->imu, &ds);
-                fprintf(stderr, "hmdwarpd: IMU %s lost (%s): holding the last orientation, retrying\n",
+                plat_log(PLAT_LOG_WARNING, "IMU %s lost (%s): holding the last orientation, retrying",
                         a->imu->name, ds.last_error[0] ? ds.last_error : strerror(-n));
                 lost = true;
             }
@@ -326,7 +362,7 @@ static void *imu_thread(void *arg)
             continue;
         }
         if (lost && n > 0) {
-            fprintf(stderr, "hmdwarpd: IMU %s is back\n", a->imu->name);
+            plat_log(PLAT_LOG_NOTICE, "IMU %s is back", a->imu->name);
             lost = false;
         }
         for (int i = 0; i < n; i++) {
@@ -360,6 +396,20 @@ static drv_frame_err prepare_frame(rt_frame *s)
     return DRV_FRAME_OK;
 }
 
+/* What a frame's dense planes hold: about what the host link carried for it (the link's MB/s), less framing and
+ * compression. The A-buffer's fragments are left out: counting them would walk every pixel's count again. */
+static uint64_t frame_bytes(const drv_frame *f)
+{
+    uint64_t px = 0, b = 0;
+    for (int e = 0; e < 2; e++) px += (uint64_t)f->color[e].w * (uint64_t)f->color[e].h;
+    if (f->planes & DRV_PLANE_COLOR) b += px * 4;
+    if (f->planes & DRV_PLANE_DEPTH) b += px * 4;
+    if (f->planes & DRV_PLANE_IDS) b += px * 2;
+    if (f->planes & DRV_PLANE_MOTION) b += px * 8;
+    if (f->planes & DRV_PLANE_LAYERS) b += px; /* the per-pixel fragment counts */
+    return b;
+}
+
 static void *frames_thread(void *arg)
 {
     rt_app *a = arg;
@@ -375,7 +425,7 @@ static void *frames_thread(void *arg)
         int64_t now = plat_now_ns();
         if (rc == 0) {
             if (seen_ok && !quiet && now - last_ok > PLAT_NS_PER_S) {
-                fprintf(stderr, "hmdwarpd: no host frame for %.1f s: warping the last good frame\n",
+                plat_log(PLAT_LOG_WARNING, "no host frame for %.1f s: warping the last good frame",
                         (double)(now - last_ok) * 1e-9);
                 quiet = true;
             }
@@ -389,7 +439,7 @@ static void *frames_thread(void *arg)
             if (!logged[e] || now - last_log > PLAT_NS_PER_S) {
                 char why[200];
                 drv_frames_last_error(a->frames, why, sizeof why);
-                fprintf(stderr, "hmdwarpd: host frame rejected (%s, %llu so far)%s%s; the last good frame stays\n",
+                plat_log(PLAT_LOG_WARNING, "host frame rejected (%s, %llu so far)%s%s; the last good frame stays",
                         drv_frame_err_str(e), (unsigned long long)n, why[0] ? ": " : "", why);
                 logged[e] = n;
                 last_log = now;
@@ -397,7 +447,7 @@ static void *frames_thread(void *arg)
             continue;
         }
         if (quiet)
-            fprintf(stderr, "hmdwarpd: host frames are back after %.1f s\n", (double)(now - last_ok) * 1e-9);
+            plat_log(PLAT_LOG_NOTICE, "host frames are back after %.1f s", (double)(now - last_ok) * 1e-9);
         quiet = false;
         seen_ok = true;
         last_ok = now;
@@ -408,18 +458,140 @@ static void *frames_thread(void *arg)
          * simulated board's clock, which is what the accuracy evaluator re-renders. */
         if (a->has_truth && !a->sim_host) slot->f.scene_time = (double)(slot->f.pose_t_ns - a->t0_ns) * 1e-9;
         atomic_fetch_add(&a->tel->frames_received, 1);
+        atomic_fetch_add_explicit(&a->tel->frames_bytes, frame_bytes(&slot->f), memory_order_relaxed);
         rt_frameq_publish(&a->fq);
     }
     return NULL;
 }
 
+/* [telemetry] csv_max_mb: the full file becomes FILE.1 (replacing the one before) and FILE starts again with its
+ * header. freopen keeps the FILE pointer, which the compositor tests (a->csv) to decide whether to queue rows. */
+static void rotate_csv(rt_app *a)
+{
+    const char *path = a->cfg.csv;
+    char old[300];
+    snprintf(old, sizeof old, "%s.1", path);
+    fflush(a->csv);
+    if (rename(path, old) != 0)
+        plat_log(PLAT_LOG_WARNING, "[telemetry] csv = %s: cannot rotate to %s (%s): starting it again", path, old,
+                 strerror(errno));
+    if (!freopen(path, "w", a->csv)) {
+        plat_log(PLAT_LOG_ERR, "[telemetry] csv = %s: cannot reopen (%s): no more CSV rows this run", path,
+                 strerror(errno));
+        a->csv_dead = true; /* freopen closed the stream */
+        return;
+    }
+    a->csv_bytes = (uint64_t)fprintf(a->csv, "%s", CSV_HEADER);
+}
+
 static void drain_csv(rt_app *a)
 {
     rt_csv_row r;
-    while (rt_ring_pop(&a->csv_ring, &r))
-        fprintf(a->csv, "%llu,%lld,%llu,%s,%.3f,%d,%.3f,%.3f\n", (unsigned long long)r.vsync_no, (long long)r.vsync_ns,
-                (unsigned long long)r.frame_seq, rt_method_name((rt_method)r.method), r.warp_ms, r.missed, r.m2p_ms,
-                r.frame_age_ms);
+    const uint64_t max = (uint64_t)(a->cfg.csv_max_mb * 1024 * 1024);
+    while (rt_ring_pop(&a->csv_ring, &r)) {
+        if (a->csv_dead) continue;
+        int n = fprintf(a->csv, "%llu,%lld,%llu,%s,%.3f,%d,%.3f,%.3f\n", (unsigned long long)r.vsync_no,
+                        (long long)r.vsync_ns, (unsigned long long)r.frame_seq, rt_method_name((rt_method)r.method),
+                        r.warp_ms, r.missed, r.m2p_ms, r.frame_age_ms);
+        if (n > 0) a->csv_bytes += (uint64_t)n;
+        if (max && a->csv_bytes >= max) rotate_csv(a);
+    }
+}
+
+/* State the helper thread keeps from one live update to the next (rates are differences over the second). */
+typedef struct {
+    int64_t t_ns;
+    uint64_t vsyncs, frames, bytes;
+    bool write_failed; /* said once, not every second */
+} live_prev;
+
+/* The key=value text into the buffer not published, then published: the abort handler may read the other one
+ * at any moment. fmemopen over the fixed buffer: nothing allocated per update but the FILE. */
+static size_t live_render(rt_app *a, bool live)
+{
+    int pub = atomic_load(&a->live_pub);
+    int next = pub == 0 ? 1 : 0;
+    FILE *f = fmemopen(a->live_buf[next], LIVE_BUF_BYTES, "w");
+    if (!f) return 0;
+    stats_kv(a, f, live);
+    long n = ftell(f);
+    fclose(f);
+    if (n <= 0) return 0;
+    if (n >= LIVE_BUF_BYTES) n = LIVE_BUF_BYTES - 1;
+    atomic_store(&a->live_len[next], (size_t)n);
+    atomic_store(&a->live_pub, next);
+    return (size_t)n;
+}
+
+/* Rewritten whole and renamed into place: a reader sees the last complete second or the one before, never half. */
+static bool live_write_file(rt_app *a, const char *text, size_t len)
+{
+    char tmp[300];
+    snprintf(tmp, sizeof tmp, "%s.tmp", a->live_path);
+    int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    if (fd < 0) return false;
+    size_t off = 0;
+    while (off < len) {
+        ssize_t w = write(fd, text + off, len - off);
+        if (w < 0 && errno == EINTR) continue;
+        if (w <= 0) break;
+        off += (size_t)w;
+    }
+    bool ok = off == len && close(fd) == 0;
+    if (off != len) close(fd);
+    if (ok && rename(tmp, a->live_path) == 0) return true;
+    unlink(tmp);
+    return false;
+}
+
+/* Once a second: the stats text (file and abort handler) and systemd's STATUS line. The STATUS percentiles are
+ * over the last second; the file's, like --stats, over the whole run. */
+static void live_update(rt_app *a, live_prev *p, bool notify)
+{
+    const rt_telemetry *t = a->tel;
+    size_t len = live_render(a, true);
+    if (a->live_path[0] && len) {
+        int pub = atomic_load(&a->live_pub);
+        bool ok = live_write_file(a, a->live_buf[pub], len);
+        if (!ok && !p->write_failed)
+            plat_log(PLAT_LOG_WARNING, "[telemetry] live_stats = %s: cannot write (%s); retrying each second",
+                     a->live_path, strerror(errno));
+        if (ok && p->write_failed) plat_log(PLAT_LOG_NOTICE, "[telemetry] live_stats = %s: written again", a->live_path);
+        p->write_failed = !ok;
+    }
+    int64_t now = plat_now_ns();
+    uint64_t v = t->vsyncs, fr = t->frames_received, by = t->frames_bytes;
+    double dt = p->t_ns ? (double)(now - p->t_ns) * 1e-9 : 0;
+    double m2p = rt_hist_pct_since(&t->m2p_ms, a->live_m2p, 99);
+    double age = rt_hist_pct_since(&t->frame_age_ms, a->live_age, 50);
+    if (notify && dt > 0)
+        sd_notifyf(0,
+                   "STATUS=%.1f vsyncs/s, %llu vsyncs, missed %llu (own %llu, woken late %llu, descheduled %llu, "
+                   "no free image %llu); last second: m2p p99 %.1f ms, frame age p50 %.1f ms; link %.1f MB/s, "
+                   "%.1f frames/s",
+                   (double)(v - p->vsyncs) / dt, (unsigned long long)v, (unsigned long long)t->missed,
+                   (unsigned long long)t->missed_by[RT_MISS_OWN], (unsigned long long)t->missed_by[RT_MISS_LATE_WAKE],
+                   (unsigned long long)t->missed_by[RT_MISS_DESCHEDULED],
+                   (unsigned long long)t->missed_by[RT_MISS_NO_BUFFER], m2p, age,
+                   (double)(by - p->bytes) / dt / (1024 * 1024), (double)(fr - p->frames) / dt);
+    p->t_ns = now;
+    p->vsyncs = v;
+    p->frames = fr;
+    p->bytes = by;
+}
+
+bool rt_app_write_last_stats(rt_app *a, int fd)
+{
+    int pub = atomic_load(&a->live_pub);
+    if (pub < 0 || !a->live_buf[pub]) return false;
+    size_t len = atomic_load(&a->live_len[pub]), off = 0;
+    while (off < len) {
+        ssize_t w = write(fd, a->live_buf[pub] + off, len - off);
+        if (w < 0 && errno == EINTR) continue;
+        if (w <= 0) return false;
+        off += (size_t)w;
+    }
+    return true;
 }
 
 static void *aux_thread(void *arg)
@@ -431,9 +603,18 @@ static void *aux_thread(void *arg)
      * from here too, but only while the vsync loop advances: a compositor that stops presenting gets restarted. */
     uint64_t usec = 0, last_vsyncs = UINT64_MAX;
     bool watchdog = sd_watchdog_enabled(0, &usec) > 0 && usec > 0;
-    int64_t next_ping = plat_now_ns();
+    /* STATUS= only under systemd (sd_notify is a no-op elsewhere, but formatting it need not run) */
+    bool notify = getenv("NOTIFY_SOCKET") != NULL;
+    int64_t next_ping = plat_now_ns(), next_live = plat_now_ns() + PLAT_NS_PER_S;
+    live_prev lp = {0};
+    live_update(a, &lp, false); /* marks and rates start now; the abort handler has something from the start */
     while (!atomic_load(&a->stop)) {
         if (a->csv) drain_csv(a);
+        if (plat_now_ns() >= next_live) {
+            live_update(a, &lp, notify);
+            next_live += PLAT_NS_PER_S;
+            if (next_live < plat_now_ns()) next_live = plat_now_ns() + PLAT_NS_PER_S; /* after a stall: no burst */
+        }
         if (watchdog && plat_now_ns() >= next_ping) {
             uint64_t v = a->tel->vsyncs;
             if (v != last_vsyncs) sd_notify(0, "WATCHDOG=1");
@@ -446,12 +627,22 @@ static void *aux_thread(void *arg)
     return NULL;
 }
 
+/* The last word of the live file once every thread has stopped: what --stats says (running=0), so hmdwarp-top
+ * shows the end. */
+static void live_final(rt_app *a)
+{
+    size_t len = live_render(a, false);
+    if (a->live_path[0] && len && !live_write_file(a, a->live_buf[atomic_load(&a->live_pub)], len))
+        plat_log(PLAT_LOG_WARNING, "[telemetry] live_stats = %s: cannot write (%s)", a->live_path, strerror(errno));
+}
+
 void rt_app_request_stop(rt_app *a) { atomic_store(&a->stop, 1); }
 
 void rt_app_run(rt_app *a)
 {
     pthread_t eval_th;
     bool eval_up = a->has_truth && a->cfg.eval_every_ms > 0 && pthread_create(&eval_th, NULL, rt_eval_thread, a) == 0;
+    a->run_start_ns = plat_now_ns();
     a->th_imu_up = pthread_create(&a->th_imu, NULL, imu_thread, a) == 0;
     a->th_frames_up = pthread_create(&a->th_frames, NULL, frames_thread, a) == 0;
     a->th_aux_up = pthread_create(&a->th_aux, NULL, aux_thread, a) == 0;
@@ -460,11 +651,13 @@ void rt_app_run(rt_app *a)
     /* Everything is allocated by now; keep it resident so no page fault lands on the vsync path. */
     if (a->realtime) a->memory_locked = plat_lock_memory();
     rt_compositor_run(a);
+    int64_t end = plat_now_ns(); /* stored once the helper thread, which reads it, has stopped */
     atomic_store(&a->stop, 1);
     if (a->th_imu_up) pthread_join(a->th_imu, NULL);
     if (a->th_frames_up) pthread_join(a->th_frames, NULL);
     if (a->th_aux_up) pthread_join(a->th_aux, NULL);
     if (eval_up) pthread_join(eval_th, NULL);
+    a->run_end_ns = end;
     plat_display_flush(a->display);
     if (a->sim_host) {
         drv_frames_sim_stats st;
@@ -472,6 +665,7 @@ void rt_app_run(rt_app *a)
         a->sim_frames = st.frames;
         memcpy(a->sim_plane_renders, st.plane_renders, sizeof st.plane_renders);
     }
+    live_final(a);
 }
 
 static void pct_line(FILE *out, const char *label, const rt_hist *h)
@@ -514,7 +708,9 @@ void rt_app_summary(rt_app *a, FILE *out)
                      "%llu, descheduled %llu; no free image %llu\n",
                 (unsigned long long)t->missed_by[RT_MISS_OWN], (unsigned long long)t->missed_by[RT_MISS_LATE_WAKE],
                 (unsigned long long)t->missed_by[RT_MISS_DESCHEDULED], (unsigned long long)t->missed_by[RT_MISS_NO_BUFFER]);
-    rt_miss_advice(t->missed_by, a->use_gles, a->gles_software, buf, sizeof buf);
+    uint64_t missed_by[RT_MISS_COUNT];
+    for (int m = 0; m < RT_MISS_COUNT; m++) missed_by[m] = t->missed_by[m];
+    rt_miss_advice(missed_by, a->use_gles, a->gles_software, buf, sizeof buf);
     if (buf[0]) fprintf(out, "  misses, what to do         %s\n", buf);
     for (int m = 0; m < RT_METHOD_COUNT; m++)
         if (t->method_count[m]) {
@@ -644,13 +840,24 @@ void rt_app_summary(rt_app *a, FILE *out)
     if (a->csv) fprintf(out, "per-vsync CSV                %s\n", c->csv);
 }
 
-void rt_app_stats_kv(rt_app *a, FILE *out)
+void rt_app_stats_kv(rt_app *a, FILE *out) { stats_kv(a, out, false); }
+
+/* live: while the run goes on (the helper thread), leaving out what another thread accumulates unpublished until
+ * the end (the accuracy evaluator's sums). */
+static void stats_kv(rt_app *a, FILE *out, bool live)
 {
     const rt_config *c = &a->cfg;
     const rt_telemetry *t = a->tel;
 #define KV(k, fmt, v) fprintf(out, "%s=" fmt "\n", k, v)
 #define KVU(k, v) KV(k, "%llu", (unsigned long long)(v))
     KV("version", "%s", plat_version());
+    KV("running", "%d", live);
+    {
+        /* since the display started (after the simulated IMU's rest) until it stopped (not the accuracy
+         * evaluation catching up afterwards): the span the vsync counts cover */
+        int64_t since = a->run_start_ns ? (a->run_end_ns ? a->run_end_ns : plat_now_ns()) - a->t0_ns : 0;
+        KV("run_s", "%.1f", since > 0 ? (double)since * 1e-9 : 0.0);
+    }
     KV("board", "%s", c->board_name);
     KV("imu_backend", "%s", a->imu ? a->imu->name : "");
     KV("frames_backend", "%s", a->frames ? a->frames->name : "");
@@ -711,6 +918,7 @@ void rt_app_stats_kv(rt_app *a, FILE *out)
     }
     KVU("method_switches", t->method_switches);
     KVU("frames_received", t->frames_received);
+    KVU("frames_bytes", t->frames_bytes);
     KVU("frames_shown", t->new_frames_shown);
     KVU("frames_dropped", t->frames_dropped);
     uint64_t rejected = 0;
@@ -756,7 +964,7 @@ void rt_app_stats_kv(rt_app *a, FILE *out)
         }
     }
     static const char *const names[RT_EVAL_METHODS] = {"none", "rotation", "raytrace", "raytrace_mesh"};
-    for (int m = 0; m < RT_EVAL_METHODS; m++)
+    for (int m = 0; m < RT_EVAL_METHODS && !live; m++)
         if (a->eval[m].n) {
             char k[64];
             snprintf(k, sizeof k, "psnr_%s", names[m]);
@@ -766,6 +974,32 @@ void rt_app_stats_kv(rt_app *a, FILE *out)
         }
 #undef KV
 #undef KVU
+}
+
+bool rt_app_showed_frames(const rt_app *a, char *why, int whylen)
+{
+    const rt_telemetry *t = a->tel;
+    uint64_t rejected = 0;
+    int most = 0;
+    for (int e = 1; e < DRV_FRAME_ERR_COUNT; e++) {
+        rejected += t->frames_rejected[e];
+        if (t->frames_rejected[e] > t->frames_rejected[most]) most = e;
+    }
+    why[0] = 0;
+    if (t->vsyncs == 0)
+        snprintf(why, (size_t)whylen, "no vsync was presented (the configuration is more than this machine can "
+                                      "warp at %.0f Hz, or the vsync source gave nothing)", a->cfg.refresh_hz);
+    else if (t->new_frames_shown > 0)
+        return true;
+    else if (rejected && !t->frames_received)
+        snprintf(why, (size_t)whylen, "every host frame was rejected (%llu, most as %s)",
+                 (unsigned long long)rejected, drv_frame_err_str((drv_frame_err)most));
+    else if (!t->frames_received)
+        snprintf(why, (size_t)whylen, "no host frame arrived in %llu vsyncs", (unsigned long long)t->vsyncs);
+    else
+        snprintf(why, (size_t)whylen, "%llu host frames arrived, none was shown",
+                 (unsigned long long)t->frames_received);
+    return false;
 }
 
 void rt_app_free(rt_app *a)
@@ -794,7 +1028,11 @@ void rt_app_free(rt_app *a)
     rt_frameq_free(&a->fq);
     rt_ring_free(&a->eval_ring);
     rt_ring_free(&a->csv_ring);
-    if (a->csv) fclose(a->csv);
+    if (a->csv && !a->csv_dead) fclose(a->csv);
+    free(a->live_buf[0]);
+    free(a->live_buf[1]);
+    free(a->live_m2p);
+    free(a->live_age);
     free(a->fusion);
     rt_telemetry_destroy(a->tel);
     memset(a, 0, sizeof *a);

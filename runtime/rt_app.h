@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* rt_app: one hmdwarpd instance: devices chosen by board.ini, the IMU, frames, compositor and helper threads, and
  * the run summary. hmdwarpd_main parses arguments; tests drive an instance directly. */
 #ifndef RT_APP_H
@@ -133,7 +134,7 @@ typedef struct {
     bool gles_depth;            /* the GLES resources include depth, pyramid and raytrace */
     const rt_frame *gles_frame; /* the frame whose planes are in the GLES textures */
     uint64_t gles_frame_seq;
-    uint64_t gles_errors;       /* failed uploads, readbacks or page flips */
+    _Atomic uint64_t gles_errors; /* failed uploads, readbacks or page flips (read live: atomic) */
     char gles_last_error[200];
     rt_hist *gles_ms;           /* [PLAT_GLES_PASSES] GPU time per pass and vsync (compositor thread) */
     uint64_t gles_times_seq;
@@ -144,6 +145,16 @@ typedef struct {
     rt_telemetry *tel;
     rt_ring csv_ring;
     FILE *csv;
+    uint64_t csv_bytes;        /* written to the current CSV file (helper thread), for [telemetry] csv_max_mb */
+    bool csv_dead;             /* rotation could not reopen the CSV: rows are dropped, a->csv is closed */
+    /* live telemetry, from the helper thread once a second: the key=value set of --stats in one of two buffers,
+     * the other being rewritten; the abort handler writes the published one (rt_app_write_last_stats) */
+    int64_t run_start_ns, run_end_ns; /* rt_app_run's start; the compositor's return (0 while running) */
+    char live_path[256];       /* [telemetry] live_stats resolved ("" = off) */
+    char *live_buf[2];
+    _Atomic size_t live_len[2];
+    _Atomic int live_pub;      /* the buffer complete and published, -1 none yet */
+    rt_hist_mark *live_m2p, *live_age; /* the histograms' counts a second ago (STATUS's "last second") */
 
     /* simulated board */
     const sim_scene *scene;
@@ -170,6 +181,12 @@ void rt_app_request_stop(rt_app *a);
 void rt_app_summary(rt_app *a, FILE *out);
 /* The summary as key=value lines, one per counter, for scripts (hardware-in-the-loop scenarios). */
 void rt_app_stats_kv(rt_app *a, FILE *out);
+/* Whether the run showed at least one host frame. False, with the reason in one line, when it presented no vsync,
+ * received no host frame, or rejected every one it received: such a run fails (hmdwarpd exits 1). */
+bool rt_app_showed_frames(const rt_app *a, char *why, int whylen);
+/* Writes the key=value lines the helper thread last published (at most a second old) to fd with write(2);
+ * async-signal-safe, for the abort handler. Returns false when none was published yet. */
+bool rt_app_write_last_stats(rt_app *a, int fd);
 void rt_app_free(rt_app *a);
 
 /* Opens the IMU, frames and vsync backends board.ini names (rt_devices.c); sp describes the simulated host,

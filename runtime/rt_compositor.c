@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* rt_compositor: the vsync-paced loop: just before each vsync it predicts the head pose at photon time, takes the
  * newest host frame, warps and distorts it into a free swapchain image and presents it. No allocation, no I/O, no
  * locks on this path. */
@@ -6,6 +7,7 @@
 #include <string.h>
 
 #include "platform/plat_clock.h"
+#include "platform/plat_log.h"
 #include "runtime/rt_app.h"
 #include "warp/warp_raytrace.h"
 #include "warp/warp_resample.h"
@@ -349,8 +351,8 @@ void rt_compositor_run(rt_app *a)
     j.a = a;
     bool gles = a->use_gles;
     if (gles && !plat_egl_make_current(a->egl)) {
-        fprintf(stderr, "hmdwarpd: cannot make the EGL context current on the compositor thread: using the CPU "
-                        "path\n");
+        plat_log(PLAT_LOG_WARNING, "cannot make the EGL context current on the compositor thread: using the CPU "
+                                   "path");
         snprintf(a->render_why + strlen(a->render_why), sizeof a->render_why - strlen(a->render_why),
                  "; the EGL context could not be made current: fell back to cpu");
         a->use_gles = gles = false;

@@ -1,14 +1,20 @@
+/* SPDX-License-Identifier: MIT */
 /* rt_config: hmdwarpd's settings: defaults, board.ini parsing (inih) with errors naming line and key, command-line
  * overrides (section.key=value) and validation. One table defines every key, its range and its help text. */
 #include "runtime/rt_config.h"
 
+#include <errno.h>
+#include <fcntl.h>
 #include <ini.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
+#include "drivers/drv_framelink.h"
 #include "warp/warp_head.h"
 
 static const char *const method_names[] = {"none",    "rotation",      "raytrace", "transparency",
@@ -81,6 +87,10 @@ static const keydef keys[] = {
      "the same image bit for bit, they differ in speed (an emulator may run the plain ones faster)"},
     {"render", "rt_priority", K_INT, F(rt_priority), 0, 0, 99, NULL,
      "SCHED_FIFO priority for the compositor when permitted (0 = normal scheduling)"},
+    {"render", "max_memory_mb", K_DOUBLE, F(max_memory_mb), 0, 16, 1048576, NULL,
+     "memory the configuration may allocate at start, MiB (swapchain, frame slots, the warps' buffers, the frame "
+     "backend's buffers; an estimate of the large ones): a board.ini whose eye or panel size or max_frame_mb needs "
+     "more fails --check-config instead of locking the board's memory; raise it on a board with more to spare"},
     {"render", "stall_reserve_ms", K_DOUBLE, F(stall_reserve_ms), 0, 0, 100, NULL,
      "extra time each pass starts ahead of its vsync, beyond its longest recent warp, so that the scheduler keeping "
      "the compositor off the CPU that long (a VM, a shared desktop) costs no vsync; at most a period; adds as "
@@ -161,7 +171,8 @@ static const keydef keys[] = {
     {"sim", "eval_every_ms", K_DOUBLE, F(eval_every_ms), 0, 0, 1e6, NULL,
      "compare a displayed frame with ground truth this often (0 = off)"},
     {"mock", "corrupt_every", K_INT, F(mock_corrupt_every), 0, 0, 1000000, NULL,
-     "mock devices: garble every Nth HID report / host frame (0 = never)"},
+     "mock devices: garble every Nth HID report / host frame (USB: a flipped byte; V4L2: a damaged band or a "
+     "picture without it, in turn) (0 = never)"},
     {"mock", "truncate_every", K_INT, F(mock_truncate_every), 0, 0, 1000000, NULL,
      "mock host link: cut every Nth frame short (0 = never)"},
     {"mock", "imu_unplug_at_s", K_DOUBLE, F(mock_imu_unplug_at_s), 0, 0, 1e6, NULL,
@@ -177,8 +188,14 @@ static const keydef keys[] = {
     {"telemetry", "csv", K_STR, F(csv), S(csv), 0, 0, NULL, "write one CSV row per vsync to this file"},
     {"telemetry", "stats", K_STR, F(stats), S(stats), 0, 0, NULL,
      "write the run summary as key=value lines to this file at exit (for scripts)"},
+    {"telemetry", "live_stats", K_STR, F(live_stats), S(live_stats), 0, 0, NULL,
+     "rewrite those key=value lines to this file every second while running, for hmdwarp-top (empty = off; auto = "
+     "/run/hmdwarp/stats when that directory is writable)"},
+    {"telemetry", "csv_max_mb", K_DOUBLE, F(csv_max_mb), 0, 0, 1e6, NULL,
+     "rotate the per-vsync CSV at this size: the full one becomes FILE.1 (0 = never)"},
 };
 #define NKEYS (int)(sizeof keys / sizeof keys[0])
+_Static_assert(NKEYS <= RT_CONFIG_MAX_KEYS, "rt_config's origin table is smaller than the key table");
 
 void rt_config_defaults(rt_config *c)
 {
@@ -197,9 +214,12 @@ void rt_config_defaults(rt_config *c)
     snprintf(c->kms_connector, sizeof c->kms_connector, "auto");
     snprintf(c->kms_mode, sizeof c->kms_mode, "auto");
     snprintf(c->renderer, sizeof c->renderer, "auto");
+    snprintf(c->live_stats, sizeof c->live_stats, "auto");
+    c->csv_max_mb = 64; /* 16 MB an hour at 90 Hz: four hours in CSV, four in CSV.1 */
     c->kernel = 0; /* auto */
     c->threads = 2;
     c->rt_priority = 10;
+    c->max_memory_mb = 2048; /* half of a 4 GB board: the OS, the page cache and the USB gadget need the rest */
     c->eye_w = 1440;
     c->eye_h = 1600;
     c->fov_deg[0] = 52; c->fov_deg[1] = 48; c->fov_deg[2] = 52; c->fov_deg[3] = 52;
@@ -279,9 +299,12 @@ static void list_names(const char *const *names, char *buf, size_t len)
     }
 }
 
-/* Sets one key; `where` is "file:line" or "command line" for messages. */
+static bool set_value(rt_config *c, const keydef *k, const char *section, const char *key, const char *value,
+                      const char *where, rt_config_errors *err);
+
+/* Sets one key; `where` is "file:line" or "command line" for messages, `origin` goes to c->origin (see there). */
 static bool set_key(rt_config *c, const char *section, const char *key, const char *value, const char *where,
-                    rt_config_errors *err)
+                    int origin, rt_config_errors *err)
 {
     const keydef *k = NULL;
     bool section_known = false;
@@ -301,6 +324,20 @@ static bool set_key(rt_config *c, const char *section, const char *key, const ch
         add_error(err, "%s: unknown key '%s' in [%s]", where, key, section);
         return false;
     }
+    /* Recorded now and put back if the value is refused: a refused value leaves the key as it was. */
+    const int idx = (int)(k - keys);
+    const int32_t old_origin = c->origin[idx];
+    c->origin[idx] = origin;
+    if (!set_value(c, k, section, key, value, where, err)) {
+        c->origin[idx] = old_origin;
+        return false;
+    }
+    return true;
+}
+
+static bool set_value(rt_config *c, const keydef *k, const char *section, const char *key, const char *value,
+                      const char *where, rt_config_errors *err)
+{
     char *base = (char *)c + k->off;
     switch (k->type) {
     case K_INT: {
@@ -387,73 +424,185 @@ static bool set_key(rt_config *c, const char *section, const char *key, const ch
     return false;
 }
 
-/* inih hands lines over through a reader; counting them there gives every handler call its line number. */
+/* inih (Debian's libinih) reads at most INI_MAX_LINE - 1 characters a line and carries the rest over as a line of
+ * its own, which shifted every later line number. So the file is read here, whole, and inih is handed one line per
+ * reader call: a line too long for it, or one inih would call a syntax error, is reported here with its own
+ * number, in line order, and inih gets an empty line in its place. */
 typedef struct {
     rt_config *c;
     rt_config_errors *err;
     const char *name;
-    int line;
-    FILE *f;
     const char *text;
+    int line;
+    bool after_key;     /* the last line inih parsed was a key: an indented line continues its value */
+    bool bad_section;   /* inside an unclosed '[section': its keys would land in the section before it */
     bool ok;
 } parse_ctx;
+
+/* inih's scan for a delimiter that stops at an inline comment (';' after whitespace). */
+static const char *find_chars_or_comment(const char *s, const char *chars)
+{
+    bool was_space = false;
+    while (*s && !strchr(chars, *s) && !(was_space && *s == ';')) {
+        was_space = *s == ' ' || *s == '\t' || *s == '\r' || *s == '\f' || *s == '\v';
+        s++;
+    }
+    return s;
+}
+
+/* Classifies the line as inih will (ini.c, ini_parse_stream); false when inih would call it a syntax error,
+ * after recording the error. Continuation lines and keys are inih's to handle. */
+static bool check_line(parse_ctx *p, const char *line)
+{
+    const char *s = line;
+    if (p->line == 1 && (unsigned char)s[0] == 0xEF && (unsigned char)s[1] == 0xBB && (unsigned char)s[2] == 0xBF)
+        s += 3;
+    const char *start = s;
+    while (*start == ' ' || *start == '\t' || *start == '\r') start++;
+    if (!*start || *start == ';' || *start == '#') return true;
+    if (p->after_key && start > s) return true; /* INI_ALLOW_MULTILINE: the value goes on */
+    if (*start == '[') {
+        const char *end = find_chars_or_comment(start + 1, "]");
+        if (*end == ']') {
+            p->bad_section = false;
+            p->after_key = false;
+            return true;
+        }
+        int n = (int)strcspn(start, " \t;");
+        add_error(p->err, "%s:%d: '%.*s': section header without ']' (the keys after it, up to the next section, "
+                          "are not read)", p->name, p->line, n > 40 ? 40 : n, start);
+        p->bad_section = true;
+        p->after_key = false;
+        return false;
+    }
+    const char *end = find_chars_or_comment(start, "=:");
+    if (*end == '=' || *end == ':') {
+        p->after_key = true;
+        return true;
+    }
+    add_error(p->err, "%s:%d: syntax error (expected '[section]' or 'key = value')", p->name, p->line);
+    return false;
+}
 
 static char *reader(char *str, int num, void *stream)
 {
     parse_ctx *p = stream;
-    if (p->f) {
-        if (!fgets(str, num, p->f)) return NULL;
-    } else {
-        if (!*p->text) return NULL;
-        int i = 0;
-        while (i < num - 1 && p->text[i] && p->text[i] != '\n') {
-            str[i] = p->text[i];
-            i++;
-        }
-        if (p->text[i] == '\n' && i < num - 1) str[i++] = '\n';
-        str[i] = 0;
-        p->text += i;
-    }
+    if (!*p->text) return NULL;
+    const char *nl = strchr(p->text, '\n');
+    size_t len = nl ? (size_t)(nl - p->text) : strlen(p->text);
+    const char *next = nl ? nl + 1 : p->text + len;
+    if (len && p->text[len - 1] == '\r') len--;
     p->line++;
+    str[0] = 0;
+    if (len > (size_t)num - 1) {
+        /* what a line holds is unknown past inih's buffer: the section it may open is too */
+        add_error(p->err, "%s:%d: longer than %d characters (inih's limit): not read", p->name, p->line, num - 1);
+        p->ok = false;
+    } else {
+        memcpy(str, p->text, len);
+        str[len] = 0;
+        if (!check_line(p, str)) {
+            p->ok = false;
+            str[0] = 0;
+        }
+    }
+    p->text = next;
     return str;
 }
 
 static int handler(void *user, const char *section, const char *name, const char *value)
 {
     parse_ctx *p = user;
+    if (p->bad_section) return 1; /* reported once, at the unclosed header */
     char where[300];
     snprintf(where, sizeof where, "%s:%d", p->name, p->line);
-    if (!set_key(p->c, section, name, value, where, p->err)) p->ok = false;
+    if (!set_key(p->c, section, name, value, where, p->line, p->err)) p->ok = false;
     return 1; /* keep going: report every problem of the file at once */
 }
 
-static bool parse(parse_ctx *p)
+static bool parse(rt_config *c, const char *text, const char *name, rt_config_errors *err)
 {
-    p->ok = true;
-    int r = ini_parse_stream(reader, p, handler, p);
-    if (r > 0) {
-        add_error(p->err, "%s:%d: syntax error (expected '[section]' or 'key = value')", p->name, r);
-        p->ok = false;
+    parse_ctx p = {c, err, name, text, 0, false, false, true};
+    snprintf(c->origin_file, sizeof c->origin_file, "%s", name);
+    int r = ini_parse_stream(reader, &p, handler, &p);
+    if (r > 0) { /* a case check_line does not know: still reported, with inih's line number */
+        add_error(err, "%s:%d: syntax error (expected '[section]' or 'key = value')", name, r);
+        p.ok = false;
+    } else if (r < 0) {
+        add_error(err, "%s: cannot be parsed (inih error %d)", name, r);
+        p.ok = false;
     }
-    return p->ok;
+    return p.ok;
 }
 
 bool rt_config_load(rt_config *c, const char *path, rt_config_errors *err)
 {
-    parse_ctx p = {c, err, path, 0, fopen(path, "r"), NULL, true};
-    if (!p.f) {
-        add_error(err, "%s: cannot open config file", path);
+    /* O_NONBLOCK: a FIFO given as the config must not hang the open; nothing but a regular file is read. */
+    int fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+    if (fd < 0) {
+        add_error(err, "%s: cannot open config file: %s", path, strerror(errno));
         return false;
     }
-    bool ok = parse(&p);
-    fclose(p.f);
+    struct stat st;
+    const off_t limit = (off_t)RT_CONFIG_MAX_FILE_KB * 1024;
+    if (fstat(fd, &st) != 0) {
+        add_error(err, "%s: cannot stat config file: %s", path, strerror(errno));
+        close(fd);
+        return false;
+    }
+    if (S_ISDIR(st.st_mode) || !S_ISREG(st.st_mode)) {
+        add_error(err, "%s: %s, not a board.ini file", path,
+                  S_ISDIR(st.st_mode) ? "a directory" : "not a regular file");
+        close(fd);
+        return false;
+    }
+    if (st.st_size > limit) {
+        add_error(err, "%s: larger than %d KB, not a board.ini file", path, RT_CONFIG_MAX_FILE_KB);
+        close(fd);
+        return false;
+    }
+    /* Read at most limit + 1 bytes whatever fstat said: the file may grow while it is read. */
+    char *text = malloc((size_t)limit + 2);
+    size_t n = 0;
+    bool read_ok = text != NULL;
+    while (read_ok && n <= (size_t)limit) {
+        ssize_t r = read(fd, text + n, (size_t)limit + 1 - n);
+        if (r < 0 && errno == EINTR) continue;
+        if (r < 0) {
+            add_error(err, "%s: cannot read config file: %s", path, strerror(errno));
+            read_ok = false;
+        }
+        if (r <= 0) break;
+        n += (size_t)r;
+    }
+    close(fd);
+    if (!text) add_error(err, "%s: out of memory", path);
+    if (!read_ok) {
+        free(text);
+        return false;
+    }
+    if (n > (size_t)limit) {
+        add_error(err, "%s: larger than %d KB, not a board.ini file", path, RT_CONFIG_MAX_FILE_KB);
+        free(text);
+        return false;
+    }
+    text[n] = 0;
+    const char *nul = memchr(text, 0, n);
+    if (nul) {
+        int line = 1;
+        for (const char *q = text; q < nul; q++) line += *q == '\n';
+        add_error(err, "%s:%d: a NUL byte: not a text file", path, line);
+        free(text);
+        return false;
+    }
+    bool ok = parse(c, text, path, err);
+    free(text);
     return ok;
 }
 
 bool rt_config_load_string(rt_config *c, const char *text, const char *name, rt_config_errors *err)
 {
-    parse_ctx p = {c, err, name, 0, NULL, text, true};
-    return parse(&p);
+    return parse(c, text, name, err);
 }
 
 bool rt_config_set(rt_config *c, const char *assignment, rt_config_errors *err)
@@ -463,10 +612,11 @@ bool rt_config_set(rt_config *c, const char *assignment, rt_config_errors *err)
         add_error(err, "command line: '%s': expected section.key=value", assignment);
         return false;
     }
+    c->overrides++; /* counted whether or not it applies, so the numbers follow the command line */
     char section[64], key[64];
     snprintf(section, sizeof section, "%.*s", (int)(dot - assignment), assignment);
     snprintf(key, sizeof key, "%.*s", (int)(eq - dot - 1), dot + 1);
-    return set_key(c, section, key, eq + 1, "command line", err);
+    return set_key(c, section, key, eq + 1, "command line", -c->overrides, err);
 }
 
 warp_camera rt_config_eye_camera(const rt_config *c, int eye)
@@ -527,40 +677,159 @@ bool rt_config_parse_axes(const char *s, int map[3], int sign[3])
     return n == 3;
 }
 
+/* Index in keys[] of "section.key" given as the first n characters of s, or -1. */
+static int key_index(const char *s, size_t n)
+{
+    const char *dot = memchr(s, '.', n);
+    if (!dot) return -1;
+    size_t ls = (size_t)(dot - s), lk = n - ls - 1;
+    for (int i = 0; i < NKEYS; i++)
+        if (strlen(keys[i].section) == ls && !strncmp(keys[i].section, s, ls) && strlen(keys[i].key) == lk &&
+            !strncmp(keys[i].key, dot + 1, lk))
+            return i;
+    return -1;
+}
+
+/* "[sec] key (file:line)" for each "sec.key" of the space-separated list: where each key of a cross-key error was
+ * set (or that it was left at its default). */
+static const char *keys_at(const rt_config *c, const char *list, char *buf, size_t len)
+{
+    buf[0] = 0;
+    while (*list) {
+        size_t n = strcspn(list, " ");
+        int idx = key_index(list, n);
+        char one[300];
+        if (idx < 0)
+            snprintf(one, sizeof one, "%.*s", (int)n, list); /* a typo in this file; shows in the message */
+        else if (c->origin[idx] > 0)
+            snprintf(one, sizeof one, "[%s] %s (%s:%d)", keys[idx].section, keys[idx].key, c->origin_file,
+                     (int)c->origin[idx]);
+        else if (c->origin[idx] < 0)
+            snprintf(one, sizeof one, "[%s] %s (command line, override %d)", keys[idx].section, keys[idx].key,
+                     (int)-c->origin[idx]);
+        else
+            snprintf(one, sizeof one, "[%s] %s (default)", keys[idx].section, keys[idx].key);
+        snprintf(buf + strlen(buf), len - strlen(buf), "%s%s", buf[0] ? ", " : "", one);
+        list += n;
+        while (*list == ' ') list++;
+    }
+    return buf;
+}
+
+/* The planes the runtime asks a host for (rt_app_init's planes_wanted): colour and depth, ids for the object warp,
+ * layers for the transparency warp. */
+static bool wants_ids(const rt_config *c) { return c->method == RT_METHOD_OBJECTS || c->method == RT_METHOD_AUTO; }
+static bool wants_layers(const rt_config *c)
+{
+    return c->method == RT_METHOD_TRANSPARENCY || c->method == RT_METHOD_AUTO;
+}
+
+uint64_t rt_config_frame_bytes(const rt_config *c)
+{
+    /* per pixel: RGBA8 colour, float32 depth, u16 ids, the layers' per-pixel count (no fragments: the least) */
+    const uint64_t px = 2 * (uint64_t)c->eye_w * (uint64_t)c->eye_h;
+    const uint64_t per_px = 4 + 4 + (wants_ids(c) ? 2 : 0) + (wants_layers(c) ? 1 : 0);
+    return DRV_FRAMELINK_MAX_HEADER + 4 + px * per_px;
+}
+
+uint64_t rt_config_memory_bytes(const rt_config *c)
+{
+    /* Bytes per eye-buffer pixel and eye of each allocation (rt_app_init, rt_frameq_init, drv_frame_alloc). */
+    enum { COLOR = 4, DEPTH = 4, IDS = 2, LAYERS = 1 + 4 * 12, PLANAR = 6, INV_DEPTH = 4, OPAQUE = 4 };
+    const bool ids = wants_ids(c), layers = wants_layers(c);
+    const uint64_t eye_px = (uint64_t)c->eye_w * (uint64_t)c->eye_h, eyes = 2;
+    const uint64_t frame = eyes * eye_px * (COLOR + DEPTH + (ids ? IDS : 0) + (layers ? LAYERS : 0));
+    uint64_t total = 0;
+    /* swapchain: three panel images, four with a stall reserve */
+    total += (c->stall_reserve_ms > 0 ? 4 : 3) * (uint64_t)c->panel_w * (uint64_t)c->panel_h * 4;
+    /* the frame queue's three slots: the frame and what is derived from it once per host frame */
+    total += 3 * (frame + eyes * eye_px * (PLANAR + INV_DEPTH + (layers ? OPAQUE : 0)));
+    /* the depth warps' eye-sized buffers (intermediate image, its planar copy, masks; transparency's depth and
+     * min/max tree; the forward warp's scratch and hole filling for objects) */
+    if (c->method != RT_METHOD_NONE && c->method != RT_METHOD_ROTATION)
+        total += eyes * eye_px * (4 + PLANAR + 1 + (layers ? 4 + 8 : 0) + (ids ? 24 + 11 : 0));
+    /* the frame backend: a simulated host renders into frames of its own; the USB receiver holds max_frame_mb
+     * (and its mock an encoded frame); V4L2 maps four capture buffers of about 4 bytes a pixel */
+    const bool sim_host = strcmp(c->frames_backend, "sim") == 0 || strcmp(c->frames_device, "mock") == 0;
+    if (sim_host) total += 2 * frame;
+    if (strcmp(c->frames_backend, "usb") == 0) {
+        total += (uint64_t)(c->max_frame_mb * 1024 * 1024);
+        if (strcmp(c->frames_device, "mock") == 0) total += rt_config_frame_bytes(c);
+    } else if (strcmp(c->frames_backend, "v4l2") == 0) {
+        total += 4 * eyes * eye_px * 4 * (c->frames_depth ? 2 : 1);
+    }
+    /* the lens meshes: a few dozen bytes a vertex */
+    total += eyes * (uint64_t)(c->mesh_n + 1) * (uint64_t)(c->mesh_n + 1) * 64;
+    return total;
+}
+
 bool rt_config_validate(const rt_config *c, rt_config_errors *err)
 {
     int before = err ? err->count : 0;
-    if (c->panel_w % 2) add_error(err, "[display] width = %d: must be even (two eyes side by side)", c->panel_w);
+    char at[1200];
+    if (c->panel_w % 2)
+        add_error(err, "%s = %d: must be even (two eyes side by side)", keys_at(c, "display.width", at, sizeof at),
+                  c->panel_w);
     warp_camera cam = rt_config_eye_camera(c, WARP_EYE_LEFT);
     const char *why = warp_camera_check(&cam);
-    if (why) add_error(err, "[eye]: %s", why);
+    if (why) add_error(err, "%s: %s", keys_at(c, "eye.fov eye.near eye.width eye.height", at, sizeof at), why);
     char buf[200];
     warp_lens lens = rt_config_lens(c, WARP_EYE_LEFT);
     const char *lw = warp_lens_check(&lens, c->panel_w / 2, c->panel_h, buf, sizeof buf);
-    if (lw) add_error(err, "[lens]: %s", lw);
+    if (lw)
+        add_error(err, "[lens]: %s; set by %s", lw,
+                  keys_at(c, "lens.k_red lens.k_green lens.k_blue lens.scale lens.center display.width display.height",
+                          at, sizeof at));
     int map[3], sign[3];
     if (!rt_config_parse_axes(c->imu_axes, map, sign))
-        add_error(err, "[imu] axes = '%s': expected three signed axes using each of x, y, z once, e.g. '-y +x +z'",
-                  c->imu_axes);
+        add_error(err, "%s = '%s': expected three signed axes using each of x, y, z once, e.g. '-y +x +z'",
+                  keys_at(c, "imu.axes", at, sizeof at), c->imu_axes);
     if (strcmp(c->imu_backend, "sim") != 0 && !c->imu_device[0])
-        add_error(err, "[imu] device: required for backend = %s (a device path%s, or mock)", c->imu_backend,
-                  strcmp(c->imu_backend, "hid") == 0 ? " or VVVV:PPPP" : "");
+        add_error(err, "[imu] device: required for backend = %s (a device path%s, or mock); %s", c->imu_backend,
+                  strcmp(c->imu_backend, "hid") == 0 ? " or VVVV:PPPP" : "",
+                  keys_at(c, "imu.backend imu.device", at, sizeof at));
     if (strcmp(c->frames_backend, "sim") != 0 && !c->frames_device[0])
-        add_error(err, "[frames] device: required for backend = %s (%s, or mock)", c->frames_backend,
-                  strcmp(c->frames_backend, "usb") == 0 ? "the FunctionFS mount directory" : "a /dev/videoN path");
+        add_error(err, "[frames] device: required for backend = %s (%s, or mock); %s", c->frames_backend,
+                  strcmp(c->frames_backend, "usb") == 0 ? "the FunctionFS mount directory" : "a /dev/videoN path",
+                  keys_at(c, "frames.backend frames.device", at, sizeof at));
     const bool kms = strcmp(c->output, "kms") == 0;
     if (strcmp(c->vsync_backend, "kms") == 0 && !kms)
         add_error(err, "[vsync] backend = kms: needs [display] output = kms (the vblanks come from the KMS output; "
-                       "output is %s)", c->output);
+                       "output is %s); %s", c->output, keys_at(c, "vsync.backend display.output", at, sizeof at));
     if (kms && strcmp(c->sink, "null") != 0)
         add_error(err, "[display] sink = %s: output = kms shows the images on the panel; sinks take them only with "
-                       "output = offscreen", c->sink);
+                       "output = offscreen; %s", c->sink, keys_at(c, "display.sink display.output", at, sizeof at));
     int mw, mh;
     double mhz;
     if (!rt_config_parse_mode(c->kms_mode, &mw, &mh, &mhz))
-        add_error(err, "[display] kms_mode = '%s': expected auto, WxH or WxH@Hz (e.g. 2880x1600@90)", c->kms_mode);
+        add_error(err, "%s = '%s': expected auto, WxH or WxH@Hz (e.g. 2880x1600@90)",
+                  keys_at(c, "display.kms_mode", at, sizeof at), c->kms_mode);
     if (c->host_rate_hz > c->refresh_hz * 2)
-        add_error(err, "[sim] host_rate_hz = %g: more than twice the display rate makes no sense", c->host_rate_hz);
+        add_error(err, "[sim] host_rate_hz = %g: more than twice the display rate (%g Hz) makes no sense; %s",
+                  c->host_rate_hz, c->refresh_hz, keys_at(c, "sim.host_rate_hz display.refresh_hz", at, sizeof at));
+    /* A limit that cannot hold the frames this configuration asks for rejects every one of them: the board would
+     * run and show nothing. */
+    const double mib = 1024.0 * 1024.0;
+    const uint64_t frame = rt_config_frame_bytes(c);
+    if (strcmp(c->frames_backend, "usb") == 0 && (double)frame > c->max_frame_mb * mib) {
+        const char *planes = wants_layers(c) ? "colour, depth, ids, layers"
+                             : wants_ids(c)  ? "colour, depth, ids"
+                                             : "colour, depth";
+        add_error(err, "[frames] max_frame_mb = %g: a host frame of two %dx%d eyes (%s) takes %.1f MiB, more than "
+                       "the limit, so every frame would be rejected; %s", c->max_frame_mb, c->eye_w, c->eye_h, planes,
+                  (double)frame / mib,
+                  keys_at(c, "frames.max_frame_mb eye.width eye.height warp.method", at, sizeof at));
+    }
+    const uint64_t mem = rt_config_memory_bytes(c);
+    if ((double)mem > c->max_memory_mb * mib)
+        add_error(err, "[render] max_memory_mb = %g: this configuration allocates about %.0f MiB at start "
+                       "(swapchain, frame slots, warp buffers%s); %s", c->max_memory_mb, (double)mem / mib,
+                  strcmp(c->frames_backend, "usb") == 0 ? ", the USB receive buffer" : "",
+                  keys_at(c, strcmp(c->frames_backend, "usb") == 0
+                                 ? "render.max_memory_mb eye.width eye.height display.width display.height warp.method "
+                                   "frames.max_frame_mb"
+                                 : "render.max_memory_mb eye.width eye.height display.width display.height warp.method",
+                          at, sizeof at));
     return (err ? err->count : 0) == before;
 }
 
@@ -577,6 +846,13 @@ void rt_config_warnings(const rt_config *c, rt_config_errors *warn)
         strcmp(c->sink, "null") == 0)
         add_error(warn, "board '%s' displays nowhere: [display] output = offscreen and sink = null (set output = kms "
                         "to show the panel)", c->board_name);
+    /* max_memory_mb is the board's budget; this machine may have less (a warning only: a board's configuration is
+     * also checked on the host that builds it) */
+    long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+    const uint64_t mem = rt_config_memory_bytes(c);
+    if (pages > 0 && page > 0 && mem > (uint64_t)pages * (uint64_t)page)
+        add_error(warn, "this configuration allocates about %.0f MiB at start, more than this machine's %.0f MiB",
+                  (double)mem / (1024.0 * 1024.0), (double)pages * (double)page / (1024.0 * 1024.0));
 }
 
 static void format_value(const rt_config *c, const keydef *k, char *buf, size_t len)

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* rt_config: hmdwarpd's settings: defaults, board.ini parsing (inih) with errors naming line and key, command-line
  * overrides (section.key=value) and validation. One table defines every key, its range and its help text. */
 #ifndef RT_CONFIG_H
@@ -26,6 +27,11 @@ const char *rt_method_name(rt_method m);
 /* [render] kernel's value names, in warp_resample_kernel_id order ("auto", "scalar", ...). */
 const char *rt_kernel_name(int k);
 
+/* Room in rt_config's origin table (the key table holds fewer; rt_config.c checks at compile time). */
+#define RT_CONFIG_MAX_KEYS 128
+/* A board.ini is a few KB; anything this large is not one (a device node, a log file given by mistake). */
+#define RT_CONFIG_MAX_FILE_KB 256
+
 typedef struct {
     char board_name[64];
     char board_arch[16];        /* any | aarch64 | x86_64 | arm: what board/flash.sh expects of a tree's binaries */
@@ -45,6 +51,7 @@ typedef struct {
     int threads;                /* compositor threads, caller included */
     int kernel;                 /* CPU resampling kernel, a warp_resample_kernel_id (auto, scalar, vector, ...) */
     int rt_priority;            /* SCHED_FIFO priority of the compositor when permitted; 0 = normal */
+    double max_memory_mb;       /* budget for what the configuration allocates (rt_config_memory_bytes) */
     double stall_reserve_ms;    /* extra lead before each vsync for the scheduler's stalls (rt_compositor.c) */
     /* [eye]: the host's eye buffers (left eye; the right eye is its mirror image) */
     int eye_w, eye_h;
@@ -97,6 +104,13 @@ typedef struct {
     /* [telemetry] */
     char csv[256];
     char stats[256];            /* key=value summary written at exit (tests, hardware-in-the-loop scenarios) */
+    /* Where each key was set, so that errors about several keys can name the line of each: indexed like the key
+     * table; 0 = default, > 0 = line in origin_file, < 0 = the -Nth command-line override. */
+    int32_t origin[RT_CONFIG_MAX_KEYS];
+    int overrides;              /* command-line overrides applied so far */
+    char origin_file[256];
+    char live_stats[256];       /* the same key=value set, rewritten each second while running ("" = off, auto) */
+    double csv_max_mb;          /* the per-vsync CSV moves to CSV.1 at this size (0 = never) */
 } rt_config;
 
 void rt_config_defaults(rt_config *c);
@@ -104,21 +118,31 @@ void rt_config_defaults(rt_config *c);
 /* Error list filled by parsing and validation. */
 typedef struct {
     int count;
-    char msg[16][200];
+    char msg[16][512];
 } rt_config_errors;
 
-/* Parses a board.ini file. Every problem (unknown section or key, bad value, syntax) is recorded with its line
- * number; returns true when there were none. */
+/* Parses a board.ini file. Every problem (unknown section or key, bad value, syntax, a line longer than inih
+ * reads) is recorded with its line number, in line order; returns true when there were none. A path that is not a
+ * regular file, or a file over RT_CONFIG_MAX_FILE_KB, is refused before anything is parsed. */
 bool rt_config_load(rt_config *c, const char *path, rt_config_errors *err);
 /* Parses INI text (tests, embedded defaults); `name` is used in messages. */
 bool rt_config_load_string(rt_config *c, const char *text, const char *name, rt_config_errors *err);
 /* Applies one "section.key=value" override from the command line. */
 bool rt_config_set(rt_config *c, const char *assignment, rt_config_errors *err);
-/* Cross-key checks (camera, lens folding over the viewport, sizes). */
+/* Cross-key checks (camera, lens folding over the viewport, sizes, memory); each message names where every key it
+ * involves was set. */
 bool rt_config_validate(const rt_config *c, rt_config_errors *err);
 
+/* Wire size of the smallest host frame the configured eye size and planes make (colour, depth as float32, ids and
+ * layers when the warp method uses them): what [frames] max_frame_mb must hold on the usb backend. */
+uint64_t rt_config_frame_bytes(const rt_config *c);
+/* Estimate of the memory the configuration allocates at start (swapchain, frame slots, the warps' eye-sized
+ * buffers, the frame backend's buffers): the large allocations only, checked against [render] max_memory_mb. */
+uint64_t rt_config_memory_bytes(const rt_config *c);
+
 /* Warnings that do not stop a run (--check-config prints them as `warning:` lines): a real board (named, or with
- * a real device backend) that displays nowhere (output = offscreen, sink = null). */
+ * a real device backend) that displays nowhere (output = offscreen, sink = null); a configuration whose memory
+ * estimate exceeds this machine's physical memory (sysconf). */
 void rt_config_warnings(const rt_config *c, rt_config_errors *warn);
 
 /* Parses a [display] kms_mode: "auto" gives 0 x 0 at 0 Hz, "WxH" any refresh (hz 0), "WxH@Hz". */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* rt_devices: opens the IMU, host-frame and vsync backends board.ini names, real or mock, with one clear error
  * naming the key and the device when one cannot be opened. */
 #include <stdio.h>
@@ -164,6 +165,7 @@ static bool open_frames(rt_app *a, const drv_frames_sim_params *sp, char *err, i
         p.eye_h = c->eye_h;
         p.depth = c->frames_depth != 0;
         a->frames = mock ? drv_frames_v4l2_create_mock(sp, &p, e, sizeof e) : drv_frames_v4l2_create(&p, e, sizeof e);
+        if (a->frames && mock) drv_frames_v4l2_mock_corrupt_every(a->frames, c->mock_corrupt_every);
     }
     if (!a->frames) {
         snprintf(err, (size_t)errlen, "[frames] backend = %s, device = %s: %s", c->frames_backend,

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* rt_eval: accuracy of the simulated board against ground truth. For sampled vsyncs it re-renders the host's frame
  * (the simulator is deterministic), renders the truth at the true photon-time pose and scores no warp, rotation
  * reprojection, raytrace and the raytrace at mesh vertices. Runs at idle priority, off the vsync path. */

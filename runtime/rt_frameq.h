@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* rt_frameq: the lock-free handoff of host frames from the frames thread to the compositor (a triple buffer):
  * the producer never waits, the consumer always gets the newest complete frame without blocking. */
 #ifndef RT_FRAMEQ_H

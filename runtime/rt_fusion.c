@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* rt_fusion: Mahony-style complementary filter (gyro integration, accelerometer tilt correction, gyro bias from the
  * tilt error and from stillness), published into a lock-free seqlock history ring for pose lookup and prediction. */
 #include "runtime/rt_fusion.h"

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* rt_fusion: orientation tracking from gyro + accelerometer (gyro integration, gyro-bias estimation,
  * accelerometer tilt correction), a timestamped pose history, and prediction to photon time. */
 #ifndef RT_FUSION_H

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* rt_ring: a single-producer single-consumer ring of fixed-size records, so the vsync thread can hand records
  * (CSV rows, accuracy samples) to slower threads without locks, allocation or waiting: when full, it drops. */
 #ifndef RT_RING_H

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* rt_select: which warp each vsync runs: the cheapest one whose predicted error stays under a pixel budget, given
  * the head motion the frame must bridge, the nearest depth in it (004 eqs. 5-7), its planes and the time left. */
 #include "runtime/rt_select.h"

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* rt_telemetry: counters and latency histograms of a run (vsyncs, misses, warp times per method, motion-to-photon,
  * frame age, rejected input by reason), written allocation-free from the real-time threads, summarised at exit. */
 #include "runtime/rt_telemetry.h"
@@ -11,23 +12,50 @@ void rt_hist_add(rt_hist *h, double ms)
     if (!(ms == ms)) return;
     long b = ms <= 0 ? 0 : (long)(ms * 100.0);
     if (b > RT_HIST_BINS) b = RT_HIST_BINS;
-    h->bin[b]++;
-    h->count++;
-    h->sum += ms;
-    if (ms > h->max || h->count == 1) h->max = ms;
+    /* one writer: relaxed load and store, no read-modify-write */
+#define BUMP(field, v) atomic_store_explicit(&(field), atomic_load_explicit(&(field), memory_order_relaxed) + (v), \
+                                             memory_order_relaxed)
+    BUMP(h->bin[b], 1);
+    uint64_t n = atomic_load_explicit(&h->count, memory_order_relaxed) + 1;
+    BUMP(h->sum, ms);
+    if (n == 1 || ms > atomic_load_explicit(&h->max, memory_order_relaxed))
+        atomic_store_explicit(&h->max, ms, memory_order_relaxed);
+    atomic_store_explicit(&h->count, n, memory_order_relaxed);
+#undef BUMP
 }
 
 double rt_hist_pct(const rt_hist *h, double p)
 {
-    if (!h->count) return NAN;
-    uint64_t want = (uint64_t)ceil(p / 100.0 * (double)h->count);
+    uint64_t count = atomic_load_explicit(&h->count, memory_order_relaxed);
+    double max = atomic_load_explicit(&h->max, memory_order_relaxed);
+    if (!count) return NAN;
+    uint64_t want = (uint64_t)ceil(p / 100.0 * (double)count);
     if (want < 1) want = 1;
     uint64_t acc = 0;
     for (long b = 0; b <= RT_HIST_BINS; b++) {
-        acc += h->bin[b];
-        if (acc >= want) return b == RT_HIST_BINS ? h->max : (b + 0.5) / 100.0;
+        acc += atomic_load_explicit(&h->bin[b], memory_order_relaxed);
+        if (acc >= want) return b == RT_HIST_BINS ? max : (b + 0.5) / 100.0;
     }
-    return h->max;
+    return max;
+}
+
+double rt_hist_pct_since(const rt_hist *h, rt_hist_mark *mark, double p)
+{
+    /* Two passes: count what came since the mark, then walk to the percentile, moving the mark to the counts the
+     * walk read (a sample added between the passes lands in this interval's walk and not again in the next). */
+    uint64_t total = 0;
+    for (long b = 0; b <= RT_HIST_BINS; b++)
+        total += (uint32_t)(atomic_load_explicit(&h->bin[b], memory_order_relaxed) - mark->bin[b]);
+    uint64_t want = (uint64_t)ceil(p / 100.0 * (double)total), acc = 0;
+    if (want < 1) want = 1;
+    double r = NAN;
+    for (long b = 0; b <= RT_HIST_BINS; b++) {
+        uint32_t now = atomic_load_explicit(&h->bin[b], memory_order_relaxed);
+        acc += (uint32_t)(now - mark->bin[b]);
+        mark->bin[b] = now;
+        if (total && isnan(r) && acc >= want) r = (b + 0.5) / 100.0;
+    }
+    return r;
 }
 
 rt_telemetry *rt_telemetry_create(void) { return calloc(1, sizeof(rt_telemetry)); }

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* sim_internal: the object model shared by the scene definitions (sim_scene.c) and the ray caster (sim_render.c).
  * Not a public interface: only sim/ includes it. */
 #ifndef SIM_INTERNAL_H

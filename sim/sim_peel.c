@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* sim_peel: a hidden depth layer for the multi-layer warps (001 §3.4): an indoor scene's static room rendered
  * without the objects in front of it, the background layer 001 §4.1 peels "without foreground objects". */
 #include "sim/sim_peel.h"

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* sim_render: the ground-truth ray caster behind sim_render_rows: analytic ray/primitive intersection, screen-tile
  * culling, view-independent band-limited shading, and only the planes (colour, depth, ids, motion, layers) asked for. */
 #include <math.h>

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* sim_scene: the catalogue of analytic test scenes (what is where, how it moves), image-plane bookkeeping and
  * the scene queries (object poses, minimum depth). The ray caster itself is in sim_render.c. */
 #include "sim/sim_scene.h"

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* sim_scene: deterministic analytic scenes and their ground-truth renderer (colour, depth, object ids, motion
  * vectors, A-buffer layers), computing only the planes a scene's effects call for. */
 #ifndef SIM_SCENE_H

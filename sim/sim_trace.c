@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* sim_trace: head-motion traces as closed-form smooth functions of time (yaw/pitch/roll and their rates), and the
  * stateless IMU model sampled along them (gyro and accelerometer with bias and counter-based Gaussian noise). */
 #include "sim/sim_trace.h"

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* sim_trace: head-motion traces as smooth functions of time (ground truth for the simulator), and the IMU
  * samples (gyro, accelerometer with noise and bias) a head-mounted IMU would report along them. */
 #ifndef SIM_TRACE_H

@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: MIT
 # Runs cmocka test binaries with TAP output and sums them into one closing line "N passed, N failed".
 # A binary that crashes or reports fewer results than it planned counts its missing tests as failed.
 # With --hil first, the hardware-in-the-loop scenarios (tests/hil, a qemu VM) run after the binaries and count one

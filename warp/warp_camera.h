@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* warp_camera: per-eye asymmetric frusta from FOV tangents, pixel <-> ray mapping, depth encodings.
  * Everything that converts between pixels, tangent-space directions and depth goes through here. */
 #ifndef WARP_CAMERA_H

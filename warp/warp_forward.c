@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* warp_forward: McMillan's forward 3D warp (004 eq. 1): every source pixel is moved to where the target eye sees
  * it; epipoles, occlusion-compatible traversal in 4 or 8 sheets (004 §2, §4.3), a z-buffered version, the two-pass
  * binned warp (004 §5) and the worst-case pixel movement bound p (004 eqs. 5-7). Unreached pixels are holes. */

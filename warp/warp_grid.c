@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* warp_grid: adaptive grid generation (000 §4.1) and grid warping (000 §5.1) on the CPU. */
 #include "warp/warp_grid.h"
 

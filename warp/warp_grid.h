@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* warp_grid: the adaptive-grid forward warp of 000 §4.1 and §5.1: a surface-estimation quadtree per tile (Didyk et
  * al. min/max baseline, cross-kernel, partial cross-kernel, irregular grid), cells warped and rasterised on the CPU. */
 #ifndef WARP_GRID_H

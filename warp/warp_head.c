@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* warp_head: the head as a rigid body carrying two eyes: neck model (head position from orientation) and eye
  * poses from the head pose and IPD. Shared by the tracker (prediction) and the simulator (ground truth). */
 #include "warp/warp_head.h"

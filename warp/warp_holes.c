@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Hole filling for forward and iterative warps: 002 §3.3 (bidirectional epipolar far-pixel scan), 000 §5.2
  * (depth-aware low-pass pyramid with an epipolar border search) and the stretch / rubber-sheet baselines of 000 §2.2.
  * All fills read a snapshot of the valid pixels taken in warp_holes_prepare, never pixels filled in this pass, so

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* warp_holes: filling the holes (WARP_MASK_HOLE) a forward or iterative warp leaves: the bidirectional epipolar
  * far-pixel search (002 §3.3), the depth-aware low-pass pyramid (000 §5.2), and stretch / rubber-sheet baselines. */
 #ifndef WARP_HOLES_H

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* warp_image: the image planes a frame can carry (RGBA8 colour, float depth, u16 object ids, float2 motion,
  * u8 masks, A-buffer fragment layers), their allocation, and bilinear sampling of colour. */
 #ifndef WARP_IMAGE_H

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* warp_iterative: the iterative backward warp of 001 §3: per target pixel, N stratified seeds in a min-max-mipmap
  * search bound, T fixed-point steps q <- p - v(q) each, over L depth layers; dilation and approximate hole fills. */
 #ifndef WARP_ITERATIVE_H

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* warp_lens: radial lens distortion with one polynomial per colour channel (chromatic aberration), and its
  * numeric inverse. Maps panel pixels to the tangent-space directions the eye sees through the lens. */
 #ifndef WARP_LENS_H

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* warp_math: vectors, quaternions, rigid poses and small matrices in double precision.
  * Poses stay in double so that head positions far from the origin and long integrations keep sub-pixel accuracy. */
 #include "warp/warp_math.h"

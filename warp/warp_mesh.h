@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* warp_mesh: the distortion mesh that fuses a rotation warp with lens distortion and chromatic aberration, so the
  * display image of each eye is produced in one resampling pass (the approach of Monado's and Cardboard's meshes). */
 #ifndef WARP_MESH_H

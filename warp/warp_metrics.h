@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* warp_metrics: image quality against ground truth: PSNR, SSIM (Wang et al. 2004, Gaussian window) and the
  * error-pixel percentage of 002 §4 (CIE Lab distance > 20), each optionally restricted by a mask. */
 #ifndef WARP_METRICS_H

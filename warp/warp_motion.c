@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* warp_motion: the motion buffer of 001 §3.1 (where each source pixel lands in the target view, from its depth, the
  * camera motion and per-object motion) and the min-max motion mipmap of 001 §3.3 that bounds the iterative search. */
 #include "warp/warp_motion.h"

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* warp_objects: per-object forward warping (002 §3.2): every pixel's object id selects one combined transform
  * (source object pose -> target object pose, composed with the camera change), and object poses are extrapolated
  * from the two latest frames (slerp on rotation, linear on position) when no newer pose is known. */

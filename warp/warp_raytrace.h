@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* warp_raytrace: the height-map raytrace warp of 003 §3.5: every target pixel casts a ray through the source
  * frame's depth treated as a continuous height map; edge fills of 003 §4.4 and a sub-pixel refinement of the hit. */
 #ifndef WARP_RAYTRACE_H

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* warp_reproject: rotation reprojection of a rendered eye image to a new head orientation (003 §3.4), with the
  * clamped-texcoord fringe fill of 003 §4.3. Needs colour only; head translation is ignored (depth at infinity). */
 #ifndef WARP_REPROJECT_H

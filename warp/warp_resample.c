@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* warp_resample: the CPU resampler of the display path: per-channel bilinear sampling through a distortion mesh,
  * in fixed point from planar 8-bit sources, tile by tile; portable, AVX2 and AVX-512 kernels, bit-identical. */
 #include "warp/warp_resample.h"

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* warp_splat: reconstruction of forward-warped samples (002 §3.3): square point splats sized from the warp's
  * Jacobian, quadrilateral splats (the Jacobian image of the pixel) and a mesh of the source pixels that is not
  * connected across depth discontinuities or object borders. Runs on the samples warp_forward maps. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* warp_stereo: cyclops and alternate-frame warping schedules (000 §6, Fig. 10). */
 #include "warp/warp_stereo.h"
 

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* warp_stereo: the stereo warping strategies of 000 §6 (Fig. 10): cyclops warping (one centre view warped to both
  * eyes) and alternate-frame warping (one eye rendered per frame, the other warped from its previous render). */
 #ifndef WARP_STEREO_H

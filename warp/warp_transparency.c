@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* warp_transparency: A-buffer ray casting (000 §4.2, §5.3). */
 #include "warp/warp_transparency.h"
 

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* warp_transparency: warping of transparent A-buffer fragments by ray casting (000 §4.2, §5.3): a min-max quadtree
  * over fragment depths, stackless traversal, extruded fragment boxes, front-to-back compositing over the opaque warp. */
 #ifndef WARP_TRANSPARENCY_H

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* warp_view: a rendered eye image together with the pose and camera it was rendered with: the input of every
  * warp. Depth is held as inverse depth (1/z, 0 = infinity), which is affine in screen space along any ray. */
 #ifndef WARP_VIEW_H

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* hmdwarpd with every device backend behind its mock: the simulated board's IMU, host and panel go through the
  * real HID report decoding, I2C register maps, GPIO edge handling, framelink parsing and V4L2 layout, and the
  * display keeps going through faults. Also: a wrong device gives one startup error naming the key and device. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Accuracy of the forward 3D warp (004) and its splat reconstructions (002 §3.3) against the simulator's ground
  * truth, and their invariants: identity, pure rotation, occlusion-compatible orders vs the z-buffer, two-pass ==
  * single pass, the pixel-movement bound p. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Accuracy of the adaptive-grid warp (000 §4.1, §5.1) against the simulator's ground truth: primitive counts per
  * surface-estimation strategy at comparable quality, invariants, and the knobs (vertex depths, texture filter). */
 #include <math.h>

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Hole fillers (warp_holes) against the simulator's ground truth: realistic disocclusion holes are cut out of a
  * truth render of the target view (target pixels whose 3D point the source view does not see: hidden behind a nearer
  * surface, or outside its frustum), filled, and scored on the hole pixels only. Checks 000 §5.2's claim (the

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Accuracy of the iterative backward warp (001 §3) against the simulator's ground truth: near (translation and
  * disocclusion) and movers (object motion), its invariants, and the paper's claims about its knobs. */
 #include <math.h>

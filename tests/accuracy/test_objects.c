@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Per-object forward warping (002 §3.2) against the simulator's ground truth on `movers`: one combined transform
  * per object id, object pose extrapolation from two frames, and the invariants (identity, static objects). */
 #include <math.h>

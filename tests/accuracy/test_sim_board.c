@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* End-to-end runs of hmdwarpd's runtime on the simulated board (IMU, host and vsync simulated in-process):
  * frames flow, tracking follows the true head, only the planes a scene needs are rendered, warps are chosen as
  * configured. Short runs with small panels; assertions are about behaviour, not speed. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Stereo strategies of 000 §6 (cyclops, alternate-frame warping) run over short frame sequences of the simulator
  * and scored per eye against ground truth: the schedules, their invariants and the quality ordering of 000 §6.2. */
 #include <math.h>

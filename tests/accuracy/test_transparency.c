@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Accuracy of the A-buffer transparency warp (000 §4.2, §5.3) against the simulator's ground truth on the glass
  * scene, compared with warping pre-blended colour (000 Fig. 7c, 7d); invariants and the ray caster's knobs. */
 #include <math.h>

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Accuracy of the warps against the simulator's ground truth: rotation reprojection under pure rotation (003 §3.4),
  * the raytrace warp under head translation (003 §3.5), their invariants, and the knobs that trade accuracy. */
 #include <math.h>

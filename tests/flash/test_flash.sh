@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: MIT
 # test_flash: `make install` and board/flash.sh against a fake merged-/usr board root (lib -> usr/lib, ...): the
 # root's directory symlinks survive --root and --ssh, a calibrated board.ini is kept with board.ini.dist beside it,
 # and a tree built for another architecture is refused before anything is written. TAP output for tests/run.sh.

@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: MIT
 # Builds the HIL test VM's initramfs: busybox, /init (tests/hil/init), the kernel modules the mock devices need
 # (from Debian's image package, dependencies resolved with its modules.dep, plus our out-of-tree gpio-sim.ko and
 # vkms.ko),

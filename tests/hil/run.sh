@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: MIT
 # Hardware-in-the-loop tests: boots Debian's own kernel under qemu (TCG software emulation, no KVM needed) with an
 # initramfs holding hmdwarpd, the in-VM device programs and the kernel mock devices' modules, runs the scenarios
 # (tests/hil/scenarios) and reports one line per scenario. Exits non-zero if any scenario fails or the VM does

@@ -47,7 +47,7 @@ check "the installed board.ini is valid" \
 for p in hmdwarpd hmdwarp-feed; do
     check "installed $p --version prints '$p $version'" sh -c "[ \"\$('$root/usr/bin/$p' --version)\" = '$p $version' ]"
 done
-check "man pages: five in section 1, board.ini's in 5" sh -c "[ \$(ls '$root'/usr/share/man/man1/hmdwarp*.1.gz | wc -l) -eq 5 ] &&
+check "man pages: seven in section 1 (hmdwarp-gadget and hmdwarp-top too), board.ini's in 5" sh -c "[ \$(ls '$root'/usr/share/man/man1/hmdwarp*.1.gz | wc -l) -eq 7 ] &&
     zcat '$root/usr/share/man/man5/hmdwarp-board.ini.5.gz' | grep -q '^\.TH HMDWARP-BOARD.INI 5'"
 check "hmdwarp-gadget and the board definitions with the generic board's README" \
     sh -c "[ -x '$root/usr/bin/hmdwarp-gadget' ] && [ -f '$root/usr/share/hmdwarp/boards/rpi5/board.ini' ] &&

@@ -5,7 +5,7 @@
 # `make man` generated. TAP output for tests/run.sh; run from the repository root after `make all man`.
 set -u
 BUILD=${BUILD:-build}
-PROGS="hmdwarpd hmdwarp-feed hmdwarp-warp hmdwarp-lens hmdwarp-bench"
+PROGS="hmdwarpd hmdwarp-feed hmdwarp-warp hmdwarp-lens hmdwarp-bench hmdwarp-top"
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 n=0
@@ -16,7 +16,7 @@ check() { # check DESCRIPTION COMMAND...: ok when the command succeeds
     d=$1; shift
     if "$@" >"$tmp/out" 2>&1; then ok "$d"; else not_ok "$d" "$(head -n 5 "$tmp/out")"; fi
 }
-echo "1..28"
+echo "1..31"
 
 # The version the build generated (scripts/version.sh at build time; a file edited since would make it differ).
 version=$(sed -n 's/^#define HMDWARP_VERSION "\(.*\)"$/\1/p' "$BUILD/gen/hmdwarp_version.h" 2>/dev/null)

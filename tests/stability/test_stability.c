@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Numerical stability of the hard cases: depth at near, far and infinity, reversed-Z, points behind either camera,
  * w near 0, the epipole inside the image and on a pixel centre, zero translation, 180-degree and view-axis
  * rotations, quaternions near +-1 and unnormalised, gyro at 0 and 2000 deg/s, IMU time jumps, camera positions 10 km

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* test_scene: the fixture most warp tests share: a source render of a simulated scene with depth, the true view
  * at the target pose, and the source as a warp_view with its inverse depth. */
 #ifndef TEST_SCENE_H

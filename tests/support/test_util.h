@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* test_util: small helpers shared by the test programs (deterministic random numbers, random rotations).
  * Header-only pieces are static inline so each test binary stays self-contained. */
 #ifndef TEST_UTIL_H

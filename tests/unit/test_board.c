@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* The board definitions and the install tree: every board/NAME/board.ini loads and validates; `make install` for a
  * USB-gadget board gives a tree board/flash.sh --dry-run accepts (unit, drop-in, udev rules, sysusers, config);
  * the unit passes systemd-analyze verify where it exists; the udev rules parse; a broken tree is refused. */
@@ -115,7 +116,8 @@ static void test_unit_and_rules_verify(void **state)
     }
     /* the unit's essentials */
     const char *keys[] = {"^Type=notify", "^WatchdogSec=", "^Restart=on-failure", "^LimitRTPRIO=",
-                          "^CPUAffinity=", "^AmbientCapabilities=CAP_SYS_NICE CAP_IPC_LOCK", "^User=hmdwarp"};
+                          "^CPUAffinity=", "^AmbientCapabilities=CAP_SYS_NICE CAP_IPC_LOCK", "^User=hmdwarp",
+                          "^RuntimeDirectory=hmdwarp$"};
     for (size_t i = 0; i < sizeof keys / sizeof keys[0]; i++) {
         snprintf(cmd, sizeof cmd, "grep -q '%s' board/systemd/hmdwarpd.service", keys[i]);
         if (sh(cmd, NULL, 0) != 0) fail_msg("hmdwarpd.service lacks %s", keys[i]);

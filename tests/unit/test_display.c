@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Tests of the display side: swapchain image selection around held and on-screen images, the PNG and raw file
  * sinks (content written intact, a busy writer skips rather than blocks), and PNG round trips. */
 #include <setjmp.h>

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* hmdwarp-feed, the host program, end to end in its file mode: the stream it writes decodes with the board's
  * codec into valid frames of the scene, with the planes the scene needs and the poses it was driven with. */
 #include <libgen.h>

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Unit tests for drv_framelink: bit-exact round trips of every plane combination, each rejection with its named
  * error, header peeking on partial streams, fixed-seed corruption fuzzing, and the board -> host pose message. */
 #include <math.h>
@@ -389,6 +390,80 @@ static void test_rejections(void **state)
     fixture_free(&fx);
 }
 
+/* Host times are checked before any arithmetic (issue #16: pose_sent_ns + (host_render_start_ns - host_pose_rx_ns)
+ * overflowed with valid CRCs), and NaN/infinite eye or object poses are refused at the decoder, frame untouched. */
+static void test_times_and_poses(void **state)
+{
+    (void)state;
+    drv_frame src, dst;
+    make_frame(&src, DRV_PLANE_COLOR, WARP_DEPTH_LINEAR, 2, 5);
+    assert_true(drv_frame_alloc(&dst, W, H, ALL, MAX_LAYERS));
+    char detail[200];
+    size_t n;
+    const int64_t max = DRV_FRAMELINK_TIME_MAX_NS;
+    struct {
+        drv_framelink_tx tx;
+        int64_t pose_t;
+        drv_frame_err want;
+        int64_t render_start; /* when accepted */
+    } cases[] = {
+        {{1000, 50, 80, 90, 95, 0}, 7, DRV_FRAME_OK, 1030},
+        {{max, 1, max, 0, 0, 0}, max, DRV_FRAME_OK, 0}, /* in range but mapped past 2^62: unknown */
+        {{1, max, 0, 0, 0, 0}, 7, DRV_FRAME_OK, 0},     /* a zero: unknown */
+        {{1LL << 62, 1, INT64_MAX, 0, 0, 0}, 7, DRV_FRAME_ERR_BAD_FORMAT, 0},
+        {{1, 1, INT64_MIN, 0, 0, 0}, 7, DRV_FRAME_ERR_BAD_FORMAT, 0},
+        {{-5, 1, 2, 0, 0, 0}, 7, DRV_FRAME_ERR_BAD_FORMAT, 0},
+        {{1, 1, 2, 3, -1, 0}, 7, DRV_FRAME_ERR_BAD_FORMAT, 0},
+        {{1, 1, 2, 3, 4, 0}, -1, DRV_FRAME_ERR_BAD_FORMAT, 0},
+        {{1, 1, 2, 3, 4, 0}, max + 1, DRV_FRAME_ERR_BAD_FORMAT, 0},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        src.pose_t_ns = cases[i].pose_t;
+        uint8_t *b = encode_new(&src, &cases[i].tx, &n);
+        dst.seq = 0xDEAD;
+        assert_int_equal(drv_framelink_decode_ex(b, n, 0, &dst, NULL, detail, sizeof detail), cases[i].want);
+        if (cases[i].want == DRV_FRAME_OK) {
+            assert_int_equal(dst.render_start_ns, cases[i].render_start);
+        } else {
+            assert_int_equal(dst.seq, 0xDEAD);
+            assert_non_null(strstr(detail, "outside [0, 2^62]"));
+        }
+        free(b);
+    }
+    src.pose_t_ns = 7;
+    const double bad[] = {NAN, INFINITY, -INFINITY};
+    for (int k = 0; k < 3; k++) {
+        for (int which = 0; which < 3; which++) { /* eye 0 position, eye 1 orientation, object 2 position */
+            drv_frame f = src;
+            if (which == 0) f.eye_pose[0].p.y = bad[k];
+            if (which == 1) f.eye_pose[1].q.x = bad[k];
+            if (which == 2) f.object_pose[1].p.z = bad[k];
+            uint8_t *b = encode_new(&f, NULL, &n);
+            dst.seq = 0xDEAD;
+            assert_int_equal(drv_framelink_decode_ex(b, n, 0, &dst, NULL, detail, sizeof detail),
+                             DRV_FRAME_ERR_BAD_POSE);
+            assert_non_null(strstr(detail, which == 2 ? "object 2 pose" : "pose not finite"));
+            assert_int_equal(dst.seq, 0xDEAD);
+            free(b);
+        }
+    }
+    /* The pose message's times too. */
+    drv_framelink_pose p = {.seq = 1, .board_t_ns = -1, .target_t_ns = 5, .head = {{1, 0, 0, 0}, {0, 0, 0}}};
+    p.eye[0] = p.eye[1] = p.head;
+    uint8_t m[DRV_FRAMELINK_POSE_BYTES];
+    drv_framelink_pose q;
+    drv_framelink_pose_encode(&p, m, sizeof m);
+    assert_int_equal(drv_framelink_pose_decode(m, sizeof m, &q), DRV_FRAME_ERR_BAD_POSE);
+    p.board_t_ns = 5, p.target_t_ns = INT64_MAX;
+    drv_framelink_pose_encode(&p, m, sizeof m);
+    assert_int_equal(drv_framelink_pose_decode(m, sizeof m, &q), DRV_FRAME_ERR_BAD_POSE);
+    p.target_t_ns = max;
+    drv_framelink_pose_encode(&p, m, sizeof m);
+    assert_int_equal(drv_framelink_pose_decode(m, sizeof m, &q), DRV_FRAME_OK);
+    drv_frame_free(&src);
+    drv_frame_free(&dst);
+}
+
 /* Thousands of corruptions of valid frames: none crashes (ASan build), none is accepted. */
 static void test_fuzz(void **state)
 {
@@ -525,6 +600,7 @@ int main(void)
         cmocka_unit_test(test_truncated_everywhere),
         cmocka_unit_test(test_peek_progressive),
         cmocka_unit_test(test_rejections),
+        cmocka_unit_test(test_times_and_poses),
         cmocka_unit_test(test_fuzz),
         cmocka_unit_test(test_find_magic),
         cmocka_unit_test(test_pose_message),

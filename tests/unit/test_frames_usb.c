@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Unit tests for drv_frames_usb through its mock (socket pairs for the endpoints, a simulated host behind them):
  * frames arrive with the board's own poses echoed, faults are rejected by name and the stream resynchronises,
  * oversize frames are skipped unstored, stalls are ridden out, and a missing FunctionFS mount gives a clear error. */
@@ -275,6 +276,70 @@ static void test_missing_ffs(void **state)
     pthread_mutex_destroy(&r.tr.lock);
 }
 
+/* The receive state machine fed from memory a byte at a time (drv_frames_usb_create_fed): a good frame, one whose
+ * garbage, one whose host times would overflow the render-start mapping (valid CRCs), one with a NaN object pose,
+ * and a last good one. Each bad one is rejected by name and counted; the good ones arrive whole. */
+static void test_fed_byte_by_byte(void **state)
+{
+    (void)state;
+    enum { W = 8, H = 4 };
+    drv_frame f, out;
+    assert_true(drv_frame_alloc(&f, W, H, DRV_PLANE_COLOR, 0));
+    assert_true(drv_frame_alloc(&out, W, H, DRV_PLANE_COLOR, 0));
+    f.planes = DRV_PLANE_COLOR;
+    f.n_objects = 1;
+    f.object_pose[0] = (warp_pose){{1, 0, 0, 0}, {0, 0, -1}};
+    for (int e = 0; e < 2; e++) {
+        f.cam[e] = warp_camera_symmetric(W, H, 90, 60, 0.05, 100);
+        f.eye_pose[e] = (warp_pose){{1, 0, 0, 0}, {0, 1.6, 0}};
+    }
+    static uint8_t stream[4 * 4096];
+    size_t n = 0;
+    drv_framelink_tx good = {1000, 50, 80, 90, 95, 0}, overflow = {(int64_t)1 << 62, 1, INT64_MAX, 0, 0, 0};
+    f.seq = 1;
+    n += drv_framelink_encode_ex(&f, &good, stream + n, sizeof stream - n);
+    memcpy(stream + n, "junk", 4), n += 4;
+    f.seq = 2;
+    n += drv_framelink_encode_ex(&f, &overflow, stream + n, sizeof stream - n);
+    f.seq = 3;
+    f.object_pose[0].p.x = NAN;
+    n += drv_framelink_encode_ex(&f, &good, stream + n, sizeof stream - n);
+    f.seq = 4;
+    f.object_pose[0].p.x = 0;
+    n += drv_framelink_encode_ex(&f, &good, stream + n, sizeof stream - n);
+
+    drv_frames_usb_params p = {.max_frame_bytes = 4096, .eye_w = W, .eye_h = H, .planes = DRV_PLANE_COLOR};
+    char err[160];
+    drv_frames *fr = drv_frames_usb_create_fed(&p, err, sizeof err);
+    assert_non_null(fr);
+    int results[16], nr = 0;
+    uint64_t seqs[16];
+    for (size_t i = 0; i < n;) {
+        i += drv_frames_usb_feed(fr, stream + i, 1);
+        int r;
+        while ((r = drv_frames_receive(fr, &out, 0)) != 0 && nr < 16) seqs[nr] = out.seq, results[nr++] = r;
+    }
+    assert_int_equal(nr, 5);
+    assert_int_equal(results[0], 1);
+    assert_int_equal(seqs[0], 1);
+    assert_int_equal(out.render_start_ns, 1030);
+    assert_int_equal(results[1], -DRV_FRAME_ERR_BAD_MAGIC);  /* the junk */
+    assert_int_equal(results[2], -DRV_FRAME_ERR_BAD_FORMAT); /* host times out of range */
+    assert_int_equal(results[3], -DRV_FRAME_ERR_BAD_POSE);   /* NaN object position */
+    assert_int_equal(results[4], 1);
+    assert_int_equal(seqs[4], 4);
+    drv_frames_usb_stats st;
+    drv_frames_usb_stats_get(fr, &st);
+    assert_int_equal(st.frames, 2);
+    assert_int_equal(st.bytes, n);
+    assert_int_equal(st.rejected[DRV_FRAME_ERR_BAD_FORMAT], 1);
+    assert_int_equal(st.rejected[DRV_FRAME_ERR_BAD_POSE], 1);
+    assert_non_null(strstr(st.last_error, "object 1 pose"));
+    drv_frames_destroy(fr);
+    drv_frame_free(&f);
+    drv_frame_free(&out);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -284,6 +349,7 @@ int main(void)
         cmocka_unit_test(test_oversize_skipped),
         cmocka_unit_test(test_stall_mid_frame),
         cmocka_unit_test(test_missing_ffs),
+        cmocka_unit_test(test_fed_byte_by_byte),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

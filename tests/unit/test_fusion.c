@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Unit tests for rt_fusion: filter accuracy on synthetic IMU data (bias, noise, rotation), prediction, the pose
  * history, sample rejection, long-run stability and torn-read freedom of the lock-free readers. */
 #include <math.h>

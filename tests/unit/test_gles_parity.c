@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* GLES renderer vs the CPU reference on Mesa llvmpipe (surfaceless EGL): the lens pass with rotation, the raytrace
  * with its pyramid skipping and edge fills, their masks, the pyramid itself, the pass timing, and the KMS error. */
 #include <math.h>

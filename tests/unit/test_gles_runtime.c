@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* The GLES renderer inside the runtime: how `renderer = auto|cpu|gles` decides (llvmpipe -> cpu, a hardware GPU ->
  * gles), the [render]/[display] keys, the KMS error without a DRM device, and a short GLES run on the simulated
  * board whose summary names the renderer, the reason and the per-pass GPU times. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Tests of the lock-free plumbing between threads: the frame triple buffer under a concurrent producer and consumer,
  * the SPSC record ring, and the compositor's worker pool (every task exactly once, job after job). */
 #include <pthread.h>

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Unit tests for drv_hid_report and drv_imu_hid: vendor report round trip and every rejection, the Rift sensor
  * report, 32-bit timestamp unwrapping, time mapping, and the HID IMU backend end to end over the mock and injected
  * transports (roll-over, unplug/replug, corrupted reports). */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Unit tests for the I2C IMU backend: per-chip init sequences against the datasheets, scaling at every range,
  * big-endian burst decoding, identification errors, auto-detection, the mock chip fed by the simulated IMU end to end,
  * saturation, invalid / missing data, and recovery after a failing bus. */
@@ -320,6 +321,14 @@ static void test_range_errors(void **state)
     rq = (drv_i2c_request){8000, 0, 0};
     assert_int_equal(drv_i2c_chip_plan(drv_i2c_chip_get(DRV_I2C_CHIP_MPU6050), &rq, &s, err, sizeof err), 0);
     assert_true(s.gyro_fs_dps == 2000 && s.accel_fs_g == 16 && s.rate_hz == 1000);
+    /* Tiny rates: the slowest divider, 1000 / 256 Hz (1000 / 1e-300 once overflowed lround(...) - 1). */
+    const double tiny[] = {1e-300, 5e-324, 1e-9, 3.0};
+    for (int i = 0; i < 4; i++)
+        for (int k = DRV_I2C_CHIP_MPU6050; k <= DRV_I2C_CHIP_MPU9250; k++) {
+            rq = (drv_i2c_request){tiny[i], 0, 0};
+            assert_int_equal(drv_i2c_chip_plan(drv_i2c_chip_get((drv_i2c_chip_kind)k), &rq, &s, err, sizeof err), 0);
+            assert_true(s.rate_hz == 1000.0 / 256);
+        }
 }
 
 /* ---- burst decode through the backend ---- */

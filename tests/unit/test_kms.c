@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* The KMS output's pure parts and rules: the R/B-swapping copy into XRGB8888 (and the plain one into XBGR8888), the
  * late-flip rule on vblank sequences, the config rules of output = kms and vsync backend = kms, the --check-config
  * warning for a real board that displays nowhere, and the errors without a DRM device. The device itself: the vkms

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Unit tests for warp_lens: identity lens vs the camera, distort/undistort round trips, chromatic aberration,
  * the monotonic (fold-over) radius against analytic roots, and warp_lens_check's verdicts. */
 #include <math.h>

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Unit tests for warp_math and warp_camera: quaternion/matrix identities, round trips and conventions. */
 #include <math.h>
 #include <setjmp.h>

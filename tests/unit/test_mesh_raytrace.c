@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Tests of the mesh-vertex raytrace (warp_mesh_update_raytrace, warp_raytrace_point): it is the rotation mesh when
  * the head does not translate, the per-pixel raytrace + lens pass on smooth depth, the per-pixel raytrace traced
  * ray by ray, and less accurate than the per-pixel raytrace across depth edges (the trade-off it makes). */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Unit tests for warp_metrics: PSNR closed forms, SSIM against a brute-force double-precision reference,
  * CIE Lab reference colours, the 002 §4 error-pixel count, and mask exclusion. */
 #include <math.h>

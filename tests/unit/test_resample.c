@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Tests of the display path's resampler and distortion mesh: every kernel agrees bit for bit with the scalar
  * reference for any tiling, an identity mesh reproduces the source, and the mesh stays close to the exact warp. */
 #include <math.h>

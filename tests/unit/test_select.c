@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* rt_select: the per-vsync warp choice. A rotation-only frame never gets a depth warp; a translation with a near
  * object escalates; the 004 bound matches its closed form; steady motion near the threshold does not flicker;
  * a short time budget degrades to rotation without forgetting the preference; transparency and object motion are

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Unit tests for sim_scene: the scene catalogue, and the renderer's planes against analytic ground truth
  * (planar depth, ids, motion vectors, A-buffer layers, direction-only sky), row-split determinism and untouched planes. */
 #include <math.h>

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* rt_telemetry: the latency histograms' percentiles and the attribution of missed vsyncs to hmdwarpd's own work
  * or to the system (late wake-up, descheduled, no free image), which HIL and soak runs assert on. */
 #include <setjmp.h>
@@ -89,6 +90,24 @@ static void test_miss_advice(void **state)
     assert_non_null(strstr(buf, "swapchain"));
 }
 
+/* A board stopped while it waited for a host that sent nothing exits 0 (systemctl stop before the PC is plugged
+ * in is no failure); one whose frames were all rejected, or that presented nothing, has failed. */
+static void test_waiting_for_host(void **state)
+{
+    (void)state;
+    rt_telemetry *t = rt_telemetry_create();
+    assert_non_null(t);
+    assert_false(rt_telemetry_waiting_for_host(t)); /* no vsync presented */
+    t->vsyncs = 90;
+    assert_true(rt_telemetry_waiting_for_host(t));
+    t->frames_rejected[DRV_FRAME_ERR_COUNT - 1] = 1;
+    assert_false(rt_telemetry_waiting_for_host(t));
+    t->frames_rejected[DRV_FRAME_ERR_COUNT - 1] = 0;
+    t->frames_received = 1;
+    assert_false(rt_telemetry_waiting_for_host(t));
+    rt_telemetry_destroy(t);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -96,6 +115,7 @@ int main(void)
         cmocka_unit_test(test_miss_causes),
         cmocka_unit_test(test_miss_gles),
         cmocka_unit_test(test_miss_advice),
+        cmocka_unit_test(test_waiting_for_host),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

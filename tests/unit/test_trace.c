@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Unit tests for sim_trace: trace catalogue, angular velocity against the orientation it must integrate to,
  * burst speeds, and the IMU model (gravity, bias, noise statistics, stateless determinism). */
 #include <math.h>

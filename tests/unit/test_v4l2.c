@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Unit tests for the V4L2 frame path: pixel conversions (75 % bars, round trips), the in-band layout (metadata
  * bit exact through YUYV, NV12, RGB and RGB->YUV->RGB; depth within quantisation; garbled bands rejected), and the
  * capture backend end to end over the mock device fed by the simulated host (formats, faults, reconnect). */
@@ -283,6 +284,51 @@ static void test_band_survives_formats(void **state)
             assert_true(isinf(p));
         free(img);
     }
+    drv_frame_free(&f);
+    drv_frame_free(&out);
+}
+
+/* Board times outside [0, 2^62] and a non-finite scene time or position, sealed with a valid CRC by the encoder,
+ * are refused by the decoder with a reason, the output frame untouched (issue #16: they reached the runtime). */
+static void test_meta_values_checked(void **state)
+{
+    (void)state;
+    drv_frame f, out;
+    frame_random(&f, DRV_PLANE_COLOR, 3);
+    assert_true(drv_frame_alloc(&out, EW, EH, DRV_PLANE_COLOR, 1));
+    int w, h;
+    assert_true(drv_v4l2_layout(EW, EH, false, &w, &h));
+    drv_v4l2_geom g;
+    uint8_t *img = image_new(&g, DRV_V4L2_YUYV, w, h, 0);
+    drv_v4l2_colorspace cs = DRV_V4L2_CS_DEFAULT;
+    const int64_t max = (int64_t)1 << 62;
+    struct {
+        int64_t pose_t, render_start;
+        double scene_time, px;
+        drv_frame_err want;
+        const char *why;
+    } cases[] = {
+        {max, max, 1.0, 0, DRV_FRAME_OK, ""},
+        {-1, 5, 1.0, 0, DRV_FRAME_ERR_BAD_FORMAT, "pose_t_ns -1"},
+        {INT64_MIN, 5, 1.0, 0, DRV_FRAME_ERR_BAD_FORMAT, "outside [0, 2^62]"},
+        {5, INT64_MAX, 1.0, 0, DRV_FRAME_ERR_BAD_FORMAT, "render_start_ns 9223372036854775807"},
+        {5, 5, NAN, 0, DRV_FRAME_ERR_BAD_FORMAT, "scene_time"},
+        {5, 5, 1.0, INFINITY, DRV_FRAME_ERR_BAD_POSE, "eye 0 pose"},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        f.pose_t_ns = cases[i].pose_t, f.render_start_ns = cases[i].render_start;
+        f.scene_time = cases[i].scene_time;
+        warp_pose keep = f.eye_pose[0];
+        f.eye_pose[0].p.x = cases[i].px;
+        assert_int_equal(drv_v4l2_pack(&f, false, &g, &cs, img), DRV_FRAME_OK);
+        f.eye_pose[0] = keep;
+        out.seq = 0xDEAD;
+        char why[160] = "";
+        assert_int_equal(drv_v4l2_unpack(img, &g, &cs, &out, why, sizeof why), cases[i].want);
+        assert_non_null(strstr(why, cases[i].why));
+        if (cases[i].want) assert_int_equal(out.seq, 0xDEAD);
+    }
+    free(img);
     drv_frame_free(&f);
     drv_frame_free(&out);
 }
@@ -652,6 +698,37 @@ static void test_mock_faults_and_reconnect(void **state)
     drv_frames_destroy(fr);
 }
 
+/* [mock] corrupt_every: every third frame damaged, a garbled band and a blank picture in turn, each rejected by its
+ * reason and counted; the frames between them arrive whole. */
+static void test_mock_corrupt_every(void **state)
+{
+    (void)state;
+    drv_frames_sim_params sp = host_params();
+    drv_frames_v4l2_params p = cap_params("auto", false);
+    char err[256] = "";
+    drv_frames *fr = drv_frames_v4l2_create_mock(&sp, &p, err, sizeof err);
+    if (!fr) fail_msg("%s", err);
+    drv_frames_v4l2_mock_corrupt_every(fr, 3);
+    drv_frame f;
+    assert_true(drv_frame_alloc(&f, EW, EH, drv_frames_planes(fr), 1));
+    for (int i = 1; i <= 12; i++) {
+        int want = i % 3 ? 1 : (i / 3) % 2 ? -DRV_FRAME_ERR_CRC : -DRV_FRAME_ERR_BAD_MAGIC;
+        int got = receive_one(fr, &f);
+        if (got != want) fail_msg("frame %d: receive gave %d, want %d", i, got, want);
+        if (got == 1) assert_int_equal(drv_frame_validate(&f), DRV_FRAME_OK);
+    }
+    drv_frames_v4l2_stats st;
+    drv_frames_v4l2_stats_get(fr, &st);
+    assert_int_equal(st.frames, 8);
+    assert_int_equal(st.rejected[DRV_FRAME_ERR_CRC], 2);
+    assert_int_equal(st.rejected[DRV_FRAME_ERR_BAD_MAGIC], 2);
+    /* 0 turns it off */
+    drv_frames_v4l2_mock_corrupt_every(fr, 0);
+    for (int i = 0; i < 4; i++) assert_int_equal(receive_one(fr, &f), 1);
+    drv_frame_free(&f);
+    drv_frames_destroy(fr);
+}
+
 static void test_missing_device_and_bad_params(void **state)
 {
     (void)state;
@@ -685,6 +762,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_fourcc_and_geometry),
         cmocka_unit_test(test_bars),
+        cmocka_unit_test(test_meta_values_checked),
         cmocka_unit_test(test_round_trips),
         cmocka_unit_test(test_grey_levels),
         cmocka_unit_test(test_layout),
@@ -695,6 +773,7 @@ int main(void)
         cmocka_unit_test(test_mock_end_to_end_yuyv),
         cmocka_unit_test(test_mock_formats_with_depth),
         cmocka_unit_test(test_mock_faults_and_reconnect),
+        cmocka_unit_test(test_mock_corrupt_every),
         cmocka_unit_test(test_missing_device_and_bad_params),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

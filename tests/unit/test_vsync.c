@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Unit tests for the vsync sources: the TE-edge estimator on synthetic edge sequences (jitter, missed and spurious
  * edges, off-nominal rate, phase jumps, next() semantics), the GPIO backend on its mock edge source in real time
  * (lock, timer fallback, relock), the free-running timer, and the errors of a missing GPIO chip. */

@@ -1,6 +1,8 @@
+/* SPDX-License-Identifier: MIT */
 /* hmdwarp-warp end to end: the inputs it writes from the simulator (PNG colour, PFM depth, 16-bit ids, view file)
  * read back through its file loaders give the same warp and the same score; ray-distance depth and 16-bit
- * reversed-Z depth convert to the same result; bad inputs are refused with a message naming them. */
+ * reversed-Z depth convert to the same result; bad inputs are refused with a message naming them, and declared sizes
+ * are checked against the file before anything is allocated. */
 #include <libgen.h>
 #include <math.h>
 #include <setjmp.h>
@@ -9,6 +11,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <zlib.h>
 #include <cmocka.h>
 
 #include "tests/support/test_util.h"
@@ -95,6 +98,72 @@ static void test_layers_file_round_trip(void **state)
     assert_non_null(strstr(out, "short.bin"));
 }
 
+static void put_be32(uint8_t *p, uint32_t v)
+{
+    for (int i = 0; i < 4; i++) p[i] = (uint8_t)(v >> (24 - 8 * i));
+}
+
+/* A PNG of just signature, IHDR (w x h, 8-bit RGBA), an empty IDAT and IEND: what a few bytes can declare. */
+static void write_png_header(const char *path, uint32_t w, uint32_t h)
+{
+    uint8_t b[8 + 25 + 12 + 12] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+    uint8_t *c = b + 8;
+    put_be32(c, 13);
+    memcpy(c + 4, "IHDR", 4);
+    put_be32(c + 8, w);
+    put_be32(c + 12, h);
+    c[16] = 8, c[17] = 6;
+    put_be32(c + 21, (uint32_t)crc32(0, c + 4, 17));
+    c += 25;
+    memcpy(c + 4, "IDAT", 4);
+    put_be32(c + 8, (uint32_t)crc32(0, c + 4, 4));
+    c += 12;
+    memcpy(c + 4, "IEND", 4);
+    put_be32(c + 8, (uint32_t)crc32(0, c + 4, 4));
+    FILE *f = fopen(path, "wb");
+    assert_non_null(f);
+    fwrite(b, 1, sizeof b, f);
+    fclose(f);
+}
+
+/* Sizes a file declares are checked against what it holds before anything is allocated (issue #16: a 68-byte PNG
+ * made it allocate 4.3 GB, a PFM header 6.4 GB); a NaN pose or an overlong line in the view file is refused. */
+static void test_declared_sizes_bounded(void **state)
+{
+    (void)state;
+    char out[4096], args[8192], view[600], path[600];
+    snprintf(view, sizeof view, "%s/v.txt", dir);
+    write_view(view);
+    snprintf(path, sizeof path, "%s/huge.png", dir);
+    write_png_header(path, 32768, 32768);
+    snprintf(args, sizeof args, "--color %s --view %s", path, view);
+    assert_int_equal(run(args, out, sizeof out), 1);
+    assert_non_null(strstr(out, "32768x32768 pixels is larger than this reader takes"));
+    write_png_header(path, 16000, 16000);
+    assert_int_equal(run(args, out, sizeof out), 1);
+    assert_non_null(strstr(out, "more than a file of 57 bytes can hold"));
+    snprintf(path, sizeof path, "%s/huge.pfm", dir);
+    FILE *f = fopen(path, "w");
+    fprintf(f, "PF\n16384 16384\n-1.0\n");
+    fclose(f);
+    snprintf(args, sizeof args, "--color %s/in/color.png --view %s --warp raytrace --motion %s --depth %s/in/depth.pfm",
+             dir, view, path, dir);
+    assert_int_equal(run(args, out, sizeof out), 1);
+    assert_non_null(strstr(out, "declares 16384x16384x3 floats (3221225472 bytes) but holds 0"));
+    f = fopen(view, "w");
+    fprintf(f, "size 160 120\nintrinsics 80 75 80 60\nsource 1 0 0 0  nan 1.6 0\ntarget 1 0 0 0 0 0 0\n");
+    fclose(f);
+    snprintf(args, sizeof args, "--color %s/in/color.png --view %s", dir, view);
+    assert_int_equal(run(args, out, sizeof out), 1);
+    assert_non_null(strstr(out, ":3: cannot read the values of 'source'"));
+    /* a comment line longer than the reader's buffer: named, not read in pieces with shifted line numbers */
+    f = fopen(view, "w");
+    fprintf(f, "size 160 120\n# %0600d\nintrinsics 80 75 80 60\nsource 1 0 0 0 0 0 0\ntarget 1 0 0 0 0 0 0\n", 0);
+    fclose(f);
+    assert_int_equal(run(args, out, sizeof out), 1);
+    assert_non_null(strstr(out, ":2: line longer than 510 characters"));
+}
+
 static void test_bad_inputs_named(void **state)
 {
     (void)state;
@@ -135,6 +204,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_files_match_simulator),
         cmocka_unit_test(test_layers_file_round_trip),
         cmocka_unit_test(test_bad_inputs_named),
+        cmocka_unit_test(test_declared_sizes_bounded),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

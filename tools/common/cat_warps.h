@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* hmdwarp-warp's catalogue: every warp the tool (and the results table) can run, behind one signature, with its
  * knobs as name=value parameters and the planes it needs. */
 #ifndef TOOLS_CAT_WARPS_H

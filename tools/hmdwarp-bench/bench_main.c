@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* hmdwarp-bench: what accuracy costs in time. Times the display path (rotation + lens + chromatic aberration, both
  * eyes) against a memcpy of the frame and OpenCV's cv::remap measured interleaved in the same run, sweeps every warp
  * of the catalogue x its knobs x scenes x motion magnitudes against ground truth, and soaks hmdwarpd at 90 Hz.

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* The bench's peer: OpenCV's cv::remap doing the display path's per-channel distortion resampling (three 8-bit
  * single-channel remaps through fixed-point maps), behind a C interface since OpenCV 4 has no C API. */
 #ifndef BENCH_OPENCV_H

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* hmdwarp-feed: the host side of the USB frame link: reads the board's pose messages, renders the simulated scene
  * (or loads PNGs) at each pose, encodes frames with the framelink codec and sends them to the board (or a file). */
 #include <errno.h>

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* hmdwarp-lens: lens calibration aid. Renders a test pattern (grid, circles, a colour cross) in the eye buffers
  * and sends it through the board's distortion mesh exactly as hmdwarpd does, so the panel image shows what the
  * wearer will see through the lenses with the configured [lens] coefficients; tune them until lines are straight

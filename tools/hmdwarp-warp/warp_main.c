@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* hmdwarp-warp: scores any warp of the catalogue on frames from the user's own renderer (PNG colour, PFM/raw/16-bit
  * PNG depth, ids, motion, a view file with intrinsics and poses), or on the simulator's scenes; writes the result,
  * its mask and, given the true target view, PSNR/SSIM/error-%. Also generates the results table in docs/. */
@@ -14,6 +15,7 @@
 #include "sim/sim_scene.h"
 #include "warp/warp_metrics.h"
 #include "tools/common/cat_warps.h"
+#include "warp_files.h"
 #include "warp_table.h"
 
 typedef struct {
@@ -124,144 +126,6 @@ static bool parse(int argc, char **argv, opts *o)
     return true;
 }
 
-/* ---- the view file ---- */
-
-typedef struct {
-    warp_camera cam;
-    warp_pose src, dst;
-} view_file;
-
-static bool read_pose(const char *rest, warp_pose *p)
-{
-    double v[7];
-    if (sscanf(rest, "%lf %lf %lf %lf %lf %lf %lf", &v[0], &v[1], &v[2], &v[3], &v[4], &v[5], &v[6]) != 7) return false;
-    warp_quat q = {v[0], v[1], v[2], v[3]};
-    if (!warp_quat_normalize(q, &p->q)) return false;
-    p->p = warp_v3(v[4], v[5], v[6]);
-    return true;
-}
-
-static bool load_view(const char *path, view_file *vf, char *err, int errlen)
-{
-    FILE *f = fopen(path, "r");
-    if (!f) return snprintf(err, (size_t)errlen, "%s: %s", path, strerror(errno)), false;
-    memset(vf, 0, sizeof *vf);
-    vf->cam.near_z = 0.05;
-    vf->cam.far_z = INFINITY;
-    bool have_src = false, have_dst = false, have_size = false, have_proj = false;
-    double fx = 0, fy = 0, cx = 0, cy = 0;
-    bool intr = false;
-    char line[512];
-    int n = 0;
-    while (fgets(line, sizeof line, f)) {
-        n++;
-        char *s = line + strspn(line, " \t");
-        if (*s == '#' || *s == '\n' || !*s) continue;
-        char key[32];
-        int used = 0;
-        if (sscanf(s, "%31s %n", key, &used) != 1) continue;
-        const char *rest = s + used;
-        bool ok = true;
-        if (strcmp(key, "size") == 0) {
-            ok = sscanf(rest, "%d %d", &vf->cam.width, &vf->cam.height) == 2;
-            have_size = ok;
-        } else if (strcmp(key, "tan") == 0) {
-            ok = sscanf(rest, "%lf %lf %lf %lf", &vf->cam.tan_left, &vf->cam.tan_right, &vf->cam.tan_up,
-                        &vf->cam.tan_down) == 4;
-            have_proj = ok;
-        } else if (strcmp(key, "intrinsics") == 0) {
-            ok = sscanf(rest, "%lf %lf %lf %lf", &fx, &fy, &cx, &cy) == 4 && fx > 0 && fy > 0;
-            have_proj = intr = ok;
-        } else if (strcmp(key, "near") == 0) {
-            ok = sscanf(rest, "%lf", &vf->cam.near_z) == 1;
-        } else if (strcmp(key, "far") == 0) {
-            ok = sscanf(rest, "%lf", &vf->cam.far_z) == 1; /* "inf" parses as infinity */
-        } else if (strcmp(key, "source") == 0) {
-            ok = have_src = read_pose(rest, &vf->src);
-        } else if (strcmp(key, "target") == 0) {
-            ok = have_dst = read_pose(rest, &vf->dst);
-        } else {
-            fclose(f);
-            return snprintf(err, (size_t)errlen, "%s:%d: unknown key '%s' (size, tan, intrinsics, near, far, source, "
-                            "target)", path, n, key), false;
-        }
-        if (!ok) {
-            fclose(f);
-            return snprintf(err, (size_t)errlen, "%s:%d: cannot read the values of '%s'", path, n, key), false;
-        }
-    }
-    fclose(f);
-    if (!have_size || !have_proj || !have_src || !have_dst)
-        return snprintf(err, (size_t)errlen, "%s: needs size, tan or intrinsics, source and target", path), false;
-    if (intr) {
-        /* Pixel-space intrinsics (y down) to the frustum tangents the warps use. */
-        vf->cam.tan_left = cx / fx;
-        vf->cam.tan_right = (vf->cam.width - cx) / fx;
-        vf->cam.tan_up = cy / fy;
-        vf->cam.tan_down = (vf->cam.height - cy) / fy;
-    }
-    const char *why = warp_camera_check(&vf->cam);
-    if (why) return snprintf(err, (size_t)errlen, "%s: camera: %s", path, why), false;
-    return true;
-}
-
-static void pose_line(FILE *f, const char *key, warp_pose p)
-{
-    fprintf(f, "%s %.17g %.17g %.17g %.17g  %.17g %.17g %.17g\n", key, p.q.w, p.q.x, p.q.y, p.q.z, p.p.x, p.p.y,
-            p.p.z);
-}
-
-/* ---- float images ---- */
-
-/* PFM: "Pf" (grey) or "PF" (RGB), width height, scale (negative = little endian), rows bottom to top. */
-static float *read_pfm(const char *path, int *w, int *h, int *channels, char *err, int errlen)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f) return snprintf(err, (size_t)errlen, "%s: %s", path, strerror(errno)), NULL;
-    char magic[3] = {0};
-    double scale;
-    if (fscanf(f, "%2s %d %d %lf", magic, w, h, &scale) != 4 || (strcmp(magic, "Pf") && strcmp(magic, "PF")) ||
-        *w <= 0 || *h <= 0 || *w > 16384 || *h > 16384 || fgetc(f) == EOF) {
-        fclose(f);
-        return snprintf(err, (size_t)errlen, "%s: not a PFM file (expected Pf/PF, width, height, scale)", path), NULL;
-    }
-    *channels = magic[1] == 'F' ? 3 : 1;
-    size_t n = (size_t)*w * (size_t)*h * (size_t)*channels;
-    float *px = malloc(n * sizeof *px), *rows = malloc(n * sizeof *px);
-    if (!px || !rows || fread(rows, sizeof(float), n, f) != n) {
-        free(px);
-        free(rows);
-        fclose(f);
-        return snprintf(err, (size_t)errlen, "%s: truncated PFM data", path), NULL;
-    }
-    fclose(f);
-    bool big = scale > 0;
-    size_t row = (size_t)*w * (size_t)*channels;
-    for (int y = 0; y < *h; y++)
-        for (size_t i = 0; i < row; i++) {
-            float v = rows[(size_t)(*h - 1 - y) * row + i];
-            if (big) {
-                uint32_t u;
-                memcpy(&u, &v, 4);
-                u = __builtin_bswap32(u);
-                memcpy(&v, &u, 4);
-            }
-            px[(size_t)y * row + i] = v;
-        }
-    free(rows);
-    return px;
-}
-
-static bool write_pfm(const char *path, const float *px, int w, int h, int channels)
-{
-    FILE *f = fopen(path, "wb");
-    if (!f) return false;
-    fprintf(f, "%s\n%d %d\n-1.0\n", channels == 3 ? "PF" : "Pf", w, h);
-    size_t row = (size_t)w * (size_t)channels;
-    for (int y = h - 1; y >= 0; y--) fwrite(px + (size_t)y * row, sizeof(float), row, f);
-    return fclose(f) == 0;
-}
-
 static bool load_depth(const opts *o, const warp_camera *cam, warp_image_f32 *depth, warp_depth_encoding *enc,
                        char *err, int errlen)
 {
@@ -270,7 +134,7 @@ static bool load_depth(const opts *o, const warp_camera *cam, warp_image_f32 *de
     const char *ext = strrchr(o->depth, '.');
     bool png16 = ext && strcmp(ext, ".png") == 0;
     if (ext && strcmp(ext, ".pfm") == 0) {
-        px = read_pfm(o->depth, &w, &h, &ch, err, errlen);
+        px = warpfile_read_pfm(o->depth, &w, &h, &ch, err, errlen);
         if (!px) return false;
     } else if (png16) {
         uint16_t *u = NULL;
@@ -332,68 +196,6 @@ static bool load_depth(const opts *o, const warp_camera *cam, warp_image_f32 *de
     return true;
 }
 
-/* ---- transparency layers: "HWLAYER1", u32 w, h, max_layers, then per pixel (row-major) a u8 count and count
- * fragments of f32 z (linear view depth, metres), u8 r g b a (straight alpha), u16 object id; little endian ---- */
-
-static bool write_layers(const char *path, const warp_image_layers *l)
-{
-    FILE *f = fopen(path, "wb");
-    if (!f) return false;
-    uint32_t hdr[3] = {(uint32_t)l->w, (uint32_t)l->h, (uint32_t)l->max_layers};
-    fwrite("HWLAYER1", 1, 8, f);
-    fwrite(hdr, 4, 3, f);
-    for (int i = 0; i < l->w * l->h; i++) {
-        uint8_t n = l->count[i];
-        fwrite(&n, 1, 1, f);
-        for (int k = 0; k < n; k++) {
-            const warp_fragment *fr = &l->frag[(size_t)i * l->max_layers + k];
-            fwrite(&fr->z, 4, 1, f);
-            fwrite(&fr->rgba, 1, 4, f);
-            fwrite(&fr->id, 2, 1, f);
-        }
-    }
-    return fclose(f) == 0;
-}
-
-static bool read_layers(const char *path, const warp_camera *cam, warp_image_layers *l, char *err, int errlen)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f) return snprintf(err, (size_t)errlen, "%s: %s", path, strerror(errno)), false;
-    char magic[8];
-    uint32_t hdr[3];
-    if (fread(magic, 1, 8, f) != 8 || memcmp(magic, "HWLAYER1", 8) || fread(hdr, 4, 3, f) != 3) {
-        fclose(f);
-        return snprintf(err, (size_t)errlen, "%s: not a layers file (expected HWLAYER1)", path), false;
-    }
-    if ((int)hdr[0] != cam->width || (int)hdr[1] != cam->height || hdr[2] < 1 || hdr[2] > 64) {
-        fclose(f);
-        return snprintf(err, (size_t)errlen, "%s: %ux%u with %u layers; expected %dx%d and 1..64 layers", path, hdr[0],
-                        hdr[1], hdr[2], cam->width, cam->height), false;
-    }
-    if (!warp_image_layers_alloc(l, (int)hdr[0], (int)hdr[1], (int)hdr[2])) {
-        fclose(f);
-        return snprintf(err, (size_t)errlen, "out of memory"), false;
-    }
-    for (int i = 0; i < l->w * l->h; i++) {
-        uint8_t n;
-        if (fread(&n, 1, 1, f) != 1 || n > l->max_layers) {
-            fclose(f);
-            return snprintf(err, (size_t)errlen, "%s: pixel %d: truncated or more than %d fragments", path, i,
-                            l->max_layers), false;
-        }
-        l->count[i] = n;
-        for (int k = 0; k < n; k++) {
-            warp_fragment *fr = &l->frag[(size_t)i * l->max_layers + k];
-            if (fread(&fr->z, 4, 1, f) != 1 || fread(&fr->rgba, 1, 4, f) != 4 || fread(&fr->id, 2, 1, f) != 1) {
-                fclose(f);
-                return snprintf(err, (size_t)errlen, "%s: truncated at pixel %d", path, i), false;
-            }
-        }
-    }
-    fclose(f);
-    return true;
-}
-
 /* ---- scoring and output ---- */
 
 static void mask_to_grey(const warp_image_u8 *m, warp_image_u8 *g)
@@ -424,8 +226,8 @@ int main(int argc, char **argv)
     const cat_warp *w = cat_find(o.warp);
     if (!w) return fprintf(stderr, "hmdwarp-warp: unknown warp '%s' (see --list)\n", o.warp), 2;
     if (!o.view) return fail_msg("--view FILE is required (intrinsics and poses; see docs/hmdwarp-warp.md)");
-    view_file vf;
-    if (!load_view(o.view, &vf, err, sizeof err)) return fail_msg(err);
+    warpfile_view vf;
+    if (!warpfile_load_view(o.view, &vf, err, sizeof err)) return fail_msg(err);
 
     warp_image_rgba8 color = {0}, ref = {0};
     warp_image_f32 depth = {0}, inv = {0};
@@ -478,9 +280,9 @@ int main(int argc, char **argv)
                     u[(size_t)y * vf.cam.width + x] = WARP_AT(&sb.ids, x, y);
                 }
             snprintf(p, sizeof p, "%s/depth.pfm", o.write_inputs);
-            if (!write_pfm(p, d, vf.cam.width, vf.cam.height, 1)) return fail_msg("cannot write depth.pfm");
+            if (!warpfile_write_pfm(p, d, vf.cam.width, vf.cam.height, 1)) return fail_msg("cannot write depth.pfm");
             snprintf(p, sizeof p, "%s/layers.bin", o.write_inputs);
-            if (!write_layers(p, &sb.layers)) return fail_msg("cannot write layers.bin");
+            if (!warpfile_write_layers(p, &sb.layers)) return fail_msg("cannot write layers.bin");
             snprintf(p, sizeof p, "%s/ids.png", o.write_inputs);
             if (!plat_png_write_u16(p, u, vf.cam.width, vf.cam.height, err, sizeof err)) return fail_msg(err);
             free(d);
@@ -492,8 +294,8 @@ int main(int argc, char **argv)
                        "# world_from_eye: qw qx qy qz (unit quaternion) then position x y z in metres\n");
             fprintf(f, "size %d %d\ntan %.17g %.17g %.17g %.17g\nnear %.17g\nfar inf\n", vf.cam.width, vf.cam.height,
                     vf.cam.tan_left, vf.cam.tan_right, vf.cam.tan_up, vf.cam.tan_down, vf.cam.near_z);
-            pose_line(f, "source", vf.src);
-            pose_line(f, "target", vf.dst);
+            warpfile_pose_line(f, "source", vf.src);
+            warpfile_pose_line(f, "target", vf.dst);
             fclose(f);
             printf("inputs written to %s (color.png, depth.pfm, ids.png, layers.bin, view.txt, truth.png)\n",
                    o.write_inputs);
@@ -521,7 +323,7 @@ int main(int argc, char **argv)
         }
         if (o.motion) {
             int mw, mh, ch;
-            float *m = read_pfm(o.motion, &mw, &mh, &ch, err, sizeof err);
+            float *m = warpfile_read_pfm(o.motion, &mw, &mh, &ch, err, sizeof err);
             if (!m) return fail_msg(err);
             if (mw != vf.cam.width || mh != vf.cam.height || ch != 3 || !warp_image_vec2f_alloc(&motion, mw, mh))
                 return free(m), fail_msg("--motion: expected a 3-channel PFM of the colour's size");
@@ -532,7 +334,7 @@ int main(int argc, char **argv)
             v.motion = &motion;
         }
         if (o.layers) {
-            if (!read_layers(o.layers, &vf.cam, &layers, err, sizeof err)) return fail_msg(err);
+            if (!warpfile_read_layers(o.layers, &vf.cam, &layers, err, sizeof err)) return fail_msg(err);
             v.layers = &layers;
         }
         if (o.ref && !plat_png_read(o.ref, &ref, err, sizeof err)) return fail_msg(err);

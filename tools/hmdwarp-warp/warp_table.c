@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* The results table of docs/warp-results.md: every warp of the catalogue, in the variants that matter, on every
  * scene's test case, scored against the simulator's ground truth; then the papers' qualitative claims checked on
  * these numbers. `make results` regenerates it. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* The results table of docs/warp-results.md: every warp of the catalogue on every scene's test case, scored
  * against the simulator's ground truth. `make results` regenerates it. */
 #ifndef HMDWARP_WARP_TABLE_H

@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: MIT
 # Builds gpio-sim.ko and vkms.ko for the cached Debian kernel (board/deps-hil.sh fetched it): extracts
 # gpio-sim.c, its private gpiolib.h, irq_sim.c and drivers/gpu/drm/vkms/ from Debian's linux-source tarball (one
 # pass: decompressing the tarball is most of the time), patches gpio-sim (patch.sh) and builds both as

@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: MIT
 # Patches the upstream gpio-sim.c and irq_sim.c (copied into DIR) so they build as one module against Debian's
 # headers. Each edit is checked: if the upstream text changes, this fails instead of building something else.
 # usage: tests/hil/kmod/patch.sh DIR

@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: MIT
 # 00-devices: every kernel mock device the other scenarios use appears and works at the kernel level, before
 # hmdwarpd is involved: uhid/hidraw, i2c-stub registers, gpio-sim edges seen by libgpiod, vivid's loop,
 # dummy_hcd's UDC and USB host side, vkms's card, connector modes and CRCs (a pattern's equals hil_kms_crc's).

@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: MIT
 # 01-nominal: the full real-driver board. IMU over hidraw (hil_uhid_imu on uhid) at 1 kHz, host frames over USB
 # (FunctionFS gadget on dummy_hcd, hmdwarp-feed as the host) at 30 Hz, TE edges from gpio-sim (hil_te) at 90 Hz.
 # Asserts: TE edges reach hmdwarpd and it stays locked, one present per vsync and few late ones, the newest host

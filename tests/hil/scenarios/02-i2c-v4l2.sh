@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: MIT
 # 02-i2c-v4l2: the I2C/V4L2 board. IMU on i2c-stub (hil_i2c_chip plays an MPU-6050, then an ICM-42688-P register
 # map; hmdwarpd identifies each by WHO_AM_I), host frames through vivid's HDMI loop (hmdwarp-feed --v4l2 writes
 # the in-band layout to the output node, hmdwarpd captures), TE edges from gpio-sim at 90 Hz.

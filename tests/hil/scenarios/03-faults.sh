@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: MIT
 # 03-faults: the full real-driver board (hidraw IMU, USB frames, gpio-sim TE) with faults injected from outside
 # hmdwarpd, on a timeline, then a V4L2 phase with vivid's error injection:
 #   t=3 s   the host stalls 2 s (hmdwarp-feed SIGSTOP/SIGCONT)       -> last good frame warped, frames resume

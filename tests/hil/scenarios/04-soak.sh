@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: MIT
 # 04-soak: the full real-driver board for HIL_SOAK_S seconds (default 60) with faults at random (seeded) times:
 # host stalls of 0.5-2 s, one IMU unplug/replug, damaged HID reports, one TE dropout. Samples hmdwarpd's
 # resident memory every 5 s. Asserts: zero crashes (clean exit), memory flat (growth after warm-up < 2 MiB),

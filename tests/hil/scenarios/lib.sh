@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # lib.sh: helpers for HIL scenarios (sourced inside the test VM: . /hil/scenarios/lib.sh).
 # Kernel mock devices (modules, i2c-stub, gpio-sim, vivid, the FunctionFS gadget), hmdwarpd runs, stats checks.
 # A scenario ends with hil_pass; hil_fail REASON (or any failed hil_expect*) ends it with that reason.

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* hil_common: what the hardware-in-the-loop feeder programs share: option parsing with errors naming the option,
  * stopping on SIGINT/SIGTERM, absolute sleeps, status files for scenarios, and IMU samples along a sim trace. */
 #ifndef HIL_COMMON_H

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* hil_i2c_chip: plays an MPU-6050, MPU-9250 or ICM-42688-P on the kernel's i2c-stub (a plain register file behind a
  * real /dev/i2c-N): preloads identity and reset values, writes sim-trace samples into the data registers at the
  * ranges the driver configured, raises data-ready, and emulates the soft reset the stub cannot do by itself. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* hil_imgcmp: compares the last panel image of two raw sink streams (hmdwarpd's display.sink = raw: RGBA8 images
  * of the panel's size, appended) and prints PSNR and the largest channel difference, for the HIL scenarios. */
 #include <errno.h>

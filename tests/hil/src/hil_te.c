@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* hil_te: plays a display panel's TE (tearing effect) signal on a gpio-sim line: pulses at the panel rate written
  * through the simulated line's sysfs `pull` attribute, so libgpiod in hmdwarpd sees real edge interrupts; with
  * jitter, a TE dropout and a phase jump on request. */

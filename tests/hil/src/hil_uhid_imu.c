@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* hil_uhid_imu: plays an hmdwarp USB HID IMU bridge through the kernel's uhid driver: a real HID device whose
  * /dev/hidrawN hmdwarpd's HID backend reads with hidapi, streaming vendor reports (docs/hid-report.md) of sim-trace
  * samples in real time, with unplug/replug and corrupted reports on request. */

@@ -1,0 +1,379 @@
+/* SPDX-License-Identifier: MIT */
+/* Live telemetry of a running hmdwarpd: the STATUS= line a stand-in systemd reads, the stats file rewritten each
+ * second and hmdwarp-top's view of it, the summary on SIGTERM and SIGABRT, the CSV's rotation, log priorities. */
+#include <fcntl.h>
+#include <libgen.h>
+#include <math.h>
+#include <setjmp.h>
+#include <signal.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <cmocka.h>
+#include <sys/resource.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/un.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include "platform/plat_log.h"
+#include "runtime/rt_telemetry.h"
+#include "tests/support/test_util.h"
+
+static char build[256], tmp[300];
+/* The simulated board, small and quick to start; no accuracy evaluation (it would hold the exit back). */
+#define RUN_ARGS "--config board/sim/board.ini --set sim.imu_rest_s=0.2 --set sim.eval_every_ms=0 " \
+                 "--set render.rt_priority=0"
+
+static int sh(const char *cmd, char *out, size_t cap)
+{
+    FILE *p = popen(cmd, "r");
+    if (!p) return -1;
+    size_t n = 0;
+    if (out && cap) {
+        n = fread(out, 1, cap - 1, p);
+        out[n] = 0;
+    } else {
+        char sink[512];
+        while (fread(sink, 1, sizeof sink, p) > 0) {
+        }
+    }
+    int st = pclose(p);
+    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+}
+
+static size_t slurp(const char *path, char *buf, size_t cap)
+{
+    FILE *f = fopen(path, "r");
+    if (!f) return 0;
+    size_t n = fread(buf, 1, cap - 1, f);
+    buf[n] = 0;
+    fclose(f);
+    return n;
+}
+
+/* value of "key=" in key=value text, or -1 */
+static double kv(const char *text, const char *key)
+{
+    char pat[80];
+    snprintf(pat, sizeof pat, "\n%s=", key);
+    size_t n = strlen(pat);
+    if (strncmp(text, pat + 1, n - 1) == 0) return strtod(text + n - 1, NULL); /* the first line */
+    const char *p = strstr(text, pat);
+    return p ? strtod(p + n, NULL) : -1;
+}
+
+/* Starts hmdwarpd (exec'd by sh, so the pid is hmdwarpd's) with stdout and stderr into out_path. */
+static pid_t spawn(const char *args, const char *out_path)
+{
+    char cmd[1500];
+    snprintf(cmd, sizeof cmd, "exec %s%s/hmdwarpd " RUN_ARGS " %s >%s 2>&1 </dev/null", test_runner(), build, args,
+             out_path);
+    pid_t pid = fork();
+    if (pid == 0) {
+        struct rlimit no_core = {0, 0};
+        setrlimit(RLIMIT_CORE, &no_core); /* the SIGABRT test leaves no core file behind */
+        execl("/bin/sh", "sh", "-c", cmd, (char *)NULL);
+        _exit(127);
+    }
+    return pid;
+}
+
+/* Waits until the live file says the display has run a while (vsyncs > 0): behaviour, not a wall-clock sleep.
+ * Gives up after 60 s (a hung start), which fails the test. */
+static bool wait_live(const char *path, char *text, size_t cap)
+{
+    for (int i = 0; i < 6000; i++) {
+        if (slurp(path, text, cap) && kv(text, "vsyncs") > 0 && kv(text, "running") == 1) return true;
+        usleep(10000);
+    }
+    return false;
+}
+
+static void test_status_line_and_live_file(void **state)
+{
+    (void)state;
+    /* hmdwarpd under a stand-in for systemd: STATUS= once a second, after READY=1, naming what `systemctl
+     * status hmdwarpd` should show; the live file ends as the --stats file does */
+    char path[100];
+    snprintf(path, sizeof path, "/tmp/hmdwarp-live-%d.sock", (int)getpid());
+    unlink(path);
+    int fd = socket(AF_UNIX, SOCK_DGRAM | SOCK_NONBLOCK, 0);
+    assert_true(fd >= 0);
+    struct sockaddr_un sa = {.sun_family = AF_UNIX};
+    memcpy(sa.sun_path, path, strlen(path) + 1);
+    assert_int_equal(bind(fd, (struct sockaddr *)&sa, sizeof sa), 0);
+    char live[400], stats[400], cmd[2000];
+    snprintf(live, sizeof live, "%s/status.live", tmp);
+    snprintf(stats, sizeof stats, "%s/status.stats", tmp);
+    unlink(live);
+    snprintf(cmd, sizeof cmd, "NOTIFY_SOCKET=%s %s%s/hmdwarpd " RUN_ARGS " --duration 3 --set telemetry.live_stats=%s "
+             "--stats %s >/dev/null 2>&1 </dev/null", path, test_runner(), build, live, stats);
+    FILE *child = popen(cmd, "r");
+    assert_non_null(child);
+    int ready = 0, status = 0, stopping = 0, order_ok = 1, content_ok = 1;
+    char msg[1024], last_status[1024] = "";
+    for (int waited = 0; !stopping && waited < 60000; waited += 5) {
+        ssize_t n = recv(fd, msg, sizeof msg - 1, 0);
+        if (n <= 0) {
+            usleep(5000);
+            continue;
+        }
+        msg[n] = 0;
+        if (strstr(msg, "READY=1")) ready++;
+        if (strncmp(msg, "STATUS=", 7) == 0) {
+            status++;
+            if (!ready) order_ok = 0;
+            /* vsyncs, missed and why, m2p p99, frame age, link */
+            const char *need[] = {"vsyncs/s", "missed", "own", "woken late", "descheduled", "m2p p99", "frame age",
+                                  "MB/s", "frames/s"};
+            for (size_t i = 0; i < sizeof need / sizeof need[0]; i++)
+                if (!strstr(msg, need[i])) content_ok = 0;
+            snprintf(last_status, sizeof last_status, "%s", msg);
+        }
+        if (strstr(msg, "STOPPING=1")) stopping++;
+    }
+    assert_int_equal(pclose(child), 0);
+    close(fd);
+    unlink(path);
+    print_message("notify: READY %d, STATUS %d, STOPPING %d; last: %s\n", ready, status, stopping, last_status);
+    assert_int_equal(ready, 1);
+    assert_int_equal(stopping, 1);
+    assert_true(status >= 1);
+    assert_true(order_ok);
+    assert_true(content_ok);
+    /* the status says how many vsyncs: a number, not a placeholder */
+    unsigned long long v = 0;
+    const char *p = strstr(last_status, "vsyncs/s, ");
+    assert_non_null(p);
+    assert_int_equal(sscanf(p, "vsyncs/s, %llu vsyncs", &v), 1);
+    assert_true(v > 0);
+
+    /* at the end the live file is the --stats file: same keys, same counts (run_s aside: written a moment apart) */
+    char a[16384], b[16384];
+    assert_true(slurp(live, a, sizeof a) > 0);
+    assert_true(slurp(stats, b, sizeof b) > 0);
+    snprintf(cmd, sizeof cmd, "diff <(grep -v '^run_s=' %s) <(grep -v '^run_s=' %s)", live, stats);
+    char c2[2100];
+    snprintf(c2, sizeof c2, "bash -c \"%s\"", cmd);
+    char out[2000];
+    int rc = sh(c2, out, sizeof out);
+    if (rc != 0) fail_msg("live file differs from --stats:\n%s", out);
+    assert_true(kv(a, "running") == 0);
+    assert_true(kv(a, "vsyncs") > 0);
+    /* nothing left behind by the atomic rewrite */
+    snprintf(cmd, sizeof cmd, "%s.tmp", live);
+    assert_int_equal(access(cmd, F_OK), -1);
+}
+
+static void test_top_shows_running_daemon_and_sigterm_summary(void **state)
+{
+    (void)state;
+    /* a run until stopped: hmdwarp-top --once shows it while it runs; SIGTERM stops it with the summary, exit 0 */
+    char live[400], out[400], text[16384];
+    snprintf(live, sizeof live, "%s/term.live", tmp);
+    snprintf(out, sizeof out, "%s/term.out", tmp);
+    unlink(live);
+    char args[600];
+    snprintf(args, sizeof args, "--duration 0 --set telemetry.live_stats=%s", live);
+    pid_t pid = spawn(args, out);
+    assert_true(pid > 0);
+    bool up = wait_live(live, text, sizeof text);
+    char cmd[1200], top[8192];
+    snprintf(cmd, sizeof cmd, "%s%s/hmdwarp-top --once --file %s 2>&1", test_runner(), build, live);
+    int top_rc = up ? sh(cmd, top, sizeof top) : -1;
+    kill(pid, SIGTERM);
+    int st = 0;
+    assert_int_equal(waitpid(pid, &st, 0), pid);
+    assert_true(up);
+    print_message("hmdwarp-top --once:\n%s", top);
+    assert_int_equal(top_rc, 0);
+    const char *need[] = {"board sim", ", running ", "vsyncs/s", "missed   own", "motion-to-photon p50",
+                          "frame age p50", "host link  sim:", "MB/s", "IMU        sim:", "renderer   cpu",
+                          "warps      none 0 rotation "};
+    for (size_t i = 0; i < sizeof need / sizeof need[0]; i++)
+        if (!strstr(top, need[i])) fail_msg("hmdwarp-top lacks '%s'", need[i]);
+    /* the counts it shows are the file's */
+    unsigned long long v = 0;
+    const char *p = strstr(top, "   vsyncs ");
+    assert_non_null(p);
+    assert_int_equal(sscanf(p, "   vsyncs %llu", &v), 1);
+    assert_true(v > 0);
+
+    char o[65536];
+    slurp(out, o, sizeof o);
+    if (!WIFEXITED(st) || WEXITSTATUS(st) != 0) fail_msg("SIGTERM: status %d; output:\n%s", st, o);
+    assert_non_null(strstr(o, "summary —"));
+    assert_non_null(strstr(o, "  vsyncs  "));
+    slurp(live, text, sizeof text);
+    assert_true(kv(text, "running") == 0); /* the final word, as --stats */
+}
+
+static void test_sigabrt_prints_last_stats(void **state)
+{
+    (void)state;
+    /* systemd's watchdog sends SIGABRT: the process still dies of it, but says first what it saw */
+    char live[400], out[400], text[16384];
+    snprintf(live, sizeof live, "%s/abrt.live", tmp);
+    snprintf(out, sizeof out, "%s/abrt.out", tmp);
+    unlink(live);
+    char args[600];
+    snprintf(args, sizeof args, "--duration 0 --set telemetry.live_stats=%s", live);
+    pid_t pid = spawn(args, out);
+    assert_true(pid > 0);
+    bool up = wait_live(live, text, sizeof text);
+    kill(pid, SIGABRT);
+    int st = 0;
+    assert_int_equal(waitpid(pid, &st, 0), pid);
+    assert_true(up);
+    char o[65536];
+    slurp(out, o, sizeof o);
+    if (!WIFSIGNALED(st) || WTERMSIG(st) != SIGABRT) fail_msg("SIGABRT: status %d; output:\n%s", st, o);
+    const char *s = strstr(o, "hmdwarpd: aborted (SIGABRT");
+    if (!s) fail_msg("no abort report; output:\n%s", o);
+    s = strchr(s, '\n');
+    assert_non_null(s);
+    s++;
+    assert_int_equal(strncmp(s, "version=", 8), 0);
+    assert_true(kv(s, "running") == 1);
+    assert_true(kv(s, "vsyncs") > 0);
+    assert_true(kv(s, "m2p_ms_p99") > 0);
+}
+
+static void test_csv_rotates_by_size(void **state)
+{
+    (void)state;
+    char csv[400], old[420], cmd[1200], a[65536], b[65536];
+    snprintf(csv, sizeof csv, "%s/rot.csv", tmp);
+    snprintf(old, sizeof old, "%s.1", csv);
+    unlink(csv);
+    unlink(old);
+    /* 2 KB: about 30 rows, so a two-second run at 90 Hz rotates even when a busy machine skips most vsyncs */
+    const double max_mb = 2048.0 / (1024 * 1024);
+    snprintf(cmd, sizeof cmd, "%s%s/hmdwarpd " RUN_ARGS " --duration 2 --csv %s --set telemetry.csv_max_mb=%.9f "
+             ">/dev/null 2>&1 </dev/null", test_runner(), build, csv, max_mb);
+    assert_int_equal(sh(cmd, NULL, 0), 0);
+    size_t na = slurp(old, a, sizeof a), nb = slurp(csv, b, sizeof b);
+    print_message("rot.csv.1 %zu bytes, rot.csv %zu bytes\n", na, nb);
+    const char *header = "vsync,vsync_ns,frame_seq,method,warp_ms,missed,m2p_ms,frame_age_ms\n";
+    assert_true(na > 0 && nb > 0);
+    assert_int_equal(strncmp(a, header, strlen(header)), 0);
+    assert_int_equal(strncmp(b, header, strlen(header)), 0);
+    /* a file reaches the limit by at most one row (the row that crossed it) */
+    assert_true(na >= 2048 && na < 2048 + 120);
+    assert_true(nb < 2048 + 120);
+    /* the current file continues where the rotated one ended: vsync numbers go on rising */
+    const char *last = a + na - 1;
+    while (last > a && last[-1] != '\n') last--;
+    unsigned long long last_old = strtoull(last, NULL, 10), first_new = strtoull(b + strlen(header), NULL, 10);
+    assert_true(first_new > last_old);
+}
+
+static void test_bad_live_path_is_an_error(void **state)
+{
+    (void)state;
+    char cmd[1200], out[4096];
+    snprintf(cmd, sizeof cmd, "%s%s/hmdwarpd " RUN_ARGS " --duration 1 --set telemetry.live_stats=%s/no-such-dir/stats "
+             "2>&1 </dev/null", test_runner(), build, tmp);
+    int rc = sh(cmd, out, sizeof out);
+    print_message("%s", out);
+    assert_int_equal(rc, 1);
+    assert_non_null(strstr(out, "[telemetry] live_stats = "));
+    assert_non_null(strstr(out, "no-such-dir/stats: No such file or directory"));
+}
+
+static void test_top_refuses_what_is_not_stats(void **state)
+{
+    (void)state;
+    char cmd[1200], out[2048];
+    snprintf(cmd, sizeof cmd, "%s%s/hmdwarp-top --once --file %s/nonexistent 2>&1", test_runner(), build, tmp);
+    assert_int_equal(sh(cmd, out, sizeof out), 1);
+    assert_non_null(strstr(out, "nonexistent: No such file or directory"));
+    snprintf(cmd, sizeof cmd, "%s%s/hmdwarp-top --once --file board/sim/board.ini 2>&1", test_runner(), build);
+    assert_int_equal(sh(cmd, out, sizeof out), 1);
+    assert_non_null(strstr(out, "no hmdwarpd statistics"));
+}
+
+static void test_log_priorities(void **state)
+{
+    (void)state;
+    /* stderr into a file; JOURNAL_STREAM naming that file makes it "the journal" */
+    char path[400], text[1024];
+    snprintf(path, sizeof path, "%s/log.txt", tmp);
+    int fd = open(path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    assert_true(fd >= 0);
+    fflush(stderr);
+    int saved = dup(STDERR_FILENO);
+    dup2(fd, STDERR_FILENO);
+    struct stat st;
+    fstat(fd, &st);
+    char js[64];
+    snprintf(js, sizeof js, "%llu:%llu", (unsigned long long)st.st_dev, (unsigned long long)st.st_ino);
+    setenv("JOURNAL_STREAM", js, 1);
+    plat_log_reset();
+    plat_log(PLAT_LOG_WARNING, "IMU %s lost", "hid");
+    plat_log(PLAT_LOG_ERR, "%d errors", 2);
+    plat_log(PLAT_LOG_NOTICE, "back");
+    /* a JOURNAL_STREAM inherited by a process whose stderr went elsewhere is not the journal */
+    setenv("JOURNAL_STREAM", "1:2", 1);
+    plat_log_reset();
+    plat_log(PLAT_LOG_WARNING, "plain");
+    unsetenv("JOURNAL_STREAM");
+    plat_log_reset();
+    plat_log(PLAT_LOG_INFO, "plain too");
+    dup2(saved, STDERR_FILENO);
+    close(saved);
+    close(fd);
+    slurp(path, text, sizeof text);
+    assert_string_equal(text, "<4>IMU hid lost\n<3>2 errors\n<5>back\ntest_live: plain\ntest_live: plain too\n");
+}
+
+static void test_hist_last_second(void **state)
+{
+    (void)state;
+    /* percentiles over what came since the mark, the mark moving on: STATUS's "last second" */
+    rt_telemetry *t = rt_telemetry_create();
+    rt_hist_mark *m = calloc(1, sizeof *m);
+    assert_non_null(t);
+    assert_non_null(m);
+    assert_true(isnan(rt_hist_pct_since(&t->m2p_ms, m, 99)));
+    for (int i = 1; i <= 100; i++) rt_hist_add(&t->m2p_ms, 100.0 + i); /* 101..200 ms */
+    assert_true(fabs(rt_hist_pct_since(&t->m2p_ms, m, 99) - 199.0) < 0.02);
+    for (int i = 0; i < 50; i++) rt_hist_add(&t->m2p_ms, 5.0);
+    assert_true(fabs(rt_hist_pct_since(&t->m2p_ms, m, 99) - 5.005) < 0.001); /* the old samples are gone */
+    assert_true(fabs(rt_hist_pct(&t->m2p_ms, 50) - 125.0) < 0.02);          /* the whole run still has them */
+    assert_true(isnan(rt_hist_pct_since(&t->m2p_ms, m, 50)));               /* nothing new */
+    rt_hist_add(&t->m2p_ms, 1000.0);                                        /* the overflow bin */
+    assert_true(rt_hist_pct_since(&t->m2p_ms, m, 50) >= 250.0);
+    free(m);
+    rt_telemetry_destroy(t);
+}
+
+int main(int argc, char **argv)
+{
+    (void)argc;
+    char t[512];
+    snprintf(t, sizeof t, "%s", argv[0]);
+    char *b = realpath(dirname(dirname(dirname(t))), NULL);
+    if (!b) return 1;
+    snprintf(build, sizeof build, "%s", b);
+    free(b);
+    snprintf(tmp, sizeof tmp, "%s/tests/live", build);
+    char cmd[600];
+    snprintf(cmd, sizeof cmd, "mkdir -p %s", tmp);
+    if (system(cmd) != 0) return 1;
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_hist_last_second),
+        cmocka_unit_test(test_log_priorities),
+        cmocka_unit_test(test_status_line_and_live_file),
+        cmocka_unit_test(test_top_shows_running_daemon_and_sigterm_summary),
+        cmocka_unit_test(test_sigabrt_prints_last_stats),
+        cmocka_unit_test(test_csv_rotates_by_size),
+        cmocka_unit_test(test_bad_live_path_is_an_error),
+        cmocka_unit_test(test_top_refuses_what_is_not_stats),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
