@@ -4,12 +4,12 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "drivers/drv_frames_usb.h"
-#include "drivers/drv_frames_v4l2.h"
-#include "drivers/drv_imu_hid.h"
-#include "drivers/drv_imu_i2c.h"
+#include "drivers/drv_frames_usb_mock.h"
+#include "drivers/drv_frames_v4l2_mock.h"
+#include "drivers/drv_imu_hid_mock.h"
+#include "drivers/drv_imu_i2c_mock.h"
 #include "drivers/drv_sim.h"
-#include "drivers/drv_vsync_gpio.h"
+#include "drivers/drv_vsync_gpio_mock.h"
 #include "drivers/drv_vsync_kms.h"
 #include "platform/plat_clock.h"
 #include "runtime/rt_app.h"
