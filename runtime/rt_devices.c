@@ -175,6 +175,13 @@ static bool open_frames(rt_app *a, const drv_frames_sim_params *sp, char *err, i
     return true;
 }
 
+bool rt_devices_simulated(const rt_config *c)
+{
+    return strcmp(c->imu_backend, "sim") == 0 || is_mock(c->imu_device) || strcmp(c->frames_backend, "sim") == 0 ||
+           is_mock(c->frames_device) || strcmp(c->vsync_backend, "sim") == 0 ||
+           (strcmp(c->vsync_backend, "gpio") == 0 && is_mock(c->vsync_chip));
+}
+
 bool rt_devices_open(rt_app *a, const drv_frames_sim_params *sp, char *err, int errlen)
 {
     const rt_config *c = &a->cfg;
