@@ -1,6 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /* drv_frames_usb_mock: a drv_usb_transport (the seam FunctionFS fills on a board) made of socket pairs, and a
- * simulated host thread on their far side rendering at the poses the board sends, with payload, cut and stall faults. */
+ * simulated host thread on their far side rendering at the poses the board sends, with payload, cut and stall
+ * faults. */
 #include "drivers/drv_frames_usb_mock.h"
 
 #include <errno.h>

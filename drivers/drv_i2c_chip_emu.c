@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
-/* drv_i2c_chip_emu: the IMU chips' register files as the datasheets describe them, kept apart from drv_i2c_chips.c
- * (its own field decoding and sensitivity tables) so a driver writing the wrong range code reads wrongly scaled data. */
+/* drv_i2c_chip_emu: the IMU chips' register files as the datasheets describe them, apart from the driver's
+ * drv_i2c_chips.c (own field decoding and tables): a driver writing a wrong range code reads wrongly scaled data. */
 #include "drivers/drv_i2c_chip_emu.h"
 
 #include <math.h>

@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /* drv_vsync_gpio: the vsync backend on the panel's TE line: a thread waits for edges and feeds the estimator; next()
  * reads the published estimate without locks. When edges stop for more than 3.5 periods the source free-runs on the
- * estimate (or the nominal rate) and relocks as soon as edges return. The mock edge source is in drv_vsync_gpio_mock.c. */
+ * estimate (or the nominal rate) and relocks as soon as edges return. The mock edge source: drv_vsync_gpio_mock.c. */
 #include "drivers/drv_vsync_gpio.h"
 
 #include <math.h>
