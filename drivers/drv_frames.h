@@ -11,7 +11,8 @@
 #include "warp/warp_image.h"
 #include "warp/warp_math.h"
 
-/* Planes a frame can carry; the same bits as SIM_PLANE_* (a source sends only what its scene needs). */
+/* Planes a frame can carry; the same bits as SIM_PLANE_* (asserted in drv_sim.c; a source sends only what its scene
+ * needs). */
 enum {
     DRV_PLANE_COLOR = 1u << 0,
     DRV_PLANE_DEPTH = 1u << 1,

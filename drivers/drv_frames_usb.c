@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
-/* drv_frames_usb: host frames over USB, the board being a FunctionFS gadget (bulk OUT frames, bulk IN poses), and
- * a mock whose simulated host talks the same framelink byte streams through socket pairs instead of endpoints. */
+/* drv_frames_usb: host frames over USB, the board being a FunctionFS gadget (bulk OUT frames, bulk IN poses); the
+ * board side runs on any drv_usb_transport (the mock's socket pairs are in drv_frames_usb_mock.c). */
 #include "drivers/drv_frames_usb.h"
 
 #include <endian.h>
@@ -17,7 +17,6 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/eventfd.h>
-#include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/syscall.h>
 #include <unistd.h>
@@ -32,24 +31,12 @@
 #define LEAD_MIN_MS 2.0
 #define LEAD_MAX_MS 200.0
 
-/* ---- transport: the only piece the mock replaces ---- */
-
-typedef struct usb_transport usb_transport;
-struct usb_transport {
-    /* Up to cap bytes of the OUT stream within timeout_ms: bytes, 0 on timeout, -errno when the link failed. */
-    ssize_t (*read)(usb_transport *t, uint8_t *buf, size_t cap, int timeout_ms);
-    /* One message on the IN endpoint: len, 0 when the host did not take it in time, -errno. */
-    ssize_t (*write)(usb_transport *t, const uint8_t *buf, size_t len, int timeout_ms);
-    bool (*connected)(usb_transport *t);
-    void (*destroy)(usb_transport *t);
-};
-
-/* ---- the board side (shared by the gadget and the mock) ---- */
+/* ---- the board side (the same on every transport) ---- */
 
 typedef struct {
     drv_frames base;
     drv_frames_usb_params p;
-    usb_transport *t;
+    drv_usb_transport *t;
     uint8_t *buf;              /* receive buffer: one frame plus one read */
     size_t cap, have;
     uint8_t *scratch;          /* oversize frames are read here and dropped */
@@ -64,9 +51,6 @@ typedef struct {
     pthread_mutex_t lock;      /* stats */
     drv_frames_usb_stats st;
     uint32_t pose_seq;
-
-    /* mock host */
-    struct mock_host *mock;
 } usb_frames;
 
 static void note(usb_frames *u, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
@@ -255,14 +239,11 @@ static void *pose_thread(void *arg)
     return NULL;
 }
 
-static void mock_host_stop(struct mock_host *m);
-
 static void usb_destroy(drv_frames *fr)
 {
     usb_frames *u = (usb_frames *)fr;
     atomic_store(&u->stop, true);
     if (u->pose_up) pthread_join(u->pose_th, NULL);
-    if (u->mock) mock_host_stop(u->mock);
     if (u->t) u->t->destroy(u->t);
     pthread_mutex_destroy(&u->lock);
     free(u->buf);
@@ -338,22 +319,39 @@ static void usb_last_error(drv_frames *fr, char *buf, int len)
     pthread_mutex_unlock(&u->lock);
 }
 
+drv_frames *drv_frames_usb_create_on_transport(const drv_frames_usb_params *p, drv_usb_transport *t,
+                                               const char *name, char *err, int errlen)
+{
+    usb_frames *u = board_new(p, err, errlen);
+    if (!u) {
+        t->destroy(t);
+        return NULL;
+    }
+    u->base.name = name;
+    u->t = t;
+    if (!board_start(u, err, errlen)) {
+        usb_destroy(&u->base);
+        return NULL;
+    }
+    return &u->base;
+}
+
 /* ---- fed from memory: the receive state machine alone ---- */
 
 /* No link: the bytes come from drv_frames_usb_feed, so a read only waits out its timeout. */
-static ssize_t fed_read(usb_transport *t, uint8_t *buf, size_t cap, int timeout_ms)
+static ssize_t fed_read(drv_usb_transport *t, uint8_t *buf, size_t cap, int timeout_ms)
 {
     (void)t, (void)buf, (void)cap;
     if (timeout_ms > 0) plat_sleep_ns((int64_t)timeout_ms * PLAT_NS_PER_MS);
     return 0;
 }
-static ssize_t fed_write(usb_transport *t, const uint8_t *buf, size_t len, int timeout_ms)
+static ssize_t fed_write(drv_usb_transport *t, const uint8_t *buf, size_t len, int timeout_ms)
 {
     (void)t, (void)buf, (void)timeout_ms;
     return (ssize_t)len;
 }
-static bool fed_connected(usb_transport *t) { return (void)t, true; }
-static void fed_destroy(usb_transport *t) { free(t); }
+static bool fed_connected(drv_usb_transport *t) { return (void)t, true; }
+static void fed_destroy(drv_usb_transport *t) { free(t); }
 static bool no_poses(void *ctx, int64_t t_ns, warp_pose *head) { return (void)ctx, (void)t_ns, (void)head, false; }
 
 drv_frames *drv_frames_usb_create_fed(const drv_frames_usb_params *p, char *err, int errlen)
@@ -369,7 +367,7 @@ drv_frames *drv_frames_usb_create_fed(const drv_frames_usb_params *p, char *err,
         set_err(err, errlen, "usb frames: out of memory");
         return NULL;
     }
-    *u->t = (usb_transport){fed_read, fed_write, fed_connected, fed_destroy};
+    *u->t = (drv_usb_transport){fed_read, fed_write, fed_connected, fed_destroy};
     u->base.name = "usb (fed)";
     return &u->base;
 }
@@ -479,7 +477,7 @@ static void aio_ep_free(aio_ep *a)
 }
 
 typedef struct {
-    usb_transport base;
+    drv_usb_transport base;
     int ep0;
     aio_ep out, in;
     pthread_t ep0_th;
@@ -508,7 +506,7 @@ static bool ffs_wait_enabled(ffs_transport *t, int timeout_ms)
     return en;
 }
 
-static ssize_t ffs_read(usb_transport *bt, uint8_t *buf, size_t cap, int timeout_ms)
+static ssize_t ffs_read(drv_usb_transport *bt, uint8_t *buf, size_t cap, int timeout_ms)
 {
     ffs_transport *t = (ffs_transport *)bt;
     aio_ep *a = &t->out;
@@ -533,7 +531,7 @@ static ssize_t ffs_read(usb_transport *bt, uint8_t *buf, size_t cap, int timeout
     return (ssize_t)n;
 }
 
-static ssize_t ffs_write(usb_transport *bt, const uint8_t *buf, size_t len, int timeout_ms)
+static ssize_t ffs_write(drv_usb_transport *bt, const uint8_t *buf, size_t len, int timeout_ms)
 {
     ffs_transport *t = (ffs_transport *)bt;
     aio_ep *a = &t->in;
@@ -547,7 +545,7 @@ static ssize_t ffs_write(usb_transport *bt, const uint8_t *buf, size_t len, int 
     return r;
 }
 
-static bool ffs_connected(usb_transport *bt) { return ffs_wait_enabled((ffs_transport *)bt, 0); }
+static bool ffs_connected(drv_usb_transport *bt) { return ffs_wait_enabled((ffs_transport *)bt, 0); }
 
 static const char *ffs_event_name(int type)
 {
@@ -608,7 +606,7 @@ static void *ep0_thread(void *arg)
     return NULL;
 }
 
-static void ffs_destroy(usb_transport *bt)
+static void ffs_destroy(drv_usb_transport *bt)
 {
     ffs_transport *t = (ffs_transport *)bt;
     atomic_store(&t->stop, true);
@@ -737,226 +735,6 @@ drv_frames *drv_frames_usb_create(const drv_frames_usb_params *p, char *err, int
     if (!board_start(u, err, errlen)) goto fail;
     return &u->base;
 fail:
-    usb_destroy(&u->base);
-    return NULL;
-}
-
-/* ---- mock: socket pairs for the endpoints, a simulated host behind them ---- */
-
-typedef struct {
-    usb_transport base;
-    int out_fd, in_fd; /* board side: frames stream in, pose messages out */
-} sock_transport;
-
-static ssize_t sock_read(usb_transport *bt, uint8_t *buf, size_t cap, int timeout_ms)
-{
-    sock_transport *t = (sock_transport *)bt;
-    struct pollfd pfd = {t->out_fd, POLLIN, 0};
-    int r = poll(&pfd, 1, timeout_ms);
-    if (r < 0) return errno == EINTR ? 0 : -errno;
-    if (r == 0) return 0;
-    ssize_t n = read(t->out_fd, buf, cap);
-    if (n == 0) return -ESHUTDOWN; /* the mock host went away */
-    if (n < 0) return errno == EINTR || errno == EAGAIN ? 0 : -errno;
-    return n;
-}
-
-static ssize_t sock_write(usb_transport *bt, const uint8_t *buf, size_t len, int timeout_ms)
-{
-    sock_transport *t = (sock_transport *)bt;
-    struct pollfd pfd = {t->in_fd, POLLOUT, 0};
-    int r = poll(&pfd, 1, timeout_ms);
-    if (r <= 0) return r < 0 && errno != EINTR ? -errno : 0;
-    ssize_t n = send(t->in_fd, buf, len, MSG_NOSIGNAL | MSG_DONTWAIT);
-    if (n < 0) return errno == EAGAIN ? 0 : -errno;
-    return n;
-}
-
-static bool sock_connected(usb_transport *bt)
-{
-    (void)bt;
-    return true;
-}
-
-static void sock_destroy(usb_transport *bt)
-{
-    sock_transport *t = (sock_transport *)bt;
-    if (t->out_fd >= 0) close(t->out_fd);
-    if (t->in_fd >= 0) close(t->in_fd);
-    free(t);
-}
-
-struct mock_host {
-    drv_frames_sim_params hp;
-    drv_frames_usb_mock_params mp;
-    drv_frames *sim;
-    drv_frame frame;
-    int out_fd, in_fd; /* host side */
-    pthread_t th;
-    bool up;
-    atomic_bool stop;
-    bool have_pose, stalled;
-    drv_framelink_pose latest, used;
-    int64_t latest_rx_ns, used_rx_ns;
-    int64_t t_created;
-    uint8_t *buf;
-    size_t cap;
-};
-
-/* The simulated host's pose source: the newest pose message from the board. */
-static bool mock_predict(void *ctx, int64_t t_ns, warp_pose *head)
-{
-    (void)t_ns;
-    struct mock_host *m = ctx;
-    if (!m->have_pose) return false;
-    *head = m->latest.head;
-    m->used = m->latest;
-    m->used_rx_ns = m->latest_rx_ns;
-    return true;
-}
-
-static void mock_drain_poses(struct mock_host *m)
-{
-    uint8_t msg[512];
-    ssize_t n;
-    while ((n = recv(m->in_fd, msg, sizeof msg, MSG_DONTWAIT)) > 0) {
-        drv_framelink_pose p;
-        if (drv_framelink_pose_decode(msg, (size_t)n, &p) == DRV_FRAME_OK) {
-            m->latest = p;
-            m->latest_rx_ns = plat_now_ns();
-            m->have_pose = true;
-        }
-    }
-}
-
-/* Writes buf completely unless stopping; false when the board went away or we stop. */
-static bool mock_write_all(struct mock_host *m, const uint8_t *buf, size_t len)
-{
-    while (len > 0 && !atomic_load(&m->stop)) {
-        struct pollfd pfd = {m->out_fd, POLLOUT, 0};
-        if (poll(&pfd, 1, 20) <= 0) continue;
-        ssize_t n = send(m->out_fd, buf, len, MSG_NOSIGNAL | MSG_DONTWAIT);
-        if (n < 0) {
-            if (errno == EAGAIN || errno == EINTR) continue;
-            return false;
-        }
-        buf += n;
-        len -= (size_t)n;
-    }
-    return len == 0;
-}
-
-static void *mock_thread(void *arg)
-{
-    struct mock_host *m = arg;
-    plat_thread_set_name("hmdwarp-mockhost");
-    uint64_t k = 0;
-    while (!atomic_load(&m->stop)) {
-        mock_drain_poses(m);
-        int64_t start = plat_now_ns();
-        int rc = drv_frames_receive(m->sim, &m->frame, 20);
-        if (rc != 1) continue;
-        /* Echo the board's pose: its target time (pose_t_ns) and send time, as a real host does. */
-        m->frame.pose_t_ns = m->used.target_t_ns;
-        drv_framelink_tx tx = {.pose_sent_ns = m->used.board_t_ns, .host_pose_rx_ns = m->used_rx_ns,
-                               .host_render_start_ns = start, .host_render_end_ns = plat_now_ns()};
-        tx.host_send_ns = plat_now_ns();
-        size_t n = drv_framelink_encode_ex(&m->frame, &tx, m->buf, m->cap);
-        if (!n) continue;
-        k++;
-        size_t len = n;
-        if (m->mp.corrupt_every > 0 && k % (uint64_t)m->mp.corrupt_every == 0) m->buf[n - n / 3] ^= 0x5A;
-        if (m->mp.truncate_every > 0 && k % (uint64_t)m->mp.truncate_every == 0) len = n / 2;
-        double since = (double)(plat_now_ns() - m->t_created) * 1e-9;
-        if (!m->stalled && m->mp.stall_for_s > 0 && since >= m->mp.stall_at_s) {
-            /* Stop mid-frame, as a host whose renderer hangs would. */
-            m->stalled = true;
-            if (!mock_write_all(m, m->buf, len / 2)) break;
-            int64_t until = plat_now_ns() + (int64_t)(m->mp.stall_for_s * 1e9);
-            while (!atomic_load(&m->stop) && plat_now_ns() < until) plat_sleep_ns(10 * PLAT_NS_PER_MS);
-            if (!mock_write_all(m, m->buf + len / 2, len - len / 2)) break;
-            continue;
-        }
-        if (!mock_write_all(m, m->buf, len)) break;
-    }
-    return NULL;
-}
-
-static void mock_host_stop(struct mock_host *m)
-{
-    atomic_store(&m->stop, true);
-    if (m->up) pthread_join(m->th, NULL);
-    drv_frames_destroy(m->sim);
-    drv_frame_free(&m->frame);
-    if (m->out_fd >= 0) close(m->out_fd);
-    if (m->in_fd >= 0) close(m->in_fd);
-    free(m->buf);
-    free(m);
-}
-
-drv_frames *drv_frames_usb_create_mock(const drv_frames_sim_params *host, const drv_frames_usb_params *p,
-                                       const drv_frames_usb_mock_params *mp, char *err, int errlen)
-{
-    for (int e = 0; e < 2; e++)
-        if (host->cam[e].width != p->eye_w || host->cam[e].height != p->eye_h) {
-            set_err(err, errlen, "usb mock: host camera %dx%d differs from the board's eye %dx%d", host->cam[e].width,
-                    host->cam[e].height, p->eye_w, p->eye_h);
-            return NULL;
-        }
-    usb_frames *u = board_new(p, err, errlen);
-    if (!u) return NULL;
-    u->base.name = "usb-mock";
-    struct mock_host *m = calloc(1, sizeof *m);
-    sock_transport *t = calloc(1, sizeof *t);
-    int outp[2] = {-1, -1}, inp[2] = {-1, -1};
-    if (!m || !t) goto oom;
-    m->out_fd = m->in_fd = t->out_fd = t->in_fd = -1;
-    u->mock = m;
-    t->base.read = sock_read;
-    t->base.write = sock_write;
-    t->base.connected = sock_connected;
-    t->base.destroy = sock_destroy;
-    u->t = &t->base;
-    /* OUT: a byte stream, as bulk OUT reads are; IN: one message per packet, as bulk IN transfers are. */
-    if (socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, outp) || socketpair(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0, inp)) {
-        set_err(err, errlen, "usb mock: socketpair: %s", strerror(errno));
-        goto fail;
-    }
-    t->out_fd = outp[0], m->out_fd = outp[1];
-    t->in_fd = inp[0], m->in_fd = inp[1];
-    m->mp = mp ? *mp : (drv_frames_usb_mock_params){0};
-    m->hp = *host;
-    m->hp.poses.predict = mock_predict;
-    m->hp.poses.ctx = m;
-    m->hp.planes_wanted &= p->planes;
-    m->sim = drv_frames_sim_create(&m->hp);
-    if (!m->sim) {
-        set_err(err, errlen, "usb mock: cannot create the simulated host");
-        goto fail;
-    }
-    if (!drv_frame_alloc(&m->frame, p->eye_w, p->eye_h, drv_frames_planes(m->sim), 4)) goto oom;
-    m->frame.planes = drv_frames_planes(m->sim);
-    for (int e = 0; e < 2; e++) m->frame.cam[e] = host->cam[e];
-    m->frame.n_objects = DRV_MAX_OBJECTS; /* size the buffer for the largest header */
-    m->cap = drv_framelink_size(&m->frame);
-    m->frame.n_objects = 0;
-    if (m->frame.planes & DRV_PLANE_LAYERS) m->cap += (size_t)2 * p->eye_w * p->eye_h * 4 * 10;
-    m->buf = malloc(m->cap);
-    if (!m->buf) goto oom;
-    m->t_created = plat_now_ns();
-    atomic_init(&m->stop, false);
-    m->up = pthread_create(&m->th, NULL, mock_thread, m) == 0;
-    if (!m->up) {
-        set_err(err, errlen, "usb mock: cannot start the host thread");
-        goto fail;
-    }
-    if (!board_start(u, err, errlen)) goto fail;
-    return &u->base;
-oom:
-    set_err(err, errlen, "usb mock: out of memory");
-fail:
-    if (!u->mock && m) free(m);
-    if (!u->t && t) free(t);
     usb_destroy(&u->base);
     return NULL;
 }

@@ -1,15 +1,15 @@
 /* SPDX-License-Identifier: MIT */
 /* drv_frames_usb: host frames over USB, the board being a FunctionFS gadget (bulk OUT frames, bulk IN poses), and
- * a mock whose simulated host talks the same framelink byte streams through socket pairs instead of endpoints. */
+ * the transport seam below it (its mock, a simulated host behind socket pairs: drv_frames_usb_mock.h). */
 #ifndef DRV_FRAMES_USB_H
 #define DRV_FRAMES_USB_H
 
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <sys/types.h>
 
 #include "drivers/drv_frames.h"
-#include "drivers/drv_sim.h"
 #include "warp/warp_head.h"
 
 typedef struct {
@@ -26,15 +26,22 @@ typedef struct {
  * board/gadget.sh), then serves ep0 events, ep1 (frames) and ep2 (poses). NULL with a message in err on failure. */
 drv_frames *drv_frames_usb_create(const drv_frames_usb_params *p, char *err, int errlen);
 
-typedef struct {
-    int corrupt_every, truncate_every; /* 0 = never: every n-th frame gets a payload byte flipped / is cut in half */
-    double stall_at_s, stall_for_s;    /* the host stops mid-frame once, stall_at_s after creation */
-} drv_frames_usb_mock_params;
+/* The lowest layer, below the framelink stream: what FunctionFS's endpoints are for the gadget. */
+typedef struct drv_usb_transport drv_usb_transport;
+struct drv_usb_transport {
+    /* Up to cap bytes of the OUT stream within timeout_ms: bytes, 0 on timeout, -errno when the link failed. */
+    ssize_t (*read)(drv_usb_transport *t, uint8_t *buf, size_t cap, int timeout_ms);
+    /* One message on the IN endpoint: len, 0 when the host did not take it in time, -errno. */
+    ssize_t (*write)(drv_usb_transport *t, const uint8_t *buf, size_t len, int timeout_ms);
+    bool (*connected)(drv_usb_transport *t);
+    /* Called after the pose thread stopped: ends what serves the transport, then frees it. */
+    void (*destroy)(drv_usb_transport *t);
+};
 
-/* The board side unchanged over socket pairs standing in for ep1/ep2; a mock-host thread renders `host`'s scene
- * at the poses received (its own poses source is replaced), encodes with the codec and applies the faults. */
-drv_frames *drv_frames_usb_create_mock(const drv_frames_sim_params *host, const drv_frames_usb_params *p,
-                                       const drv_frames_usb_mock_params *mp, char *err, int errlen);
+/* The board side (receive state machine, pose thread, statistics) on any transport, owned from here on (destroyed
+ * on failure too); `name` (static) names the source. NULL with a message in err on failure. */
+drv_frames *drv_frames_usb_create_on_transport(const drv_frames_usb_params *p, drv_usb_transport *t,
+                                               const char *name, char *err, int errlen);
 
 /* The board side's receive state machine without a transport (tests, the fuzzer): bytes of the OUT stream are
  * given with drv_frames_usb_feed, and drv_frames_receive(fr, f, 0) parses what was fed exactly as the gadget does

@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /* drv_frames_v4l2: host frames captured over V4L2 (HDMI/CSI capture of the host's video output) in the in-band
- * layout of drv_v4l2_inband, a mock capture device fed by the simulated host, and the host tool's output writer. */
+ * layout of drv_v4l2_inband, through drv_v4l2_dev's device operations (its mock: drv_frames_v4l2_mock.c). */
 #include "drivers/drv_frames_v4l2.h"
 
 #include <errno.h>
@@ -20,60 +20,10 @@
 #include "drivers/drv_v4l2_inband.h"
 #include "platform/plat_clock.h"
 
-#define NBUF 4
+#define NBUF DRV_V4L2_NBUF
 #define REOPEN_NS (500 * PLAT_NS_PER_MS)
 
-/* ---- device operations: the only layer the mock replaces ---- */
-
-typedef struct {
-    int (*open)(void *ctx, const char *path, int flags);
-    int (*close)(void *ctx, int fd);
-    int (*ioctl)(void *ctx, int fd, unsigned long req, void *arg); /* 0, or -1 with errno */
-    void *(*mmap)(void *ctx, size_t len, int fd, off_t off);         /* MAP_FAILED with errno on failure */
-    int (*munmap)(void *ctx, void *p, size_t len);
-    int (*poll)(void *ctx, int fd, short events, int timeout_ms, short *revents); /* as poll(2) for one fd */
-} dev_ops;
-
-static int real_open(void *ctx, const char *path, int flags)
-{
-    (void)ctx;
-    return open(path, flags);
-}
-static int real_close(void *ctx, int fd)
-{
-    (void)ctx;
-    return close(fd);
-}
-static int real_ioctl(void *ctx, int fd, unsigned long req, void *arg)
-{
-    (void)ctx;
-    int r;
-    do r = ioctl(fd, req, arg);
-    while (r < 0 && errno == EINTR);
-    return r;
-}
-static void *real_mmap(void *ctx, size_t len, int fd, off_t off)
-{
-    (void)ctx;
-    return mmap(NULL, len, PROT_READ | PROT_WRITE, MAP_SHARED, fd, off);
-}
-static int real_munmap(void *ctx, void *p, size_t len)
-{
-    (void)ctx;
-    return munmap(p, len);
-}
-static int real_poll(void *ctx, int fd, short events, int timeout_ms, short *revents)
-{
-    (void)ctx;
-    struct pollfd pfd = {fd, events, 0};
-    int r = poll(&pfd, 1, timeout_ms);
-    *revents = pfd.revents;
-    return r;
-}
-static const dev_ops real_ops = {real_open, real_close, real_ioctl, real_mmap, real_munmap, real_poll};
-
-/* ---- shared pieces of capture and output ---- */
-
+static void msg(char *err, int errlen, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
 static void msg(char *err, int errlen, const char *fmt, ...)
 {
     if (!err || errlen <= 0) return;
@@ -83,479 +33,20 @@ static void msg(char *err, int errlen, const char *fmt, ...)
     va_end(ap);
 }
 
-/* Our formats in order of preference: YUV first (what HDMI bridges such as the TC358743 deliver natively, and half
- * the bytes of BGR32), then the RGB ones. */
-static const uint32_t preference[] = {V4L2_PIX_FMT_YUYV, V4L2_PIX_FMT_NV12, V4L2_PIX_FMT_XBGR32, V4L2_PIX_FMT_BGR32,
-                                      V4L2_PIX_FMT_RGB24};
-
-/* Picks the pixel format: want (0 = auto) among what ENUM_FMT lists for buffer type `type`. BGR32 and XBGR32 have
- * the same bytes, so either satisfies a request for the other. Returns 0 when nothing fits. */
-static uint32_t choose_format(const dev_ops *ops, void *ctx, int fd, uint32_t type, uint32_t want, char *offered,
-                              int offeredlen)
-{
-    uint32_t have[32];
-    int n = 0;
-    offered[0] = 0;
-    for (uint32_t i = 0; n < 32; i++) {
-        struct v4l2_fmtdesc d;
-        memset(&d, 0, sizeof d);
-        d.index = i;
-        d.type = type;
-        if (ops->ioctl(ctx, fd, VIDIOC_ENUM_FMT, &d) < 0) break;
-        have[n++] = d.pixelformat;
-        char fc[8];
-        size_t len = strlen(offered);
-        snprintf(offered + len, (size_t)offeredlen - len, "%s%s", len ? " " : "", drv_v4l2_fourcc_str(d.pixelformat, fc));
-    }
-    for (size_t k = 0; k < sizeof preference / sizeof preference[0]; k++) {
-        uint32_t f = preference[k];
-        bool wanted = !want || f == want ||
-                      ((want == V4L2_PIX_FMT_BGR32 || want == V4L2_PIX_FMT_XBGR32) &&
-                       (f == V4L2_PIX_FMT_BGR32 || f == V4L2_PIX_FMT_XBGR32));
-        if (!wanted) continue;
-        for (int i = 0; i < n; i++)
-            if (have[i] == f) return f;
-    }
-    return 0;
-}
-
-/* Y'CbCr encoding the driver reports (defaults resolved as the kernel does). */
-static drv_v4l2_colorspace colorspace_of(const struct v4l2_pix_format *pf)
-{
-    drv_v4l2_colorspace cs = DRV_V4L2_CS_DEFAULT;
-    unsigned enc = pf->ycbcr_enc ? pf->ycbcr_enc : V4L2_MAP_YCBCR_ENC_DEFAULT(pf->colorspace);
-    if (enc == V4L2_YCBCR_ENC_709) cs.matrix = DRV_V4L2_BT709;
-    unsigned q = pf->quantization ? pf->quantization : V4L2_MAP_QUANTIZATION_DEFAULT(false, pf->colorspace, enc);
-    cs.full_range = q == V4L2_QUANTIZATION_FULL_RANGE;
-    return cs;
-}
-
-/* Format parameter -> fourcc (0 = auto); false for an unknown name. */
-static bool parse_format(const char *s, uint32_t *f)
-{
-    *f = 0;
-    if (!s || !s[0] || strcasecmp(s, "auto") == 0) return true;
-    *f = drv_v4l2_fourcc_parse(s);
-    return *f != 0;
-}
-
-/* S_FMT for the layout's size; checks what the driver made of it. A capture bridge keeps the incoming video mode,
- * so a larger frame is fine (the layout sits in its top-left corner), a smaller or different format is not. */
-static bool set_format(const dev_ops *ops, void *ctx, int fd, const char *dev, uint32_t type, uint32_t fourcc, int w,
-                       int h, drv_v4l2_geom *g, drv_v4l2_colorspace *cs, char *err, int errlen)
-{
-    struct v4l2_format fmt;
-    memset(&fmt, 0, sizeof fmt);
-    fmt.type = type;
-    fmt.fmt.pix.width = (uint32_t)w;
-    fmt.fmt.pix.height = (uint32_t)h;
-    fmt.fmt.pix.pixelformat = fourcc;
-    fmt.fmt.pix.field = V4L2_FIELD_NONE;
-    /* What the band, colour and depth are written with (an output device honours it; capture reports its own). */
-    fmt.fmt.pix.colorspace = V4L2_COLORSPACE_SMPTE170M;
-    fmt.fmt.pix.ycbcr_enc = V4L2_YCBCR_ENC_601;
-    fmt.fmt.pix.quantization = V4L2_QUANTIZATION_LIM_RANGE;
-    char fc[8], fc2[8];
-    if (ops->ioctl(ctx, fd, VIDIOC_S_FMT, &fmt) < 0) {
-        msg(err, errlen, "%s: VIDIOC_S_FMT %s %dx%d: %s", dev, drv_v4l2_fourcc_str(fourcc, fc), w, h, strerror(errno));
-        return false;
-    }
-    const struct v4l2_pix_format *pf = &fmt.fmt.pix;
-    if (pf->pixelformat != fourcc) {
-        msg(err, errlen, "%s: asked for %s, driver set %s", dev, drv_v4l2_fourcc_str(fourcc, fc),
-            drv_v4l2_fourcc_str(pf->pixelformat, fc2));
-        return false;
-    }
-    if ((int)pf->width < w || (int)pf->height < h) {
-        msg(err, errlen, "%s: frames are %ux%u, the layout (eyes and band) needs at least %dx%d", dev, pf->width,
-            pf->height, w, h);
-        return false;
-    }
-    if (pf->field != V4L2_FIELD_NONE && pf->field != V4L2_FIELD_ANY) {
-        msg(err, errlen, "%s: interlaced video (field %u) is not supported", dev, pf->field);
-        return false;
-    }
-    if (!drv_v4l2_geom_init(g, fourcc, (int)pf->width, (int)pf->height, (int)pf->bytesperline)) {
-        msg(err, errlen, "%s: unusable geometry %ux%u, bytesperline %u", dev, pf->width, pf->height, pf->bytesperline);
-        return false;
-    }
-    if (pf->sizeimage > g->size) g->size = pf->sizeimage;
-    *cs = colorspace_of(pf);
-    return true;
-}
-
-typedef struct {
-    void *p;
-    size_t len;
-} mapped;
-
-/* REQBUFS + QUERYBUF + mmap of NBUF buffers. Returns how many were mapped (0 on failure, err set). */
-static int map_buffers(const dev_ops *ops, void *ctx, int fd, const char *dev, uint32_t type, size_t need, mapped *b,
-                       char *err, int errlen)
-{
-    struct v4l2_requestbuffers rb;
-    memset(&rb, 0, sizeof rb);
-    rb.count = NBUF;
-    rb.type = type;
-    rb.memory = V4L2_MEMORY_MMAP;
-    if (ops->ioctl(ctx, fd, VIDIOC_REQBUFS, &rb) < 0) {
-        msg(err, errlen, "%s: VIDIOC_REQBUFS (mmap): %s", dev, strerror(errno));
-        return 0;
-    }
-    if (rb.count < 2) {
-        msg(err, errlen, "%s: driver granted %u buffers, need at least 2", dev, rb.count);
-        return 0;
-    }
-    int n = rb.count < NBUF ? (int)rb.count : NBUF;
-    for (int i = 0; i < n; i++) {
-        struct v4l2_buffer vb;
-        memset(&vb, 0, sizeof vb);
-        vb.index = (uint32_t)i;
-        vb.type = type;
-        vb.memory = V4L2_MEMORY_MMAP;
-        if (ops->ioctl(ctx, fd, VIDIOC_QUERYBUF, &vb) < 0) {
-            msg(err, errlen, "%s: VIDIOC_QUERYBUF %d: %s", dev, i, strerror(errno));
-            return 0;
-        }
-        if (vb.length < need) {
-            msg(err, errlen, "%s: buffer %d holds %u bytes, the format needs %zu", dev, i, vb.length, need);
-            return 0;
-        }
-        b[i].p = ops->mmap(ctx, vb.length, fd, (off_t)vb.m.offset);
-        if (b[i].p == MAP_FAILED) {
-            b[i].p = NULL;
-            msg(err, errlen, "%s: mmap of buffer %d: %s", dev, i, strerror(errno));
-            return 0;
-        }
-        b[i].len = vb.length;
-    }
-    return n;
-}
-
-static void unmap_buffers(const dev_ops *ops, void *ctx, mapped *b, int n)
-{
-    for (int i = 0; i < n; i++)
-        if (b[i].p) ops->munmap(ctx, b[i].p, b[i].len), b[i].p = NULL;
-}
-
-static int queue_buffer(const dev_ops *ops, void *ctx, int fd, uint32_t type, int index, uint32_t bytesused)
-{
-    struct v4l2_buffer vb;
-    memset(&vb, 0, sizeof vb);
-    vb.index = (uint32_t)index;
-    vb.type = type;
-    vb.memory = V4L2_MEMORY_MMAP;
-    vb.bytesused = bytesused;
-    vb.field = V4L2_FIELD_NONE;
-    return ops->ioctl(ctx, fd, VIDIOC_QBUF, &vb);
-}
-
-/* ---- mock device ---- */
-
-typedef enum { MB_USER = 0, MB_QUEUED, MB_DONE } mock_state;
-
-typedef struct {
-    drv_frames *host;
-    drv_frame hf;        /* the host's latest frame */
-    bool depth;
-    int eye_w, eye_h;
-    int opens;           /* open file descriptions (1 at most) */
-    int fail_opens;      /* opens left to fail with ENOENT (unplugged) */
-    bool unplugged;      /* the current fd is dead: POLLERR, DQBUF ENODEV */
-    bool garble, blank;
-    int corrupt_every;   /* [mock] corrupt_every: every Nth frame damaged, a flipped block and a blank in turn */
-    uint64_t packed;     /* frames the host delivered into a buffer */
-    drv_v4l2_geom g;
-    drv_v4l2_colorspace cs;
-    bool fmt_set, streaming;
-    int nbuf;
-    struct {
-        uint8_t *mem;
-        size_t len;
-        mock_state st;
-        uint64_t order;  /* FIFO order of QBUF / completion */
-        struct v4l2_buffer info;
-    } b[NBUF];
-    uint64_t ticket;
-    uint32_t sequence;
-} mock_dev;
-
-static const uint32_t mock_formats[] = {V4L2_PIX_FMT_RGB24, V4L2_PIX_FMT_XBGR32, V4L2_PIX_FMT_NV12, V4L2_PIX_FMT_YUYV};
-#define MOCK_FD 42
-#define MOCK_OFFSET_STEP (1u << 24)
-
-static void mock_release_buffers(mock_dev *m)
-{
-    for (int i = 0; i < m->nbuf; i++) free(m->b[i].mem);
-    memset(m->b, 0, sizeof m->b);
-    m->nbuf = 0;
-    m->streaming = false;
-}
-
-static int mock_open(void *ctx, const char *path, int flags)
-{
-    (void)path, (void)flags;
-    mock_dev *m = ctx;
-    if (m->fail_opens > 0) {
-        m->fail_opens--;
-        errno = ENOENT;
-        return -1;
-    }
-    if (m->opens) {
-        errno = EBUSY;
-        return -1;
-    }
-    m->opens = 1;
-    m->unplugged = false;
-    return MOCK_FD;
-}
-
-static int mock_close(void *ctx, int fd)
-{
-    mock_dev *m = ctx;
-    if (fd != MOCK_FD || !m->opens) {
-        errno = EBADF;
-        return -1;
-    }
-    m->opens = 0;
-    mock_release_buffers(m);
-    m->fmt_set = false;
-    return 0;
-}
-
-static int mock_fail(int e)
-{
-    errno = e;
-    return -1;
-}
-
-static int mock_ioctl(void *ctx, int fd, unsigned long req, void *arg)
-{
-    mock_dev *m = ctx;
-    if (fd != MOCK_FD || !m->opens) return mock_fail(EBADF);
-    if (m->unplugged && req != VIDIOC_STREAMOFF && req != VIDIOC_REQBUFS) return mock_fail(ENODEV);
-    switch (req) {
-    case VIDIOC_QUERYCAP: {
-        struct v4l2_capability *c = arg;
-        memset(c, 0, sizeof *c);
-        snprintf((char *)c->driver, sizeof c->driver, "hmdwarp-mock");
-        snprintf((char *)c->card, sizeof c->card, "simulated HDMI capture");
-        c->device_caps = V4L2_CAP_VIDEO_CAPTURE | V4L2_CAP_STREAMING;
-        c->capabilities = c->device_caps | V4L2_CAP_DEVICE_CAPS;
-        return 0;
-    }
-    case VIDIOC_ENUM_FMT: {
-        struct v4l2_fmtdesc *d = arg;
-        if (d->type != V4L2_BUF_TYPE_VIDEO_CAPTURE) return mock_fail(EINVAL);
-        if (d->index >= sizeof mock_formats / sizeof mock_formats[0]) return mock_fail(EINVAL);
-        d->pixelformat = mock_formats[d->index];
-        return 0;
-    }
-    case VIDIOC_S_FMT:
-    case VIDIOC_G_FMT: {
-        struct v4l2_format *f = arg;
-        if (f->type != V4L2_BUF_TYPE_VIDEO_CAPTURE) return mock_fail(EINVAL);
-        if (req == VIDIOC_S_FMT) {
-            if (m->nbuf) return mock_fail(EBUSY);
-            uint32_t pf = f->fmt.pix.pixelformat;
-            bool ok = false;
-            for (size_t i = 0; i < sizeof mock_formats / sizeof mock_formats[0]; i++) ok = ok || mock_formats[i] == pf;
-            if (!ok) pf = V4L2_PIX_FMT_YUYV; /* drivers substitute a format they have */
-            /* Like an HDMI bridge, the size is the incoming video mode (the host's layout), not what was asked. */
-            int w, h;
-            drv_v4l2_layout(m->eye_w, m->eye_h, m->depth, &w, &h);
-            /* A padded stride, as DMA engines like, so stride handling is exercised. */
-            int bpl = (drv_v4l2_min_bytesperline(pf, w) + 63) / 64 * 64 + 64;
-            drv_v4l2_geom_init(&m->g, pf, w, h, bpl);
-            m->cs = DRV_V4L2_CS_DEFAULT;
-            m->fmt_set = true;
-        } else if (!m->fmt_set) {
-            return mock_fail(EINVAL);
-        }
-        memset(&f->fmt.pix, 0, sizeof f->fmt.pix);
-        f->fmt.pix.width = (uint32_t)m->g.width;
-        f->fmt.pix.height = (uint32_t)m->g.height;
-        f->fmt.pix.pixelformat = m->g.fourcc;
-        f->fmt.pix.field = V4L2_FIELD_NONE;
-        f->fmt.pix.bytesperline = (uint32_t)m->g.bytesperline;
-        f->fmt.pix.sizeimage = (uint32_t)m->g.size;
-        bool rgb = m->g.fourcc == V4L2_PIX_FMT_RGB24 || m->g.fourcc == V4L2_PIX_FMT_XBGR32;
-        f->fmt.pix.colorspace = rgb ? V4L2_COLORSPACE_SRGB : V4L2_COLORSPACE_SMPTE170M;
-        f->fmt.pix.ycbcr_enc = rgb ? V4L2_YCBCR_ENC_DEFAULT : V4L2_YCBCR_ENC_601;
-        f->fmt.pix.quantization = rgb ? V4L2_QUANTIZATION_FULL_RANGE : V4L2_QUANTIZATION_LIM_RANGE;
-        return 0;
-    }
-    case VIDIOC_REQBUFS: {
-        struct v4l2_requestbuffers *rb = arg;
-        if (rb->type != V4L2_BUF_TYPE_VIDEO_CAPTURE || rb->memory != V4L2_MEMORY_MMAP) return mock_fail(EINVAL);
-        mock_release_buffers(m);
-        if (rb->count == 0) return 0;
-        if (!m->fmt_set) return mock_fail(EINVAL);
-        int n = rb->count > NBUF ? NBUF : (int)rb->count;
-        for (int i = 0; i < n; i++) {
-            m->b[i].len = m->g.size;
-            m->b[i].mem = calloc(1, m->g.size);
-            if (!m->b[i].mem) {
-                mock_release_buffers(m);
-                return mock_fail(ENOMEM);
-            }
-        }
-        m->nbuf = n;
-        rb->count = (uint32_t)n;
-        return 0;
-    }
-    case VIDIOC_QUERYBUF:
-    case VIDIOC_QBUF: {
-        struct v4l2_buffer *vb = arg;
-        if (vb->type != V4L2_BUF_TYPE_VIDEO_CAPTURE || vb->index >= (uint32_t)m->nbuf) return mock_fail(EINVAL);
-        if (req == VIDIOC_QBUF) {
-            if (m->b[vb->index].st != MB_USER) return mock_fail(EINVAL);
-            m->b[vb->index].st = MB_QUEUED;
-            m->b[vb->index].order = ++m->ticket;
-        }
-        vb->length = (uint32_t)m->b[vb->index].len;
-        vb->m.offset = vb->index * MOCK_OFFSET_STEP;
-        vb->memory = V4L2_MEMORY_MMAP;
-        return 0;
-    }
-    case VIDIOC_DQBUF: {
-        struct v4l2_buffer *vb = arg;
-        if (vb->type != V4L2_BUF_TYPE_VIDEO_CAPTURE) return mock_fail(EINVAL);
-        int best = -1;
-        for (int i = 0; i < m->nbuf; i++)
-            if (m->b[i].st == MB_DONE && (best < 0 || m->b[i].order < m->b[best].order)) best = i;
-        if (best < 0) return mock_fail(EAGAIN); /* opened O_NONBLOCK */
-        m->b[best].st = MB_USER;
-        *vb = m->b[best].info;
-        return 0;
-    }
-    case VIDIOC_STREAMON:
-    case VIDIOC_STREAMOFF: {
-        const int *type = arg;
-        if (*type != V4L2_BUF_TYPE_VIDEO_CAPTURE) return mock_fail(EINVAL);
-        m->streaming = req == VIDIOC_STREAMON;
-        if (!m->streaming)
-            for (int i = 0; i < m->nbuf; i++) m->b[i].st = MB_USER;
-        return 0;
-    }
-    default: return mock_fail(ENOTTY);
-    }
-}
-
-static void *mock_mmap(void *ctx, size_t len, int fd, off_t off)
-{
-    mock_dev *m = ctx;
-    uint32_t i = (uint32_t)(off / MOCK_OFFSET_STEP);
-    if (fd != MOCK_FD || off % MOCK_OFFSET_STEP || i >= (uint32_t)m->nbuf || len > m->b[i].len) {
-        errno = EINVAL;
-        return MAP_FAILED;
-    }
-    return m->b[i].mem;
-}
-
-static int mock_munmap(void *ctx, void *p, size_t len)
-{
-    (void)ctx, (void)p, (void)len;
-    return 0; /* the memory belongs to the mock's buffers */
-}
-
-/* A "frame interrupt": the host renders, its frame is packed into the oldest queued buffer as the HDMI link and
- * the bridge would deliver it. */
-static int mock_poll(void *ctx, int fd, short events, int timeout_ms, short *revents)
-{
-    mock_dev *m = ctx;
-    (void)events;
-    *revents = 0;
-    if (fd != MOCK_FD || !m->opens) {
-        *revents = POLLNVAL;
-        return 1;
-    }
-    if (m->unplugged) {
-        *revents = POLLERR;
-        return 1;
-    }
-    for (int i = 0; i < m->nbuf; i++)
-        if (m->b[i].st == MB_DONE) {
-            *revents = POLLIN;
-            return 1;
-        }
-    int q = -1;
-    for (int i = 0; i < m->nbuf; i++)
-        if (m->b[i].st == MB_QUEUED && (q < 0 || m->b[i].order < m->b[q].order)) q = i;
-    if (!m->streaming || q < 0) {
-        plat_sleep_ns((int64_t)timeout_ms * PLAT_NS_PER_MS);
-        return 0;
-    }
-    int r = drv_frames_receive(m->host, &m->hf, timeout_ms);
-    if (r <= 0) return 0;
-    m->packed++;
-    if (m->corrupt_every > 0 && m->packed % (uint64_t)m->corrupt_every == 0) {
-        /* both ways a capture goes wrong in the band: a dropped symbol (CRC) and a picture without it (magic) */
-        if ((m->packed / (uint64_t)m->corrupt_every) % 2)
-            m->garble = true;
-        else
-            m->blank = true;
-    }
-    uint8_t *mem = m->b[q].mem;
-    if (m->blank) {
-        memset(mem, 0x80, m->g.size); /* a mid-grey picture: the host is not running our renderer */
-        m->blank = false;
-    } else if (drv_v4l2_pack(&m->hf, m->depth, &m->g, &m->cs, mem) != DRV_FRAME_OK) {
-        return 0; /* the host's frame does not fit: nothing arrives */
-    }
-    if (m->garble) {
-        /* Invert the block of bit 1000 (past the preamble), as a dropped HDMI symbol would. */
-        int bit = 1000, bx = bit % m->eye_w, by = bit / m->eye_w;
-        uint8_t lv[2];
-        drv_v4l2_read_luma(mem, &m->g, 2 * bx, 2 * by, 1, lv);
-        lv[0] = lv[1] = lv[0] > 128 ? DRV_V4L2_LEVEL_BLACK : DRV_V4L2_LEVEL_WHITE;
-        for (int k = 0; k < 2; k++) drv_v4l2_write_grey(mem, &m->g, 2 * bx, 2 * by + k, 2, lv);
-        m->garble = false;
-    }
-    struct v4l2_buffer *vb = &m->b[q].info;
-    memset(vb, 0, sizeof *vb);
-    vb->index = (uint32_t)q;
-    vb->type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
-    vb->memory = V4L2_MEMORY_MMAP;
-    vb->bytesused = (uint32_t)m->g.size;
-    vb->length = (uint32_t)m->b[q].len;
-    vb->field = V4L2_FIELD_NONE;
-    vb->sequence = m->sequence++;
-    vb->flags = V4L2_BUF_FLAG_MAPPED | V4L2_BUF_FLAG_DONE | V4L2_BUF_FLAG_TIMESTAMP_MONOTONIC |
-                V4L2_BUF_FLAG_TSTAMP_SRC_EOF;
-    vb->timestamp.tv_sec = (time_t)(m->hf.received_ns / PLAT_NS_PER_S);
-    vb->timestamp.tv_usec = (suseconds_t)(m->hf.received_ns % PLAT_NS_PER_S / 1000);
-    m->b[q].st = MB_DONE;
-    m->b[q].order = ++m->ticket;
-    *revents = POLLIN;
-    return 1;
-}
-
-static const dev_ops mock_ops = {mock_open, mock_close, mock_ioctl, mock_mmap, mock_munmap, mock_poll};
-
-static void mock_destroy(mock_dev *m)
-{
-    if (!m) return;
-    mock_release_buffers(m);
-    drv_frames_destroy(m->host);
-    drv_frame_free(&m->hf);
-    free(m);
-}
-
 /* ---- capture backend ---- */
 
 typedef struct {
     drv_frames base;
     drv_frames_v4l2_params p;
-    const dev_ops *ops;
+    const drv_v4l2_dev_ops *ops;
     void *ctx;
-    mock_dev *mock;       /* owned when this is the mock backend */
+    void *owned;          /* ctx, destroyed with the source (ops->destroy) */
     uint32_t want;        /* 0 = auto */
     drv_v4l2_layout_info layout;
     int fd;
     drv_v4l2_geom g;
     drv_v4l2_colorspace cs;
-    mapped buf[NBUF];
+    drv_v4l2_mapped buf[NBUF];
     int nbuf;
     int64_t next_open_ns;
     pthread_mutex_t lock; /* guards st */
@@ -577,7 +68,7 @@ static void cap_stop(v4l2_cap *c)
     if (c->fd < 0) return;
     int type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
     c->ops->ioctl(c->ctx, c->fd, VIDIOC_STREAMOFF, &type);
-    unmap_buffers(c->ops, c->ctx, c->buf, c->nbuf);
+    drv_v4l2_unmap_buffers(c->ops, c->ctx, c->buf, c->nbuf);
     c->nbuf = 0;
     c->ops->close(c->ctx, c->fd);
     c->fd = -1;
@@ -608,20 +99,22 @@ static bool cap_start(v4l2_cap *c, char *err, int errlen)
         goto fail;
     }
     char offered[160], fc[8];
-    uint32_t f = choose_format(c->ops, c->ctx, c->fd, V4L2_BUF_TYPE_VIDEO_CAPTURE, c->want, offered, sizeof offered);
+    uint32_t f =
+        drv_v4l2_choose_format(c->ops, c->ctx, c->fd, V4L2_BUF_TYPE_VIDEO_CAPTURE, c->want, offered, sizeof offered);
     if (!f) {
         msg(err, errlen, "%s: offers [%s], none of which is %s", dev, offered,
             c->want ? drv_v4l2_fourcc_str(c->want, fc) : "YUYV, NV12, XBGR32/BGR32 or RGB24");
         goto fail;
     }
-    if (!set_format(c->ops, c->ctx, c->fd, dev, V4L2_BUF_TYPE_VIDEO_CAPTURE, f, c->layout.width, c->layout.height,
-                    &c->g, &c->cs, err, errlen))
+    if (!drv_v4l2_set_format(c->ops, c->ctx, c->fd, dev, V4L2_BUF_TYPE_VIDEO_CAPTURE, f, c->layout.width,
+                             c->layout.height, &c->g, &c->cs, err, errlen))
         goto fail;
-    c->nbuf = map_buffers(c->ops, c->ctx, c->fd, dev, V4L2_BUF_TYPE_VIDEO_CAPTURE,
-                          drv_v4l2_image_size(c->g.fourcc, c->g.height, c->g.bytesperline), c->buf, err, errlen);
+    c->nbuf = drv_v4l2_map_buffers(c->ops, c->ctx, c->fd, dev, V4L2_BUF_TYPE_VIDEO_CAPTURE,
+                                   drv_v4l2_image_size(c->g.fourcc, c->g.height, c->g.bytesperline), c->buf, err,
+                                   errlen);
     if (!c->nbuf) goto fail;
     for (int i = 0; i < c->nbuf; i++)
-        if (queue_buffer(c->ops, c->ctx, c->fd, V4L2_BUF_TYPE_VIDEO_CAPTURE, i, 0) < 0) {
+        if (drv_v4l2_queue_buffer(c->ops, c->ctx, c->fd, V4L2_BUF_TYPE_VIDEO_CAPTURE, i, 0) < 0) {
             msg(err, errlen, "%s: VIDIOC_QBUF: %s", dev, strerror(errno));
             goto fail;
         }
@@ -661,7 +154,8 @@ static int cap_reject(v4l2_cap *c, int index, drv_frame_err e, const char *why)
     pthread_mutex_lock(&c->lock);
     c->st.rejected[e]++;
     pthread_mutex_unlock(&c->lock);
-    if (queue_buffer(c->ops, c->ctx, c->fd, V4L2_BUF_TYPE_VIDEO_CAPTURE, index, 0) < 0) cap_lost(c, "VIDIOC_QBUF", errno);
+    if (drv_v4l2_queue_buffer(c->ops, c->ctx, c->fd, V4L2_BUF_TYPE_VIDEO_CAPTURE, index, 0) < 0)
+        cap_lost(c, "VIDIOC_QBUF", errno);
     return -(int)e;
 }
 
@@ -710,7 +204,7 @@ static int cap_receive(drv_frames *fr, drv_frame *f, int timeout_ms)
         }
         if (b.index >= (uint32_t)c->nbuf) return cap_lost(c, "VIDIOC_DQBUF (bad buffer index)", EINVAL);
         if (have >= 0) {
-            if (queue_buffer(c->ops, c->ctx, c->fd, V4L2_BUF_TYPE_VIDEO_CAPTURE, have, 0) < 0)
+            if (drv_v4l2_queue_buffer(c->ops, c->ctx, c->fd, V4L2_BUF_TYPE_VIDEO_CAPTURE, have, 0) < 0)
                 return cap_lost(c, "VIDIOC_QBUF", errno);
             pthread_mutex_lock(&c->lock);
             c->st.skipped++;
@@ -749,7 +243,7 @@ static int cap_receive(drv_frames *fr, drv_frame *f, int timeout_ms)
     pthread_mutex_lock(&c->lock);
     c->st.frames++;
     pthread_mutex_unlock(&c->lock);
-    if (queue_buffer(c->ops, c->ctx, c->fd, V4L2_BUF_TYPE_VIDEO_CAPTURE, have, 0) < 0)
+    if (drv_v4l2_queue_buffer(c->ops, c->ctx, c->fd, V4L2_BUF_TYPE_VIDEO_CAPTURE, have, 0) < 0)
         cap_lost(c, "VIDIOC_QBUF", errno); /* the frame itself is good */
     return 1;
 }
@@ -764,7 +258,7 @@ static void cap_destroy(drv_frames *fr)
 {
     v4l2_cap *c = (v4l2_cap *)fr;
     cap_stop(c);
-    mock_destroy(c->mock);
+    if (c->owned) c->ops->destroy(c->owned);
     pthread_mutex_destroy(&c->lock);
     free(c);
 }
@@ -784,12 +278,12 @@ static void cap_last_error(drv_frames *fr, char *buf, int len)
     snprintf(buf, (size_t)len, "%s", st.last_error);
 }
 
-static drv_frames *cap_create(const drv_frames_v4l2_params *p, const dev_ops *ops, void *ctx, mock_dev *mock,
+static drv_frames *cap_create(const drv_frames_v4l2_params *p, const drv_v4l2_dev_ops *ops, void *ctx, const char *name,
                               char *err, int errlen)
 {
     const char *dev = p->device[0] ? p->device : "(no device)";
     uint32_t want;
-    if (!parse_format(p->format, &want)) {
+    if (!drv_v4l2_parse_format(p->format, &want)) {
         msg(err, errlen, "%s: unknown format '%s' (auto, yuyv, nv12, bgr32, rgb24)", dev, p->format);
         return NULL;
     }
@@ -806,18 +300,18 @@ static drv_frames *cap_create(const drv_frames_v4l2_params *p, const dev_ops *op
     }
     c->p = *p;
     c->p.device[sizeof c->p.device - 1] = 0;
-    c->ops = ops, c->ctx = ctx, c->mock = mock;
+    c->ops = ops, c->ctx = ctx, c->owned = ops->destroy ? ctx : NULL;
     c->want = want;
     c->layout = l;
     c->fd = -1;
     pthread_mutex_init(&c->lock, NULL);
-    c->base.name = mock ? "v4l2-mock" : "v4l2";
+    c->base.name = name;
     c->base.receive = cap_receive;
     c->base.planes = cap_planes;
     c->base.destroy = cap_destroy;
     c->base.last_error = cap_last_error;
     if (!cap_start(c, err, errlen)) {
-        c->mock = NULL; /* the caller still owns it */
+        c->owned = NULL; /* the caller destroys it */
         cap_destroy(&c->base);
         return NULL;
     }
@@ -826,201 +320,19 @@ static drv_frames *cap_create(const drv_frames_v4l2_params *p, const dev_ops *op
 
 drv_frames *drv_frames_v4l2_create(const drv_frames_v4l2_params *p, char *err, int errlen)
 {
-    return cap_create(p, &real_ops, NULL, NULL, err, errlen);
+    return cap_create(p, &drv_v4l2_real_ops, NULL, "v4l2", err, errlen);
 }
 
-drv_frames *drv_frames_v4l2_create_mock(const drv_frames_sim_params *host, const drv_frames_v4l2_params *p,
-                                        char *err, int errlen)
+drv_frames *drv_frames_v4l2_create_on_ops(const drv_frames_v4l2_params *p, const drv_v4l2_dev_ops *ops, void *ctx,
+                                          const char *name, char *err, int errlen)
 {
-    if (host->cam[0].width != p->eye_w || host->cam[0].height != p->eye_h || host->cam[1].width != p->eye_w ||
-        host->cam[1].height != p->eye_h) {
-        msg(err, errlen, "v4l2 mock: host renders %dx%d, capture expects eyes of %dx%d", host->cam[0].width,
-            host->cam[0].height, p->eye_w, p->eye_h);
-        return NULL;
-    }
-    mock_dev *m = calloc(1, sizeof *m);
-    if (!m) {
-        msg(err, errlen, "v4l2 mock: out of memory");
-        return NULL;
-    }
-    m->eye_w = p->eye_w, m->eye_h = p->eye_h, m->depth = p->depth;
-    m->host = drv_frames_sim_create(host);
-    if (!m->host || !drv_frame_alloc(&m->hf, p->eye_w, p->eye_h, drv_frames_planes(m->host), 1)) {
-        msg(err, errlen, "v4l2 mock: cannot create the simulated host");
-        mock_destroy(m);
-        return NULL;
-    }
-    drv_frames_v4l2_params mp = *p;
-    if (!mp.device[0]) snprintf(mp.device, sizeof mp.device, "mock:v4l2");
-    drv_frames *fr = cap_create(&mp, &mock_ops, m, m, err, errlen);
-    if (!fr) mock_destroy(m);
+    drv_frames *fr = cap_create(p, ops, ctx, name, err, errlen);
+    if (!fr && ops->destroy) ops->destroy(ctx);
     return fr;
 }
 
-void drv_frames_v4l2_mock_fault(drv_frames *fr, drv_v4l2_fault fault)
+void *drv_frames_v4l2_ops_ctx(drv_frames *fr, const drv_v4l2_dev_ops *ops)
 {
     v4l2_cap *c = (v4l2_cap *)fr;
-    if (!c->mock) return;
-    switch (fault) {
-    case DRV_V4L2_FAULT_UNPLUG:
-        c->mock->unplugged = true;
-        c->mock->fail_opens = 1;
-        break;
-    case DRV_V4L2_FAULT_GARBLE: c->mock->garble = true; break;
-    case DRV_V4L2_FAULT_BLANK: c->mock->blank = true; break;
-    }
-}
-
-void drv_frames_v4l2_mock_corrupt_every(drv_frames *fr, int n)
-{
-    v4l2_cap *c = (v4l2_cap *)fr;
-    if (c->mock) c->mock->corrupt_every = n > 0 ? n : 0;
-}
-
-/* ---- output writer (host tool) ---- */
-
-struct drv_v4l2_output {
-    const dev_ops *ops;
-    char device[64];
-    int fd;
-    bool depth;
-    bool streaming;   /* mmap streaming I/O; else write() */
-    bool stream_on;
-    drv_v4l2_geom g;
-    drv_v4l2_colorspace cs;
-    mapped buf[NBUF];
-    int nbuf;
-    int fresh;        /* buffers never queued yet (used before dequeuing any) */
-    int spare;        /* a dequeued buffer a failed pack left unqueued, or -1 */
-    uint8_t *wbuf;    /* write() path */
-};
-
-drv_v4l2_output *drv_v4l2_output_open(const char *device, const char *format, int eye_w, int eye_h, bool depth,
-                                      char *err, int errlen)
-{
-    uint32_t want;
-    if (!parse_format(format, &want)) {
-        msg(err, errlen, "%s: unknown format '%s' (auto, yuyv, nv12, bgr32, rgb24)", device, format);
-        return NULL;
-    }
-    drv_v4l2_layout_info l;
-    if (!drv_v4l2_layout_get(eye_w, eye_h, depth, &l)) {
-        msg(err, errlen, "%s: eye size %dx%d has no in-band layout", device, eye_w, eye_h);
-        return NULL;
-    }
-    drv_v4l2_output *o = calloc(1, sizeof *o);
-    if (!o) {
-        msg(err, errlen, "%s: out of memory", device);
-        return NULL;
-    }
-    o->ops = &real_ops;
-    snprintf(o->device, sizeof o->device, "%s", device);
-    o->depth = depth;
-    o->spare = -1;
-    o->fd = o->ops->open(NULL, device, O_RDWR | O_CLOEXEC);
-    if (o->fd < 0) {
-        msg(err, errlen, "%s: cannot open the output device: %s", device, strerror(errno));
-        free(o);
-        return NULL;
-    }
-    struct v4l2_capability cap;
-    memset(&cap, 0, sizeof cap);
-    char offered[160], fc[8];
-    uint32_t caps, f;
-    if (o->ops->ioctl(NULL, o->fd, VIDIOC_QUERYCAP, &cap) < 0) {
-        msg(err, errlen, "%s: VIDIOC_QUERYCAP: %s (not a V4L2 device?)", device, strerror(errno));
-        goto fail;
-    }
-    caps = (cap.capabilities & V4L2_CAP_DEVICE_CAPS) ? cap.device_caps : cap.capabilities;
-    if (!(caps & V4L2_CAP_VIDEO_OUTPUT) || !(caps & (V4L2_CAP_STREAMING | V4L2_CAP_READWRITE))) {
-        msg(err, errlen, "%s (%.32s): not a single-planar video output device (caps 0x%08x)", device,
-            (const char *)cap.card, caps);
-        goto fail;
-    }
-    o->streaming = caps & V4L2_CAP_STREAMING;
-    f = choose_format(o->ops, NULL, o->fd, V4L2_BUF_TYPE_VIDEO_OUTPUT, want, offered, sizeof offered);
-    if (!f) {
-        msg(err, errlen, "%s: offers [%s], none of which is %s", device, offered,
-            want ? drv_v4l2_fourcc_str(want, fc) : "YUYV, NV12, XBGR32/BGR32 or RGB24");
-        goto fail;
-    }
-    if (!set_format(o->ops, NULL, o->fd, device, V4L2_BUF_TYPE_VIDEO_OUTPUT, f, l.width, l.height, &o->g, &o->cs, err,
-                    errlen))
-        goto fail;
-    if (o->streaming) {
-        o->nbuf = map_buffers(o->ops, NULL, o->fd, device, V4L2_BUF_TYPE_VIDEO_OUTPUT, o->g.size, o->buf, err, errlen);
-        if (!o->nbuf) goto fail;
-        o->fresh = o->nbuf;
-    } else {
-        o->wbuf = malloc(o->g.size);
-        if (!o->wbuf) {
-            msg(err, errlen, "%s: out of memory", device);
-            goto fail;
-        }
-    }
-    return o;
-fail:
-    drv_v4l2_output_close(o);
-    return NULL;
-}
-
-int drv_v4l2_output_write(drv_v4l2_output *o, const drv_frame *f)
-{
-    if (!o->streaming) {
-        if (drv_v4l2_pack(f, o->depth, &o->g, &o->cs, o->wbuf) != DRV_FRAME_OK) return -EINVAL;
-        size_t off = 0;
-        while (off < o->g.size) {
-            ssize_t n = write(o->fd, o->wbuf + off, o->g.size - off);
-            if (n < 0 && errno == EINTR) continue;
-            if (n <= 0) return n < 0 ? -errno : -EIO;
-            off += (size_t)n;
-        }
-        return 0;
-    }
-    int index;
-    if (o->spare >= 0) {
-        index = o->spare;
-        o->spare = -1;
-    } else if (o->fresh > 0) {
-        index = o->nbuf - o->fresh--;
-    } else {
-        /* Wait for the device to hand back a shown buffer. */
-        short rev = 0;
-        int r = o->ops->poll(NULL, o->fd, POLLOUT, 1000, &rev);
-        if (r < 0) return -errno;
-        if (r == 0) return -ETIMEDOUT;
-        struct v4l2_buffer b;
-        memset(&b, 0, sizeof b);
-        b.type = V4L2_BUF_TYPE_VIDEO_OUTPUT;
-        b.memory = V4L2_MEMORY_MMAP;
-        if (o->ops->ioctl(NULL, o->fd, VIDIOC_DQBUF, &b) < 0) return -errno;
-        if (b.index >= (uint32_t)o->nbuf) return -EIO;
-        index = (int)b.index;
-    }
-    if (drv_v4l2_pack(f, o->depth, &o->g, &o->cs, o->buf[index].p) != DRV_FRAME_OK) {
-        o->spare = index; /* not queued: still ours for the next frame */
-        return -EINVAL;
-    }
-    if (queue_buffer(o->ops, NULL, o->fd, V4L2_BUF_TYPE_VIDEO_OUTPUT, index, (uint32_t)o->g.size) < 0) return -errno;
-    if (!o->stream_on) {
-        int type = V4L2_BUF_TYPE_VIDEO_OUTPUT;
-        if (o->ops->ioctl(NULL, o->fd, VIDIOC_STREAMON, &type) < 0) return -errno;
-        o->stream_on = true;
-    }
-    return 0;
-}
-
-void drv_v4l2_output_close(drv_v4l2_output *o)
-{
-    if (!o) return;
-    if (o->fd >= 0) {
-        if (o->stream_on) {
-            int type = V4L2_BUF_TYPE_VIDEO_OUTPUT;
-            o->ops->ioctl(NULL, o->fd, VIDIOC_STREAMOFF, &type);
-        }
-        unmap_buffers(o->ops, NULL, o->buf, o->nbuf);
-        o->ops->close(NULL, o->fd);
-    }
-    free(o->wbuf);
-    free(o);
+    return fr && fr->receive == cap_receive && c->ops == ops ? c->ctx : NULL;
 }

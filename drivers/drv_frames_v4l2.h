@@ -1,6 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /* drv_frames_v4l2: host frames captured over V4L2 (HDMI/CSI capture of the host's video output) in the in-band
- * layout of drv_v4l2_inband, a mock capture device fed by the simulated host, and the host tool's output writer. */
+ * layout of drv_v4l2_inband, on drv_v4l2_dev's device operations (its mock: drv_frames_v4l2_mock.h). The host
+ * tool's output writer is drv_v4l2_output. */
 #ifndef DRV_FRAMES_V4L2_H
 #define DRV_FRAMES_V4L2_H
 
@@ -8,7 +9,7 @@
 #include <stdint.h>
 
 #include "drivers/drv_frames.h"
-#include "drivers/drv_sim.h"
+#include "drivers/drv_v4l2_dev.h"
 
 typedef struct {
     char device[128]; /* e.g. /dev/video0 (as long as [frames] device) */
@@ -20,10 +21,12 @@ typedef struct {
 /* Opens and starts the capture device. NULL with a message naming the device in err when it is missing, is no
  * streaming video capture device, offers none of the formats, or delivers frames smaller than the layout. */
 drv_frames *drv_frames_v4l2_create(const drv_frames_v4l2_params *p, char *err, int errlen);
-/* The same backend over a mock device (replacing only open/ioctl/mmap/poll) whose frames come from a simulated
- * host packed in the chosen format (auto picks YUYV: the mock offers RGB24, XBGR32, NV12 and YUYV). */
-drv_frames *drv_frames_v4l2_create_mock(const drv_frames_sim_params *host, const drv_frames_v4l2_params *p,
-                                        char *err, int errlen);
+/* The capture backend on any device operations; ctx is owned from here on when ops->destroy is set (destroyed on
+ * failure too). `name` (static) names the source. */
+drv_frames *drv_frames_v4l2_create_on_ops(const drv_frames_v4l2_params *p, const drv_v4l2_dev_ops *ops, void *ctx,
+                                          const char *name, char *err, int errlen);
+/* The ctx of a source created on `ops`; NULL for any other source. */
+void *drv_frames_v4l2_ops_ctx(drv_frames *fr, const drv_v4l2_dev_ops *ops);
 
 typedef struct {
     uint64_t frames;                         /* delivered */
@@ -37,22 +40,5 @@ typedef struct {
 } drv_frames_v4l2_stats;
 /* Safe to call from another thread than receive(). */
 void drv_frames_v4l2_stats_get(drv_frames *fr, drv_frames_v4l2_stats *st);
-
-/* Mock faults for tests (no effect on a real device). */
-typedef enum {
-    DRV_V4L2_FAULT_UNPLUG = 1, /* the next poll reports POLLERR, DQBUF fails with ENODEV, the next open fails */
-    DRV_V4L2_FAULT_GARBLE = 2, /* the next frame's band has one bit flipped (CRC error) */
-    DRV_V4L2_FAULT_BLANK = 3,  /* the next frame is a plain picture without band (BAD_MAGIC) */
-} drv_v4l2_fault;
-void drv_frames_v4l2_mock_fault(drv_frames *fr, drv_v4l2_fault fault);
-/* [mock] corrupt_every: from now on every nth frame arrives damaged, in turn GARBLE and BLANK (0 = never). */
-void drv_frames_v4l2_mock_corrupt_every(drv_frames *fr, int n);
-
-/* The host tool's side: a V4L2 output device (e.g. vivid's loop) fed packed frames. */
-typedef struct drv_v4l2_output drv_v4l2_output;
-drv_v4l2_output *drv_v4l2_output_open(const char *device, const char *format, int eye_w, int eye_h, bool depth,
-                                      char *err, int errlen);
-int drv_v4l2_output_write(drv_v4l2_output *o, const drv_frame *f); /* 0 or -errno */
-void drv_v4l2_output_close(drv_v4l2_output *o);
 
 #endif

@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /* drv_imu_hid: IMU over USB HID (hidapi, hidraw backend): vendor IMU-bridge and Rift sensor reports decoded, device
- * time mapped to CLOCK_MONOTONIC, unplug/replug survived. A mock transport turns another drv_imu into reports. */
+ * time mapped to CLOCK_MONOTONIC, unplug/replug survived. Its mock transport: drv_imu_hid_mock.h. */
 #ifndef DRV_IMU_HID_H
 #define DRV_IMU_HID_H
 
@@ -16,20 +16,6 @@ typedef struct {
 
 /* Opens the device; NULL with a message naming the device on failure. */
 drv_imu *drv_imu_hid_create(const drv_imu_hid_params *p, char *err, int errlen);
-
-typedef struct {
-    uint32_t counter_start;     /* device µs counter at the source's first sample, e.g. near 2^32 to force roll-over;
-                                 * it restarts there after a replug, as a power-cycled device's would */
-    int samples_per_report;     /* 1..4 (0: 1) */
-    double unplug_at_s;         /* seconds after creation the device vanishes (0: never) */
-    double unplug_for_s;        /* ... and for how long (0: never unplugged) */
-    int corrupt_every;          /* every Nth report garbled (bit flip, truncation, wrong id, wrong version in turn);
-                                 * 0: never */
-} drv_imu_hid_mock_params;
-
-/* Takes ownership of `source` (also on failure): its samples are encoded into vendor reports stamped with a mock
- * device clock, then decoded and time-mapped by the same code as real reports. NULL on bad parameters. */
-drv_imu *drv_imu_hid_create_mock(drv_imu *source, const drv_imu_hid_mock_params *mp);
 
 /* The lowest layer, below decoding: what hidapi does for the real device. Every function gets the ctx given to
  * drv_imu_hid_create_with_transport. */

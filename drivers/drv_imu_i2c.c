@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
-/* drv_imu_i2c: the drv_imu backend for IMUs on an I2C bus (Linux i2c-dev + libi2c SMBus), polled at the sample rate,
- * plus a mock bus that emulates the chip's register file from another drv_imu so the real chip driver runs unchanged. */
+/* drv_imu_i2c: the drv_imu backend for IMUs on an I2C bus (Linux i2c-dev + libi2c SMBus), polled at the sample rate;
+ * its mock bus (the chip's register file emulated) is in drv_imu_i2c_mock.c. */
 #include "drivers/drv_imu_i2c.h"
 
 #include <errno.h>
@@ -161,245 +161,12 @@ drv_i2c_bus *drv_i2c_dev_open(const char *path, int addr, char *err, int errlen)
     return &d->bus;
 }
 
-/* ==== the mock bus ==== */
-
-/* The emulation follows the datasheets independently of drv_i2c_chips.c (its own field decoding and sensitivity
- * tables), so a driver that writes the wrong range code reads back wrongly scaled samples. */
-static const double mock_mpu_gyro_lsb[4] = {131.0, 65.5, 32.8, 16.4};
-static const double mock_mpu_accel_lsb[4] = {16384, 8192, 4096, 2048};
-static const double mock_icm_gyro_lsb[8] = {16.4, 32.8, 65.5, 131.0, 262.0, 524.3, 1048.6, 2097.2};
-static const double mock_icm_accel_lsb[8] = {2048, 4096, 8192, 16384, 2048, 2048, 2048, 2048};
-
-static bool mock_is_mpu(const drv_i2c_mockbus *m) { return m->model != DRV_I2C_CHIP_ICM42688; }
-
-static void mock_defaults(drv_i2c_mockbus *m)
-{
-    memset(m->reg, 0, sizeof m->reg);
-    switch (m->model) {
-    case DRV_I2C_CHIP_MPU6050:
-        m->reg[MPU_REG_PWR_MGMT_1] = MPU6050_PWR1_RESET_VALUE;
-        m->reg[MPU_REG_WHO_AM_I] = MPU6050_WHO_AM_I;
-        break;
-    case DRV_I2C_CHIP_MPU9250:
-        m->reg[MPU_REG_PWR_MGMT_1] = MPU9250_PWR1_RESET_VALUE;
-        m->reg[MPU_REG_WHO_AM_I] = MPU9250_WHO_AM_I;
-        break;
-    default: /* ICM-42688-P reset values (DS-000347 register map) */
-        m->reg[ICM_REG_INT_STATUS] = ICM_INT_STATUS_RESET_DONE;
-        m->reg[ICM_REG_INTF_CONFIG0] = 0x30;
-        m->reg[ICM_REG_GYRO_CONFIG0] = 0x06;
-        m->reg[ICM_REG_ACCEL_CONFIG0] = 0x06;
-        m->reg[0x51] = 0x16; /* GYRO_CONFIG1 */
-        m->reg[ICM_REG_GYRO_ACCEL_CONFIG0] = 0x11;
-        m->reg[0x53] = 0x0D; /* ACCEL_CONFIG1 */
-        m->reg[0x64] = 0x10; /* INT_CONFIG1 */
-        m->reg[ICM_REG_INT_SOURCE0] = ICM_INT_SOURCE0_RESET_DONE_INT1_EN;
-        m->reg[ICM_REG_WHO_AM_I] = ICM42688_WHO_AM_I;
-        for (int r = ICM_REG_TEMP_DATA1; r <= ICM_REG_GYRO_DATA_Z0; r += 2) m->reg[r] = 0x80; /* -32768: no data */
-        break;
-    }
-    m->have_sample = false;
-}
-
-static int16_t mock_sat(double v, int lo)
-{
-    if (!(v == v)) return 0;
-    double r = nearbyint(v);
-    if (r > 32767) return 32767;
-    if (r < lo) return (int16_t)lo;
-    return (int16_t)r;
-}
-
-static void put16(uint8_t *p, int16_t v)
-{
-    p[0] = (uint8_t)((uint16_t)v >> 8);
-    p[1] = (uint8_t)((uint16_t)v & 0xff);
-}
-
-/* Data registers from the latest source sample at the configured ranges, as the chip's ADC would fill them. */
-static void mock_update_data(drv_i2c_mockbus *m)
-{
-    const double rad2deg = 180.0 / 3.14159265358979323846;
-    const drv_imu_sample *s = &m->latest;
-    if (mock_is_mpu(m)) {
-        if (m->reg[MPU_REG_PWR_MGMT_1] & MPU_PWR1_SLEEP) return; /* asleep: registers frozen, no data-ready */
-        double gl = mock_mpu_gyro_lsb[(m->reg[MPU_REG_GYRO_CONFIG] >> 3) & 3];
-        double al = mock_mpu_accel_lsb[(m->reg[MPU_REG_ACCEL_CONFIG] >> 3) & 3];
-        for (int i = 0; i < 3; i++) {
-            put16(&m->reg[MPU_REG_ACCEL_XOUT_H + 2 * i], mock_sat(s->accel[i] / DRV_I2C_G * al, -32768));
-            put16(&m->reg[MPU_REG_GYRO_XOUT_H + 2 * i], mock_sat(s->gyro[i] * rad2deg * gl, -32768));
-        }
-        double t = m->model == DRV_I2C_CHIP_MPU6050 ? (25.0 - 36.53) * 340.0 : (25.0 - 21.0) * 333.87;
-        put16(&m->reg[MPU_REG_TEMP_OUT_H], mock_sat(t, -32768));
-        if (m->reg[MPU_REG_INT_ENABLE] & MPU_INT_DATA_RDY_EN) m->reg[MPU_REG_INT_STATUS] |= MPU_INT_STATUS_DATA_RDY;
-    } else {
-        uint8_t pw = m->reg[ICM_REG_PWR_MGMT0];
-        bool gyro_on = ((pw >> 2) & 3) == 3, accel_on = (pw & 3) >= 2;
-        if (!gyro_on && !accel_on) return;
-        double gl = mock_icm_gyro_lsb[(m->reg[ICM_REG_GYRO_CONFIG0] >> 5) & 7];
-        double al = mock_icm_accel_lsb[(m->reg[ICM_REG_ACCEL_CONFIG0] >> 5) & 7];
-        /* -32768 marks invalid data, so a real reading saturates at -32767 */
-        for (int i = 0; i < 3; i++) {
-            put16(&m->reg[ICM_REG_ACCEL_DATA_X1 + 2 * i],
-                  accel_on ? mock_sat(s->accel[i] / DRV_I2C_G * al, -32767) : INT16_MIN);
-            put16(&m->reg[ICM_REG_GYRO_DATA_X1 + 2 * i],
-                  gyro_on ? mock_sat(s->gyro[i] * rad2deg * gl, -32767) : INT16_MIN);
-        }
-        put16(&m->reg[ICM_REG_TEMP_DATA1], 0); /* 25 degC */
-        m->reg[ICM_REG_INT_STATUS] |= ICM_INT_STATUS_DATA_RDY;
-    }
-}
-
-static void mock_poll_source(drv_i2c_mockbus *m)
-{
-    if (!m->source) return;
-    drv_imu_sample buf[32];
-    bool got = false;
-    int n;
-    do {
-        n = drv_imu_read(m->source, buf, 32, 0);
-        if (n > 0) {
-            m->latest = buf[n - 1];
-            m->samples_in += (uint64_t)n;
-            got = true;
-        }
-    } while (n == 32);
-    if (got) {
-        m->have_sample = true;
-        mock_update_data(m);
-    }
-}
-
-static void mock_log(drv_i2c_mockbus *m, bool write, uint8_t reg, uint8_t val)
-{
-    if (m->n_log < DRV_I2C_MOCK_LOG) m->log[m->n_log] = (drv_i2c_mock_op){write, reg, val};
-    m->n_log++;
-}
-
-static int mock_fail(drv_i2c_mockbus *m)
-{
-    m->transfers++;
-    if (m->absent) return -ENXIO;
-    if (m->fail_next > 0) {
-        m->fail_next--;
-        return -EREMOTEIO;
-    }
-    return 0;
-}
-
-static int mock_read_block(drv_i2c_bus *b, uint8_t reg, uint8_t *buf, int n)
-{
-    drv_i2c_mockbus *m = (drv_i2c_mockbus *)b;
-    int rc = mock_fail(m);
-    if (rc < 0) return rc;
-    if (n < 1 || n > DRV_I2C_BLOCK_MAX || reg + n > 256) return -EINVAL; /* what SMBus cannot carry */
-    mock_log(m, false, reg, (uint8_t)n);
-    mock_poll_source(m);
-    bool other_bank = !mock_is_mpu(m) && m->reg[ICM_REG_BANK_SEL] != 0;
-    for (int i = 0; i < n; i++) {
-        int r = reg + i;
-        if (other_bank && r != ICM_REG_BANK_SEL) {
-            buf[i] = 0; /* banks 1-4 are not emulated */
-            continue;
-        }
-        buf[i] = m->reg[r];
-        if (r == MPU_REG_WHO_AM_I && m->who_am_i >= 0) buf[i] = (uint8_t)m->who_am_i;
-    }
-    /* INT_STATUS clears on read (both families' default). */
-    uint8_t st = mock_is_mpu(m) ? MPU_REG_INT_STATUS : ICM_REG_INT_STATUS;
-    if (!other_bank && st >= reg && st < reg + n) m->reg[st] = 0;
-    return 0;
-}
-
-static int mock_write_byte(drv_i2c_bus *b, uint8_t reg, uint8_t val)
-{
-    drv_i2c_mockbus *m = (drv_i2c_mockbus *)b;
-    int rc = mock_fail(m);
-    if (rc < 0) return rc;
-    mock_log(m, true, reg, val);
-    if (mock_is_mpu(m)) {
-        if (reg == MPU_REG_PWR_MGMT_1 && (val & MPU_PWR1_DEVICE_RESET)) {
-            mock_defaults(m); /* DEVICE_RESET self-clears; registers back to power-on values */
-            m->resets++;
-            return 0;
-        }
-        if ((reg >= MPU_REG_INT_STATUS && reg <= MPU_REG_GYRO_ZOUT_L) || reg == MPU_REG_WHO_AM_I) return 0; /* RO */
-    } else {
-        if (reg == ICM_REG_BANK_SEL) {
-            m->reg[reg] = val & 7;
-            return 0;
-        }
-        if (m->reg[ICM_REG_BANK_SEL] != 0) return 0;
-        if (reg == ICM_REG_DEVICE_CONFIG && (val & ICM_DEVICE_CONFIG_SOFT_RESET)) {
-            mock_defaults(m);
-            m->resets++;
-            return 0;
-        }
-        if ((reg >= ICM_REG_TEMP_DATA1 && reg <= ICM_REG_INT_STATUS) || reg == ICM_REG_WHO_AM_I) return 0;
-    }
-    m->reg[reg] = val;
-    return 0;
-}
-
-static int mock_reopen(drv_i2c_bus *b)
-{
-    drv_i2c_mockbus *m = (drv_i2c_mockbus *)b;
-    m->reopens++;
-    return 0; /* a bus node that stays; a missing chip shows at the first transfer */
-}
-
-static void mock_destroy(drv_i2c_bus *b)
-{
-    drv_i2c_mockbus *m = (drv_i2c_mockbus *)b;
-    drv_imu_destroy(m->source);
-    free(m);
-}
-
-drv_i2c_mockbus *drv_i2c_mockbus_create(drv_i2c_chip_kind model, int addr, drv_imu *source)
-{
-    drv_i2c_mockbus *m = drv_i2c_chip_get(model) ? calloc(1, sizeof *m) : NULL;
-    if (!m) {
-        drv_imu_destroy(source);
-        return NULL;
-    }
-    m->model = model;
-    m->who_am_i = -1;
-    m->source = source;
-    snprintf(m->name, sizeof m->name, "mock addr 0x%02x", addr);
-    m->bus = (drv_i2c_bus){m->name, mock_read_block, mock_write_byte, mock_reopen, mock_destroy};
-    mock_defaults(m);
-    return m;
-}
-
-void drv_i2c_mockbus_set_ready(drv_i2c_mockbus *m)
-{
-    if (mock_is_mpu(m))
-        m->reg[MPU_REG_INT_STATUS] |= MPU_INT_STATUS_DATA_RDY;
-    else
-        m->reg[ICM_REG_INT_STATUS] |= ICM_INT_STATUS_DATA_RDY;
-}
-
-int drv_i2c_mockbus_write_at(const drv_i2c_mockbus *m, int idx, uint8_t *reg, uint8_t *val)
-{
-    int n = m->n_log < DRV_I2C_MOCK_LOG ? m->n_log : DRV_I2C_MOCK_LOG;
-    for (int i = 0, k = 0; i < n; i++) {
-        if (!m->log[i].write) continue;
-        if (k++ == idx) {
-            *reg = m->log[i].reg;
-            *val = m->log[i].val;
-            return 0;
-        }
-    }
-    return -1;
-}
-
 /* ==== the backend ==== */
 
 typedef struct {
     drv_imu base;
     char name[176];
     drv_i2c_bus *bus;
-    drv_i2c_mockbus *mock; /* == bus for mock devices */
     const drv_i2c_chip *chip;
     drv_i2c_setup setup;
     int64_t period_ns, poll_ns;
@@ -618,8 +385,7 @@ static bool params_ok(const drv_imu_i2c_params *p, drv_i2c_chip_kind *kind, char
     return true;
 }
 
-static drv_imu *create_on_bus(drv_i2c_bus *bus, drv_i2c_mockbus *mock, const drv_imu_i2c_params *p, char *err,
-                              int errlen)
+static drv_imu *create_on_bus(drv_i2c_bus *bus, const drv_imu_i2c_params *p, char *err, int errlen)
 {
     drv_i2c_chip_kind kind;
     if (!params_ok(p, &kind, err, errlen)) {
@@ -634,7 +400,6 @@ static drv_imu *create_on_bus(drv_i2c_bus *bus, drv_i2c_mockbus *mock, const drv
     }
     pthread_mutex_init(&s->mu, NULL);
     s->bus = bus;
-    s->mock = mock;
     drv_i2c_request rq = {p->rate_hz, p->gyro_dps, p->accel_g};
     char e[200];
     if (drv_i2c_chip_identify(bus, drv_i2c_chip_get(kind), &s->chip, err, errlen) < 0) goto fail;
@@ -664,7 +429,7 @@ drv_imu *drv_imu_i2c_create_on_bus(drv_i2c_bus *bus, const drv_imu_i2c_params *p
         set_err(err, errlen, "i2c imu: no bus");
         return NULL;
     }
-    return create_on_bus(bus, NULL, p, err, errlen);
+    return create_on_bus(bus, p, err, errlen);
 }
 
 drv_imu *drv_imu_i2c_create(const drv_imu_i2c_params *p, char *err, int errlen)
@@ -673,24 +438,7 @@ drv_imu *drv_imu_i2c_create(const drv_imu_i2c_params *p, char *err, int errlen)
     if (!params_ok(p, &kind, err, errlen)) return NULL;
     drv_i2c_bus *bus = drv_i2c_dev_open(p->bus, p->addr, err, errlen);
     if (!bus) return NULL;
-    return create_on_bus(bus, NULL, p, err, errlen);
-}
-
-drv_imu *drv_imu_i2c_create_mock(drv_imu *source, const drv_imu_i2c_params *p, char *err, int errlen)
-{
-    drv_i2c_chip_kind kind;
-    if (!params_ok(p, &kind, err, errlen)) {
-        drv_imu_destroy(source);
-        return NULL;
-    }
-    drv_i2c_mockbus *m = drv_i2c_mockbus_create(kind == DRV_I2C_CHIP_AUTO ? DRV_I2C_CHIP_MPU6050 : kind, p->addr,
-                                                source);
-    if (!m) {
-        set_err(err, errlen, "%s addr 0x%02x: out of memory", p->bus, p->addr);
-        return NULL;
-    }
-    snprintf(m->name, sizeof m->name, "%s addr 0x%02x (mock)", p->bus[0] ? p->bus : "mock", p->addr);
-    return create_on_bus(&m->bus, m, p, err, errlen);
+    return create_on_bus(bus, p, err, errlen);
 }
 
 static imu_i2c *as_i2c(drv_imu *imu)
@@ -710,8 +458,8 @@ const drv_i2c_setup *drv_imu_i2c_setup(drv_imu *imu)
     return s ? &s->setup : NULL;
 }
 
-drv_i2c_mockbus *drv_imu_i2c_mockbus(drv_imu *imu)
+drv_i2c_bus *drv_imu_i2c_bus(drv_imu *imu)
 {
     imu_i2c *s = as_i2c(imu);
-    return s ? s->mock : NULL;
+    return s ? s->bus : NULL;
 }

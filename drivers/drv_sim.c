@@ -10,6 +10,14 @@
 #include "platform/plat_clock.h"
 #include "platform/plat_workers.h"
 
+/* The simulated host's planes are handed on as DRV_PLANE_* bits unchanged (drv_frames.h), so the enums must agree. */
+_Static_assert((unsigned)DRV_PLANE_COLOR == (unsigned)SIM_PLANE_COLOR &&
+                   (unsigned)DRV_PLANE_DEPTH == (unsigned)SIM_PLANE_DEPTH &&
+                   (unsigned)DRV_PLANE_IDS == (unsigned)SIM_PLANE_IDS &&
+                   (unsigned)DRV_PLANE_MOTION == (unsigned)SIM_PLANE_MOTION &&
+                   (unsigned)DRV_PLANE_LAYERS == (unsigned)SIM_PLANE_LAYERS,
+               "DRV_PLANE_* and SIM_PLANE_* must be the same bits");
+
 /* ---- IMU ---- */
 
 typedef struct {

@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /* drv_vsync_gpio: the vsync backend on the panel's TE line: a thread waits for edges and feeds the estimator; next()
  * reads the published estimate without locks. When edges stop for more than 3.5 periods the source free-runs on the
- * estimate (or the nominal rate) and relocks as soon as edges return. Also the mock edge source for tests. */
+ * estimate (or the nominal rate) and relocks as soon as edges return. The mock edge source: drv_vsync_gpio_mock.c. */
 #include "drivers/drv_vsync_gpio.h"
 
 #include <math.h>
@@ -267,95 +267,4 @@ drv_vsync *drv_vsync_gpio_create(const drv_vsync_gpio_params *p, char *err, int 
     drv_vsync *v = drv_vsync_edges_create(src, p->refresh_hz, "gpio");
     if (!v) snprintf(err, (size_t)errlen, "vsync gpio: cannot start the edge thread (out of memory or threads)");
     return v;
-}
-
-/* ---- mock edge source: the TE line of a simulated panel, in real time ---- */
-
-typedef struct {
-    drv_edge_source base;
-    drv_vsync_mock_params p;
-    int64_t t0;
-    double period; /* the true panel period */
-    uint64_t rng;
-    int64_t k;     /* next vsync to generate */
-    int64_t pend[2];
-    int pend_n, pend_head;
-} mock_src;
-
-static double mock_uniform(mock_src *m) /* [0, 1), splitmix64 */
-{
-    uint64_t z = (m->rng += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    z ^= z >> 31;
-    return (double)(z >> 11) * (1.0 / 9007199254740992.0);
-}
-
-/* Generates vsync periods until one has an event: the edge (unless lost), then perhaps a glitch between it and the
- * next vsync. The stop window swallows everything. */
-static void mock_fill(mock_src *m)
-{
-    const double stop0 = m->p.stop_at_s * 1e9, stop1 = (m->p.stop_at_s + m->p.stop_for_s) * 1e9;
-    while (m->pend_n == 0) {
-        double rel = (double)m->k * m->period;
-        if (m->p.stop_for_s > 0 && rel >= stop0 && rel < stop1) {
-            m->k = (int64_t)ceil(stop1 / m->period);
-            continue;
-        }
-        m->pend_head = 0;
-        /* Always draw both numbers so a fault's probability does not change the rest of the sequence. */
-        double j = (2 * mock_uniform(m) - 1) * m->p.jitter_us * 1e3;
-        bool lost = mock_uniform(m) < m->p.miss_prob;
-        bool glitch = mock_uniform(m) < m->p.spurious_prob;
-        double where = 0.1 + 0.8 * mock_uniform(m);
-        if (!lost) m->pend[m->pend_n++] = m->t0 + llround(rel + j);
-        if (glitch) m->pend[m->pend_n++] = m->t0 + llround(rel + where * m->period);
-        m->k++;
-    }
-}
-
-static int mock_wait(drv_edge_source *src, int64_t *t_ns, int max, int timeout_ms, char *err, int errlen)
-{
-    (void)err;
-    (void)errlen;
-    mock_src *m = (mock_src *)src;
-    int64_t deadline = plat_now_ns() + (int64_t)timeout_ms * PLAT_NS_PER_MS;
-    mock_fill(m);
-    int64_t due = m->pend[m->pend_head];
-    if (due > deadline) {
-        plat_sleep_until_ns(deadline);
-        return 0;
-    }
-    plat_sleep_until_ns(due); /* as the TE interrupt would wake us; the time is the edge's, like the IRQ stamp */
-    int64_t now = plat_now_ns();
-    int n = 0;
-    while (n < max) {
-        mock_fill(m);
-        if (m->pend[m->pend_head] > now) break;
-        t_ns[n++] = m->pend[m->pend_head++];
-        m->pend_n--;
-    }
-    return n;
-}
-
-static void mock_close(drv_edge_source *src) { free(src); }
-
-drv_vsync *drv_vsync_gpio_create_mock(double refresh_hz, int64_t t0_ns, const drv_vsync_mock_params *mp)
-{
-    drv_vsync_mock_params clean = {0};
-    if (!mp) mp = &clean;
-    double true_hz = refresh_hz * (1 + mp->rate_error);
-    if (!(true_hz > 1)) return NULL;
-    mock_src *m = calloc(1, sizeof *m);
-    if (!m) return NULL;
-    m->base.name = "mock TE line";
-    m->base.wait = mock_wait;
-    m->base.close = mock_close;
-    m->p = *mp;
-    m->t0 = t0_ns;
-    m->period = 1e9 / true_hz;
-    /* The panel is already running: edges from now on, not only from t0 (vsync k is at t0 + k periods). */
-    m->k = (int64_t)ceil((double)(plat_now_ns() - t0_ns) / m->period);
-    m->rng = mp->seed * 0x9E3779B97F4A7C15ull + 1;
-    return drv_vsync_edges_create(&m->base, refresh_hz, "gpio-mock");
 }

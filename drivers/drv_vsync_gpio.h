@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /* drv_vsync_gpio: vsync sources for the real board: the panel's TE line on a GPIO (edges through libgpiod, a robust
- * estimator, a timer fallback when the edges stop), its mock with simulated edges, and a free-running timer. */
+ * estimator, a timer fallback when the edges stop) and a free-running timer. Its mock: drv_vsync_gpio_mock.h. */
 #ifndef DRV_VSYNC_GPIO_H
 #define DRV_VSYNC_GPIO_H
 
@@ -21,19 +21,6 @@ typedef struct {
 /* Opens the TE line and starts the edge thread. NULL with a message in err (no such chip, no such line, line busy
  * and by whom, permission) when it cannot. */
 drv_vsync *drv_vsync_gpio_create(const drv_vsync_gpio_params *p, char *err, int errlen);
-
-typedef struct {
-    double jitter_us;     /* each edge uniformly within +-jitter_us of its vsync */
-    double miss_prob;     /* each edge lost with this probability */
-    double spurious_prob; /* per period, probability of one glitch at a random time between two vsyncs */
-    double stop_at_s, stop_for_s; /* no edges in [t0 + stop_at_s, t0 + stop_at_s + stop_for_s) (stop_for_s 0: never) */
-    double rate_error;    /* true panel rate = refresh_hz * (1 + rate_error), e.g. -0.005 = 0.5 % slow */
-    uint64_t seed;
-} drv_vsync_mock_params;
-
-/* The GPIO backend with only the libgpiod edge source replaced: edges come in real time (vsync k at
- * t0_ns + k / true rate, plus the faults of mp; NULL mp: clean). Estimator, thread and fallback are the real code. */
-drv_vsync *drv_vsync_gpio_create_mock(double refresh_hz, int64_t t0_ns, const drv_vsync_mock_params *mp);
 
 /* Free-running CLOCK_MONOTONIC timer, vsync 0 at creation. */
 drv_vsync *drv_vsync_timer_create(double refresh_hz);

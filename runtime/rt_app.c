@@ -211,20 +211,25 @@ bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen)
     const rt_config *c = &a->cfg;
     char list[512];
 
-    /* The simulated board's scene and motion (also the only device set in this build). */
-    a->scene = sim_scene_find(c->scene);
-    if (!a->scene) {
-        names_list(sim_scene_names(), list, sizeof list);
-        return fail(err, errlen, "[sim] scene = '%s': unknown scene (available: %s)", c->scene, list);
-    }
-    if (!sim_trace_init(&a->trace, c->trace, c->seed)) {
-        names_list(sim_trace_names(), list, sizeof list);
-        return fail(err, errlen, "[sim] trace = '%s': unknown trace (available: %s)", c->trace, list);
+    /* The simulated board's scene and motion, for the devices it plays (a sim backend or a mock device; the
+     * accuracy evaluation needs a simulated head and host, so it implies them). A board whose devices are all real
+     * never loads the simulator. */
+    a->sim_loaded = rt_devices_simulated(c);
+    if (a->sim_loaded) {
+        a->scene = sim_scene_find(c->scene);
+        if (!a->scene) {
+            names_list(sim_scene_names(), list, sizeof list);
+            return fail(err, errlen, "[sim] scene = '%s': unknown scene (available: %s)", c->scene, list);
+        }
+        if (!sim_trace_init(&a->trace, c->trace, c->seed)) {
+            names_list(sim_trace_names(), list, sizeof list);
+            return fail(err, errlen, "[sim] trace = '%s': unknown trace (available: %s)", c->trace, list);
+        }
+        a->trace.head.ipd = c->ipd;
     }
 
     a->head = warp_head_default();
     a->head.ipd = c->ipd;
-    a->trace.head.ipd = c->ipd;
     int vw = c->panel_w / 2;
     for (int e = 0; e < 2; e++) {
         a->eye_cam[e] = rt_config_eye_camera(c, e);

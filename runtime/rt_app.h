@@ -159,7 +159,8 @@ typedef struct {
     rt_hist_mark *live_m2p, *live_age; /* the histograms' counts a second ago (STATUS's "last second") */
 
     /* simulated board */
-    const sim_scene *scene;
+    bool sim_loaded;           /* scene and trace loaded: some device is simulated (rt_devices_simulated) */
+    const sim_scene *scene;    /* NULL unless sim_loaded */
     sim_trace trace;
     rt_ring eval_ring;
     rt_eval_acc eval[RT_EVAL_METHODS];
@@ -194,6 +195,8 @@ void rt_app_free(rt_app *a);
 /* Opens the IMU, frames and vsync backends board.ini names (rt_devices.c); sp describes the simulated host,
  * used by the sim backend and the mocks. Sets has_truth and sim_host. */
 bool rt_devices_open(rt_app *a, const drv_frames_sim_params *sp, char *err, int errlen);
+/* Whether the configuration has the simulator play a device (a sim backend or a mock device). */
+bool rt_devices_simulated(const rt_config *c);
 
 /* Decides the renderer from [render] renderer (`setting`: auto, cpu, gles), the GL_RENDERER string of the context
  * EGL gave (NULL when it gave none; egl_err then says why) and whether the output is KMS. Returns true for GLES

@@ -4,12 +4,12 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "drivers/drv_frames_usb.h"
-#include "drivers/drv_frames_v4l2.h"
-#include "drivers/drv_imu_hid.h"
-#include "drivers/drv_imu_i2c.h"
+#include "drivers/drv_frames_usb_mock.h"
+#include "drivers/drv_frames_v4l2_mock.h"
+#include "drivers/drv_imu_hid_mock.h"
+#include "drivers/drv_imu_i2c_mock.h"
 #include "drivers/drv_sim.h"
-#include "drivers/drv_vsync_gpio.h"
+#include "drivers/drv_vsync_gpio_mock.h"
 #include "drivers/drv_vsync_kms.h"
 #include "platform/plat_clock.h"
 #include "runtime/rt_app.h"
@@ -173,6 +173,13 @@ static bool open_frames(rt_app *a, const drv_frames_sim_params *sp, char *err, i
         return false;
     }
     return true;
+}
+
+bool rt_devices_simulated(const rt_config *c)
+{
+    return strcmp(c->imu_backend, "sim") == 0 || is_mock(c->imu_device) || strcmp(c->frames_backend, "sim") == 0 ||
+           is_mock(c->frames_device) || strcmp(c->vsync_backend, "sim") == 0 ||
+           (strcmp(c->vsync_backend, "gpio") == 0 && is_mock(c->vsync_chip));
 }
 
 bool rt_devices_open(rt_app *a, const drv_frames_sim_params *sp, char *err, int errlen)

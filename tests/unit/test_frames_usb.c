@@ -13,7 +13,7 @@
 #include <unistd.h>
 #include <cmocka.h>
 
-#include "drivers/drv_frames_usb.h"
+#include "drivers/drv_frames_usb_mock.h"
 #include "drivers/drv_framelink.h"
 #include "platform/plat_clock.h"
 #include "warp/warp_head.h"

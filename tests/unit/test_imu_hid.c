@@ -15,7 +15,7 @@
 #include <cmocka.h>
 
 #include "drivers/drv_hid_report.h"
-#include "drivers/drv_imu_hid.h"
+#include "drivers/drv_imu_hid_mock.h"
 #include "drivers/drv_sim.h"
 #include "platform/plat_clock.h"
 #include "sim/sim_trace.h"

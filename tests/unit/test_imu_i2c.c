@@ -13,7 +13,7 @@
 #include <cmocka.h>
 
 #include "drivers/drv_i2c_chips.h"
-#include "drivers/drv_imu_i2c.h"
+#include "drivers/drv_imu_i2c_mock.h"
 #include "drivers/drv_sim.h"
 #include "platform/plat_clock.h"
 #include "sim/sim_trace.h"

@@ -11,7 +11,8 @@
 #include <string.h>
 #include <cmocka.h>
 
-#include "drivers/drv_frames_v4l2.h"
+#include "drivers/drv_frames_v4l2_mock.h"
+#include "drivers/drv_v4l2_output.h"
 #include "drivers/drv_v4l2_convert.h"
 #include "drivers/drv_v4l2_inband.h"
 #include "platform/plat_clock.h"

@@ -13,7 +13,7 @@
 #include <string.h>
 
 #include "drivers/drv_framelink.h"
-#include "drivers/drv_frames_v4l2.h"
+#include "drivers/drv_v4l2_output.h"
 #include "platform/plat_clock.h"
 #include "platform/plat_png.h"
 #include "platform/plat_version.h"

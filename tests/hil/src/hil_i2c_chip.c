@@ -12,6 +12,7 @@
 #include <stddef.h>
 #include <sys/ioctl.h>
 
+#include "drivers/drv_i2c_chip_emu.h"
 #include "drivers/drv_i2c_chips.h"
 #include "drivers/drv_imu_i2c.h"
 #include "tests/hil/src/hil_common.h"
@@ -199,25 +200,13 @@ static uint8_t stub_peek(mem_stub *s, uint8_t reg)
 
 /* ---- the chip emulation ---- */
 
-/* Datasheet sensitivities, kept apart from drv_i2c_chips.c so a driver writing the wrong range code reads wrongly
- * scaled data (as from a real chip). */
-static const double mpu_gyro_lsb[4] = {131.0, 65.5, 32.8, 16.4};
-static const double mpu_gyro_fs[4] = {250, 500, 1000, 2000};
-static const double mpu_accel_lsb[4] = {16384, 8192, 4096, 2048};
-static const double mpu_accel_fs[4] = {2, 4, 8, 16};
-static const double icm_gyro_lsb[8] = {16.4, 32.8, 65.5, 131.0, 262.0, 524.3, 1048.6, 2097.2};
-static const double icm_gyro_fs[8] = {2000, 1000, 500, 250, 125, 62.5, 31.25, 15.625};
-static const double icm_accel_lsb[4] = {2048, 4096, 8192, 16384}; /* FS_SEL 4..7 reserved: read as +-16 g */
-static const double icm_accel_fs[4] = {16, 8, 4, 2};
-/* ICM-42688-P ODR codes 0..15 (DS-000347 GYRO_CONFIG0): Hz, 0 = reserved */
-static const double icm_odr_hz[16] = {0, 32000, 16000, 8000, 4000, 2000, 1000, 200, 100, 50, 25, 12.5,
-                                      6.25, 3.125, 1.5625, 500};
+/* The register file itself (reset images, range decoding, the data block) is drivers/drv_i2c_chip_emu, the same as
+ * the driver's mock bus; this program adds the transport: i2c-stub, which holds registers but does nothing. */
 
-#define MPU_DATA_LO MPU_REG_INT_STATUS  /* 0x3A: INT_STATUS, accel, temp, gyro .. 0x48: one 15-byte block */
-#define MPU_DATA_HI MPU_REG_GYRO_ZOUT_L
-#define ICM_DATA_LO ICM_REG_TEMP_DATA1  /* 0x1D: temp, accel, gyro, TMST_FSYNC (0x2B-0x2C), INT_STATUS 0x2D */
-#define ICM_DATA_HI ICM_REG_INT_STATUS
-#define ICM_REG_INTF_ENDIAN 0x10        /* INTF_CONFIG0 SENSOR_DATA_ENDIAN: 1 big-endian (reset), 0 little */
+#define MPU_DATA_LO DRV_I2C_EMU_MPU_DATA_LO
+#define MPU_DATA_HI DRV_I2C_EMU_MPU_DATA_HI
+#define ICM_DATA_LO DRV_I2C_EMU_ICM_DATA_LO
+#define ICM_DATA_HI DRV_I2C_EMU_ICM_DATA_HI
 
 typedef struct {
     drv_i2c_chip_kind kind;
@@ -244,7 +233,7 @@ typedef struct {
     bool force_late; /* self test: take every reset as seen too late */
 } chip_emu;
 
-static bool is_mpu(const chip_emu *c) { return c->kind != DRV_I2C_CHIP_ICM42688; }
+static bool is_mpu(const chip_emu *c) { return drv_i2c_emu_is_mpu(c->kind); }
 static uint8_t reset_reg(const chip_emu *c) { return is_mpu(c) ? MPU_REG_PWR_MGMT_1 : ICM_REG_DEVICE_CONFIG; }
 static uint8_t reset_bit(const chip_emu *c) { return is_mpu(c) ? MPU_PWR1_DEVICE_RESET : ICM_DEVICE_CONFIG_SOFT_RESET; }
 static bool owned(const chip_emu *c, int r) /* registers only the chip itself changes: data, status, identity */
@@ -300,43 +289,7 @@ static int write_diff(chip_emu *c, const uint8_t *cur, const uint8_t *want, int 
     return 0;
 }
 
-static void put16(uint8_t *p, double v, int lo, bool big_endian)
-{
-    double r = isfinite(v) ? nearbyint(v) : 0;
-    int16_t s = (int16_t)(r > 32767 ? 32767 : r < lo ? lo : r);
-    uint16_t u = (uint16_t)s;
-    p[big_endian ? 0 : 1] = (uint8_t)(u >> 8);
-    p[big_endian ? 1 : 0] = (uint8_t)(u & 0xff);
-}
-
-static void emu_defaults(chip_emu *c)
-{
-    uint8_t *m = c->def;
-    memset(m, 0, 256);
-    switch (c->kind) {
-    case DRV_I2C_CHIP_MPU6050:
-        m[MPU_REG_PWR_MGMT_1] = MPU6050_PWR1_RESET_VALUE;
-        m[MPU_REG_WHO_AM_I] = MPU6050_WHO_AM_I;
-        break;
-    case DRV_I2C_CHIP_MPU9250:
-        m[MPU_REG_PWR_MGMT_1] = MPU9250_PWR1_RESET_VALUE;
-        m[MPU_REG_WHO_AM_I] = MPU9250_WHO_AM_I;
-        break;
-    default: /* ICM-42688-P bank 0 reset values (DS-000347 register map), as the driver's mock */
-        m[ICM_REG_INT_STATUS] = ICM_INT_STATUS_RESET_DONE;
-        m[ICM_REG_INTF_CONFIG0] = 0x30;
-        m[ICM_REG_GYRO_CONFIG0] = 0x06;
-        m[ICM_REG_ACCEL_CONFIG0] = 0x06;
-        m[0x51] = 0x16; /* GYRO_CONFIG1 */
-        m[ICM_REG_GYRO_ACCEL_CONFIG0] = 0x11;
-        m[0x53] = 0x0D; /* ACCEL_CONFIG1 */
-        m[0x64] = 0x10; /* INT_CONFIG1 */
-        m[ICM_REG_INT_SOURCE0] = ICM_INT_SOURCE0_RESET_DONE_INT1_EN;
-        m[ICM_REG_WHO_AM_I] = ICM42688_WHO_AM_I;
-        for (int r = ICM_REG_TEMP_DATA1; r <= ICM_REG_GYRO_DATA_Z0; r += 2) m[r] = 0x80; /* -32768: no data */
-        break;
-    }
-}
+static void emu_defaults(chip_emu *c) { drv_i2c_emu_reset_image(c->kind, c->def); }
 
 static void emu_init(chip_emu *c, drv_i2c_chip_kind kind, hil_regs *regs, const hil_trace_cfg *tc, double rate_hz,
                      double temp_c, int64_t t0_ns)
@@ -450,41 +403,20 @@ static int emu_update(chip_emu *c, int64_t now, bool frozen)
         if (rd(c, ICM_REG_BANK_SEL, &m[ICM_REG_BANK_SEL], 1) < 0) return -1;
     }
 
-    double gyro_lsb, accel_lsb;
-    bool gyro_on = true, accel_on = true, big_endian = true;
-    if (is_mpu(c)) {
-        int dlpf = m[MPU_REG_CONFIG] & 7;
-        c->rate_hz = (dlpf == 0 || dlpf == 7 ? 8000.0 : 1000.0) / (1 + m[MPU_REG_SMPLRT_DIV]);
-        int g = (m[MPU_REG_GYRO_CONFIG] >> 3) & 3, a = (m[MPU_REG_ACCEL_CONFIG] >> 3) & 3;
-        gyro_lsb = mpu_gyro_lsb[g];
-        accel_lsb = mpu_accel_lsb[a];
-        c->gyro_fs_dps = mpu_gyro_fs[g];
-        c->accel_fs_g = mpu_accel_fs[a];
-        c->awake = !(m[MPU_REG_PWR_MGMT_1] & MPU_PWR1_SLEEP);
-    } else {
-        double odr = icm_odr_hz[m[ICM_REG_GYRO_CONFIG0] & 15];
-        c->rate_hz = odr > 0 ? odr : 1000;
-        int g = (m[ICM_REG_GYRO_CONFIG0] >> 5) & 7, a = (m[ICM_REG_ACCEL_CONFIG0] >> 5) & 7;
-        if (a > 3) a = 0; /* reserved codes */
-        gyro_lsb = icm_gyro_lsb[g];
-        accel_lsb = icm_accel_lsb[a];
-        c->gyro_fs_dps = icm_gyro_fs[g];
-        c->accel_fs_g = icm_accel_fs[a];
-        uint8_t pw = m[ICM_REG_PWR_MGMT0];
-        gyro_on = ((pw >> 2) & 3) == 3;
-        accel_on = (pw & 3) >= 2;
-        c->awake = gyro_on || accel_on;
-        big_endian = m[ICM_REG_INTF_CONFIG0] & ICM_REG_INTF_ENDIAN;
-        if (m[ICM_REG_BANK_SEL] != 0) {
-            /* i2c-stub has one flat map: writes meant for banks 1-4 landed in bank 0's registers */
-            if (!c->bank_warned)
-                hil_msg("%s: driver selected register bank %u; banks 1-4 are not emulated (i2c-stub has one flat "
-                        "map), data paused until bank 0 is selected again",
-                        c->regs->name, m[ICM_REG_BANK_SEL]);
-            c->bank_warned = true;
-            c->idle_updates++;
-            return 0;
-        }
+    drv_i2c_emu_config cf = drv_i2c_emu_config_get(c->kind, m);
+    c->rate_hz = cf.rate_hz;
+    c->gyro_fs_dps = cf.gyro_fs_dps;
+    c->accel_fs_g = cf.accel_fs_g;
+    c->awake = cf.gyro_on || cf.accel_on;
+    if (cf.bank != 0) {
+        /* i2c-stub has one flat map: writes meant for banks 1-4 landed in bank 0's registers */
+        if (!c->bank_warned)
+            hil_msg("%s: driver selected register bank %d; banks 1-4 are not emulated (i2c-stub has one flat "
+                    "map), data paused until bank 0 is selected again",
+                    c->regs->name, cf.bank);
+        c->bank_warned = true;
+        c->idle_updates++;
+        return 0;
     }
     if (frozen) {
         c->frozen_updates++;
@@ -496,43 +428,14 @@ static int emu_update(chip_emu *c, int64_t now, bool frozen)
         emu_lower_flag(c);
         return 0;
     }
-    const double rad2deg = 180.0 / 3.14159265358979323846;
     double gyro[3], accel[3];
     hil_imu_gen_sample(&c->gen, (uint64_t)((now - c->t0_ns) / 1000), gyro, accel);
-    uint8_t blkw[17];
-    int lo, n;
-    if (is_mpu(c)) {
-        lo = MPU_DATA_LO;
-        n = MPU_DATA_HI - MPU_DATA_LO + 1;
-        /* The MPU raises DATA_RDY_INT only when the interrupt is enabled. */
-        blkw[0] = (m[MPU_REG_INT_ENABLE] & MPU_INT_DATA_RDY_EN) ? MPU_INT_STATUS_DATA_RDY : 0;
-        uint8_t *d = blkw + 1; /* ACCEL_XOUT_H */
-        for (int i = 0; i < 3; i++) {
-            put16(d + 2 * i, accel[i] / DRV_I2C_G * accel_lsb, -32768, true);
-            put16(d + 8 + 2 * i, gyro[i] * rad2deg * gyro_lsb, -32768, true);
-        }
-        double t = c->kind == DRV_I2C_CHIP_MPU6050 ? (c->temp_c - 36.53) * 340.0 : (c->temp_c - 21.0) * 333.87;
-        put16(d + 6, t, -32768, true);
-        c->flag_up = blkw[0] != 0;
-    } else {
-        lo = ICM_DATA_LO;
-        n = ICM_DATA_HI - ICM_DATA_LO + 1;
-        memset(blkw, 0, sizeof blkw);
-        put16(blkw, (c->temp_c - 25.0) * 132.48, -32768, big_endian);
-        /* -32768 marks "no data" (sensor off); real readings saturate at -32767 */
-        for (int i = 0; i < 3; i++) {
-            if (accel_on)
-                put16(blkw + 2 + 2 * i, accel[i] / DRV_I2C_G * accel_lsb, -32767, big_endian);
-            else
-                put16(blkw + 2 + 2 * i, -32768, -32768, big_endian);
-            if (gyro_on)
-                put16(blkw + 8 + 2 * i, gyro[i] * rad2deg * gyro_lsb, -32767, big_endian);
-            else
-                put16(blkw + 8 + 2 * i, -32768, -32768, big_endian);
-        }
-        blkw[n - 1] = ICM_INT_STATUS_DATA_RDY; /* RESET_DONE is gone: it clears on the first read */
-        c->flag_up = true;
-    }
+    uint8_t blkw[DRV_I2C_EMU_DATA_MAX];
+    int lo, n = drv_i2c_emu_data_range(c->kind, &lo);
+    drv_i2c_emu_data_block(c->kind, m, gyro, accel, c->temp_c, blkw);
+    /* i2c-stub never clears the flag on read: remember to lower it when no new data follows. The MPU raises
+     * DATA_RDY_INT only when the interrupt is enabled; the ICM's RESET_DONE is gone (it clears on the first read). */
+    c->flag_up = blkw[is_mpu(c) ? 0 : n - 1] != 0;
     if (wr(c, (uint8_t)lo, blkw, n) < 0) return -1;
     memcpy(&m[lo], blkw, (size_t)n);
     c->updates++;

@@ -1,10 +1,11 @@
 /* SPDX-License-Identifier: MIT */
 /* hil_te: plays a display panel's TE (tearing effect) signal on a gpio-sim line: pulses at the panel rate written
  * through the simulated line's sysfs `pull` attribute, so libgpiod in hmdwarpd sees real edge interrupts; with
- * jitter, a TE dropout and a phase jump on request. */
+ * jitter, a TE dropout and a phase jump on request, as drivers/drv_te_schedule plans them. */
 #include <dirent.h>
 #include <fcntl.h>
 
+#include "drivers/drv_te_schedule.h"
 #include "tests/hil/src/hil_common.h"
 
 #define LATE_NS (500 * 1000) /* an edge written this late after its time counts as late */
@@ -22,36 +23,16 @@ typedef struct {
     bool verbose;
 } opts;
 
-/* ---- the pulse schedule (pure) ---- */
-
-static uint64_t splitmix64(uint64_t x)
-{
-    x += 0x9e3779b97f4a7c15ULL;
-    x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
-    x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
-    return x ^ (x >> 31);
-}
+/* ---- the pulse schedule: drivers/drv_te_schedule (the GPIO mock's too); high_ns is the pulse width ---- */
 
 typedef struct {
-    int64_t period_ns, high_ns, jitter_ns;
-    int64_t stop_at_ns, stop_to_ns; /* relative to the first pulse; INT64_MAX: never */
-    int64_t jump_at_ns, jump_ns;
-    uint64_t seed;
+    drv_te_schedule te;
+    int64_t high_ns;
 } sched;
 
 /* Start of pulse k relative to pulse 0 (negative for pulse 0 jittered early); false when the TE is stopped then.
  * The jitter is uniform in [-jitter, +jitter], deterministic per (seed, k). */
-static bool pulse_at(const sched *s, uint64_t k, int64_t *at)
-{
-    int64_t t = (int64_t)k * s->period_ns;
-    if (t >= s->jump_at_ns) t += s->jump_ns;
-    if (s->jitter_ns > 0) {
-        double u = (double)(splitmix64(s->seed * 0x100000001b3ULL + k) >> 11) * 0x1.0p-53; /* [0, 1) */
-        t += (int64_t)llround((2 * u - 1) * (double)s->jitter_ns);
-    }
-    *at = t;
-    return !(t >= s->stop_at_ns && t < s->stop_to_ns);
-}
+static bool pulse_at(const sched *s, uint64_t k, int64_t *at) { return drv_te_schedule_pulse(&s->te, (int64_t)k, at); }
 
 /* ---- the line ---- */
 
@@ -134,8 +115,8 @@ static int dry_run(const opts *o, const sched *s)
             printf("  pulse %3llu: stopped (no edges)\n", (unsigned long long)k);
             continue;
         }
-        int64_t nominal = (int64_t)k * s->period_ns + (t >= s->jump_at_ns ? s->jump_ns : 0);
-        bool ok = t > prev_end && llabs(t - nominal) <= s->jitter_ns;
+        int64_t nominal = drv_te_schedule_slot(&s->te, (int64_t)k);
+        bool ok = t > prev_end && (double)llabs(t - nominal) <= s->te.jitter_ns;
         bad += !ok;
         prev_end = t + s->high_ns;
         printf("  pulse %3llu: t=%10.3f us write %-9s  t=%10.3f us write %-9s%s\n", (unsigned long long)k,
@@ -284,11 +265,14 @@ int main(int argc, char **argv)
     hil_init("hil_te");
     opts o;
     parse_args(argc, argv, &o);
-    sched s = {(int64_t)llround(1e9 / o.rate_hz), (int64_t)llround(o.high_us * 1e3), (int64_t)llround(o.jitter_us * 1e3),
-               o.stop_at_s > 0 ? (int64_t)llround(o.stop_at_s * 1e9) : INT64_MAX,
-               o.stop_at_s > 0 ? (int64_t)llround((o.stop_at_s + o.stop_for_s) * 1e9) : INT64_MAX,
-               o.jump_at_s > 0 ? (int64_t)llround(o.jump_at_s * 1e9) : INT64_MAX, (int64_t)llround(o.jump_us * 1e3),
-               o.seed};
+    sched s = {drv_te_schedule_clean((double)llround(1e9 / o.rate_hz), o.seed), (int64_t)llround(o.high_us * 1e3)};
+    s.te.jitter_ns = (double)llround(o.jitter_us * 1e3);
+    if (o.stop_at_s > 0) {
+        s.te.stop_at_ns = (int64_t)llround(o.stop_at_s * 1e9);
+        s.te.stop_to_ns = (int64_t)llround((o.stop_at_s + o.stop_for_s) * 1e9);
+    }
+    if (o.jump_at_s > 0) s.te.jump_at_ns = (int64_t)llround(o.jump_at_s * 1e9);
+    s.te.jump_ns = (int64_t)llround(o.jump_us * 1e3);
     if (o.dry_run) return dry_run(&o, &s);
 
     hil_signals_install();
@@ -310,7 +294,7 @@ int main(int argc, char **argv)
     for (uint64_t k = 0; !hil_stopped(); k++) {
         int64_t rel;
         bool on = pulse_at(&s, k, &rel);
-        int64_t nominal = t0 + (int64_t)k * s.period_ns;
+        int64_t nominal = t0 + llround((double)k * s.te.period_ns);
         if (nominal >= t_end) break;
         if (!on) {
             stopped++;
