@@ -80,7 +80,27 @@ for t in v4l2-ctl gpiomon gpioget gpioset gpioinfo gpiodetect; do
     t=$(command -v "$t" 2>/dev/null) || continue
     cp "$t" "$S/usr/bin/"; extra="$extra $t"
 done
-libs=$(for p in $progs $extra; do ldd "$p" 2>/dev/null; done | awk '/=> \//{print $3} /^\t\/.*ld-linux/{print $1}' | sort -u)
+# GLES on the KMS output (05-kms): hmdwarpd links glvnd's libEGL, which finds Mesa through its vendor JSON; Mesa's
+# libEGL_mesa then loads the DRI driver (kms_swrast for GBM on vkms, swrast for the surfaceless offscreen
+# display: one file, hard links in Debian and here) and libLLVM for llvmpipe. ldd of both brings the rest.
+# HIL_GLES=0 leaves them out (~210 MB: 05-kms then says GLES is not available).
+mesa=""
+if [ "${HIL_GLES:-1}" != 0 ]; then
+    egl_mesa=$(ldconfig -p | awk '/libEGL_mesa.so.0 .*x86-64/{print $NF; exit}')
+    dri=$(pkg-config --variable=dridriverdir dri 2>/dev/null) || dri=/usr/lib/x86_64-linux-gnu/dri   # dri.pc: mesa-common-dev
+    json=/usr/share/glvnd/egl_vendor.d/50_mesa.json
+    if [ -n "$egl_mesa" ] && [ -f "$dri/kms_swrast_dri.so" ] && [ -f "$json" ]; then
+        mkdir -p "$S$dri" "$S$(dirname "$json")"
+        cp "$json" "$S$json"
+        cp "$dri/kms_swrast_dri.so" "$S$dri/"
+        ln "$S$dri/kms_swrast_dri.so" "$S$dri/swrast_dri.so"
+        mesa="$egl_mesa $dri/kms_swrast_dri.so"
+        cp -L "$egl_mesa" "$S/lib64/" && mkdir -p "$S$(dirname "$egl_mesa")" && mv "$S/lib64/$(basename "$egl_mesa")" "$S$egl_mesa"
+    else
+        echo "hil-initramfs: no Mesa EGL/DRI on this host (libegl-mesa0, libgl1-mesa-dri): 05-kms runs without GLES"
+    fi
+fi
+libs=$(for p in $progs $extra $mesa; do ldd "$p" 2>/dev/null; done | awk '/=> \//{print $3} /^\t\/.*ld-linux/{print $1}' | sort -u)
 for l in $libs; do
     mkdir -p "$S$(dirname "$l")"
     cp -L "$l" "$S$l"

@@ -2,7 +2,7 @@
 # SPDX-License-Identifier: MIT
 # 00-devices: every kernel mock device the other scenarios use appears and works at the kernel level, before
 # hmdwarpd is involved: uhid/hidraw, i2c-stub registers, gpio-sim edges seen by libgpiod, vivid's loop,
-# dummy_hcd's UDC and USB host side, vkms's card, connector modes and CRC files.
+# dummy_hcd's UDC and USB host side, vkms's card, connector modes and CRCs (a pattern's equals hil_kms_crc's).
 # hil-timeout: 90
 . /hil/scenarios/lib.sh
 
@@ -79,15 +79,35 @@ hil_wait_for /dev/bus/usb/001/001 5 || hil_fail "dummy_hcd: no /dev/bus/usb/001/
 [ -d "$CFS/usb_gadget" ] || hil_fail "libcomposite: no $CFS/usb_gadget"
 hil_log "usb: $(ls /sys/class/udc), root hub $(cat /sys/bus/usb/devices/usb1/product 2>/dev/null)"
 
-# KMS: vkms's card node, its virtual connector connected with the no-EDID modes (640x480 among them: 05-kms
-# uses it) and the CRC capture files in debugfs.
+# KMS: vkms's card node, its virtual connector connected with the no-EDID modes (640x480 among them) and the
+# HIL panel's, and the CRC capture files in debugfs.
 hil_vkms
 [ "$(cat "$HIL_DRI_CONN/status")" = connected ] || hil_fail "vkms: connector ${HIL_DRI_CONN##*/} is $(cat "$HIL_DRI_CONN/status")"
 grep -qx 640x480 "$HIL_DRI_CONN/modes" || hil_fail "vkms: no 640x480 mode on ${HIL_DRI_CONN##*/} ($(head -n 5 "$HIL_DRI_CONN/modes" | tr '\n' ' '))"
+# the HIL panel's mode, added by run.sh's video=Virtual-1:WxH@90 (05-kms shows the panel at it)
+pm=128x64; [ "${HIL_PANEL:-small}" = small ] || pm=640x360
+grep -qx "$pm" "$HIL_DRI_CONN/modes" || hil_fail "vkms: no $pm mode on ${HIL_DRI_CONN##*/} (video= on the kernel command line: $(cat /proc/cmdline))"
 for f in control data; do
     [ -e "$HIL_DRI_DEBUG/crtc-0/crc/$f" ] || hil_fail "vkms: no $HIL_DRI_DEBUG/crtc-0/crc/$f (debugfs)"
 done
 hil_log "kms: $HIL_DRI_CARD ($(cat "$HIL_DRI_DEBUG/name")), ${HIL_DRI_CONN##*/} $(wc -l <"$HIL_DRI_CONN/modes") modes"
+# vkms's CRC is the one hil_kms_crc predicts (05-kms relies on it): a test pattern shown at 640x480 by a bare
+# dumb-buffer modeset, without hmdwarpd, CRCs as computed from the image.
+hil_kms_crc pattern 640 480 >"$HIL_WORK/kms-pat.rgba" || hil_fail "hil_kms_crc pattern failed"
+want=$(hil_kms_crc crc "$HIL_WORK/kms-pat.rgba" 640 480) || hil_fail "hil_kms_crc crc failed"
+hil_kms_crc show "$HIL_DRI_CARD" "$HIL_WORK/kms-pat.rgba" 640 480 5 >"$HIL_WORK/kms-show.log" 2>&1 &
+show=$!
+hil_wait_until 10 grep -q '^shown=' "$HIL_WORK/kms-show.log" ||
+    { cat "$HIL_WORK/kms-show.log"; hil_fail "vkms: hil_kms_crc show set no mode ($(tail -n 1 "$HIL_WORK/kms-show.log"))"; }
+hil_vkms_crc_on
+hil_wait_until 10 hil_vkms_crc_has 3
+hil_vkms_crc_off
+wait "$show"
+n=$(wc -l <"$HIL_WORK/crc.txt")
+got=$(tail -n 1 "$HIL_WORK/crc.txt" | cut -d' ' -f2)
+hil_log "kms: $n CRCs of the pattern, last $got, predicted $want"
+[ "$n" -ge 3 ] || hil_fail "vkms: $n CRC lines in 10 s with a pattern shown ($(cat "$HIL_WORK/crc.err"))"
+[ "$got" = "$want" ] || { cat "$HIL_WORK/crc.txt"; hil_fail "vkms: CRC of the shown pattern $got, hil_kms_crc predicts $want"; }
 hil_rmmod vkms
 
 hil_pass

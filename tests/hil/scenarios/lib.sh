@@ -229,19 +229,29 @@ hil_vkms() {
 }
 # hil_vkms_crc_on / hil_vkms_crc_off: capture CRCs of what the CRTC shows. With the "auto" source in crc/control,
 # vkms composes the planes at every vblank and CRCs the result for as long as crc/data is open (opening it starts
-# capture, closing it stops it): a background reader (HIL_CRC_PID) copies the "0xFRAME 0xCRC" lines to
-# $HIL_WORK/crc.txt. Start it after the client's modeset (the DRM CRC ABI: a modeset may reset capture).
+# capture, closing it stops it): a background reader keeps it open, and hil_vkms_crc_off leaves the lines
+# "0xFRAME 0xCRC" in $HIL_WORK/crc.txt. Start it after the client's modeset (the DRM CRC ABI: a modeset may reset
+# capture). Each read of crc/data returns one line plus its C string's NUL, which busybox's text tools would
+# take for the line's end: crc.raw keeps them, crc.txt not.
+# The reader's pid is kept in a file for hil_cleanup: a read blocked in crc/data (the CRTC off, no more entries)
+# holds debugfs's removal, so rmmod vkms would hang until it is gone.
+HIL_CRC_PIDFILE=/tmp/hil/crc-reader.pid
 hil_vkms_crc_on() {
     c=$HIL_DRI_DEBUG/crtc-0/crc
     [ -e "$c/control" ] || hil_fail "vkms: no $c/control (debugfs mounted?)"
     echo auto >"$c/control" || hil_fail "vkms: CRC source auto refused"
-    cat "$c/data" >"$HIL_WORK/crc.txt" 2>"$HIL_WORK/crc.err" &
-    HIL_CRC_PID=$!
+    rm -f "$HIL_WORK/crc.txt"
+    cat "$c/data" >"$HIL_WORK/crc.raw" 2>"$HIL_WORK/crc.err" &
+    echo $! >"$HIL_CRC_PIDFILE"
 }
+# hil_vkms_crc_count: CRC lines captured so far; hil_vkms_crc_has N: at least N (for hil_wait_until).
+hil_vkms_crc_count() { tr -d '\000' <"$HIL_WORK/crc.raw" 2>/dev/null | grep -c '^0x'; }
+hil_vkms_crc_has() { [ "$(hil_vkms_crc_count)" -ge "$1" ]; }
 hil_vkms_crc_off() {
-    [ -n "${HIL_CRC_PID:-}" ] || return 0
-    kill "$HIL_CRC_PID" 2>/dev/null; wait "$HIL_CRC_PID" 2>/dev/null
-    HIL_CRC_PID=
+    [ -s "$HIL_CRC_PIDFILE" ] || return 0
+    pid=$(cat "$HIL_CRC_PIDFILE"); rm -f "$HIL_CRC_PIDFILE"
+    kill "$pid" 2>/dev/null; wait "$pid" 2>/dev/null
+    tr -d '\000' <"$HIL_WORK/crc.raw" | grep '^0x' >"$HIL_WORK/crc.txt"
 }
 
 # --- USB: dummy_hcd + FunctionFS gadget ------------------------------------------------------------------------
@@ -404,12 +414,13 @@ hil_rss_kb() { awk '/^VmRSS:/{print $2}' "/proc/$1/status" 2>/dev/null; }
 
 # hil_cleanup: stop everything a scenario may have left behind (hil-run calls it after each scenario).
 hil_cleanup() {
-    for p in hmdwarp-feed hil_uhid_imu hil_i2c_chip hil_te hmdwarpd; do
+    [ -s "$HIL_CRC_PIDFILE" ] && kill "$(cat "$HIL_CRC_PIDFILE")" 2>/dev/null; rm -f "$HIL_CRC_PIDFILE"
+    for p in hmdwarp-feed hil_uhid_imu hil_i2c_chip hil_te hil_kms_crc hmdwarpd; do
         pids=$(pidof "$p")
         [ -n "$pids" ] && kill $pids 2>/dev/null
     done
     sleep 0.3
-    for p in hmdwarp-feed hil_uhid_imu hil_i2c_chip hil_te hmdwarpd; do
+    for p in hmdwarp-feed hil_uhid_imu hil_i2c_chip hil_te hil_kms_crc hmdwarpd; do
         pids=$(pidof "$p")
         [ -n "$pids" ] && kill -9 $pids 2>/dev/null
     done
