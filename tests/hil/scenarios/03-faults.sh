@@ -13,14 +13,14 @@
 # stall, from the per-vsync CSV); one present per vsync. Targets (reported, not failed): service back within 1 s
 # of the stall's and the unplug's end, few misses. The USB link runs until hmdwarp-feed has damaged 6 frames (each
 # kind twice), however slowly a busy host lets it send.
-# hil-timeout: 200
+# hil-timeout: 420
 . /hil/scenarios/lib.sh
 D=${HIL_FAULTS_S:-14}
 
 hil_uhid
-hil_imu_start --duration $((D + 60)) --trace slow --unplug-at 6 --unplug-for 1 --corrupt-every 50
+hil_imu_start --duration 900 --trace slow --unplug-at 6 --unplug-for 1 --corrupt-every 50
 hil_gpio_sim hil03 1
-hil_te_start --rate 90 --duration $((D + 60)) --stop-at 9 --stop-for 1
+hil_te_start --rate 90 --duration 900 --stop-at 9 --stop-for 1
 hil_usb_udc
 hil_gadget_start --config "$(hil_board hid-usb-gpio)" --duration 0 --set "vsync.chip=$HIL_GPIO_CHIP" \
     --set "telemetry.live_stats=$HIL_LIVE"

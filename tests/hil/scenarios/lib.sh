@@ -314,6 +314,7 @@ hil_gadget_stop() { gadget.sh --ffs-dir "$FFS_DIR" stop >>"$HIL_WORK/gadget.log"
 
 # hil_hmdwarpd ARGS...: start hmdwarpd in the background with --stats $HIL_STATS and its log in $HIL_HMD_LOG.
 HIL_STATS=$HIL_WORK/stats.txt
+HIL_LIVE=$HIL_WORK/live.txt   # the live stats (telemetry.live_stats), rewritten each second: hil_live_wait
 HIL_CSV=$HIL_WORK/vsync.csv   # one row per vsync (telemetry.csv): recovery times are measured from it
 HIL_HMD_LOG=$HIL_WORK/hmdwarpd.log
 # The panel defaults to HIL_PANEL=small: TCG runs the warp ~50x slower than the host, so the boards' 640x360 panel
@@ -331,8 +332,15 @@ hil_hmdwarpd() {
     # HIL_HMD_ARGS (kernel command line, via run.sh): extra hmdwarpd options for experiments, e.g.
     # HIL_HMD_ARGS=--set,vsync.backend=timer (commas for spaces).
     # shellcheck disable=SC2086
-    hmdwarpd --stats "$HIL_STATS" --csv "$HIL_CSV" "$@" $(echo "${HIL_HMD_ARGS:-}" | tr , ' ') >"$HIL_HMD_LOG" 2>&1 &
+    hmdwarpd --stats "$HIL_STATS" --csv "$HIL_CSV" --set "telemetry.live_stats=$HIL_LIVE" "$@" $(echo "${HIL_HMD_ARGS:-}" | tr , ' ') >"$HIL_HMD_LOG" 2>&1 &
     HIL_HMD_PID=$!
+}
+# hil_run_until MIN_S CAP_S KEY N [KEY N...]: let a --duration 0 hmdwarpd run MIN_S seconds (a fault timeline's
+# length), then on until every KEY in its live stats is >= N (CAP_S only guards against hangs), then stop it.
+hil_run_until() {
+    sleep "$1"; cap=$2; shift 2
+    hil_live_wait "$cap" "$@"
+    hil_hmdwarpd_stop 30
 }
 # hil_hmdwarpd_wait [TIMEOUT_S]: wait for hmdwarpd to end by itself (its --duration); fails on a crash, a
 # non-zero exit, or a run without a stats file. Prints its log's last lines either way.
@@ -360,9 +368,8 @@ hil_hmdwarpd_stop() {
 }
 
 # Runs that last until they have their data, not for a fixed time (a starved VM does less in a second): start
-# hmdwarpd with --duration 0 and "--set telemetry.live_stats=$HIL_LIVE" (the --stats set, rewritten each second),
-# wait with hil_live_wait, then hil_hmdwarpd_stop.
-HIL_LIVE=$HIL_WORK/live.txt
+# hmdwarpd with --duration 0 (hil_hmdwarpd always writes the live stats to $HIL_LIVE, the --stats set rewritten
+# each second), wait with hil_live_wait, then hil_hmdwarpd_stop; hil_run_until does all three.
 # hil_live_wait CAP_S KEY N [KEY N...]: until every KEY in the live stats is >= N; fails (returns 1) after CAP_S
 # seconds, a guard against hangs only, or when hmdwarpd has ended.
 hil_live_wait() {
@@ -408,16 +415,24 @@ hil_expect_one_present_per_vsync() {
 # work outran the time it planned; missed_late_wake / missed_descheduled: the VM's scheduler; missed_no_buffer).
 # In a VM the guest counts time its vCPU thread was preempted on the host as CPU time, so on a busy host even
 # "own" misses are the host's: the shares are targets (at most 2 + HIL_OWN_MAX = 0.02 of the vsyncs its own, all
-# causes under HIL_MISSED_MAX = 0.05). What holds on any load is checked: the causes add up, and fewer than
-# HIL_OWN_FAIL (0.5) of the vsyncs are its own: a warp too dear for the panel makes nearly every vsync "own", a
-# loaded host measured 43 of 836 (5 %), and the guest's clock never runs while its vCPUs do not.
+# causes under HIL_MISSED_MAX = 0.05). What holds on any load is checked: the causes add up; and fewer than
+# HIL_OWN_FAIL (0.5) of the vsyncs are its own (a warp too dear for the panel makes nearly every vsync "own"),
+# judged only while the VM shows it had its CPUs: its SCHED_FIFO compositor woke late or was descheduled for
+# under HIL_SCHED_QUIET (0.05) of the vsyncs. A starved VM shows both: measured beside three builds, own 4299 and
+# the scheduler's 1537 of 7983 vsyncs, where a moderately busy host gave own 43 of 836.
 hil_expect_on_time() {
     p=${1:+$1: }
-    v=$(hil_stat vsyncs)
-    hil_expect_stat missed_own '<' "$v * ${HIL_OWN_FAIL:-0.5} + 2" "${p}misses attributable to hmdwarpd (a warp too dear for the panel?)"
-    hil_target missed_own '<=' "$v * ${HIL_OWN_MAX:-0.02} + 2" "${p}misses attributable to hmdwarpd"
-    hil_target missed '<=' "$v * ${HIL_MISSED_MAX:-0.05}" "${p}late presents (any cause)"
-    sum=$(( $(hil_stat missed_own) + $(hil_stat missed_late_wake) + $(hil_stat missed_descheduled) + $(hil_stat missed_no_buffer) ))
+    nvs=$(hil_stat vsyncs)
+    sched=$(( $(hil_stat missed_late_wake) + $(hil_stat missed_descheduled) ))
+    hil_note missed_scheduler "$sched"
+    if hil_cmp "$sched" '<' "$nvs * ${HIL_SCHED_QUIET:-0.05}"; then
+        hil_expect_stat missed_own '<' "$nvs * ${HIL_OWN_FAIL:-0.5} + 2" "${p}misses attributable to hmdwarpd (a warp too dear for the panel?)"
+    else
+        hil_log "${p}the VM was starved (the scheduler's misses: $sched of $nvs vsyncs): own misses reported, not judged"
+    fi
+    hil_target missed_own '<=' "$nvs * ${HIL_OWN_MAX:-0.02} + 2" "${p}misses attributable to hmdwarpd"
+    hil_target missed '<=' "$nvs * ${HIL_MISSED_MAX:-0.05}" "${p}late presents (any cause)"
+    sum=$(( $(hil_stat missed_own) + sched + $(hil_stat missed_no_buffer) ))
     [ "$sum" -eq "$(hil_stat missed)" ] || hil_miss "${p}miss causes sum to $sum, missed=$(hil_stat missed)"
 }
 # hil_expect_run_time D SLACK_S: hmdwarpd's --duration D run ended within D + SLACK_S seconds of wall time (a
