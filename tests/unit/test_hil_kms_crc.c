@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* hil_kms_crc, the HIL program that predicts vkms's CRC of a panel image: checked against an independent
  * bytewise CRC-32 (the kernel's crc32_le: reflected 0xEDB88320, no inversion) over vkms's 16-bit ARGB rows. */
 #include <libgen.h>

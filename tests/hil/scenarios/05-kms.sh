@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: MIT
 # 05-kms: the full real-driver board (01's hidraw IMU and USB frames) shown on a real KMS driver, vkms, and paced by
 # its vblanks (vsync.backend = kms), for both renderers: the CPU path (dumb buffers) and GLES (GBM on Mesa's
 # kms_swrast, i.e. llvmpipe). Asserts per renderer: the KMS output is used (atomic, XRGB8888), the vblanks reach the

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* hil_kms_crc: the CRC vkms reports for a picture, computed from the panel image (hmdwarpd's raw sink), so a HIL
  * scenario can check that what reached vkms's CRTC is byte for byte the image hmdwarpd rendered offscreen.
  *
