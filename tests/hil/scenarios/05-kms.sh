@@ -87,7 +87,7 @@ kms_nominal() {
 kms_same_picture() {
     r=$1
     hil_log "--- $r: CRC of vkms's CRTC vs the in-process offscreen image"
-    hil_imu_start --duration 90 --trace still --gyro-noise 0 --gyro-bias 0,0,0 --accel-noise 0
+    hil_imu_start --duration 900 --trace still --gyro-noise 0 --gyro-bias 0,0,0 --accel-noise 0
     # runs until it has shown 5 host frames and vkms has CRC'd 45 vblanks after them, however slowly
     hil_gadget_start --config "$BOARD" --duration 0 --set "render.renderer=$r" --set "display.kms_device=$HIL_DRI_CARD" \
         --set sim.trace=still --set "telemetry.live_stats=$HIL_LIVE"
