@@ -38,12 +38,14 @@ static void small_config(rt_config *c, const char *scene, const char *method)
 
 static rt_app app;
 
-/* 1.5 s of the simulated board's data, however long a busy machine takes to produce it */
+/* 1.5 s of the simulated board's data, however long a busy machine takes to produce it. Not the evaluations: the
+ * evaluator scores every record after the stop (each a ground-truth render), so waiting for one here lengthens
+ * the run and with it that backlog (a loaded run went on to the cap and then scored for minutes). */
 static bool rotation_enough(const rt_app *a, double elapsed_s)
 {
     const rt_telemetry *t = a->tel;
     return elapsed_s >= 1.5 && t->vsyncs >= 120 && t->frames_received >= 10 && t->imu_samples >= 1300 &&
-           t->method_count[RT_METHOD_ROTATION] >= 100 && a->eval[RT_EVAL_NONE].n >= 1;
+           t->method_count[RT_METHOD_ROTATION] >= 100;
 }
 
 static void run(const rt_config *c)
