@@ -10,13 +10,14 @@
 #include <cmocka.h>
 
 #include "runtime/rt_app.h"
+#include "tests/support/test_run.h"
 
 static void config(rt_config *c, const char *const *extra, size_t n_extra)
 {
     rt_config_defaults(c);
     rt_config_errors e = {0};
     const char *sets[] = {"display.width=640", "display.height=360", "eye.width=320", "eye.height=360",
-                          "lens.scale=180", "lens.center=170 180", "sim.duration_s=1.5", "sim.eval_every_ms=0",
+                          "lens.scale=180", "lens.center=170 180", "sim.duration_s=0", "sim.eval_every_ms=0",
                           "render.rt_priority=0", "sim.trace=slow", "sim.scene=near", "warp.method=rotation"};
     for (size_t i = 0; i < sizeof sets / sizeof sets[0]; i++) assert_true(rt_config_set(c, sets[i], &e));
     for (size_t i = 0; i < n_extra; i++) {
@@ -27,14 +28,36 @@ static void config(rt_config *c, const char *const *extra, size_t n_extra)
 
 static rt_app app;
 
+/* The runs last until they have their data (support/test_run.h), at least 1.5 s (the fault timeline's end), at
+ * most 60 s: a loaded machine serves fewer vsyncs a second, and what must hold is judged on counts. */
+#define RUN_MIN_S 1.5
+#define RUN_CAP_S 60.0
+#define PANEL_HZ 90.0
+
+static bool nominal_enough(const rt_app *a, double elapsed_s)
+{
+    const rt_telemetry *t = a->tel;
+    return elapsed_s >= RUN_MIN_S && t->vsyncs >= 120 && t->frames_received >= 8 && t->imu_samples >= 1000 &&
+           t->method_count[RT_METHOD_ROTATION] > 100;
+}
+
 static void run(const char *const *extra, size_t n)
 {
     rt_config c;
     config(&c, extra, n);
     char err[400];
     if (!rt_app_init(&app, &c, err, sizeof err)) fail_msg("init: %s", err);
-    rt_app_run(&app);
+    bool enough = test_run_until(&app, nominal_enough, RUN_CAP_S);
     rt_app_summary(&app, stdout);
+    if (!enough) fail_msg("no nominal run's counts within %.0f s", RUN_CAP_S);
+}
+
+/* At most one vsync per panel refresh, however long the run took. */
+static void assert_vsyncs_paced(void)
+{
+    print_message("vsyncs %llu in %.2f s\n", (unsigned long long)app.tel->vsyncs,
+                  (double)(app.run_end_ns - app.t0_ns) * 1e-9);
+    assert_true((double)app.tel->vsyncs <= test_run_max_vsyncs(&app, PANEL_HZ));
 }
 
 static uint64_t rejected(void)
@@ -48,7 +71,8 @@ static uint64_t rejected(void)
 static void assert_nominal(void)
 {
     rt_telemetry *t = app.tel;
-    assert_true(t->vsyncs >= 120 && t->vsyncs <= 145);
+    assert_true(t->vsyncs >= 120);
+    assert_vsyncs_paced();
     assert_true(t->frames_received >= 8);
     assert_true(t->imu_samples >= 1000);
     assert_true(t->method_count[RT_METHOD_ROTATION] > 100);
@@ -102,7 +126,8 @@ static void test_faults_keep_the_display_going(void **state)
         "mock.imu_unplug_for_s=0.3", "mock.edges_stop_at_s=0.5", "mock.edges_stop_for_s=0.3",
         "mock.host_stall_at_s=0.6", "mock.host_stall_for_s=0.4");
     rt_telemetry *t = app.tel;
-    assert_true(t->vsyncs >= 120 && t->vsyncs <= 145);
+    assert_true(t->vsyncs >= 120);
+    assert_vsyncs_paced();
     assert_true(t->frames_received >= 4);
     assert_true(rejected() >= 2);
     /* while the host stalled the last good frame kept being warped, further and further from its pose */
@@ -116,6 +141,14 @@ static void test_faults_keep_the_display_going(void **state)
     assert_true(drv_vsync_stats_get(app.vsync, &vs));
     assert_true(vs.fallbacks >= 1 && !vs.on_timer);
     rt_app_free(&app);
+}
+
+/* 0.4 s's worth of data, however long it takes */
+static bool combination_enough(const rt_app *a, double elapsed_s)
+{
+    const rt_telemetry *t = a->tel;
+    return elapsed_s >= 0.4 && t->vsyncs >= 30 && t->frames_received >= 2 && t->imu_samples >= 300 &&
+           t->method_count[RT_METHOD_ROTATION] >= 20;
 }
 
 static void test_every_combination(void **state)
@@ -136,18 +169,20 @@ static void test_every_combination(void **state)
         for (int f = 0; f < 3; f++)
             for (int v = 0; v < 3; v++) {
                 const char *sets[] = {imu[i][0],    imu[i][1],    imu[i][2],         frames[f][0],
-                                      frames[f][1], vsync[v][0],  vsync[v][1],       "sim.duration_s=0.4",
+                                      frames[f][1], vsync[v][0],  vsync[v][1],       "sim.duration_s=0",
                                       "sim.imu_rest_s=0.2", "sim.scene=room"};
                 rt_config c;
                 config(&c, sets, sizeof sets / sizeof sets[0]);
                 char err[400];
                 if (!rt_app_init(&app, &c, err, sizeof err)) fail_msg("%s %s %s: %s", imu[i][0], frames[f][0], vsync[v][0], err);
-                rt_app_run(&app);
+                bool enough = test_run_until(&app, combination_enough, RUN_CAP_S);
                 rt_telemetry *t = app.tel;
                 print_message("%-16s %-19s %-18s vsyncs %3llu frames %3llu imu %4llu\n", imu[i][0], frames[f][0],
                               vsync[v][0], (unsigned long long)t->vsyncs, (unsigned long long)t->frames_received,
                               (unsigned long long)t->imu_samples);
-                assert_true(t->vsyncs >= 30 && t->vsyncs <= 40);
+                assert_true(enough);
+                assert_true(t->vsyncs >= 30);
+                assert_vsyncs_paced();
                 assert_true(t->frames_received >= 2);
                 assert_true(t->imu_samples >= 300);
                 assert_true(t->method_count[RT_METHOD_ROTATION] >= 20);

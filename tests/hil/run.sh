@@ -9,7 +9,8 @@
 # env:   HIL_SCENARIO=NAME   same as naming it     HIL_SHELL=1   interactive shell in the VM (Ctrl-A x quits)
 #        HIL_VERBOSE=1       stream scenario logs   HIL_TIMEOUT=S  whole-VM limit (default 900)
 #        HIL_SOAK_S=S        soak length (04-soak)  HIL_SMP, HIL_MEM  VM CPUs (2) and MiB (1024)
-#        HIL_NOMINAL_S, HIL_PANEL=small|board, HIL_MISSED_MAX, HIL_OWN_MAX, HIL_IMU_RATE_MIN, HIL_HMD_ARGS=--set,k=v: scenario knobs
+#        HIL_NOMINAL_S, HIL_PANEL=small|board, HIL_MISSED_MAX, HIL_OWN_MAX, HIL_IMU_RATE_MIN, HIL_HMD_ARGS=--set,k=v,
+#        HIL_STRICT=1 (missed timing targets fail), HIL_OWN_FAIL, HIL_SCHED_QUIET: scenario knobs
 #        passed to the VM (see tests/hil/README.md)
 #        HIL_KERNEL=vmlinuz  boot the compressed image instead of the extracted vmlinux
 #        BUILD=build         build tree (programs from `make all`)
@@ -34,7 +35,7 @@ if [ "${HIL_KERNEL:-vmlinux}" = vmlinuz ]; then kernel=$CACHE/root/boot/vmlinuz-
 # Kernel parameters: NAME=VALUE words without dots become /init's environment.
 append="console=ttyS0 panic=-1 loglevel=4 mitigations=off nokaslr tsc=reliable"
 append="$append HIL_SHELL=${HIL_SHELL:-0} HIL_VERBOSE=${HIL_VERBOSE:-0}"
-for v in HIL_SOAK_S HIL_NOMINAL_S HIL_HMD_ARGS HIL_PANEL HIL_MISSED_MAX HIL_OWN_MAX HIL_IMU_RATE_MIN HIL_KMS HIL_KMS_RENDERERS; do
+for v in HIL_SOAK_S HIL_NOMINAL_S HIL_HMD_ARGS HIL_PANEL HIL_MISSED_MAX HIL_OWN_MAX HIL_IMU_RATE_MIN HIL_KMS HIL_KMS_RENDERERS HIL_STRICT HIL_OWN_FAIL HIL_SCHED_QUIET; do
     eval "val=\${$v:-}"
     [ -n "$val" ] && append="$append $v=$val"
 done

@@ -4,10 +4,13 @@
 #ifndef TEST_UTIL_H
 #define TEST_UTIL_H
 
+#include <dirent.h>
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <time.h>
+#include <unistd.h>
 
 #include "warp/warp_lens.h"
 #include "warp/warp_math.h"
@@ -39,6 +42,61 @@ static inline warp_lens test_reference_lens(double cx, double cy, double scale)
     l.center_y = cy;
     l.scale = scale;
     return l;
+}
+
+/* Nanoseconds this process's threads have spent runnable but waiting for a CPU (the second field of each thread's
+ * /proc/self/task/TID/schedstat: the kernel's run_delay). A check on how long something took on the CPU can add
+ * the growth of this to its bound: time a busy machine kept the threads off their CPUs is not the code's. Returns
+ * 0 where the kernel keeps no schedstats (the bound then stays as it was). */
+static inline int64_t test_run_delay_ns(void)
+{
+    DIR *d = opendir("/proc/self/task");
+    if (!d) return 0;
+    int64_t sum = 0;
+    struct dirent *e;
+    while ((e = readdir(d))) {
+        if (e->d_name[0] == '.') continue;
+        char path[300];
+        snprintf(path, sizeof path, "/proc/self/task/%s/schedstat", e->d_name);
+        FILE *f = fopen(path, "r");
+        if (!f) continue;
+        unsigned long long run, wait;
+        if (fscanf(f, "%llu %llu", &run, &wait) == 2) sum += (int64_t)wait;
+        fclose(f);
+    }
+    closedir(d);
+    return sum;
+}
+
+/* How busy the rest of the machine was over a stretch: test_others_mark() before it, test_others_share() after:
+ * the share of all CPUs' time (/proc/stat, steal included) that other processes used, 0 (quiet) to 1 (every CPU
+ * busy with something else). A check of how a run split its time can be judged only when this is small. */
+typedef struct { double busy_s, self_s, wall_s; } test_others;
+static inline test_others test_others_mark(void)
+{
+    test_others m = {0, 0, 0};
+    FILE *f = fopen("/proc/stat", "r");
+    unsigned long long v[8] = {0};
+    if (f) {
+        if (fscanf(f, "cpu %llu %llu %llu %llu %llu %llu %llu %llu", &v[0], &v[1], &v[2], &v[3], &v[4], &v[5], &v[6],
+                   &v[7]) == 8) /* user nice system idle iowait irq softirq steal */
+            m.busy_s = (double)(v[0] + v[1] + v[2] + v[5] + v[6] + v[7]) / (double)sysconf(_SC_CLK_TCK);
+        fclose(f);
+    }
+    struct timespec ts;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    m.self_s = (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    m.wall_s = (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
+    return m;
+}
+static inline double test_others_share(test_others m0)
+{
+    test_others m = test_others_mark();
+    double cpus = (double)sysconf(_SC_NPROCESSORS_ONLN), wall = m.wall_s - m0.wall_s;
+    if (wall <= 0 || cpus < 1) return 0;
+    double others = (m.busy_s - m0.busy_s) - (m.self_s - m0.self_s);
+    return others < 0 ? 0 : others / (wall * cpus);
 }
 
 typedef struct { uint64_t s; } test_rng;

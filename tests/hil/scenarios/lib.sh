@@ -38,6 +38,30 @@ hil_pass() {
 # hil_note KEY VALUE: keep a measured value in the log in a fixed form (README "timings").
 hil_note() { echo "hil-note: $HIL_NAME: $1=$2"; }
 
+# Timing targets. A check that depends on how much CPU the VM gets (rates per wall second, misses, latency,
+# recovery in wall seconds) is a target, not a pass/fail check: a busy host (a build beside `make test`) takes the
+# vCPUs away, and the guest, which counts that time as its own, cannot tell. hil_target records every target with
+# its measured value in /tmp/hil/NAME.targets ("met" or "missed" lines) and a hil-target: line in the log; hil-run
+# prints the missed ones after the scenario's line and a total at the end, and the scenario still passes.
+# HIL_STRICT=1 (a quiet host measuring the targets) turns a missed target into a failed check.
+HIL_TARGETS=${HIL_TARGETS:-/tmp/hil/$HIL_NAME.targets}
+# hil_target_cmp VALUE OP BOUND NAME WHY: a target on a value measured by the scenario.
+hil_target_cmp() {
+    if hil_cmp "$1" "$2" "$3"; then
+        echo "met $4=$1 ($2 $3)" >>"$HIL_TARGETS"; return 0
+    fi
+    echo "missed $4=${1:-missing} ($2 $3): $5" >>"$HIL_TARGETS"
+    echo "hil-target: $HIL_NAME: $5: $4=${1:-missing}, target $2 $3"
+    [ "${HIL_STRICT:-0}" = 1 ] && hil_miss "$5 (HIL_STRICT=1): $4=${1:-missing}, target $2 $3"
+    return 1
+}
+# hil_target KEY OP VALUE WHY: hil_expect_stat's form, as a target.
+hil_target() {
+    v=$(hil_stat "$1")
+    hil_note "$1" "${v:-missing}"
+    hil_target_cmp "$v" "$2" "$3" "$1" "${4:-target}"
+}
+
 # hil_expect DESCRIPTION COMMAND...: fail with DESCRIPTION unless COMMAND succeeds.
 hil_expect() {
     d=$1; shift
@@ -290,6 +314,7 @@ hil_gadget_stop() { gadget.sh --ffs-dir "$FFS_DIR" stop >>"$HIL_WORK/gadget.log"
 
 # hil_hmdwarpd ARGS...: start hmdwarpd in the background with --stats $HIL_STATS and its log in $HIL_HMD_LOG.
 HIL_STATS=$HIL_WORK/stats.txt
+HIL_LIVE=$HIL_WORK/live.txt   # the live stats (telemetry.live_stats), rewritten each second: hil_live_wait
 HIL_CSV=$HIL_WORK/vsync.csv   # one row per vsync (telemetry.csv): recovery times are measured from it
 HIL_HMD_LOG=$HIL_WORK/hmdwarpd.log
 # The panel defaults to HIL_PANEL=small: TCG runs the warp ~50x slower than the host, so the boards' 640x360 panel
@@ -297,7 +322,7 @@ HIL_HMD_LOG=$HIL_WORK/hmdwarpd.log
 HIL_EYE=64x64
 [ "${HIL_PANEL:-small}" = small ] || HIL_EYE=320x360    # tests/hil/boards' [eye]
 hil_hmdwarpd() {
-    rm -f "$HIL_STATS" "$HIL_CSV"
+    rm -f "$HIL_STATS" "$HIL_CSV" "$HIL_LIVE"
     hil_log "hmdwarpd $*"
     if [ "${HIL_PANEL:-small}" = small ]; then
         set -- "$@" --set display.width=128 --set display.height=64 --set eye.width=64 --set eye.height=64 \
@@ -307,8 +332,15 @@ hil_hmdwarpd() {
     # HIL_HMD_ARGS (kernel command line, via run.sh): extra hmdwarpd options for experiments, e.g.
     # HIL_HMD_ARGS=--set,vsync.backend=timer (commas for spaces).
     # shellcheck disable=SC2086
-    hmdwarpd --stats "$HIL_STATS" --csv "$HIL_CSV" "$@" $(echo "${HIL_HMD_ARGS:-}" | tr , ' ') >"$HIL_HMD_LOG" 2>&1 &
+    hmdwarpd --stats "$HIL_STATS" --csv "$HIL_CSV" --set "telemetry.live_stats=$HIL_LIVE" "$@" $(echo "${HIL_HMD_ARGS:-}" | tr , ' ') >"$HIL_HMD_LOG" 2>&1 &
     HIL_HMD_PID=$!
+}
+# hil_run_until MIN_S CAP_S KEY N [KEY N...]: let a --duration 0 hmdwarpd run MIN_S seconds (a fault timeline's
+# length), then on until every KEY in its live stats is >= N (CAP_S only guards against hangs), then stop it.
+hil_run_until() {
+    sleep "$1"; cap=$2; shift 2
+    hil_live_wait "$cap" "$@"
+    hil_hmdwarpd_stop 30
 }
 # hil_hmdwarpd_wait [TIMEOUT_S]: wait for hmdwarpd to end by itself (its --duration); fails on a crash, a
 # non-zero exit, or a run without a stats file. Prints its log's last lines either way.
@@ -335,6 +367,29 @@ hil_hmdwarpd_stop() {
     hil_hmdwarpd_wait "${1:-20}"
 }
 
+# Runs that last until they have their data, not for a fixed time (a starved VM does less in a second): start
+# hmdwarpd with --duration 0 (hil_hmdwarpd always writes the live stats to $HIL_LIVE, the --stats set rewritten
+# each second), wait with hil_live_wait, then hil_hmdwarpd_stop; hil_run_until does all three.
+# hil_live_wait CAP_S KEY N [KEY N...]: until every KEY in the live stats is >= N; fails (returns 1) after CAP_S
+# seconds, a guard against hangs only, or when hmdwarpd has ended.
+hil_live_wait() {
+    lim=$(( $1 * 5 )); shift; i=0
+    while :; do
+        ok=1; a=$*
+        set -- $a
+        while [ $# -ge 2 ]; do
+            v=$(hil_stat "$1" "$HIL_LIVE" 2>/dev/null)
+            [ -n "$v" ] && hil_cmp "$v" '>=' "$2" || { ok=0; break; }
+            shift 2
+        done
+        set -- $a
+        [ "$ok" = 1 ] && return 0
+        kill -0 "$HIL_HMD_PID" 2>/dev/null || return 1
+        i=$((i + 1)); [ "$i" -le "$lim" ] || { hil_log "hil_live_wait: $* not reached"; return 1; }
+        sleep 0.2
+    done
+}
+
 # hil_stat KEY [FILE]: one value from a --stats file (key=value lines).
 hil_stat() { sed -n "s/^$1=//p" "${2:-$HIL_STATS}" | head -n 1; }
 # hil_expect_stat KEY OP VALUE [WHY]: check a stats value (VALUE may be "N * M + K"); a miss is recorded
@@ -357,39 +412,89 @@ hil_expect_one_present_per_vsync() {
     hil_cmp "$p" '<=' "$v * 1.02 + 2" || hil_miss "compositor passes $p > vsyncs $v: more than one present per vsync (the loop spins on an already served vsync)"
 }
 # hil_expect_on_time [PREFIX]: presents are on time. hmdwarpd splits its misses by cause (missed_own: its own CPU
-# work outran the time it planned; missed_late_wake / missed_descheduled: the VM's scheduler; missed_no_buffer):
-# at most 2 + HIL_OWN_MAX (0.02) of the vsyncs may be its own (in a VM the guest counts time its vCPU thread
-# was preempted on the host as CPU time, and the first passes run while TCG translates the warp's code), and all
-# causes together stay under HIL_MISSED_MAX of the vsyncs (0.05).
+# work outran the time it planned; missed_late_wake / missed_descheduled: the VM's scheduler; missed_no_buffer).
+# In a VM the guest counts time its vCPU thread was preempted on the host as CPU time, so on a busy host even
+# "own" misses are the host's: the shares are targets (at most 2 + HIL_OWN_MAX = 0.02 of the vsyncs its own, all
+# causes under HIL_MISSED_MAX = 0.05). What holds on any load is checked: the causes add up; and fewer than
+# HIL_OWN_FAIL (0.5) of the vsyncs are its own (a warp too dear for the panel makes nearly every vsync "own"),
+# judged only while the VM shows it had its CPUs: its SCHED_FIFO compositor woke late or was descheduled for
+# under HIL_SCHED_QUIET (0.05) of the vsyncs. A starved VM shows both: measured beside three builds, own 4299 and
+# the scheduler's 1537 of 7983 vsyncs, where a moderately busy host gave own 43 of 836.
 hil_expect_on_time() {
     p=${1:+$1: }
-    hil_expect_stat missed_own '<=' "$(hil_stat vsyncs) * ${HIL_OWN_MAX:-0.02} + 2" "${p}misses attributable to hmdwarpd"
-    hil_expect_stat missed '<=' "$(hil_stat vsyncs) * ${HIL_MISSED_MAX:-0.05}" "${p}late presents (any cause)"
-    sum=$(( $(hil_stat missed_own) + $(hil_stat missed_late_wake) + $(hil_stat missed_descheduled) + $(hil_stat missed_no_buffer) ))
+    nvs=$(hil_stat vsyncs)
+    sched=$(( $(hil_stat missed_late_wake) + $(hil_stat missed_descheduled) ))
+    hil_note missed_scheduler "$sched"
+    if hil_cmp "$sched" '<' "$nvs * ${HIL_SCHED_QUIET:-0.05}"; then
+        hil_expect_stat missed_own '<' "$nvs * ${HIL_OWN_FAIL:-0.5} + 2" "${p}misses attributable to hmdwarpd (a warp too dear for the panel?)"
+    else
+        hil_log "${p}the VM was starved (the scheduler's misses: $sched of $nvs vsyncs): own misses reported, not judged"
+    fi
+    hil_target missed_own '<=' "$nvs * ${HIL_OWN_MAX:-0.02} + 2" "${p}misses attributable to hmdwarpd"
+    hil_target missed '<=' "$nvs * ${HIL_MISSED_MAX:-0.05}" "${p}late presents (any cause)"
+    sum=$(( $(hil_stat missed_own) + sched + $(hil_stat missed_no_buffer) ))
     [ "$sum" -eq "$(hil_stat missed)" ] || hil_miss "${p}miss causes sum to $sum, missed=$(hil_stat missed)"
 }
-# hil_expect_run_time D SLACK_S: hmdwarpd's --duration D run ended within D + SLACK_S seconds of wall time.
+# hil_expect_run_time D SLACK_S: hmdwarpd's --duration D run ended within D + SLACK_S seconds of wall time (a
+# target: a starved VM starts and stops slowly; hil_hmdwarpd_wait's limit catches a run that never ends).
 hil_expect_run_time() {
     dt=$(( $(cut -d. -f1 /proc/uptime) - HIL_HMD_T0 ))
     hil_note run_s "$dt"
-    [ "$dt" -le $(( $1 + $2 )) ] || hil_miss "hmdwarpd --duration $1 ran ${dt}s (its vsync clock fell behind real time?)"
+    hil_target_cmp "$dt" '<=' "$1 + $2" run_s "hmdwarpd --duration $1 run time (its vsync clock fell behind real time?)"
 }
 
 # hil_expect_recovery COLUMN THRESHOLD FAULT_S RECOVER_S WHY: in the per-vsync CSV, the longest stretch of vsyncs
-# whose COLUMN (m2p_ms, frame_age_ms, ...) exceeds THRESHOLD lasts at most FAULT_S + RECOVER_S seconds (service is
-# back within RECOVER_S of the fault's end) and at least FAULT_S / 4 (the fault was seen at all).
+# whose COLUMN (m2p_ms, frame_age_ms, ...) exceeds THRESHOLD is the fault. Checked: it lasted at least FAULT_S / 4
+# (the fault, real time on any load, was seen at all), and service came back: the stretch ended at least
+# HIL_RECOVERED_VSYNCS (10) vsyncs before the run did. A target: it lasted at most FAULT_S + RECOVER_S (back within
+# RECOVER_S seconds; on a busy host the IMU's reports or the feeder's frames come late for a while).
 hil_expect_recovery() {
     col=$1; thr=$2; fault=$3; rec=$4; why=$5
     [ -s "$HIL_CSV" ] || { hil_miss "$why: no per-vsync CSV $HIL_CSV"; return 1; }
+    # prints: longest stretch (s), rows after it, rows under THRESHOLD after it
     got=$(awk -F, -v name="$col" -v thr="$thr" '
         NR == 1 { for (i = 1; i <= NF; i++) if ($i == name) c = i; next }
-        c && $c + 0 > thr { if (!on) { on = 1; t0 = $2 } t1 = $2; next }
-        { if (on && t1 - t0 > best) best = t1 - t0; on = 0 }
-        END { if (on && t1 - t0 > best) best = t1 - t0; if (!c) print "nocol"; else printf "%.2f\n", best / 1e9 }' "$HIL_CSV")
-    hil_note "longest_${col}_over_${thr}_s" "$got"
-    [ "$got" != nocol ] || { hil_miss "$why: no column $col in $HIL_CSV"; return 1; }
-    hil_cmp "$got" '<=' "$fault + $rec" || { hil_miss "$why: $col > $thr for ${got}s, expected <= ${fault}s fault + ${rec}s recovery"; return 1; }
-    hil_cmp "$got" '>=' "$fault / 4" || { hil_miss "$why: $col > $thr for only ${got}s: the ${fault}s fault was not seen"; return 1; }
+        !c { next }
+        { n++ }
+        $c + 0 > thr { if (!on) { on = 1; t0 = $2 } t1 = $2; next }
+        { if (on && t1 - t0 >= best) { best = t1 - t0; end = n - 1 } on = 0 }
+        END { if (on && t1 - t0 >= best) { best = t1 - t0; end = n }
+              if (!c) { print "nocol"; exit }
+              printf "%.2f %d\n", best / 1e9, n - end }' "$HIL_CSV")
+    set -- $got
+    hil_note "longest_${col}_over_${thr}_s" "$1"
+    hil_note "vsyncs_after_longest_${col}_over_${thr}" "${2:-}"
+    [ "$1" != nocol ] || { hil_miss "$why: no column $col in $HIL_CSV"; return 1; }
+    hil_cmp "$1" '>=' "$fault / 4" || { hil_miss "$why: $col > $thr for only ${1}s: the ${fault}s fault was not seen"; return 1; }
+    [ "${2:-0}" -ge "${HIL_RECOVERED_VSYNCS:-10}" ] ||
+        { hil_miss "$why: $col > $thr from the fault until the run ended (${2:-0} vsyncs after it): not recovered"; return 1; }
+    hil_target_cmp "$1" '<=' "$fault + $rec" "longest_${col}_over_${thr}_s" "$why: back within ${rec}s of the ${fault}s fault"
+}
+
+# hil_expect_frames_resume STALL_S RECOVER_S WHY: a host stall in the per-vsync CSV: the longest stretch of vsyncs
+# showing the same host frame (frame_seq) lasted at least STALL_S / 4 (the stall was seen) and at least
+# HIL_RESUMED_FRAMES (3) newer frames were shown after it (the link resumed: counted in frames, on any load). A
+# target: the stretch lasted at most STALL_S + RECOVER_S.
+hil_expect_frames_resume() {
+    stall=$1; rec=$2; why=$3
+    [ -s "$HIL_CSV" ] || { hil_miss "$why: no per-vsync CSV $HIL_CSV"; return 1; }
+    got=$(awk -F, '
+        NR == 1 { for (i = 1; i <= NF; i++) if ($i == "frame_seq") c = i; next }
+        !c || $c == "" || $c == 0 { next }   # 0: no host frame yet
+        $c == seq { t1 = $2; next }
+        { if (t1 - t0 > best) { best = t1 - t0; bseq = seq } seq = $c; t0 = t1 = $2 }
+        END { if (!c) { print "nocol"; exit }
+              if (t1 - t0 > best) { best = t1 - t0; bseq = seq }
+              printf "%.2f %d\n", best / 1e9, bseq }' "$HIL_CSV")
+    set -- $got
+    [ "$1" != nocol ] || { hil_miss "$why: no column frame_seq in $HIL_CSV"; return 1; }
+    newer=$(awk -F, -v s="$2" 'NR > 1 && $3 != "" && $3 > s { n[$3] = 1 } END { print length(n) }' "$HIL_CSV")
+    hil_note longest_same_frame_s "$1"
+    hil_note frames_shown_after_it "$newer"
+    hil_cmp "$1" '>=' "$stall / 4" || { hil_miss "$why: one frame shown for at most ${1}s: the ${stall}s stall was not seen"; return 1; }
+    [ "$newer" -ge "${HIL_RESUMED_FRAMES:-3}" ] ||
+        { hil_miss "$why: $newer newer frames shown after the stall, expected >= ${HIL_RESUMED_FRAMES:-3}: the link did not resume"; return 1; }
+    hil_target_cmp "$1" '<=' "$stall + $rec" longest_same_frame_s "$why: frames back within ${rec}s of the ${stall}s stall"
 }
 
 # hil_expect_backends IMU/FRAMES/VSYNC: the stats name these backends (first word of each: "i2c mpu6050 ..." is i2c).
