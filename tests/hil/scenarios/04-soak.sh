@@ -25,7 +25,7 @@ hil_feed_usb --rate 30 --duration $((D + 30))
 # Host stalls at random and RSS samples until hmdwarpd ends.
 awk -v s="$SEED" -v d="$D" 'BEGIN { srand(s + 1); t = 4; while (t < d - 4) { printf "%d %.1f\n", t, 0.5 + rand() * 1.5; t += 6 + int(rand() * 8) } }' >"$HIL_WORK/stalls"
 : >"$HIL_WORK/rss"
-t0=$(cut -d. -f1 /proc/uptime); stalls=0
+t0=$(cut -d. -f1 /proc/uptime); stalls=0; next_rss=0
 while kill -0 "$HIL_HMD_PID" 2>/dev/null; do
     now=$(( $(cut -d. -f1 /proc/uptime) - t0 ))
     if [ -s "$HIL_WORK/stalls" ] && [ "$now" -ge "$(head -n 1 "$HIL_WORK/stalls" | cut -d' ' -f1)" ]; then
@@ -33,7 +33,11 @@ while kill -0 "$HIL_HMD_PID" 2>/dev/null; do
         kill -STOP "$HIL_FEED_PID" 2>/dev/null; sleep "$len"; kill -CONT "$HIL_FEED_PID" 2>/dev/null
         stalls=$((stalls + 1)); hil_log "host stall ${len}s"
     fi
-    if [ $((now % 5)) -eq 0 ]; then r=$(hil_rss_kb "$HIL_HMD_PID"); [ -n "$r" ] && echo "$now $r" >>"$HIL_WORK/rss"; fi
+    # Every 5 s or later: on a loaded machine one turn of this loop can take longer than a second, so a
+    # "now % 5 == 0" test could skip every sample.
+    if [ "$now" -ge "$next_rss" ]; then
+        r=$(hil_rss_kb "$HIL_HMD_PID"); [ -n "$r" ] && echo "$now $r" >>"$HIL_WORK/rss"; next_rss=$((now + 5))
+    fi
     sleep 1
 done
 hil_hmdwarpd_wait 60
