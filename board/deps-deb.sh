@@ -10,20 +10,5 @@ if [ -n "${ARCH:-}" ] && [ "$ARCH" != "$native" ]; then
     PKGS="$PKGS crossbuild-essential-$ARCH"
     "$(dirname "$0")/deps-cross.sh"
 fi
-missing=""
-for p in $PKGS; do
-    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed' || missing="$missing $p"
-done
-[ -z "$missing" ] && exit 0
-if [ "$(id -u)" -eq 0 ]; then
-    echo "deps-deb: installing$missing"
-    export DEBIAN_FRONTEND=noninteractive
-    apt-get update -qq
-    # shellcheck disable=SC2086
-    apt-get install -y -qq --no-install-recommends $missing >/dev/null
-    echo "deps-deb: done"
-else
-    echo "deps-deb: missing Debian packages:$missing" >&2
-    echo "deps-deb: run:  sudo apt-get install -y --no-install-recommends$missing" >&2
-    exit 1
-fi
+. "$(dirname "$0")/deps-lib.sh"
+deps_install deps-deb $PKGS

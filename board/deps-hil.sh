@@ -20,27 +20,8 @@ PKGS="qemu-system-x86 busybox-static cpio kmod xz-utils zstd
 gcc make libelf-dev bc flex bison binutils
 gpiod v4l-utils"
 
-missing=""
-for p in $PKGS; do
-    if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed'; then
-        missing="$missing $p"
-    fi
-done
-
-if [ -n "$missing" ]; then
-    if [ "$(id -u)" -eq 0 ]; then
-        echo "deps-hil: installing$missing"
-        export DEBIAN_FRONTEND=noninteractive
-        apt-get update -qq
-        # shellcheck disable=SC2086
-        apt-get install -y -qq --no-install-recommends $missing >/dev/null 2>&1 ||
-            apt-get install -y -q --no-install-recommends $missing
-    else
-        echo "deps-hil: missing Debian packages:$missing" >&2
-        echo "deps-hil: run:  sudo apt-get install -y --no-install-recommends$missing" >&2
-        exit 1
-    fi
-fi
+. "$(dirname "$0")/deps-lib.sh"
+deps_install deps-hil $PKGS
 
 # A complete cache records its ABI in $CACHE/kabi (written last).
 if [ -z "${HIL_KABI:-}" ] && [ -s "$CACHE/kabi" ] && [ -s "$CACHE/root/kver" ]; then

@@ -16,24 +16,5 @@ libsystemd-dev
 help2man
 g++ libopencv-imgproc-dev gnuplot-nox"
 
-missing=""
-for p in $PKGS; do
-    if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed'; then
-        missing="$missing $p"
-    fi
-done
-[ -z "$missing" ] && exit 0
-
-if [ "$(id -u)" -eq 0 ]; then
-    echo "deps: installing$missing"
-    export DEBIAN_FRONTEND=noninteractive
-    # An index older than the mirror makes installs fail with 404s; refresh once before installing.
-    apt-get update -qq
-    # shellcheck disable=SC2086
-    apt-get install -y -qq --no-install-recommends $missing >/dev/null
-    echo "deps: done"
-else
-    echo "deps: missing Debian packages:$missing" >&2
-    echo "deps: run:  sudo apt-get install -y --no-install-recommends$missing" >&2
-    exit 1
-fi
+. "$(dirname "$0")/deps-lib.sh"
+deps_install deps $PKGS
