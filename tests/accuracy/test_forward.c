@@ -26,13 +26,11 @@
 
 typedef struct {
     warp_camera cam;
-    sim_buffers a, b;
-    warp_image_f32 inv;
-    warp_image_rgba8 col, out, out2;
-    warp_image_u8 mask, mask2, both;
+    test_pair p;
+    warp_image_rgba8 col;
+    warp_image_u8 both;
     warp_fwd_scratch sc;
     float zref[W * H];
-    warp_view v;
 } fx;
 
 static fx F;
@@ -42,11 +40,7 @@ static int setup(void **state)
 {
     (void)state;
     F.cam = warp_camera_symmetric(W, H, 90.0, 2 * atan(0.75) / D2R, 0.05, INFINITY); /* square pixels */
-    unsigned all = SIM_PLANE_COLOR | SIM_PLANE_DEPTH;
-    if (!sim_buffers_alloc(&F.a, W, H, all, 1) || !sim_buffers_alloc(&F.b, W, H, all, 1)) return -1;
-    if (!warp_image_f32_alloc(&F.inv, W, H) || !warp_image_rgba8_alloc(&F.col, W, H) ||
-        !warp_image_rgba8_alloc(&F.out, W, H) || !warp_image_rgba8_alloc(&F.out2, W, H) ||
-        !warp_image_u8_alloc(&F.mask, W, H) || !warp_image_u8_alloc(&F.mask2, W, H) ||
+    if (!test_pair_alloc(&F.p, W, H, SIM_PLANE_COLOR | SIM_PLANE_DEPTH) || !warp_image_rgba8_alloc(&F.col, W, H) ||
         !warp_image_u8_alloc(&F.both, W, H) || !warp_fwd_scratch_alloc(&F.sc, W, H, W, H))
         return -1;
     return 0;
@@ -55,29 +49,17 @@ static int setup(void **state)
 static int teardown(void **state)
 {
     (void)state;
-    sim_buffers_free(&F.a);
-    sim_buffers_free(&F.b);
-    warp_image_free(&F.inv);
+    test_pair_free(&F.p);
     warp_image_free(&F.col);
-    warp_image_free(&F.out);
-    warp_image_free(&F.out2);
-    warp_image_free(&F.mask);
-    warp_image_free(&F.mask2);
     warp_image_free(&F.both);
     warp_fwd_scratch_free(&F.sc);
     return 0;
 }
 
-static warp_pose eye_at(double yaw, double pitch, double roll, warp_vec3 p)
-{
-    warp_pose e = {warp_quat_from_ypr(yaw, pitch, roll), p};
-    return e;
-}
-
 /* Source render at a (with depth), truth at b. */
 static void render_pair(const char *scene, warp_pose a, warp_pose b)
 {
-    test_render_pair(scene, &F.cam, a, b, &F.a, &F.b, &F.inv, &F.v);
+    test_pair_render(&F.p, scene, &F.cam, a, b);
 }
 
 static void fwd(warp_pose to, warp_fwd_visibility vis, bool two_pass, warp_image_rgba8 *out, warp_image_u8 *mask,
@@ -86,7 +68,7 @@ static void fwd(warp_pose to, warp_fwd_visibility vis, bool two_pass, warp_image
     warp_forward_params p = warp_forward_default_params();
     p.vis = vis;
     p.two_pass = two_pass;
-    assert_null(warp_forward_run(&F.v, &F.cam, to, &p, &F.sc, out, mask, st));
+    assert_null(warp_forward_run(&F.p.v, &F.cam, to, &p, &F.sc, out, mask, st));
 }
 
 static void splat(warp_pose to, warp_splat_kind kind, warp_fwd_visibility vis, int size, warp_image_rgba8 *out,
@@ -95,13 +77,13 @@ static void splat(warp_pose to, warp_splat_kind kind, warp_fwd_visibility vis, i
     warp_splat_params p = warp_splat_default_params(kind);
     p.vis = vis;
     if (size > 0) p.min_size = p.max_size = size;
-    assert_null(warp_splat_run(&F.v, &F.cam, to, &p, &F.sc, out, mask, st));
+    assert_null(warp_splat_run(&F.p.v, &F.cam, to, &p, &F.sc, out, mask, st));
 }
 
 static void reproject(warp_pose to, warp_image_rgba8 *out, warp_image_u8 *mask)
 {
-    warp_mat3 h = warp_reproject_homography(&F.v, &F.cam, to.q);
-    warp_reproject_rows(&F.v, &h, out, mask, 0, H);
+    warp_mat3 h = warp_reproject_homography(&F.p.v, &F.cam, to.q);
+    warp_reproject_rows(&F.p.v, &h, out, mask, 0, H);
 }
 
 static bool same_image(const warp_image_rgba8 *a, const warp_image_rgba8 *b)
@@ -167,7 +149,7 @@ static void check_permutation(const int32_t *order)
 static void test_traversal_orders(void **state)
 {
     (void)state;
-    warp_pose a = eye_at(0, 0, 0, warp_v3(0, 1.6, 0));
+    warp_pose a = test_eye_at(0, 0, 0, warp_v3(0, 1.6, 0));
     render_pair("room", a, a);
     struct {
         warp_vec3 d;
@@ -183,7 +165,7 @@ static void test_traversal_orders(void **state)
         b.p = warp_v3_add(a.p, cases[c].d);
         warp_forward_params p = warp_forward_default_params();
         warp_fwd_setup s;
-        assert_null(warp_forward_prepare(&s, &F.v, &F.cam, b, &p));
+        assert_null(warp_forward_prepare(&s, &F.p.v, &F.cam, b, &p));
         assert_int_equal(warp_forward_order(&s, WARP_FWD_SHEETS4, &F.sc), cases[c].s4);
         check_permutation(F.sc.order);
         assert_int_equal(warp_forward_order(&s, WARP_FWD_SHEETS8, &F.sc), cases[c].s8);
@@ -204,21 +186,21 @@ static void test_traversal_orders(void **state)
 static void test_identity_is_exact(void **state)
 {
     (void)state;
-    warp_pose a = eye_at(0.3, -0.1, 0.05, warp_v3(0.2, 1.5, -0.3));
+    warp_pose a = test_eye_at(0.3, -0.1, 0.05, warp_v3(0.2, 1.5, -0.3));
     render_pair("near", a, a);
     warp_forward_stats st;
     const warp_fwd_visibility modes[] = {WARP_FWD_ZBUFFER, WARP_FWD_SHEETS4, WARP_FWD_SHEETS8};
     for (int m = 0; m < 3; m++)
         for (int tp = 0; tp < 2; tp++) {
-            fwd(a, modes[m], tp, &F.out, &F.mask, &st);
-            assert_true(same_image(&F.out, &F.a.color));
+            fwd(a, modes[m], tp, &F.p.out, &F.p.mask, &st);
+            assert_true(same_image(&F.p.out, &F.p.a.color));
             assert_int_equal(st.holes, 0);
             assert_int_equal(st.samples, W * H);
         }
     for (int k = 0; k < 3; k++) {
         warp_splat_stats ss;
-        splat(a, (warp_splat_kind)k, WARP_FWD_ZBUFFER, 0, &F.out, &F.mask, &ss);
-        assert_true(same_image(&F.out, &F.a.color));
+        splat(a, (warp_splat_kind)k, WARP_FWD_ZBUFFER, 0, &F.p.out, &F.p.mask, &ss);
+        assert_true(same_image(&F.p.out, &F.p.a.color));
         assert_int_equal(ss.fwd.holes, 0);
     }
 }
@@ -226,16 +208,16 @@ static void test_identity_is_exact(void **state)
 static void test_pure_rotation_matches_reprojection(void **state)
 {
     (void)state;
-    warp_pose a = eye_at(0.2, 0.05, 0, warp_v3(0.1, 1.6, 0.1));
-    warp_pose b = eye_at(0.26, 0.02, 0.03, a.p);
+    warp_pose a = test_eye_at(0.2, 0.05, 0, warp_v3(0.1, 1.6, 0.1));
+    warp_pose b = test_eye_at(0.26, 0.02, 0.03, a.p);
     render_pair("near", a, b);
     /* The mapped positions are exactly the inverse of the rotation homography (depth drops out). */
     warp_forward_params p = warp_forward_default_params();
     warp_fwd_setup s;
-    assert_null(warp_forward_prepare(&s, &F.v, &F.cam, b, &p));
+    assert_null(warp_forward_prepare(&s, &F.p.v, &F.cam, b, &p));
     assert_false(s.ep.defined);
     warp_forward_map_rows(&s, &F.sc, false, 0, H, NULL);
-    warp_mat3 h = warp_reproject_homography(&F.v, &F.cam, b.q);
+    warp_mat3 h = warp_reproject_homography(&F.p.v, &F.cam, b.q);
     double worst = 0;
     for (int k = 0; k < W * H; k += 7) {
         if (!(F.sc.x2[k] == F.sc.x2[k])) continue;
@@ -245,13 +227,13 @@ static void test_pure_rotation_matches_reprojection(void **state)
     assert_true(worst < 2e-3);
     /* Images agree up to resampling: the mesh interpolates linearly, as the reprojection's bilinear filter. */
     warp_splat_stats ss;
-    splat(b, WARP_SPLAT_MESH, WARP_FWD_ZBUFFER, 0, &F.out, &F.mask, &ss);
-    reproject(b, &F.out2, &F.mask2);
-    or_masks(&F.both, &F.mask, &F.mask2);
-    double mesh = warp_psnr(&F.out, &F.out2, &F.both, 0xff);
-    fwd(b, WARP_FWD_SHEETS8, false, &F.out, &F.mask, NULL);
-    or_masks(&F.both, &F.mask, &F.mask2);
-    double pts = warp_psnr(&F.out, &F.out2, &F.both, 0xff);
+    splat(b, WARP_SPLAT_MESH, WARP_FWD_ZBUFFER, 0, &F.p.out, &F.p.mask, &ss);
+    reproject(b, &F.p.out2, &F.p.mask2);
+    or_masks(&F.both, &F.p.mask, &F.p.mask2);
+    double mesh = warp_psnr(&F.p.out, &F.p.out2, &F.both, 0xff);
+    fwd(b, WARP_FWD_SHEETS8, false, &F.p.out, &F.p.mask, NULL);
+    or_masks(&F.both, &F.p.mask, &F.p.mask2);
+    double pts = warp_psnr(&F.p.out, &F.p.out2, &F.both, 0xff);
     print_message("pure rotation vs reprojection: mesh %.2f dB, 1-pixel points %.2f dB\n", mesh, pts);
     assert_true(mesh > 38.0);
     assert_true(pts > 30.0);
@@ -262,16 +244,16 @@ static void test_pure_rotation_matches_reprojection(void **state)
 static void test_translation_vs_truth(void **state)
 {
     (void)state;
-    warp_pose a = eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
-    warp_pose b = eye_at(1.5 * D2R, -3 * D2R, 0, warp_v3(0.04, 1.61, -0.01)); /* 4 cm sideways lean */
+    warp_pose a = test_eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
+    warp_pose b = test_eye_at(1.5 * D2R, -3 * D2R, 0, warp_v3(0.04, 1.61, -0.01)); /* 4 cm sideways lean */
     render_pair("near", a, b);
     warp_forward_stats st;
-    fwd(b, WARP_FWD_SHEETS8, false, &F.out, &F.mask, &st);
-    reproject(b, &F.out2, &F.mask2);
-    or_masks(&F.both, &F.mask, &F.mask2);
-    double f = warp_psnr(&F.out, &F.b.color, &F.both, 0xff), r = warp_psnr(&F.out2, &F.b.color, &F.both, 0xff);
-    double fe = warp_error_pixel_percent(&F.out, &F.b.color, &F.both, 0xff, 20);
-    double re = warp_error_pixel_percent(&F.out2, &F.b.color, &F.both, 0xff, 20);
+    fwd(b, WARP_FWD_SHEETS8, false, &F.p.out, &F.p.mask, &st);
+    reproject(b, &F.p.out2, &F.p.mask2);
+    or_masks(&F.both, &F.p.mask, &F.p.mask2);
+    double f = warp_psnr(&F.p.out, &F.p.b.color, &F.both, 0xff), r = warp_psnr(&F.p.out2, &F.p.b.color, &F.both, 0xff);
+    double fe = warp_error_pixel_percent(&F.p.out, &F.p.b.color, &F.both, 0xff, 20);
+    double re = warp_error_pixel_percent(&F.p.out2, &F.p.b.color, &F.both, 0xff, 20);
     long interior_holes = st.holes - st.fringe;
     print_message("near, 4 cm: forward %.2f dB / %.2f %% error px, rotation %.2f dB / %.2f %%; %ld holes (%ld fringe), "
                   "%ld writes, %d sheets\n",
@@ -284,9 +266,9 @@ static void test_translation_vs_truth(void **state)
     /* Translating the wrong way must fail the threshold. */
     warp_pose wrong = b;
     wrong.p = warp_v3_sub(a.p, warp_v3_sub(b.p, a.p));
-    fwd(wrong, WARP_FWD_SHEETS8, false, &F.out, &F.mask, &st);
-    or_masks(&F.both, &F.mask, &F.mask2);
-    double fw = warp_psnr(&F.out, &F.b.color, &F.both, 0xff);
+    fwd(wrong, WARP_FWD_SHEETS8, false, &F.p.out, &F.p.mask, &st);
+    or_masks(&F.both, &F.p.mask, &F.p.mask2);
+    double fw = warp_psnr(&F.p.out, &F.p.b.color, &F.both, 0xff);
     print_message("translation sign flipped: %.2f dB\n", fw);
     assert_true(fw < 24.0);
 }
@@ -296,21 +278,21 @@ static void test_splats_vs_truth(void **state)
     (void)state;
     /* Stepping 8 cm forward magnifies the near objects: 1-pixel points crack, Jacobian-sized splats and the mesh
      * close the cracks and keep only the disocclusions. */
-    warp_pose a = eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
-    warp_pose b = eye_at(0, -3 * D2R, 0, warp_v3(0.02, 1.6, -0.08));
+    warp_pose a = test_eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
+    warp_pose b = test_eye_at(0, -3 * D2R, 0, warp_v3(0.02, 1.6, -0.08));
     render_pair("near", a, b);
     warp_forward_stats pst;
-    fwd(b, WARP_FWD_ZBUFFER, false, &F.out2, &F.mask2, &pst);
-    double pts = warp_psnr(&F.out2, &F.b.color, &F.mask2, 0xff);
+    fwd(b, WARP_FWD_ZBUFFER, false, &F.p.out2, &F.p.mask2, &pst);
+    double pts = warp_psnr(&F.p.out2, &F.p.b.color, &F.p.mask2, 0xff);
     const char *names[] = {"point splat", "quad splat", "mesh"};
     long holes[3];
     double psnr[3];
     for (int k = 0; k < 3; k++) {
         warp_splat_stats st;
-        splat(b, (warp_splat_kind)k, WARP_FWD_ZBUFFER, 0, &F.out, &F.mask, &st);
+        splat(b, (warp_splat_kind)k, WARP_FWD_ZBUFFER, 0, &F.p.out, &F.p.mask, &st);
         holes[k] = st.fwd.holes - st.fwd.fringe;
-        psnr[k] = warp_psnr(&F.out, &F.b.color, &F.mask, 0xff);
-        double err = warp_error_pixel_percent(&F.out, &F.b.color, &F.mask, 0xff, 20);
+        psnr[k] = warp_psnr(&F.p.out, &F.p.b.color, &F.p.mask, 0xff);
+        double err = warp_error_pixel_percent(&F.p.out, &F.p.b.color, &F.p.mask, 0xff, 20);
         print_message("%-11s %.2f dB, %.2f %% error px, %ld interior holes, %ld primitives, %ld fragments, "
                       "%ld culled\n",
                       names[k], psnr[k], err, holes[k], st.primitives, st.fragments, st.culled);
@@ -345,21 +327,21 @@ static void test_sheets8_fixes_sheets4_errors(void **state)
     for (int y = 0; y < H; y++)
         for (int x = 0; x < W; x++) {
             bool wire = (y == H / 2 - 1 || y == H / 2) && abs(x - W / 2) >= 40;
-            WARP_AT(&F.inv, x, y) = wire ? 1 / 0.35f : 1 / 3.0f;
+            WARP_AT(&F.p.inv, x, y) = wire ? 1 / 0.35f : 1 / 3.0f;
             int k = y * W + x;
             WARP_AT(&F.col, x, y) = wire ? (warp_rgba8){250, 40, 40, 255}
                                          : (warp_rgba8){(uint8_t)(k * 37), 120, (uint8_t)(k * 13 >> 5), 255};
         }
-    F.v = (warp_view){.cam = cam, .pose = warp_pose_identity(), .color = &F.col, .inv_depth = &F.inv,
+    F.p.v = (warp_view){.cam = cam, .pose = warp_pose_identity(), .color = &F.col, .inv_depth = &F.p.inv,
                       .inv_depth_min = 1 / 3.0f, .inv_depth_max = 1 / 0.35f};
     warp_pose b = warp_pose_identity();
     b.p = warp_v3(0, 0, 0.3);
-    splat(b, WARP_SPLAT_POINT, WARP_FWD_ZBUFFER, 3, &F.out, NULL, NULL);
+    splat(b, WARP_SPLAT_POINT, WARP_FWD_ZBUFFER, 3, &F.p.out, NULL, NULL);
     memcpy(F.zref, F.sc.zbuf, sizeof F.zref);
     warp_splat_stats s4, s8;
-    splat(b, WARP_SPLAT_POINT, WARP_FWD_SHEETS4, 3, &F.out2, NULL, &s4);
+    splat(b, WARP_SPLAT_POINT, WARP_FWD_SHEETS4, 3, &F.p.out2, NULL, &s4);
     long e4 = visibility_errors(F.zref, F.sc.zbuf);
-    splat(b, WARP_SPLAT_POINT, WARP_FWD_SHEETS8, 3, &F.out2, NULL, &s8);
+    splat(b, WARP_SPLAT_POINT, WARP_FWD_SHEETS8, 3, &F.p.out2, NULL, &s8);
     long e8 = visibility_errors(F.zref, F.sc.zbuf);
     print_message("wire on the epipole's row: visibility errors 4 sheets %ld, 8 sheets %ld (%d / %d sheets)\n", e4,
                   e8, s4.fwd.sheets, s8.fwd.sheets);
@@ -369,13 +351,13 @@ static void test_sheets8_fixes_sheets4_errors(void **state)
     assert_int_equal(e8, 0);
 
     /* On a real scene with 1-pixel points, 8 sheets resolve visibility as the z-buffer does. */
-    warp_pose a = eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
-    warp_pose c = eye_at(2 * D2R, -3 * D2R, 0, warp_v3(-0.05, 1.62, 0.04));
+    warp_pose a = test_eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
+    warp_pose c = test_eye_at(2 * D2R, -3 * D2R, 0, warp_v3(-0.05, 1.62, 0.04));
     render_pair("near", a, c);
-    fwd(c, WARP_FWD_ZBUFFER, false, &F.out, NULL, NULL);
+    fwd(c, WARP_FWD_ZBUFFER, false, &F.p.out, NULL, NULL);
     memcpy(F.zref, F.sc.zbuf, sizeof F.zref);
     warp_forward_stats st;
-    fwd(c, WARP_FWD_SHEETS8, false, &F.out2, NULL, &st);
+    fwd(c, WARP_FWD_SHEETS8, false, &F.p.out2, NULL, &st);
     long en = visibility_errors(F.zref, F.sc.zbuf);
     print_message("near, 1-px points: 8-sheet visibility errors %ld of %ld writes\n", en, st.writes);
     assert_true(en <= 5);
@@ -384,16 +366,16 @@ static void test_sheets8_fixes_sheets4_errors(void **state)
 static void test_two_pass_equals_single_pass(void **state)
 {
     (void)state;
-    warp_pose a = eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
-    warp_pose b = eye_at(4 * D2R, -1 * D2R, 2 * D2R, warp_v3(0.05, 1.58, -0.04));
+    warp_pose a = test_eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
+    warp_pose b = test_eye_at(4 * D2R, -1 * D2R, 2 * D2R, warp_v3(0.05, 1.58, -0.04));
     render_pair("near", a, b);
     warp_forward_stats s1, s2;
-    fwd(b, WARP_FWD_SHEETS8, false, &F.out, &F.mask, &s1);
-    fwd(b, WARP_FWD_SHEETS8, true, &F.out2, &F.mask2, &s2);
+    fwd(b, WARP_FWD_SHEETS8, false, &F.p.out, &F.p.mask, &s1);
+    fwd(b, WARP_FWD_SHEETS8, true, &F.p.out2, &F.p.mask2, &s2);
     print_message("two-pass: %d bins, %ld seam pixels decided by order, %ld vs %ld writes\n", s2.bins,
                   s2.seam_resolves, s2.writes, s1.writes);
-    assert_true(same_image(&F.out, &F.out2));
-    for (int y = 0; y < H; y++) assert_memory_equal(&WARP_AT(&F.mask, 0, y), &WARP_AT(&F.mask2, 0, y), W);
+    assert_true(same_image(&F.p.out, &F.p.out2));
+    for (int y = 0; y < H; y++) assert_memory_equal(&WARP_AT(&F.p.mask, 0, y), &WARP_AT(&F.p.mask2, 0, y), W);
     assert_int_equal(s2.bins, (W + 15) / 16);
     assert_true(s2.seam_resolves > 0);
     assert_true(s2.writes <= s1.writes);
@@ -414,12 +396,12 @@ static void test_pixel_bound(void **state)
     assert_true(isnan(warp_fwd_pixel_bound(H, 1.33, 1.0, -1.0, 0.5)));
 
     /* Measured movement from the projective position never exceeds p, over random poses within T_max. */
-    warp_pose a = eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
+    warp_pose a = test_eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
     render_pair("near", a, a);
     double d_min = INFINITY;
     for (int y = 0; y < H; y++)
         for (int x = 0; x < W; x++) {
-            double u, vv, z = 1.0 / WARP_AT(&F.inv, x, y);
+            double u, vv, z = 1.0 / WARP_AT(&F.p.inv, x, y);
             warp_camera_pixel_to_tan(&F.cam, x + 0.5, y + 0.5, &u, &vv);
             d_min = fmin(d_min, z * sqrt(1 + u * u + vv * vv));
         }
@@ -435,7 +417,7 @@ static void test_pixel_bound(void **state)
                        warp_v3_add(a.p, warp_v3_scale(dir, t_max * test_rng_uniform(&r, 0.5, 1.0) / n))};
         warp_forward_params p0 = warp_forward_default_params();
         warp_fwd_setup s;
-        assert_null(warp_forward_prepare(&s, &F.v, &F.cam, b, &p0));
+        assert_null(warp_forward_prepare(&s, &F.p.v, &F.cam, b, &p0));
         warp_forward_map_rows(&s, &F.sc, false, 0, H, NULL);
         for (int k = 0; k < W * H; k++) {
             double x2 = F.sc.x2[k], y2 = F.sc.y2[k], xi, yi, di;

@@ -16,6 +16,7 @@
 #include "warp/warp_metrics.h"
 #include "warp/warp_reproject.h"
 #include "warp/warp_view.h"
+#include "tests/support/test_scene.h"
 
 #define W 320
 #define H 240
@@ -23,11 +24,10 @@
 
 typedef struct {
     warp_camera cam;
-    sim_buffers a, b, bg;  /* source render, truth render, background (peeled) layer of the source */
-    warp_image_f32 inv, inv_bg, inv_peel;
-    warp_image_rgba8 out, out2;
-    warp_image_u8 mask, mask2, excl;
-    warp_view v;
+    test_pair p;           /* source render, truth render */
+    sim_buffers bg;        /* background (peeled) layer of the source */
+    warp_image_f32 inv_bg, inv_peel;
+    warp_image_u8 excl;
     warp_iter_layer layer_bg, layer_peel;
     warp_pose obj_src[MAX_OBJ], obj_dst[MAX_OBJ];
     warp_iter_target tgt;
@@ -42,13 +42,11 @@ static int setup(void **state)
     (void)state;
     F.cam = (warp_camera){W, H, 1.0, 1.0, 0.75, 0.75, 0.05, INFINITY};
     unsigned all = SIM_PLANE_COLOR | SIM_PLANE_DEPTH | SIM_PLANE_IDS | SIM_PLANE_MOTION;
-    if (!sim_buffers_alloc(&F.a, W, H, all, 1) || !sim_buffers_alloc(&F.b, W, H, all, 1) ||
+    if (!test_pair_alloc(&F.p, W, H, all) ||
         !sim_buffers_alloc(&F.bg, W, H, SIM_PLANE_COLOR | SIM_PLANE_DEPTH | SIM_PLANE_IDS, 1))
         return -1;
-    if (!warp_image_f32_alloc(&F.inv, W, H) || !warp_image_f32_alloc(&F.inv_bg, W, H) ||
-        !warp_image_f32_alloc(&F.inv_peel, W, H) || !warp_image_rgba8_alloc(&F.out, W, H) ||
-        !warp_image_rgba8_alloc(&F.out2, W, H) || !warp_image_u8_alloc(&F.mask, W, H) ||
-        !warp_image_u8_alloc(&F.mask2, W, H) || !warp_image_u8_alloc(&F.excl, W, H))
+    if (!warp_image_f32_alloc(&F.inv_bg, W, H) || !warp_image_f32_alloc(&F.inv_peel, W, H) ||
+        !warp_image_u8_alloc(&F.excl, W, H))
         return -1;
     if (!warp_iter_alloc(&F.ctx, W, H, W, H, 3)) return -1;
     return 0;
@@ -57,25 +55,13 @@ static int setup(void **state)
 static int teardown(void **state)
 {
     (void)state;
-    sim_buffers_free(&F.a);
-    sim_buffers_free(&F.b);
+    test_pair_free(&F.p);
     sim_buffers_free(&F.bg);
-    warp_image_free(&F.inv);
     warp_image_free(&F.inv_bg);
     warp_image_free(&F.inv_peel);
-    warp_image_free(&F.out);
-    warp_image_free(&F.out2);
-    warp_image_free(&F.mask);
-    warp_image_free(&F.mask2);
     warp_image_free(&F.excl);
     warp_iter_free(&F.ctx);
     return 0;
-}
-
-static warp_pose eye_at(double yaw, double pitch, double roll, warp_vec3 p)
-{
-    warp_pose e = {warp_quat_from_ypr(yaw, pitch, roll), p};
-    return e;
 }
 
 /* Source of `scene` at (pose a, time ta) with all its planes and its background layer (dense and peeled), truth
@@ -85,19 +71,19 @@ static void render_pair(const char *scene, warp_pose a, double ta, warp_pose b, 
     const sim_scene *s = sim_scene_find(scene);
     assert_non_null(s);
     unsigned planes = sim_planes_for_effects(sim_scene_effects(s)) | SIM_PLANE_DEPTH | SIM_PLANE_IDS;
-    sim_render(s, ta, a, &F.cam, planes, &F.a);
-    sim_render(s, tb, b, &F.cam, SIM_PLANE_COLOR | SIM_PLANE_IDS, &F.b);
+    sim_render(s, ta, a, &F.cam, planes, &F.p.a);
+    sim_render(s, tb, b, &F.cam, SIM_PLANE_COLOR | SIM_PLANE_IDS, &F.p.b);
     int n = sim_scene_object_count(s);
     assert_true(n <= MAX_OBJ);
     for (int i = 0; i < n; i++) {
         F.obj_src[i] = sim_scene_object_pose(s, i + 1, ta);
         F.obj_dst[i] = sim_scene_object_pose(s, i + 1, tb);
     }
-    F.v = (warp_view){.cam = F.cam, .pose = a, .color = &F.a.color, .inv_depth = &F.inv, .ids = &F.a.ids,
-                      .motion = (planes & SIM_PLANE_MOTION) ? &F.a.motion : NULL, .n_objects = n,
+    F.p.v = (warp_view){.cam = F.cam, .pose = a, .color = &F.p.a.color, .inv_depth = &F.p.inv, .ids = &F.p.a.ids,
+                      .motion = (planes & SIM_PLANE_MOTION) ? &F.p.a.motion : NULL, .n_objects = n,
                       .object_pose = F.obj_src, .time = ta};
-    assert_int_equal(warp_inverse_depth_from(&F.cam, WARP_DEPTH_LINEAR, &F.a.depth, &F.inv, &F.v.inv_depth_min,
-                                             &F.v.inv_depth_max),
+    assert_int_equal(warp_inverse_depth_from(&F.cam, WARP_DEPTH_LINEAR, &F.p.a.depth, &F.p.inv, &F.p.v.inv_depth_min,
+                                             &F.p.v.inv_depth_max),
                      0);
     F.tgt = (warp_iter_target){.cam = F.cam, .pose = b, .time = tb, .object_pose = F.obj_dst};
     /* the background layer: dense (the room everywhere) and peeled (only where the front layer hides it) */
@@ -105,7 +91,7 @@ static void render_pair(const char *scene, warp_pose a, double ta, warp_pose b, 
     float mn, mx;
     assert_int_equal(warp_inverse_depth_from(&F.cam, WARP_DEPTH_LINEAR, &F.bg.depth, &F.inv_bg, &mn, &mx), 0);
     for (int y = 0; y < H; y++) memcpy(&WARP_AT(&F.inv_peel, 0, y), &WARP_AT(&F.inv_bg, 0, y), W * sizeof(float));
-    long kept = warp_iter_peel_mask(&F.inv, &F.inv_peel, 1e-3f);
+    long kept = warp_iter_peel_mask(&F.p.inv, &F.inv_peel, 1e-3f);
     assert_true(kept > 0 && kept < (long)W * H / 2);
     F.layer_bg = (warp_iter_layer){.color = &F.bg.color, .inv_depth = &F.inv_bg, .ids = &F.bg.ids};
     F.layer_peel = (warp_iter_layer){.color = &F.bg.color, .inv_depth = &F.inv_peel, .ids = &F.bg.ids};
@@ -116,7 +102,7 @@ static warp_iter_stats run(const warp_iter_params *p, const warp_iter_layer *ext
 {
     warp_iter_stats st;
     memset(&st, 0, sizeof st);
-    const char *err = warp_iter_run(&F.ctx, &F.v, extra, extra ? 1 : 0, &F.tgt, p, out, mask, &st);
+    const char *err = warp_iter_run(&F.ctx, &F.p.v, extra, extra ? 1 : 0, &F.tgt, p, out, mask, &st);
     if (err) print_message("warp_iter_run: %s\n", err);
     assert_null(err);
     return st;
@@ -146,14 +132,14 @@ static void union_fringe(const warp_image_u8 *a, const warp_image_u8 *b)
 static void test_identity_pose(void **state)
 {
     (void)state;
-    warp_pose a = eye_at(0.2, 0.1, 0, warp_v3(0.05, 1.55, 0.1));
+    warp_pose a = test_eye_at(0.2, 0.1, 0, warp_v3(0.05, 1.55, 0.1));
     render_pair("near", a, 0.0, a, 0.0);
     warp_iter_params p = warp_iter_default_params();
     const warp_iter_bound bounds[] = {WARP_ITER_BOUND_GLOBAL, WARP_ITER_BOUND_TIGHT, WARP_ITER_BOUND_PCA};
     for (int i = 0; i < 3; i++) {
         p.bound = bounds[i];
-        warp_iter_stats st = run(&p, NULL, &F.out, &F.mask);
-        assert_true(isinf(warp_psnr(&F.out, &F.a.color, NULL, 0))); /* identity pose -> identity image */
+        warp_iter_stats st = run(&p, NULL, &F.p.out, &F.p.mask);
+        assert_true(isinf(warp_psnr(&F.p.out, &F.p.a.color, NULL, 0))); /* identity pose -> identity image */
         assert_int_equal(st.converged, (long)W * H);
         assert_int_equal(st.holes + st.fringe, 0);
         assert_int_equal(st.seeds, (long)W * H); /* a zero-width bound: the early exit takes one seed */
@@ -163,15 +149,15 @@ static void test_identity_pose(void **state)
 static void test_pure_rotation_matches_reprojection(void **state)
 {
     (void)state;
-    warp_pose a = eye_at(0.2, 0.1, 0, warp_v3(0.05, 1.55, 0.1));
-    warp_pose b = eye_at(0.2 + 4 * D2R, 0.1 - 2 * D2R, 1.5 * D2R, a.p);
+    warp_pose a = test_eye_at(0.2, 0.1, 0, warp_v3(0.05, 1.55, 0.1));
+    warp_pose b = test_eye_at(0.2 + 4 * D2R, 0.1 - 2 * D2R, 1.5 * D2R, a.p);
     render_pair("near", a, 0.0, b, 0.0);
     warp_iter_params p = warp_iter_default_params();
-    warp_iter_stats st = run(&p, NULL, &F.out, &F.mask);
-    warp_mat3 hm = warp_reproject_homography(&F.v, &F.cam, b.q);
-    warp_reproject_rows(&F.v, &hm, &F.out2, &F.mask2, 0, H);
-    union_fringe(&F.mask, &F.mask2);
-    double same = warp_psnr(&F.out, &F.out2, &F.excl, WARP_MASK_FRINGE);
+    warp_iter_stats st = run(&p, NULL, &F.p.out, &F.p.mask);
+    warp_mat3 hm = warp_reproject_homography(&F.p.v, &F.cam, b.q);
+    warp_reproject_rows(&F.p.v, &hm, &F.p.out2, &F.p.mask2, 0, H);
+    union_fringe(&F.p.mask, &F.p.mask2);
+    double same = warp_psnr(&F.p.out, &F.p.out2, &F.excl, WARP_MASK_FRINGE);
     print_stats("pure rotation vs reproject", &st, same);
     assert_true(same > 40.0);
     assert_int_equal(st.holes, 0);
@@ -179,7 +165,7 @@ static void test_pure_rotation_matches_reprojection(void **state)
     long agree = 0, fr = 0;
     for (int y = 0; y < H; y++)
         for (int x = 0; x < W; x++) {
-            bool f1 = WARP_AT(&F.mask, x, y) & WARP_MASK_FRINGE, f2 = WARP_AT(&F.mask2, x, y) & WARP_MASK_FRINGE;
+            bool f1 = WARP_AT(&F.p.mask, x, y) & WARP_MASK_FRINGE, f2 = WARP_AT(&F.p.mask2, x, y) & WARP_MASK_FRINGE;
             fr += f2;
             agree += f1 == f2;
         }
@@ -193,15 +179,15 @@ static void test_pure_rotation_matches_reprojection(void **state)
 static const warp_pose *near_a(void)
 {
     static warp_pose a;
-    a = eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
+    a = test_eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
     return &a;
 }
 /* a 4 cm sideways lean with a 1.5 degree turn, as test_warp_accuracy's raytrace case */
-static warp_pose near_b(void) { return eye_at(1.5 * D2R, -3 * D2R, 0, warp_v3(0.04, 1.61, -0.01)); }
+static warp_pose near_b(void) { return test_eye_at(1.5 * D2R, -3 * D2R, 0, warp_v3(0.04, 1.61, -0.01)); }
 
 static double psnr_excl(const warp_image_rgba8 *out, const warp_image_u8 *mask, uint8_t excl)
 {
-    return warp_psnr(out, &F.b.color, mask, excl);
+    return warp_psnr(out, &F.p.b.color, mask, excl);
 }
 
 static void test_near_translation(void **state)
@@ -210,15 +196,15 @@ static void test_near_translation(void **state)
     warp_pose a = *near_a(), b = near_b();
     render_pair("near", a, 0.0, b, 0.0);
     warp_iter_params p = warp_iter_default_params();
-    warp_iter_stats st = run(&p, NULL, &F.out, &F.mask);
-    double conv = warp_psnr(&F.out, &F.b.color, &F.mask, WARP_MASK_FRINGE | WARP_MASK_HOLE);
-    double err = warp_error_pixel_percent(&F.out, &F.b.color, &F.mask, WARP_MASK_FRINGE | WARP_MASK_HOLE, 20);
+    warp_iter_stats st = run(&p, NULL, &F.p.out, &F.p.mask);
+    double conv = warp_psnr(&F.p.out, &F.p.b.color, &F.p.mask, WARP_MASK_FRINGE | WARP_MASK_HOLE);
+    double err = warp_error_pixel_percent(&F.p.out, &F.p.b.color, &F.p.mask, WARP_MASK_FRINGE | WARP_MASK_HOLE, 20);
     /* the rotation warp on the same pixels: what ignoring depth costs */
-    warp_mat3 hm = warp_reproject_homography(&F.v, &F.cam, b.q);
-    warp_reproject_rows(&F.v, &hm, &F.out2, &F.mask2, 0, H);
+    warp_mat3 hm = warp_reproject_homography(&F.p.v, &F.cam, b.q);
+    warp_reproject_rows(&F.p.v, &hm, &F.p.out2, &F.p.mask2, 0, H);
     for (int y = 0; y < H; y++)
-        for (int x = 0; x < W; x++) WARP_AT(&F.excl, x, y) = WARP_AT(&F.mask, x, y) | WARP_AT(&F.mask2, x, y);
-    double rot = psnr_excl(&F.out2, &F.excl, 0xff), it = psnr_excl(&F.out, &F.excl, 0xff);
+        for (int x = 0; x < W; x++) WARP_AT(&F.excl, x, y) = WARP_AT(&F.p.mask, x, y) | WARP_AT(&F.p.mask2, x, y);
+    double rot = psnr_excl(&F.p.out2, &F.excl, 0xff), it = psnr_excl(&F.p.out, &F.excl, 0xff);
     print_stats("near N8 T4 L1 pca", &st, conv);
     print_message("  converged px: %.2f %% error px; rotation warp there %.2f dB vs %.2f dB\n", err, rot, it);
     assert_true(conv > 32.0);
@@ -230,8 +216,8 @@ static void test_near_translation(void **state)
     /* a sign error in the translation (warping to the mirrored lean) must fail the threshold */
     warp_iter_target good = F.tgt;
     F.tgt.pose.p = warp_v3_sub(warp_v3_scale(a.p, 2.0), b.p);
-    run(&p, NULL, &F.out2, &F.mask2);
-    double wrong = warp_psnr(&F.out2, &F.b.color, &F.mask2, WARP_MASK_FRINGE | WARP_MASK_HOLE);
+    run(&p, NULL, &F.p.out2, &F.p.mask2);
+    double wrong = warp_psnr(&F.p.out2, &F.p.b.color, &F.p.mask2, WARP_MASK_FRINGE | WARP_MASK_HOLE);
     print_message("  mirrored translation: %.2f dB\n", wrong);
     assert_true(wrong < 24.0);
     F.tgt = good;
@@ -244,31 +230,31 @@ static void test_multilayer_beats_single_layer(void **state)
     (void)state;
     render_pair("near", *near_a(), 0.0, near_b(), 0.0);
     warp_iter_params p = warp_iter_default_params();
-    warp_iter_stats s1 = run(&p, NULL, &F.out2, &F.mask2); /* keeps L = 1's holes in mask2 */
-    double one = psnr_excl(&F.out2, &F.mask2, WARP_MASK_FRINGE);
+    warp_iter_stats s1 = run(&p, NULL, &F.p.out2, &F.p.mask2); /* keeps L = 1's holes in mask2 */
+    double one = psnr_excl(&F.p.out2, &F.p.mask2, WARP_MASK_FRINGE);
     p.layers = 2;
-    warp_iter_stats s2 = run(&p, &F.layer_bg, &F.out, &F.mask);
-    double two = psnr_excl(&F.out, &F.mask, WARP_MASK_FRINGE);
+    warp_iter_stats s2 = run(&p, &F.layer_bg, &F.p.out, &F.p.mask);
+    double two = psnr_excl(&F.p.out, &F.p.mask, WARP_MASK_FRINGE);
     /* score on the disocclusions alone: the pixels the single layer left as holes */
     for (int y = 0; y < H; y++)
         for (int x = 0; x < W; x++)
-            WARP_AT(&F.excl, x, y) = (uint8_t)((WARP_AT(&F.mask2, x, y) & WARP_MASK_HOLE) ? 0 : 1);
-    double two_dis = psnr_excl(&F.out, &F.excl, 1);
-    double two_dis_err = warp_error_pixel_percent(&F.out, &F.b.color, &F.excl, 1, 20);
+            WARP_AT(&F.excl, x, y) = (uint8_t)((WARP_AT(&F.p.mask2, x, y) & WARP_MASK_HOLE) ? 0 : 1);
+    double two_dis = psnr_excl(&F.p.out, &F.excl, 1);
+    double two_dis_err = warp_error_pixel_percent(&F.p.out, &F.p.b.color, &F.excl, 1, 20);
     print_stats("near L=1", &s1, one);
     print_stats("near L=2 (background layer)", &s2, two);
     p.layers = 1;
     p.dilate = true;
-    warp_iter_stats sd = run(&p, NULL, &F.out, &F.mask);
-    double dil = psnr_excl(&F.out, &F.mask, WARP_MASK_FRINGE);
-    double dil_dis = psnr_excl(&F.out, &F.excl, 1);
-    double dil_dis_err = warp_error_pixel_percent(&F.out, &F.b.color, &F.excl, 1, 20);
+    warp_iter_stats sd = run(&p, NULL, &F.p.out, &F.p.mask);
+    double dil = psnr_excl(&F.p.out, &F.p.mask, WARP_MASK_FRINGE);
+    double dil_dis = psnr_excl(&F.p.out, &F.excl, 1);
+    double dil_dis_err = warp_error_pixel_percent(&F.p.out, &F.p.b.color, &F.excl, 1, 20);
     print_stats("near L=1 + dilation", &sd, dil);
     p.dilate = false;
     p.approximate = true;
-    warp_iter_stats sa = run(&p, NULL, &F.out, &F.mask);
-    double apx = psnr_excl(&F.out, &F.mask, WARP_MASK_FRINGE);
-    double apx_dis = psnr_excl(&F.out, &F.excl, 1);
+    warp_iter_stats sa = run(&p, NULL, &F.p.out, &F.p.mask);
+    double apx = psnr_excl(&F.p.out, &F.p.mask, WARP_MASK_FRINGE);
+    double apx_dis = psnr_excl(&F.p.out, &F.excl, 1);
     print_stats("near L=1 + AWOC", &sa, apx);
     print_message("  on the L=1 holes: L=2 %.2f dB (%.1f %% error px), dilation %.2f dB (%.1f %%), AWOC %.2f dB\n",
                   two_dis, two_dis_err, dil_dis, dil_dis_err, apx_dis);
@@ -287,13 +273,13 @@ static void test_peeled_layer_cross_layer_seeding(void **state)
     (void)state;
     render_pair("near", *near_a(), 0.0, near_b(), 0.0);
     warp_iter_params p = warp_iter_default_params();
-    warp_iter_stats s1 = run(&p, NULL, &F.out, &F.mask);
+    warp_iter_stats s1 = run(&p, NULL, &F.p.out, &F.p.mask);
     p.layers = 2;
-    warp_iter_stats sc = run(&p, &F.layer_peel, &F.out, &F.mask);
-    double cross = psnr_excl(&F.out, &F.mask, WARP_MASK_FRINGE);
+    warp_iter_stats sc = run(&p, &F.layer_peel, &F.p.out, &F.p.mask);
+    double cross = psnr_excl(&F.p.out, &F.p.mask, WARP_MASK_FRINGE);
     p.cross_layer = false;
-    warp_iter_stats sn = run(&p, &F.layer_peel, &F.out2, &F.mask2);
-    double plain = psnr_excl(&F.out2, &F.mask2, WARP_MASK_FRINGE);
+    warp_iter_stats sn = run(&p, &F.layer_peel, &F.p.out2, &F.p.mask2);
+    double plain = psnr_excl(&F.p.out2, &F.p.mask2, WARP_MASK_FRINGE);
     print_stats("near L=2 peeled, cross-layer", &sc, cross);
     print_stats("near L=2 peeled, per layer", &sn, plain);
     assert_true(sc.cross_layer > 0 && sn.cross_layer == 0);
@@ -316,8 +302,8 @@ static void test_tight_bound_beats_global_at_small_n(void **state)
             p.seeds = n;
             p.iters = 3;
             p.bound = (warp_iter_bound)b;
-            warp_iter_stats st = run(&p, NULL, &F.out, &F.mask);
-            ps[b] = psnr_excl(&F.out, &F.mask, WARP_MASK_FRINGE);
+            warp_iter_stats st = run(&p, NULL, &F.p.out, &F.p.mask);
+            ps[b] = psnr_excl(&F.p.out, &F.p.mask, WARP_MASK_FRINGE);
             holes[b] = st.holes;
             char name[48];
             snprintf(name, sizeof name, "near N=%d T=3 %s", n, names[b]);
@@ -341,10 +327,10 @@ static void test_more_iterations_converge_more(void **state)
     for (int t = 1; t <= 8; t *= 2) {
         warp_iter_params p = warp_iter_default_params();
         p.iters = t;
-        warp_iter_stats st = run(&p, NULL, &F.out, &F.mask);
+        warp_iter_stats st = run(&p, NULL, &F.p.out, &F.p.mask);
         char name[32];
         snprintf(name, sizeof name, "near T=%d", t);
-        print_stats(name, &st, psnr_excl(&F.out, &F.mask, WARP_MASK_FRINGE));
+        print_stats(name, &st, psnr_excl(&F.p.out, &F.p.mask, WARP_MASK_FRINGE));
         assert_true(st.converged > prev);
         assert_true(st.iterations <= (long)t * st.seeds);
         if (t == 1) first = st.converged;
@@ -359,20 +345,20 @@ static void test_dilation_and_approximate_fill(void **state)
     (void)state;
     render_pair("near", *near_a(), 0.0, near_b(), 0.0);
     warp_iter_params p = warp_iter_default_params();
-    warp_iter_stats s0 = run(&p, NULL, &F.out2, &F.mask2);
-    double none = psnr_excl(&F.out2, &F.mask2, WARP_MASK_FRINGE);
+    warp_iter_stats s0 = run(&p, NULL, &F.p.out2, &F.p.mask2);
+    double none = psnr_excl(&F.p.out2, &F.p.mask2, WARP_MASK_FRINGE);
     p.dilate = true;
-    warp_iter_stats sd = run(&p, NULL, &F.out, &F.mask);
-    double dil = psnr_excl(&F.out, &F.mask, WARP_MASK_FRINGE);
+    warp_iter_stats sd = run(&p, NULL, &F.p.out, &F.p.mask);
+    double dil = psnr_excl(&F.p.out, &F.p.mask, WARP_MASK_FRINGE);
     long filled = 0, open = 0;
     for (int y = 0; y < H; y++)
         for (int x = 0; x < W; x++) {
-            uint8_t m = WARP_AT(&F.mask, x, y);
+            uint8_t m = WARP_AT(&F.p.mask, x, y);
             filled += (m & (WARP_MASK_HOLE | WARP_MASK_FILLED)) == (WARP_MASK_HOLE | WARP_MASK_FILLED);
             open += m == WARP_MASK_HOLE;
             /* only holes are written by the fill; everything else is the plain warp's */
-            if (!(WARP_AT(&F.mask2, x, y) & WARP_MASK_HOLE)) {
-                warp_rgba8 c1 = WARP_AT(&F.out, x, y), c2 = WARP_AT(&F.out2, x, y);
+            if (!(WARP_AT(&F.p.mask2, x, y) & WARP_MASK_HOLE)) {
+                warp_rgba8 c1 = WARP_AT(&F.p.out, x, y), c2 = WARP_AT(&F.p.out2, x, y);
                 assert_true(c1.r == c2.r && c1.g == c2.g && c1.b == c2.b);
             }
         }
@@ -384,12 +370,12 @@ static void test_dilation_and_approximate_fill(void **state)
     assert_true(dil > none + 3.0);
     p.dilate = false;
     p.approximate = true;
-    warp_iter_stats sa = run(&p, NULL, &F.out, &F.mask);
+    warp_iter_stats sa = run(&p, NULL, &F.p.out, &F.p.mask);
     assert_int_equal(sa.approximated, sa.holes); /* AWOC writes every non-convergent pixel */
-    assert_true(psnr_excl(&F.out, &F.mask, WARP_MASK_FRINGE) > none + 3.0);
+    assert_true(psnr_excl(&F.p.out, &F.p.mask, WARP_MASK_FRINGE) > none + 3.0);
     p.dilate = true;
-    warp_iter_stats sb = run(&p, NULL, &F.out, &F.mask);
-    print_stats("near AWOC + dilation", &sb, psnr_excl(&F.out, &F.mask, WARP_MASK_FRINGE));
+    warp_iter_stats sb = run(&p, NULL, &F.p.out, &F.p.mask);
+    print_stats("near AWOC + dilation", &sb, psnr_excl(&F.p.out, &F.p.mask, WARP_MASK_FRINGE));
     assert_int_equal(sb.dilated + sb.approximated, sb.holes);
 }
 
@@ -401,39 +387,39 @@ static double object_psnr(const warp_image_rgba8 *out, const warp_image_u8 *mask
 {
     for (int y = 0; y < H; y++)
         for (int x = 0; x < W; x++) {
-            int id = WARP_AT(&F.b.ids, x, y);
+            int id = WARP_AT(&F.p.b.ids, x, y);
             bool o = id == 7 || id == 8;
             WARP_AT(&F.excl, x, y) = (uint8_t)((WARP_AT(mask, x, y) & (WARP_MASK_FRINGE | WARP_MASK_HOLE)) | (o ? 0 : 0x80));
         }
-    *err = warp_error_pixel_percent(out, &F.b.color, &F.excl, 0xff, 20);
-    return warp_psnr(out, &F.b.color, &F.excl, 0xff);
+    *err = warp_error_pixel_percent(out, &F.p.b.color, &F.excl, 0xff, 20);
+    return warp_psnr(out, &F.p.b.color, &F.excl, 0xff);
 }
 
 static void test_movers_object_motion(void **state)
 {
     (void)state;
     /* t = 2 s: the sphere passes the middle of its swing at full speed (1.6 m/s); 0.1 s later it is ~7 px on */
-    warp_pose a = eye_at(0, 0, 0, warp_v3(0, 1.6, 0)), b = eye_at(1 * D2R, 0, 0, warp_v3(0.02, 1.6, 0));
+    warp_pose a = test_eye_at(0, 0, 0, warp_v3(0, 1.6, 0)), b = test_eye_at(1 * D2R, 0, 0, warp_v3(0.02, 1.6, 0));
     render_pair("movers", a, 2.0, b, 2.1);
     warp_iter_params p = warp_iter_default_params();
     double e_exact, e_plane, e_static;
-    warp_iter_stats se = run(&p, NULL, &F.out, &F.mask);
-    double exact = object_psnr(&F.out, &F.mask, &e_exact);
+    warp_iter_stats se = run(&p, NULL, &F.p.out, &F.p.mask);
+    double exact = object_psnr(&F.p.out, &F.p.mask, &e_exact);
     print_stats("movers exact poses, L=1", &se, exact);
     /* with the room behind the movers as a second layer, what they uncover is filled too */
     p.layers = 2;
-    warp_iter_stats s2 = run(&p, &F.layer_bg, &F.out, &F.mask);
-    double whole2 = psnr_excl(&F.out, &F.mask, WARP_MASK_FRINGE);
+    warp_iter_stats s2 = run(&p, &F.layer_bg, &F.p.out, &F.p.mask);
+    double whole2 = psnr_excl(&F.p.out, &F.p.mask, WARP_MASK_FRINGE);
     print_stats("movers exact poses, L=2", &s2, whole2);
     p.layers = 1;
     F.tgt.object_pose = NULL; /* the screen-motion plane, extrapolated */
-    warp_iter_stats sp = run(&p, NULL, &F.out, &F.mask);
-    double plane = object_psnr(&F.out, &F.mask, &e_plane);
+    warp_iter_stats sp = run(&p, NULL, &F.p.out, &F.p.mask);
+    double plane = object_psnr(&F.p.out, &F.p.mask, &e_plane);
     print_stats("movers motion plane, L=1", &sp, plane);
-    F.v.motion = NULL; /* no object motion at all: a broken warp's view */
-    warp_iter_stats ss = run(&p, NULL, &F.out, &F.mask);
-    double stat = object_psnr(&F.out, &F.mask, &e_static);
-    double whole_static = psnr_excl(&F.out, &F.mask, WARP_MASK_FRINGE);
+    F.p.v.motion = NULL; /* no object motion at all: a broken warp's view */
+    warp_iter_stats ss = run(&p, NULL, &F.p.out, &F.p.mask);
+    double stat = object_psnr(&F.p.out, &F.p.mask, &e_static);
+    double whole_static = psnr_excl(&F.p.out, &F.p.mask, WARP_MASK_FRINGE);
     print_stats("movers objects static, L=1", &ss, stat);
     print_message("  objects: exact %.2f dB / %.1f %% error px, plane %.2f / %.1f %%, static %.2f / %.1f %%; "
                   "whole image L=2 %.2f dB vs static %.2f dB\n",
@@ -455,7 +441,7 @@ static void test_mip_bound_is_conservative(void **state)
     (void)state;
     render_pair("near", *near_a(), 0.0, near_b(), 0.0);
     warp_iter_params p = warp_iter_default_params();
-    assert_null(warp_iter_prepare(&F.ctx, &F.v, NULL, 0, &F.tgt, &p));
+    assert_null(warp_iter_prepare(&F.ctx, &F.p.v, NULL, 0, &F.tgt, &p));
     const warp_motion_buffer *m = &F.ctx.motion[0];
     const warp_motion_mip *mip = &F.ctx.mip[0];
     assert_true(mip->theta != 0.0); /* a sideways lean: the principal axis is not the image axis */
@@ -503,29 +489,29 @@ static void test_bad_input_is_rejected(void **state)
     warp_iter_params p = warp_iter_default_params();
     warp_iter_stats st = {0};
     p.layers = 2; /* no extra layer given */
-    assert_non_null(warp_iter_run(&F.ctx, &F.v, NULL, 0, &F.tgt, &p, &F.out, &F.mask, &st));
+    assert_non_null(warp_iter_run(&F.ctx, &F.p.v, NULL, 0, &F.tgt, &p, &F.p.out, &F.p.mask, &st));
     p.layers = 4; /* more than the context holds */
-    assert_non_null(warp_iter_run(&F.ctx, &F.v, &F.layer_bg, 3, &F.tgt, &p, &F.out, &F.mask, &st));
+    assert_non_null(warp_iter_run(&F.ctx, &F.p.v, &F.layer_bg, 3, &F.tgt, &p, &F.p.out, &F.p.mask, &st));
     p = warp_iter_default_params();
     p.seeds = 0;
-    assert_non_null(warp_iter_run(&F.ctx, &F.v, NULL, 0, &F.tgt, &p, &F.out, &F.mask, &st));
+    assert_non_null(warp_iter_run(&F.ctx, &F.p.v, NULL, 0, &F.tgt, &p, &F.p.out, &F.p.mask, &st));
     p = warp_iter_default_params();
     p.tol = NAN;
-    assert_non_null(warp_iter_run(&F.ctx, &F.v, NULL, 0, &F.tgt, &p, &F.out, &F.mask, &st));
+    assert_non_null(warp_iter_run(&F.ctx, &F.p.v, NULL, 0, &F.tgt, &p, &F.p.out, &F.p.mask, &st));
     p = warp_iter_default_params();
-    warp_view nodepth = F.v;
+    warp_view nodepth = F.p.v;
     nodepth.inv_depth = NULL;
-    assert_non_null(warp_iter_run(&F.ctx, &nodepth, NULL, 0, &F.tgt, &p, &F.out, &F.mask, &st));
+    assert_non_null(warp_iter_run(&F.ctx, &nodepth, NULL, 0, &F.tgt, &p, &F.p.out, &F.p.mask, &st));
     warp_iter_target bad = F.tgt;
     bad.pose.p.x = NAN;
-    assert_non_null(warp_iter_run(&F.ctx, &F.v, NULL, 0, &bad, &p, &F.out, &F.mask, &st));
+    assert_non_null(warp_iter_run(&F.ctx, &F.p.v, NULL, 0, &bad, &p, &F.p.out, &F.p.mask, &st));
     bad = F.tgt;
     bad.cam.width = W / 2;
-    assert_non_null(warp_iter_run(&F.ctx, &F.v, NULL, 0, &bad, &p, &F.out, &F.mask, &st));
+    assert_non_null(warp_iter_run(&F.ctx, &F.p.v, NULL, 0, &bad, &p, &F.p.out, &F.p.mask, &st));
     assert_int_equal(st.pixels, 0); /* nothing ran */
     /* NaN depth texels are empty, not poison: the warp still runs and leaves no NaN position behind */
-    WARP_AT(&F.inv, 10, 10) = NAN;
-    assert_null(warp_iter_run(&F.ctx, &F.v, NULL, 0, &F.tgt, &p, &F.out, &F.mask, &st));
+    WARP_AT(&F.p.inv, 10, 10) = NAN;
+    assert_null(warp_iter_run(&F.ctx, &F.p.v, NULL, 0, &F.tgt, &p, &F.p.out, &F.p.mask, &st));
     assert_true(st.converged > st.pixels * 9 / 10);
 }
 

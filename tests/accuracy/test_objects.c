@@ -15,6 +15,7 @@
 #include "warp/warp_objects.h"
 #include "warp/warp_splat.h"
 #include "warp/warp_view.h"
+#include "tests/support/test_scene.h"
 
 #define W 320
 #define H 240
@@ -23,15 +24,12 @@
 typedef struct {
     warp_camera cam;
     const sim_scene *scene;
-    sim_buffers a, b;
-    warp_image_f32 inv;
-    warp_image_rgba8 out, out2;
-    warp_image_u8 mask, mask2, both;
+    test_pair p;
+    warp_image_u8 both;
     warp_fwd_scratch sc;
     warp_objects_setup os;
     warp_pose src_obj[MAXOBJ], dst_obj[MAXOBJ], prev_obj[MAXOBJ];
     int n;
-    warp_view v;
 } fx;
 
 static fx F;
@@ -45,10 +43,7 @@ static int setup(void **state)
     F.n = sim_scene_object_count(F.scene);
     if (F.n < 1 || F.n > MAXOBJ) return -1;
     unsigned planes = SIM_PLANE_COLOR | SIM_PLANE_DEPTH | SIM_PLANE_IDS;
-    if (!sim_buffers_alloc(&F.a, W, H, planes, 1) || !sim_buffers_alloc(&F.b, W, H, planes, 1)) return -1;
-    if (!warp_image_f32_alloc(&F.inv, W, H) || !warp_image_rgba8_alloc(&F.out, W, H) ||
-        !warp_image_rgba8_alloc(&F.out2, W, H) || !warp_image_u8_alloc(&F.mask, W, H) ||
-        !warp_image_u8_alloc(&F.mask2, W, H) || !warp_image_u8_alloc(&F.both, W, H) ||
+    if (!test_pair_alloc(&F.p, W, H, planes) || !warp_image_u8_alloc(&F.both, W, H) ||
         !warp_fwd_scratch_alloc(&F.sc, W, H, W, H))
         return -1;
     return 0;
@@ -57,13 +52,7 @@ static int setup(void **state)
 static int teardown(void **state)
 {
     (void)state;
-    sim_buffers_free(&F.a);
-    sim_buffers_free(&F.b);
-    warp_image_free(&F.inv);
-    warp_image_free(&F.out);
-    warp_image_free(&F.out2);
-    warp_image_free(&F.mask);
-    warp_image_free(&F.mask2);
+    test_pair_free(&F.p);
     warp_image_free(&F.both);
     warp_fwd_scratch_free(&F.sc);
     return 0;
@@ -73,16 +62,16 @@ static int teardown(void **state)
 static void render_pair(double t0, warp_pose a, double t1, warp_pose b)
 {
     unsigned planes = SIM_PLANE_COLOR | SIM_PLANE_DEPTH | SIM_PLANE_IDS;
-    sim_render(F.scene, t0, a, &F.cam, planes, &F.a);
-    sim_render(F.scene, t1, b, &F.cam, SIM_PLANE_COLOR | SIM_PLANE_IDS, &F.b);
+    sim_render(F.scene, t0, a, &F.cam, planes, &F.p.a);
+    sim_render(F.scene, t1, b, &F.cam, SIM_PLANE_COLOR | SIM_PLANE_IDS, &F.p.b);
     for (int i = 0; i < F.n; i++) {
         F.src_obj[i] = sim_scene_object_pose(F.scene, i + 1, t0);
         F.dst_obj[i] = sim_scene_object_pose(F.scene, i + 1, t1);
     }
-    F.v = (warp_view){.cam = F.cam, .pose = a, .color = &F.a.color, .inv_depth = &F.inv, .ids = &F.a.ids,
+    F.p.v = (warp_view){.cam = F.cam, .pose = a, .color = &F.p.a.color, .inv_depth = &F.p.inv, .ids = &F.p.a.ids,
                       .n_objects = F.n, .object_pose = F.src_obj, .time = t0};
-    assert_int_equal(warp_inverse_depth_from(&F.cam, WARP_DEPTH_LINEAR, &F.a.depth, &F.inv, &F.v.inv_depth_min,
-                                             &F.v.inv_depth_max),
+    assert_int_equal(warp_inverse_depth_from(&F.cam, WARP_DEPTH_LINEAR, &F.p.a.depth, &F.p.inv, &F.p.v.inv_depth_min,
+                                             &F.p.v.inv_depth_max),
                      0);
 }
 
@@ -90,7 +79,7 @@ static void run(warp_pose to, const warp_pose *objs, warp_splat_kind kind, warp_
                 warp_objects_stats *st)
 {
     warp_splat_params p = warp_splat_default_params(kind);
-    assert_null(warp_objects_run(&F.os, &F.v, &F.cam, to, objs, &p, &F.sc, out, mask, st));
+    assert_null(warp_objects_run(&F.os, &F.p.v, &F.cam, to, objs, &p, &F.sc, out, mask, st));
 }
 
 static bool moves(int id)
@@ -106,7 +95,7 @@ static void or_masks(warp_image_u8 *dst, const warp_image_u8 *a, const warp_imag
 {
     for (int y = 0; y < H; y++)
         for (int x = 0; x < W; x++) {
-            bool mv = moves(WARP_AT(&F.a.ids, x, y)) || moves(WARP_AT(&F.b.ids, x, y));
+            bool mv = moves(WARP_AT(&F.p.a.ids, x, y)) || moves(WARP_AT(&F.p.b.ids, x, y));
             WARP_AT(dst, x, y) = (uint8_t)(WARP_AT(a, x, y) | WARP_AT(b, x, y) | (mv ? 0 : 0x80));
         }
 }
@@ -146,33 +135,33 @@ static void test_static_objects_and_identity(void **state)
     render_pair(0.7, a, 0.7, a);
     /* Same eye, objects where the source saw them: the image comes back bit for bit. */
     warp_objects_stats st;
-    run(a, F.src_obj, WARP_SPLAT_POINT, &F.out, &F.mask, &st);
-    for (int y = 0; y < H; y++) assert_memory_equal(&WARP_AT(&F.out, 0, y), &WARP_AT(&F.a.color, 0, y), W * 4);
+    run(a, F.src_obj, WARP_SPLAT_POINT, &F.p.out, &F.p.mask, &st);
+    for (int y = 0; y < H; y++) assert_memory_equal(&WARP_AT(&F.p.out, 0, y), &WARP_AT(&F.p.a.color, 0, y), W * 4);
     assert_int_equal(st.splat.fwd.holes, 0);
     assert_int_equal(st.objects, F.n + 1);
     assert_int_equal(st.moved, 0);
     /* A static object's transform is the camera's: moving the eye only, per-object == whole-frame warp. */
     warp_pose b = {warp_quat_from_ypr(0.13, -0.05, 0.01), warp_v3(0.13, 1.6, 0.18)};
-    run(b, F.src_obj, WARP_SPLAT_QUAD, &F.out, &F.mask, NULL);
-    run(b, NULL, WARP_SPLAT_QUAD, &F.out2, &F.mask2, NULL);
-    for (int y = 0; y < H; y++) assert_memory_equal(&WARP_AT(&F.out, 0, y), &WARP_AT(&F.out2, 0, y), W * 4);
+    run(b, F.src_obj, WARP_SPLAT_QUAD, &F.p.out, &F.p.mask, NULL);
+    run(b, NULL, WARP_SPLAT_QUAD, &F.p.out2, &F.p.mask2, NULL);
+    for (int y = 0; y < H; y++) assert_memory_equal(&WARP_AT(&F.p.out, 0, y), &WARP_AT(&F.p.out2, 0, y), W * 4);
     warp_pose m = warp_object_eye_transform(a, b, F.src_obj[3], F.src_obj[3]), cam = warp_pose_relative(b, a);
     assert_true(warp_quat_angle_between(m.q, cam.q) < 1e-12 && warp_v3_norm(warp_v3_sub(m.p, cam.p)) < 1e-12);
     /* ids beyond the object table are counted and warped with the camera */
-    WARP_AT(&F.a.ids, 5, 5) = (uint16_t)(F.n + 7);
-    run(b, F.src_obj, WARP_SPLAT_POINT, &F.out, &F.mask, &st);
+    WARP_AT(&F.p.a.ids, 5, 5) = (uint16_t)(F.n + 7);
+    run(b, F.src_obj, WARP_SPLAT_POINT, &F.p.out, &F.p.mask, &st);
     assert_int_equal(st.splat.fwd.bad_ids, 1);
     /* missing planes are named */
-    warp_view nv = F.v;
+    warp_view nv = F.p.v;
     nv.ids = NULL;
     warp_splat_params p = warp_splat_default_params(WARP_SPLAT_POINT);
-    assert_non_null(warp_objects_run(&F.os, &nv, &F.cam, b, NULL, &p, &F.sc, &F.out, &F.mask, NULL));
+    assert_non_null(warp_objects_run(&F.os, &nv, &F.cam, b, NULL, &p, &F.sc, &F.p.out, &F.p.mask, NULL));
 }
 
 static void score(const char *what, const warp_image_rgba8 *img, double *psnr, double *err)
 {
-    *psnr = warp_psnr(img, &F.b.color, &F.both, 0xff);
-    *err = warp_error_pixel_percent(img, &F.b.color, &F.both, 0xff, 20);
+    *psnr = warp_psnr(img, &F.p.b.color, &F.both, 0xff);
+    *err = warp_error_pixel_percent(img, &F.p.b.color, &F.both, 0xff, 20);
     print_message("  %-34s %.2f dB, %.2f %% error px\n", what, *psnr, *err);
 }
 
@@ -186,14 +175,14 @@ static void test_per_object_beats_whole_frame(void **state)
     warp_pose b = {warp_quat_from_ypr(0.03, 0.04, 0), warp_v3(0.02, 1.6, 0)};
     render_pair(t0, a, t1, b);
     warp_objects_stats st;
-    run(b, F.dst_obj, WARP_SPLAT_QUAD, &F.out, &F.mask, &st);
-    run(b, NULL, WARP_SPLAT_QUAD, &F.out2, &F.mask2, NULL);
-    or_masks(&F.both, &F.mask, &F.mask2);
+    run(b, F.dst_obj, WARP_SPLAT_QUAD, &F.p.out, &F.p.mask, &st);
+    run(b, NULL, WARP_SPLAT_QUAD, &F.p.out2, &F.p.mask2, NULL);
+    or_masks(&F.both, &F.p.mask, &F.p.mask2);
     print_message("movers, 100 ms (%d objects, %d moved, %ld primitives):\n", st.objects, st.moved,
                   st.splat.primitives);
     double po, eo, pw, ew, pe, ee;
-    score("per object, true poses", &F.out, &po, &eo);
-    score("whole frame", &F.out2, &pw, &ew);
+    score("per object, true poses", &F.p.out, &po, &eo);
+    score("whole frame", &F.p.out2, &pw, &ew);
     assert_true(st.moved >= 4);
     assert_true(po > pw + 5.0);
     assert_true(eo < ew / 3);
@@ -203,21 +192,21 @@ static void test_per_object_beats_whole_frame(void **state)
     for (int i = 0; i < F.n; i++)
         F.prev_obj[i] = warp_object_pose_extrapolate(sim_scene_object_pose(F.scene, i + 1, t0 - dt), t0 - dt,
                                                      F.src_obj[i], t0, t1);
-    run(b, F.prev_obj, WARP_SPLAT_QUAD, &F.out, &F.mask, NULL);
-    or_masks(&F.both, &F.mask, &F.mask2);
-    score("per object, extrapolated poses", &F.out, &pe, &ee);
-    pw = warp_psnr(&F.out2, &F.b.color, &F.both, 0xff);
-    ew = warp_error_pixel_percent(&F.out2, &F.b.color, &F.both, 0xff, 20);
+    run(b, F.prev_obj, WARP_SPLAT_QUAD, &F.p.out, &F.p.mask, NULL);
+    or_masks(&F.both, &F.p.mask, &F.p.mask2);
+    score("per object, extrapolated poses", &F.p.out, &pe, &ee);
+    pw = warp_psnr(&F.p.out2, &F.p.b.color, &F.both, 0xff);
+    ew = warp_error_pixel_percent(&F.p.out2, &F.p.b.color, &F.both, 0xff, 20);
     assert_true(pe > pw + 4.0);
     assert_true(ee < ew / 2);
     /* Moving the objects the wrong way must do worse than not moving them. */
     for (int i = 0; i < F.n; i++)
         F.prev_obj[i] = warp_object_pose_extrapolate(F.dst_obj[i], t1, F.src_obj[i], t0, t1 - 2 * dt);
-    run(b, F.prev_obj, WARP_SPLAT_QUAD, &F.out, &F.mask, NULL);
-    or_masks(&F.both, &F.mask, &F.mask2);
+    run(b, F.prev_obj, WARP_SPLAT_QUAD, &F.p.out, &F.p.mask, NULL);
+    or_masks(&F.both, &F.p.mask, &F.p.mask2);
     double pb, eb;
-    score("per object, motion reversed", &F.out, &pb, &eb);
-    pw = warp_psnr(&F.out2, &F.b.color, &F.both, 0xff);
+    score("per object, motion reversed", &F.p.out, &pb, &eb);
+    pw = warp_psnr(&F.p.out2, &F.p.b.color, &F.both, 0xff);
     assert_true(pb < pw);
 }
 
@@ -228,10 +217,10 @@ static void test_mesh_breaks_at_object_borders(void **state)
     warp_pose a = {warp_quat_from_ypr(0, 0.05, 0), warp_v3(0, 1.6, 0)};
     render_pair(t0, a, t1, a);
     warp_objects_stats st;
-    run(a, F.dst_obj, WARP_SPLAT_MESH, &F.out, &F.mask, &st);
+    run(a, F.dst_obj, WARP_SPLAT_MESH, &F.p.out, &F.p.mask, &st);
     /* Objects that separate leave holes between them rather than rubber sheets: the mesh never spans two ids. */
     long holes = st.splat.fwd.holes - st.splat.fwd.fringe;
-    double p = warp_psnr(&F.out, &F.b.color, &F.mask, 0xff);
+    double p = warp_psnr(&F.p.out, &F.p.b.color, &F.p.mask, 0xff);
     print_message("movers mesh: %.2f dB, %ld holes, %ld triangles culled\n", p, holes, st.splat.culled);
     assert_true(holes > 20);
     assert_true(st.splat.culled > 100);

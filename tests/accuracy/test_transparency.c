@@ -14,6 +14,7 @@
 #include "warp/warp_reproject.h"
 #include "warp/warp_transparency.h"
 #include "warp/warp_view.h"
+#include "tests/support/test_scene.h"
 
 #define W 320
 #define H 240
@@ -70,12 +71,6 @@ static int teardown(void **state)
 
 static const double D2R = WARP_PI / 180.0;
 
-static warp_pose eye_at(double yaw, double pitch, double roll, warp_vec3 p)
-{
-    warp_pose e = {warp_quat_from_ypr(yaw, pitch, roll), p};
-    return e;
-}
-
 /* Source: the glass scene's A-buffer and opaque depth; its opaque G-buffer colour is the room's (the glass scene is
  * the room plus panes, and the room renders identically in both). Truth: the glass scene at pose b. */
 static void render_pair(warp_pose a, warp_pose b)
@@ -123,7 +118,7 @@ static long pane_pixels(void)
 static void test_scene_setup(void **state)
 {
     (void)state;
-    warp_pose a = eye_at(0, 0, 0, warp_v3(0, 1.6, 0));
+    warp_pose a = test_eye_at(0, 0, 0, warp_v3(0, 1.6, 0));
     render_pair(a, a);
     long frags = 0, multi = 0;
     for (int i = 0; i < W * H; i++) {
@@ -153,7 +148,7 @@ static void test_scene_setup(void **state)
 static void test_identity_and_pure_rotation(void **state)
 {
     (void)state;
-    warp_pose a = eye_at(0.1, -0.05, 0, warp_v3(0.05, 1.6, 0.1));
+    warp_pose a = test_eye_at(0.1, -0.05, 0, warp_v3(0.05, 1.6, 0.1));
     render_pair(a, a);
     warp_transparency_params p = warp_transparency_default_params();
     warp_transparency_stats st = {0};
@@ -164,7 +159,7 @@ static void test_identity_and_pure_rotation(void **state)
     assert_true(q > 45.0); /* 8-bit fragments vs the renderer's float blend: rounding only */
     assert_int_equal(st.rays_hit, pane_pixels());
     /* pure rotation: the same as rotating the final image */
-    warp_pose b = eye_at(0.14, -0.02, 0.02, a.p);
+    warp_pose b = test_eye_at(0.14, -0.02, 0.02, a.p);
     render_pair(a, b);
     hybrid(b, &p, &F.out, NULL);
     warp_mat3 hm = warp_reproject_homography(&F.v, &F.cam, b.q);
@@ -180,8 +175,8 @@ static void test_identity_and_pure_rotation(void **state)
 static void test_abuffer_beats_preblended(void **state)
 {
     (void)state;
-    warp_pose a = eye_at(0, -2 * D2R, 0, warp_v3(0, 1.6, 0));
-    warp_pose b = eye_at(1.0 * D2R, -2 * D2R, 0, warp_v3(0.04, 1.62, -0.02)); /* 4 cm lean */
+    warp_pose a = test_eye_at(0, -2 * D2R, 0, warp_v3(0, 1.6, 0));
+    warp_pose b = test_eye_at(1.0 * D2R, -2 * D2R, 0, warp_v3(0.04, 1.62, -0.02)); /* 4 cm lean */
     render_pair(a, b);
     warp_transparency_params p = warp_transparency_default_params();
     warp_transparency_stats st = {0};
@@ -208,8 +203,8 @@ static void test_abuffer_beats_preblended(void **state)
 static void test_knobs(void **state)
 {
     (void)state;
-    warp_pose a = eye_at(0, -2 * D2R, 0, warp_v3(0, 1.6, 0));
-    warp_pose b = eye_at(1.0 * D2R, -2 * D2R, 0, warp_v3(0.04, 1.62, -0.02));
+    warp_pose a = test_eye_at(0, -2 * D2R, 0, warp_v3(0, 1.6, 0));
+    warp_pose b = test_eye_at(1.0 * D2R, -2 * D2R, 0, warp_v3(0.04, 1.62, -0.02));
     render_pair(a, b);
     warp_transparency_params p = warp_transparency_default_params();
     warp_transparency_stats stf = {0};
@@ -238,8 +233,8 @@ static void test_knobs(void **state)
 static void test_bad_input(void **state)
 {
     (void)state;
-    warp_pose a = eye_at(0, 0, 0, warp_v3(0, 1.6, 0));
-    warp_pose b = eye_at(0, 0, 0, warp_v3(0.03, 1.6, 0));
+    warp_pose a = test_eye_at(0, 0, 0, warp_v3(0, 1.6, 0));
+    warp_pose b = test_eye_at(0, 0, 0, warp_v3(0.03, 1.6, 0));
     render_pair(a, b);
     warp_transparency_params p = warp_transparency_default_params();
     warp_transparency_setup s;

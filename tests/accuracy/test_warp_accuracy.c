@@ -21,11 +21,7 @@
 
 typedef struct {
     warp_camera cam;
-    sim_buffers a, b;  /* source render and truth render */
-    warp_image_f32 inv;
-    warp_image_rgba8 out, out2;
-    warp_image_u8 mask, mask2;
-    warp_view v;
+    test_pair p;
 } fx;
 
 static fx F;
@@ -34,52 +30,34 @@ static int setup(void **state)
 {
     (void)state;
     F.cam = (warp_camera){W, H, 1.0, 1.0, 0.85, 0.82, 0.05, INFINITY};
-    unsigned all = SIM_PLANE_COLOR | SIM_PLANE_DEPTH;
-    if (!sim_buffers_alloc(&F.a, W, H, all, 1) || !sim_buffers_alloc(&F.b, W, H, all, 1)) return -1;
-    if (!warp_image_f32_alloc(&F.inv, W, H) || !warp_image_rgba8_alloc(&F.out, W, H) ||
-        !warp_image_rgba8_alloc(&F.out2, W, H) || !warp_image_u8_alloc(&F.mask, W, H) ||
-        !warp_image_u8_alloc(&F.mask2, W, H))
-        return -1;
-    return 0;
+    return test_pair_alloc(&F.p, W, H, SIM_PLANE_COLOR | SIM_PLANE_DEPTH) ? 0 : -1;
 }
 
 static int teardown(void **state)
 {
     (void)state;
-    sim_buffers_free(&F.a);
-    sim_buffers_free(&F.b);
-    warp_image_free(&F.inv);
-    warp_image_free(&F.out);
-    warp_image_free(&F.out2);
-    warp_image_free(&F.mask);
-    warp_image_free(&F.mask2);
+    test_pair_free(&F.p);
     return 0;
 }
 
 /* Renders the source at pose a (with depth) and the truth at pose b. */
 static void render_pair(const char *scene, warp_pose a, warp_pose b)
 {
-    test_render_pair(scene, &F.cam, a, b, &F.a, &F.b, &F.inv, &F.v);
+    test_pair_render(&F.p, scene, &F.cam, a, b);
 }
 
 static void reproject(warp_pose to, warp_image_rgba8 *out, warp_image_u8 *mask)
 {
-    warp_mat3 h = warp_reproject_homography(&F.v, &F.cam, to.q);
-    warp_reproject_rows(&F.v, &h, out, mask, 0, H);
+    warp_mat3 h = warp_reproject_homography(&F.p.v, &F.cam, to.q);
+    warp_reproject_rows(&F.p.v, &h, out, mask, 0, H);
 }
 
 static void raytrace(warp_pose to, const warp_raytrace_params *p, warp_image_rgba8 *out, warp_image_u8 *mask,
                      warp_raytrace_stats *st)
 {
     warp_raytrace_setup s;
-    assert_null(warp_raytrace_prepare(&s, &F.v, &F.cam, to, p));
+    assert_null(warp_raytrace_prepare(&s, &F.p.v, &F.cam, to, p));
     warp_raytrace_rows(&s, out, mask, 0, H, st);
-}
-
-static warp_pose eye_at(double yaw, double pitch, double roll, warp_vec3 p)
-{
-    warp_pose e = {warp_quat_from_ypr(yaw, pitch, roll), p};
-    return e;
 }
 
 static const double D2R = WARP_PI / 180.0;
@@ -88,13 +66,13 @@ static void test_rotation_matches_truth(void **state)
 {
     (void)state;
     warp_vec3 eye = warp_v3(0, 1.6, 0);
-    warp_pose a = eye_at(5 * D2R, 2 * D2R, 0, eye);
-    warp_pose b = eye_at(11 * D2R, -1 * D2R, 2 * D2R, eye); /* 6 deg left, 3 down, 2 roll: a fast head turn */
+    warp_pose a = test_eye_at(5 * D2R, 2 * D2R, 0, eye);
+    warp_pose b = test_eye_at(11 * D2R, -1 * D2R, 2 * D2R, eye); /* 6 deg left, 3 down, 2 roll: a fast head turn */
     render_pair("room", a, b);
-    reproject(b, &F.out, &F.mask);
-    double warped = warp_psnr(&F.out, &F.b.color, &F.mask, WARP_MASK_FRINGE);
-    double unwarped = warp_psnr(&F.a.color, &F.b.color, NULL, 0);
-    double ssim = warp_ssim(&F.out, &F.b.color, &F.mask, WARP_MASK_FRINGE);
+    reproject(b, &F.p.out, &F.p.mask);
+    double warped = warp_psnr(&F.p.out, &F.p.b.color, &F.p.mask, WARP_MASK_FRINGE);
+    double unwarped = warp_psnr(&F.p.a.color, &F.p.b.color, NULL, 0);
+    double ssim = warp_ssim(&F.p.out, &F.p.b.color, &F.p.mask, WARP_MASK_FRINGE);
     print_message("room, 7 deg turn: rotation warp %.2f dB (SSIM %.4f) away from fringes, unwarped %.2f dB\n", warped,
                   ssim, unwarped);
     assert_true(warped > 33.0);
@@ -103,8 +81,8 @@ static void test_rotation_matches_truth(void **state)
     /* The head turned left: new content enters at the left edge, so the fringe is there and not at the right. */
     long left = 0, right = 0;
     for (int y = 0; y < H; y++) {
-        left += WARP_AT(&F.mask, 2, y) & WARP_MASK_FRINGE;
-        right += WARP_AT(&F.mask, W - 3, y) & WARP_MASK_FRINGE;
+        left += WARP_AT(&F.p.mask, 2, y) & WARP_MASK_FRINGE;
+        right += WARP_AT(&F.p.mask, W - 3, y) & WARP_MASK_FRINGE;
     }
     assert_true(left > H / 2 && right == 0);
 }
@@ -114,13 +92,13 @@ static void test_rotation_sign_error_fails(void **state)
     (void)state;
     /* The threshold above must catch a matrix-order or sign mistake: warping with the inverse rotation. */
     warp_vec3 eye = warp_v3(0, 1.6, 0);
-    warp_pose a = eye_at(5 * D2R, 2 * D2R, 0, eye);
-    warp_pose b = eye_at(11 * D2R, -1 * D2R, 2 * D2R, eye);
+    warp_pose a = test_eye_at(5 * D2R, 2 * D2R, 0, eye);
+    warp_pose b = test_eye_at(11 * D2R, -1 * D2R, 2 * D2R, eye);
     render_pair("room", a, b);
     warp_quat wrong = warp_quat_mul(a.q, warp_quat_mul(warp_quat_conj(b.q), a.q)); /* rotated the other way */
     warp_pose bw = {wrong, eye};
-    reproject(bw, &F.out, &F.mask);
-    double p = warp_psnr(&F.out, &F.b.color, &F.mask, WARP_MASK_FRINGE);
+    reproject(bw, &F.p.out, &F.p.mask);
+    double p = warp_psnr(&F.p.out, &F.p.b.color, &F.p.mask, WARP_MASK_FRINGE);
     print_message("inverse rotation: %.2f dB\n", p);
     assert_true(p < 22.0);
 }
@@ -128,19 +106,19 @@ static void test_rotation_sign_error_fails(void **state)
 static void test_raytrace_beats_rotation_under_translation(void **state)
 {
     (void)state;
-    warp_pose a = eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
-    warp_pose b = eye_at(1.5 * D2R, -3 * D2R, 0, warp_v3(0.04, 1.61, -0.01)); /* 4 cm sideways lean */
+    warp_pose a = test_eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
+    warp_pose b = test_eye_at(1.5 * D2R, -3 * D2R, 0, warp_v3(0.04, 1.61, -0.01)); /* 4 cm sideways lean */
     render_pair("near", a, b);
     warp_raytrace_params p = warp_raytrace_default_params();
     warp_raytrace_stats st = {0};
-    raytrace(b, &p, &F.out, &F.mask, &st);
-    reproject(b, &F.out2, &F.mask2);
+    raytrace(b, &p, &F.p.out, &F.p.mask, &st);
+    reproject(b, &F.p.out2, &F.p.mask2);
     /* Score both away from the fringe and the disocclusion fills, where neither has data. */
     for (int y = 0; y < H; y++)
-        for (int x = 0; x < W; x++) WARP_AT(&F.mask, x, y) |= WARP_AT(&F.mask2, x, y);
-    double rt = warp_psnr(&F.out, &F.b.color, &F.mask, 0xff), rot = warp_psnr(&F.out2, &F.b.color, &F.mask, 0xff);
-    double rte = warp_error_pixel_percent(&F.out, &F.b.color, &F.mask, 0xff, 20);
-    double rote = warp_error_pixel_percent(&F.out2, &F.b.color, &F.mask, 0xff, 20);
+        for (int x = 0; x < W; x++) WARP_AT(&F.p.mask, x, y) |= WARP_AT(&F.p.mask2, x, y);
+    double rt = warp_psnr(&F.p.out, &F.p.b.color, &F.p.mask, 0xff), rot = warp_psnr(&F.p.out2, &F.p.b.color, &F.p.mask, 0xff);
+    double rte = warp_error_pixel_percent(&F.p.out, &F.p.b.color, &F.p.mask, 0xff, 20);
+    double rote = warp_error_pixel_percent(&F.p.out2, &F.p.b.color, &F.p.mask, 0xff, 20);
     print_message("near, 4 cm: raytrace %.2f dB / %.2f %% error px, rotation %.2f dB / %.2f %%; %.1f steps per ray, "
                   "%ld edge px\n",
                   rt, rte, rot, rote, (double)st.steps / (double)st.rays, st.edge_pixels);
@@ -153,16 +131,16 @@ static void test_raytrace_beats_rotation_under_translation(void **state)
 static void test_raytrace_identity_and_pure_rotation(void **state)
 {
     (void)state;
-    warp_pose a = eye_at(0.2, 0.1, 0, warp_v3(0.3, 1.5, 0.2));
+    warp_pose a = test_eye_at(0.2, 0.1, 0, warp_v3(0.3, 1.5, 0.2));
     render_pair("near", a, a);
     warp_raytrace_params p = warp_raytrace_default_params();
-    raytrace(a, &p, &F.out, &F.mask, NULL);
-    assert_true(isinf(warp_psnr(&F.out, &F.a.color, NULL, 0))); /* identity pose -> identity image */
+    raytrace(a, &p, &F.p.out, &F.p.mask, NULL);
+    assert_true(isinf(warp_psnr(&F.p.out, &F.p.a.color, NULL, 0))); /* identity pose -> identity image */
     /* pure rotation: the raytrace reduces to the rotation reprojection */
-    warp_pose b = eye_at(0.26, 0.07, 0.03, a.p);
-    raytrace(b, &p, &F.out, &F.mask, NULL);
-    reproject(b, &F.out2, &F.mask2);
-    double same = warp_psnr(&F.out, &F.out2, NULL, 0);
+    warp_pose b = test_eye_at(0.26, 0.07, 0.03, a.p);
+    raytrace(b, &p, &F.p.out, &F.p.mask, NULL);
+    reproject(b, &F.p.out2, &F.p.mask2);
+    double same = warp_psnr(&F.p.out, &F.p.out2, NULL, 0);
     print_message("pure rotation: raytrace vs reprojection %.2f dB\n", same);
     assert_true(same > 45.0);
 }
@@ -170,20 +148,20 @@ static void test_raytrace_identity_and_pure_rotation(void **state)
 static void test_raytrace_refinement_and_budget(void **state)
 {
     (void)state;
-    warp_pose a = eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
-    warp_pose b = eye_at(0, -3 * D2R, 0, warp_v3(0.05, 1.6, 0));
+    warp_pose a = test_eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
+    warp_pose b = test_eye_at(0, -3 * D2R, 0, warp_v3(0.05, 1.6, 0));
     render_pair("near", a, b);
     warp_raytrace_params p = warp_raytrace_default_params();
-    raytrace(b, &p, &F.out, &F.mask, NULL);
-    double full = warp_psnr(&F.out, &F.b.color, &F.mask, 0xff);
+    raytrace(b, &p, &F.p.out, &F.p.mask, NULL);
+    double full = warp_psnr(&F.p.out, &F.p.b.color, &F.p.mask, 0xff);
     p.refine_iters = 0;
-    raytrace(b, &p, &F.out2, &F.mask2, NULL);
-    double coarse = warp_psnr(&F.out2, &F.b.color, &F.mask, 0xff);
+    raytrace(b, &p, &F.p.out2, &F.p.mask2, NULL);
+    double coarse = warp_psnr(&F.p.out2, &F.p.b.color, &F.p.mask, 0xff);
     p.refine_iters = 4;
     p.max_steps = 3;
     warp_raytrace_stats st = {0};
-    raytrace(b, &p, &F.out2, &F.mask2, &st);
-    double budget = warp_psnr(&F.out2, &F.b.color, &F.mask, 0xff);
+    raytrace(b, &p, &F.p.out2, &F.p.mask2, &st);
+    double budget = warp_psnr(&F.p.out2, &F.p.b.color, &F.p.mask, 0xff);
     print_message("refined %.2f dB, unrefined %.2f dB, 3-step budget %.2f dB\n", full, coarse, budget);
     assert_true(full > coarse + 1.0); /* the sub-pixel hit matters */
     assert_true(full > budget + 1.0); /* skipping samples misses thin near surfaces */
@@ -193,20 +171,20 @@ static void test_raytrace_refinement_and_budget(void **state)
 static void test_raytrace_edge_fills(void **state)
 {
     (void)state;
-    warp_pose a = eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
-    warp_pose b = eye_at(0, -3 * D2R, 0, warp_v3(0.06, 1.6, 0));
+    warp_pose a = test_eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
+    warp_pose b = test_eye_at(0, -3 * D2R, 0, warp_v3(0.06, 1.6, 0));
     render_pair("near", a, b);
     warp_raytrace_params p = warp_raytrace_default_params();
     p.edge_fill = WARP_EDGE_FILL_FAR;
-    raytrace(b, &p, &F.out, &F.mask, NULL);
+    raytrace(b, &p, &F.p.out, &F.p.mask, NULL);
     p.edge_fill = WARP_EDGE_FILL_LINEAR;
-    raytrace(b, &p, &F.out2, &F.mask2, NULL);
+    raytrace(b, &p, &F.p.out2, &F.p.mask2, NULL);
     long edges = 0, differ = 0, differ_outside = 0;
     for (int y = 0; y < H; y++)
         for (int x = 0; x < W; x++) {
-            assert_int_equal(WARP_AT(&F.mask, x, y), WARP_AT(&F.mask2, x, y)); /* the fill does not move edges */
-            bool e = WARP_AT(&F.mask, x, y) & WARP_MASK_EDGE;
-            warp_rgba8 p1 = WARP_AT(&F.out, x, y), p2 = WARP_AT(&F.out2, x, y);
+            assert_int_equal(WARP_AT(&F.p.mask, x, y), WARP_AT(&F.p.mask2, x, y)); /* the fill does not move edges */
+            bool e = WARP_AT(&F.p.mask, x, y) & WARP_MASK_EDGE;
+            warp_rgba8 p1 = WARP_AT(&F.p.out, x, y), p2 = WARP_AT(&F.p.out2, x, y);
             bool d = p1.r != p2.r || p1.g != p2.g || p1.b != p2.b;
             edges += e;
             differ += d && e;
@@ -222,32 +200,32 @@ static void test_reversed_z_input(void **state)
 {
     (void)state;
     /* A host that sends reversed-Z window depth gets the same warp as one that sends linear depth. */
-    warp_pose a = eye_at(0, 0, 0, warp_v3(0, 1.6, 0));
-    warp_pose b = eye_at(0.02, 0, 0, warp_v3(0.03, 1.6, 0));
+    warp_pose a = test_eye_at(0, 0, 0, warp_v3(0, 1.6, 0));
+    warp_pose b = test_eye_at(0.02, 0, 0, warp_v3(0.03, 1.6, 0));
     render_pair("near", a, b);
     warp_raytrace_params p = warp_raytrace_default_params();
-    raytrace(b, &p, &F.out, NULL, NULL);
+    raytrace(b, &p, &F.p.out, NULL, NULL);
     warp_image_f32 rz;
     assert_true(warp_image_f32_alloc(&rz, W, H));
     for (int y = 0; y < H; y++)
         for (int x = 0; x < W; x++) {
-            double z = WARP_AT(&F.a.depth, x, y);
+            double z = WARP_AT(&F.p.a.depth, x, y);
             WARP_AT(&rz, x, y) = (float)warp_depth_from_inverse(&F.cam, WARP_DEPTH_REVERSED, 1.0 / z);
         }
-    assert_int_equal(warp_inverse_depth_from(&F.cam, WARP_DEPTH_REVERSED, &rz, &F.inv, &F.v.inv_depth_min,
-                                             &F.v.inv_depth_max),
+    assert_int_equal(warp_inverse_depth_from(&F.cam, WARP_DEPTH_REVERSED, &rz, &F.p.inv, &F.p.v.inv_depth_min,
+                                             &F.p.v.inv_depth_max),
                      0);
-    raytrace(b, &p, &F.out2, NULL, NULL);
-    double same = warp_psnr(&F.out, &F.out2, NULL, 0);
+    raytrace(b, &p, &F.p.out2, NULL, NULL);
+    double same = warp_psnr(&F.p.out, &F.p.out2, NULL, 0);
     print_message("reversed-Z vs linear depth input: %.2f dB\n", same);
     assert_true(same > 45.0);
     /* bad depth values are counted, not propagated */
     WARP_AT(&rz, 5, 5) = NAN;
     WARP_AT(&rz, 6, 5) = -0.5f;
-    assert_int_equal(warp_inverse_depth_from(&F.cam, WARP_DEPTH_REVERSED, &rz, &F.inv, &F.v.inv_depth_min,
-                                             &F.v.inv_depth_max),
+    assert_int_equal(warp_inverse_depth_from(&F.cam, WARP_DEPTH_REVERSED, &rz, &F.p.inv, &F.p.v.inv_depth_min,
+                                             &F.p.v.inv_depth_max),
                      2);
-    assert_true(WARP_AT(&F.inv, 5, 5) == 0.0f);
+    assert_true(WARP_AT(&F.p.inv, 5, 5) == 0.0f);
     warp_image_free(&rz);
 }
 
@@ -258,24 +236,24 @@ static void test_raytrace_blockmax_skipping_is_exact(void **state)
      * linear search, with far fewer depth samples (a broken bound would change pixels or skip nothing). */
     warp_image_f32 bmax;
     assert_true(warp_image_f32_alloc(&bmax, (W + 7) / 8, (H + 7) / 8));
-    const warp_pose a = eye_at(0, 0, 0, warp_v3(0, 1.6, 0));
-    const warp_pose tos[3] = {eye_at(0.03, 0, 0, warp_v3(0.05, 1.6, 0)), eye_at(-0.02, 0.01, 0, warp_v3(-0.03, 1.62, -0.04)),
-                              eye_at(0, 0, 0, warp_v3(0, 1.6, -0.08))};
+    const warp_pose a = test_eye_at(0, 0, 0, warp_v3(0, 1.6, 0));
+    const warp_pose tos[3] = {test_eye_at(0.03, 0, 0, warp_v3(0.05, 1.6, 0)), test_eye_at(-0.02, 0.01, 0, warp_v3(-0.03, 1.62, -0.04)),
+                              test_eye_at(0, 0, 0, warp_v3(0, 1.6, -0.08))};
     const char *scenes[2] = {"near", "hairball"};
     for (int sc = 0; sc < 2; sc++)
         for (int t = 0; t < 3; t++) {
             render_pair(scenes[sc], a, tos[t]);
-            warp_raytrace_blockmax(&F.inv, &bmax, 8);
+            warp_raytrace_blockmax(&F.p.inv, &bmax, 8);
             warp_raytrace_params p = warp_raytrace_default_params();
             warp_raytrace_setup s;
-            assert_null(warp_raytrace_prepare(&s, &F.v, &F.cam, tos[t], &p));
+            assert_null(warp_raytrace_prepare(&s, &F.p.v, &F.cam, tos[t], &p));
             warp_raytrace_stats plain = {0}, fast = {0};
-            warp_raytrace_rows(&s, &F.out, &F.mask, 0, H, &plain);
+            warp_raytrace_rows(&s, &F.p.out, &F.p.mask, 0, H, &plain);
             warp_raytrace_use_blockmax(&s, &bmax, 8);
-            warp_raytrace_rows(&s, &F.out2, &F.mask2, 0, H, &fast);
+            warp_raytrace_rows(&s, &F.p.out2, &F.p.mask2, 0, H, &fast);
             for (int y = 0; y < H; y++) {
-                assert_memory_equal(&WARP_AT(&F.out, 0, y), &WARP_AT(&F.out2, 0, y), sizeof(warp_rgba8) * W);
-                assert_memory_equal(&WARP_AT(&F.mask, 0, y), &WARP_AT(&F.mask2, 0, y), W);
+                assert_memory_equal(&WARP_AT(&F.p.out, 0, y), &WARP_AT(&F.p.out2, 0, y), sizeof(warp_rgba8) * W);
+                assert_memory_equal(&WARP_AT(&F.p.mask, 0, y), &WARP_AT(&F.p.mask2, 0, y), W);
             }
             assert_int_equal(plain.steps, fast.steps); /* the search is the same; it samples less */
             print_message("%s pose %d: %ld steps, samples %ld -> %ld\n", scenes[sc], t, plain.steps, plain.samples,

@@ -20,3 +20,27 @@ void test_render_pair(const char *scene, const warp_camera *cam, warp_pose a, wa
                                              &v->inv_depth_max),
                      0);
 }
+
+bool test_pair_alloc(test_pair *p, int w, int h, unsigned planes)
+{
+    return sim_buffers_alloc(&p->a, w, h, planes, 1) && sim_buffers_alloc(&p->b, w, h, planes, 1) &&
+           warp_image_f32_alloc(&p->inv, w, h) && warp_image_rgba8_alloc(&p->out, w, h) &&
+           warp_image_rgba8_alloc(&p->out2, w, h) && warp_image_u8_alloc(&p->mask, w, h) &&
+           warp_image_u8_alloc(&p->mask2, w, h);
+}
+
+void test_pair_free(test_pair *p)
+{
+    sim_buffers_free(&p->a);
+    sim_buffers_free(&p->b);
+    warp_image_free(&p->inv);
+    warp_image_free(&p->out);
+    warp_image_free(&p->out2);
+    warp_image_free(&p->mask);
+    warp_image_free(&p->mask2);
+}
+
+void test_pair_render(test_pair *p, const char *scene, const warp_camera *cam, warp_pose a, warp_pose b)
+{
+    test_render_pair(scene, cam, a, b, &p->a, &p->b, &p->inv, &p->v);
+}

@@ -4,6 +4,8 @@
 #ifndef TEST_SCENE_H
 #define TEST_SCENE_H
 
+#include <stdbool.h>
+
 #include "sim/sim_scene.h"
 #include "warp/warp_view.h"
 
@@ -12,5 +14,28 @@
  * when the scene does not exist or its depth converts with bad values. */
 void test_render_pair(const char *scene, const warp_camera *cam, warp_pose a, warp_pose b, sim_buffers *src,
                       sim_buffers *truth, warp_image_f32 *inv, warp_view *v);
+
+/* The eye pose at yaw, pitch, roll (radians) and position p. */
+static inline warp_pose test_eye_at(double yaw, double pitch, double roll, warp_vec3 p)
+{
+    return (warp_pose){warp_quat_from_ypr(yaw, pitch, roll), p};
+}
+
+/* The images a source-vs-truth warp test works on: the two renders, the source's inverse depth and view, two
+ * outputs and two masks, all W x H. */
+typedef struct {
+    sim_buffers a, b; /* source render (colour + depth) and truth render */
+    warp_image_f32 inv;
+    warp_image_rgba8 out, out2;
+    warp_image_u8 mask, mask2;
+    warp_view v;
+} test_pair;
+
+/* Allocates every image of p at w x h, the renders with `planes` (SIM_PLANE_*; colour and depth at least); false
+ * (p partly allocated: test_pair_free it) when memory runs out. */
+bool test_pair_alloc(test_pair *p, int w, int h, unsigned planes);
+void test_pair_free(test_pair *p);
+/* test_render_pair into p's source, truth, inverse depth and view. */
+void test_pair_render(test_pair *p, const char *scene, const warp_camera *cam, warp_pose a, warp_pose b);
 
 #endif

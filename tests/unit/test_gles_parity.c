@@ -16,6 +16,7 @@
 #include "warp/warp_metrics.h"
 #include "warp/warp_raytrace.h"
 #include "warp/warp_resample.h"
+#include "tests/support/test_scene.h"
 
 #define W 192
 #define H 160
@@ -101,12 +102,6 @@ static int teardown(void **state)
     warp_image_free(&F.mask_gpu);
     warp_image_free(&F.mask_gpu2);
     return 0;
-}
-
-static warp_pose eye_at(double yaw, double pitch, double roll, warp_vec3 p)
-{
-    warp_pose e = {warp_quat_from_ypr(yaw, pitch, roll), p};
-    return e;
 }
 
 /* Renders the source view (colour and inverse depth) and uploads it as both eyes' frame. */
@@ -195,12 +190,12 @@ static void test_rotation_parity(void **state)
     static const char *const scenes[] = {"room", "near", "hairball", "outdoor"};
     warp_vec3 eye = warp_v3(0, 1.6, 0);
     for (size_t i = 0; i < sizeof scenes / sizeof scenes[0]; i++) {
-        warp_pose a = eye_at(5 * D2R, 2 * D2R, 0, eye);
+        warp_pose a = test_eye_at(5 * D2R, 2 * D2R, 0, eye);
         source(scenes[i], a);
         /* none, a small and a fast turn (with fringes on the left) */
         const double turns[3][3] = {{0, 0, 0}, {1.5, -0.5, 0.3}, {11, -1, 2}};
         for (int t = 0; t < 3; t++) {
-            warp_pose b = eye_at(turns[t][0] * D2R, turns[t][1] * D2R, turns[t][2] * D2R, eye);
+            warp_pose b = test_eye_at(turns[t][0] * D2R, turns[t][1] * D2R, turns[t][2] * D2R, eye);
             warp_quat q = warp_quat_mul(warp_quat_conj(a.q), b.q);
             cpu_lens(q, &F.planar); /* also leaves the mesh updated for the GPU */
             gpu_lens(F.g, false);
@@ -251,12 +246,12 @@ static void test_raytrace_parity(void **state)
     static const char *const scenes[] = {"near", "room", "hairball", "outdoor"};
     warp_raytrace_params rp = warp_raytrace_default_params();
     for (size_t i = 0; i < sizeof scenes / sizeof scenes[0]; i++) {
-        warp_pose a = eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
+        warp_pose a = test_eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
         source(scenes[i], a);
         const warp_pose to[3] = {
-            eye_at(1.5 * D2R, -3 * D2R, 0, warp_v3(0.04, 1.61, -0.01)), /* 4 cm lean */
-            eye_at(-4 * D2R, -1 * D2R, 1 * D2R, warp_v3(-0.02, 1.58, 0.03)),
-            eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0)), /* identity */
+            test_eye_at(1.5 * D2R, -3 * D2R, 0, warp_v3(0.04, 1.61, -0.01)), /* 4 cm lean */
+            test_eye_at(-4 * D2R, -1 * D2R, 1 * D2R, warp_v3(-0.02, 1.58, 0.03)),
+            test_eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0)), /* identity */
         };
         for (int t = 0; t < 3; t++) {
             double p;
@@ -270,23 +265,23 @@ static void test_raytrace_parity(void **state)
         }
     }
     /* The edge fills and the fringe are exercised: the lean opens disocclusions in "near". */
-    warp_pose a = eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
+    warp_pose a = test_eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
     source("near", a);
     double p;
     long unmatched, flagged;
-    raytrace_both(eye_at(1.5 * D2R, -3 * D2R, 0, warp_v3(0.04, 1.61, -0.01)), &rp, &p, &unmatched, &flagged);
+    raytrace_both(test_eye_at(1.5 * D2R, -3 * D2R, 0, warp_v3(0.04, 1.61, -0.01)), &rp, &p, &unmatched, &flagged);
     assert_true(mask_count(&F.mask_gpu, WARP_MASK_EDGE) > 0);
     assert_true(mask_count(&F.mask_gpu, WARP_MASK_FRINGE) > 0);
     /* linear fill, no refinement and a small step budget follow the CPU as well */
     rp.edge_fill = WARP_EDGE_FILL_LINEAR;
     rp.refine_iters = 0;
-    raytrace_both(eye_at(1.5 * D2R, -3 * D2R, 0, warp_v3(0.04, 1.61, -0.01)), &rp, &p, &unmatched, &flagged);
+    raytrace_both(test_eye_at(1.5 * D2R, -3 * D2R, 0, warp_v3(0.04, 1.61, -0.01)), &rp, &p, &unmatched, &flagged);
     print_message("raytrace, linear fill, unrefined: %.2f dB, %ld unmatched\n", p, unmatched);
     assert_true(p >= 45.0);
     assert_int_equal(unmatched, 0);
     rp = warp_raytrace_default_params();
     rp.max_steps = 8;
-    raytrace_both(eye_at(1.5 * D2R, -3 * D2R, 0, warp_v3(0.04, 1.61, -0.01)), &rp, &p, &unmatched, &flagged);
+    raytrace_both(test_eye_at(1.5 * D2R, -3 * D2R, 0, warp_v3(0.04, 1.61, -0.01)), &rp, &p, &unmatched, &flagged);
     print_message("raytrace, 8-step budget: %.2f dB, %ld unmatched\n", p, unmatched);
     assert_true(p >= 45.0);
     assert_int_equal(unmatched, 0);
@@ -296,11 +291,11 @@ static void test_pyramid_skips_empty_space(void **state)
 {
     (void)state;
     /* A lean in the room: rays cross long stretches of open space before reaching the walls. */
-    warp_pose a = eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
+    warp_pose a = test_eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
     source("room", a);
     warp_raytrace_params rp = warp_raytrace_default_params();
     warp_raytrace_setup s;
-    assert_null(warp_raytrace_prepare(&s, &F.view, &F.cam, eye_at(2 * D2R, -3 * D2R, 0, warp_v3(0.25, 1.62, -0.3)), &rp));
+    assert_null(warp_raytrace_prepare(&s, &F.view, &F.cam, test_eye_at(2 * D2R, -3 * D2R, 0, warp_v3(0.25, 1.62, -0.3)), &rp));
     warp_raytrace_stats st = {0};
     warp_raytrace_rows(&s, &F.rt_cpu, NULL, 0, H, &st);
     plat_gles_count_samples(F.g, true);
@@ -321,8 +316,8 @@ static void test_pyramid_skips_empty_space(void **state)
 static void test_raytrace_then_lens_parity(void **state)
 {
     (void)state;
-    warp_pose a = eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
-    warp_pose b = eye_at(2 * D2R, -2 * D2R, 0, warp_v3(0.03, 1.6, 0));
+    warp_pose a = test_eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
+    warp_pose b = test_eye_at(2 * D2R, -2 * D2R, 0, warp_v3(0.03, 1.6, 0));
     source("near", a);
     warp_raytrace_params rp = warp_raytrace_default_params();
     warp_raytrace_setup s;
@@ -344,7 +339,7 @@ static void test_raytrace_then_lens_parity(void **state)
 static void test_pyramid_matches_cpu(void **state)
 {
     (void)state;
-    source("near", eye_at(0.3, -0.1, 0, warp_v3(0.1, 1.5, 0.2)));
+    source("near", test_eye_at(0.3, -0.1, 0, warp_v3(0.1, 1.5, 0.2)));
     int levels = plat_gles_pyramid_levels(W, H);
     assert_int_equal(levels, 9); /* 192x160 -> 96x80 -> ... -> 2x2 (... 1x1 at level 8) */
     warp_image_f32 gpu, cpu;
@@ -378,10 +373,10 @@ static void test_pyramid_matches_cpu(void **state)
 static void test_pass_timing(void **state)
 {
     (void)state;
-    source("room", eye_at(0, 0, 0, warp_v3(0, 1.6, 0)));
+    source("room", test_eye_at(0, 0, 0, warp_v3(0, 1.6, 0)));
     warp_raytrace_params rp = warp_raytrace_default_params();
     warp_raytrace_setup s;
-    assert_null(warp_raytrace_prepare(&s, &F.view, &F.cam, eye_at(0.01, 0, 0, warp_v3(0.01, 1.6, 0)), &rp));
+    assert_null(warp_raytrace_prepare(&s, &F.view, &F.cam, test_eye_at(0.01, 0, 0, warp_v3(0.01, 1.6, 0)), &rp));
     plat_gles_times t;
     uint64_t seq = 0;
     for (int f = 0; f < 6; f++) {
@@ -413,10 +408,10 @@ static void test_pass_timing(void **state)
 static void test_bench(void **state)
 {
     (void)state;
-    source("near", eye_at(0, 0, 0, warp_v3(0, 1.6, 0)));
+    source("near", test_eye_at(0, 0, 0, warp_v3(0, 1.6, 0)));
     warp_raytrace_params rp = warp_raytrace_default_params();
     warp_raytrace_setup s;
-    assert_null(warp_raytrace_prepare(&s, &F.view, &F.cam, eye_at(0.02, 0, 0, warp_v3(0.02, 1.6, 0)), &rp));
+    assert_null(warp_raytrace_prepare(&s, &F.view, &F.cam, test_eye_at(0.02, 0, 0, warp_v3(0.02, 1.6, 0)), &rp));
     const warp_raytrace_setup *rt[2] = {&s, &s};
     const warp_mesh *m[2] = {&F.mesh[0], &F.mesh[1]};
     plat_gles_times t;
