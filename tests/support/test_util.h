@@ -5,7 +5,9 @@
 #define TEST_UTIL_H
 
 #include <dirent.h>
+#include <libgen.h>
 #include <math.h>
+#include <stdbool.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -24,6 +26,25 @@ static inline const char *test_runner(void)
     const char *r = getenv("TEST_RUNNER");
     snprintf(buf, sizeof buf, "%s%s", r ? r : "", r && *r ? " " : "");
     return buf;
+}
+
+/* The build directory of a test binary at BUILD/tests/KIND/NAME (argv0) into build, and BUILD/tests/SUB, created,
+ * into tmp: where the tests that run the programs find them and write their files. False when either fails. */
+static inline bool test_build_dirs(const char *argv0, char *build, size_t buildlen, char *tmp, size_t tmplen,
+                                   const char *sub)
+{
+    char t[512];
+    snprintf(t, sizeof t, "%s", argv0);
+    char *b = realpath(dirname(dirname(dirname(t))), NULL);
+    if (!b) return false;
+    int n = snprintf(build, buildlen, "%s", b);
+    free(b);
+    if (n < 0 || (size_t)n >= buildlen) return false;
+    n = snprintf(tmp, tmplen, "%s/tests/%s", build, sub);
+    if (n < 0 || (size_t)n >= tmplen) return false;
+    char cmd[600];
+    snprintf(cmd, sizeof cmd, "mkdir -p '%s'", tmp);
+    return system(cmd) == 0;
 }
 
 /* The reference headset's lens shape (barrel k1 0.22, k2 0.24, lateral CA red 0.996 / blue 1.008) centred at

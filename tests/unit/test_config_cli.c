@@ -121,16 +121,7 @@ static void test_v4l2_mock_corrupt_every(void **state)
 int main(int argc, char **argv)
 {
     (void)argc;
-    char t[512];
-    snprintf(t, sizeof t, "%s", argv[0]);
-    char *b = realpath(dirname(dirname(dirname(t))), NULL);
-    if (!b) return 1;
-    snprintf(build, sizeof build, "%s", b);
-    free(b);
-    snprintf(tmp, sizeof tmp, "%s/tests/config_cli", build);
-    char cmd[600];
-    snprintf(cmd, sizeof cmd, "mkdir -p %s", tmp);
-    if (system(cmd) != 0) return 1;
+    if (!test_build_dirs(argv[0], build, sizeof build, tmp, sizeof tmp, "config_cli")) return 1;
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_no_board_ini_fails_fast),
         cmocka_unit_test(test_check_config_refuses_what_cannot_show),

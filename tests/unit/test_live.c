@@ -355,16 +355,7 @@ static void test_hist_last_second(void **state)
 int main(int argc, char **argv)
 {
     (void)argc;
-    char t[512];
-    snprintf(t, sizeof t, "%s", argv[0]);
-    char *b = realpath(dirname(dirname(dirname(t))), NULL);
-    if (!b) return 1;
-    snprintf(build, sizeof build, "%s", b);
-    free(b);
-    snprintf(tmp, sizeof tmp, "%s/tests/live", build);
-    char cmd[600];
-    snprintf(cmd, sizeof cmd, "mkdir -p %s", tmp);
-    if (system(cmd) != 0) return 1;
+    if (!test_build_dirs(argv[0], build, sizeof build, tmp, sizeof tmp, "live")) return 1;
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_hist_last_second),
         cmocka_unit_test(test_log_priorities),
