@@ -15,8 +15,13 @@
 
 #include "drivers/drv_sim.h"
 #include "platform/plat_clock.h"
+#include "platform/plat_egl.h"
+#include "platform/plat_gles.h"
+#include "platform/plat_kms.h"
 #include "platform/plat_log.h"
 #include "platform/plat_version.h"
+#include "platform/plat_workers.h"
+#include "sim/sim_scene.h"
 #include "warp/warp_resample.h"
 
 static bool predict_for_host(void *ctx, int64_t t_ns, warp_pose *head)
@@ -82,7 +87,7 @@ bool rt_render_choose(const char *setting, const char *gl_renderer, const char *
     return false;
 }
 
-/* The CPU path's KMS output: dumb buffers on the panel's connector (a->display; a->kms borrowed from it). */
+/* The CPU path's KMS output: dumb buffers on the panel's connector (a->dev.display; a->dev.kms borrowed from it). */
 static bool cpu_kms_init(rt_app *a, const plat_kms_params *kp, char *err, int errlen)
 {
     char e[300];
@@ -95,9 +100,9 @@ static bool cpu_kms_init(rt_app *a, const plat_kms_params *kp, char *err, int er
         plat_kms_close(k);
         return fail(err, errlen, "[display] output = kms: the mode is %s%s", e, "");
     }
-    a->display = plat_display_kms(k, &a->sc, e, sizeof e);
-    if (!a->display) return fail(err, errlen, "[display] output = kms: %s%s", e, "");
-    a->kms = k;
+    a->dev.display = plat_display_kms(k, &a->sc, e, sizeof e);
+    if (!a->dev.display) return fail(err, errlen, "[display] output = kms: %s%s", e, "");
+    a->dev.kms = k;
     return true;
 }
 
@@ -164,7 +169,7 @@ static bool render_init(rt_app *a, char *err, int errlen)
         a->use_gles = false;
         return !kms || cpu_kms_init(a, &kp, err, errlen);
     }
-    if (kms) a->kms = plat_egl_kms(a->egl);
+    if (kms) a->dev.kms = plat_egl_kms(a->egl);
     a->gles_ms = calloc(PLAT_GLES_PASSES, sizeof *a->gles_ms);
     if (!a->gles_ms) return fail(err, errlen, "%s%s", "out of memory", "");
     /* The compositor thread makes the context current for itself. */
@@ -297,27 +302,23 @@ bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen)
     /* The warps of this build use colour and depth; ids, motion and layers would be rendered for nothing. */
     sp.planes_wanted = DRV_PLANE_COLOR | DRV_PLANE_DEPTH | (a->can_objects ? DRV_PLANE_IDS : 0) |
                        (a->can_transparency ? DRV_PLANE_LAYERS : 0);
-    if (!rt_devices_open(a, &sp, err, errlen)) return false;
-    if (!rt_config_parse_axes(c->imu_axes, a->imu_map, a->imu_sign))
-        return fail(err, errlen, "[imu] axes = '%s': %s", c->imu_axes, "expected e.g. '-y +x +z'");
-    a->imu_remap = strcmp(c->imu_backend, "sim") != 0 &&
-                   !(a->imu_map[0] == 0 && a->imu_map[1] == 1 && a->imu_map[2] == 2 && a->imu_sign[0] > 0 &&
-                     a->imu_sign[1] > 0 && a->imu_sign[2] > 0);
-    if (!rt_frameq_init(&a->fq, c->eye_w, c->eye_h, drv_frames_planes(a->frames), 4))
+    if (!rt_devices_open(&a->dev, c, &a->trace, &sp, err, errlen) || !rt_devices_mount(&a->dev, c, err, errlen))
+        return false;
+    if (!rt_frameq_init(&a->fq, c->eye_w, c->eye_h, drv_frames_planes(a->dev.frames), 4))
         return fail(err, errlen, "cannot allocate %s%s", "the frame slots", "");
 
-    if (a->display) {
+    if (a->dev.display) {
         /* the CPU path's KMS output, opened with the renderer */
     } else if (strcmp(c->sink, "null") == 0) {
-        a->display = plat_display_null();
+        a->dev.display = plat_display_null();
     } else {
         char e2[300];
-        a->display = plat_display_files(c->sink, c->sink_path, c->sink_every, e2, sizeof e2);
-        if (!a->display) return fail(err, errlen, "[display] sink = %s: %s", c->sink, e2);
+        a->dev.display = plat_display_files(c->sink, c->sink_path, c->sink_every, e2, sizeof e2);
+        if (!a->dev.display) return fail(err, errlen, "[display] sink = %s: %s", c->sink, e2);
     }
-    if (!a->display) return fail(err, errlen, "%s%s", "out of memory", "");
+    if (!a->dev.display) return fail(err, errlen, "%s%s", "out of memory", "");
 
-    if (!rt_ring_init(&a->eval_ring, sizeof(rt_eval_record), 64))
+    if (!rt_ring_init(&a->eval.ring, sizeof(rt_eval_record), 64))
         return fail(err, errlen, "%s%s", "out of memory", "");
     if (c->csv[0]) {
         a->csv = fopen(c->csv, "w");
@@ -329,18 +330,6 @@ bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen)
     return live_init(a, err, errlen);
 }
 
-/* Board mounting: the IMU's axes into the head frame the tracker works in. */
-static void remap_axes(const rt_app *a, drv_imu_sample *s)
-{
-    double g[3], ac[3];
-    for (int i = 0; i < 3; i++) {
-        g[i] = a->imu_sign[i] * s->gyro[a->imu_map[i]];
-        ac[i] = a->imu_sign[i] * s->accel[a->imu_map[i]];
-    }
-    memcpy(s->gyro, g, sizeof g);
-    memcpy(s->accel, ac, sizeof ac);
-}
-
 static void *imu_thread(void *arg)
 {
     rt_app *a = arg;
@@ -350,7 +339,7 @@ static void *imu_thread(void *arg)
     drv_imu_sample buf[64];
     bool lost = false;
     while (!atomic_load_explicit(&a->stop, memory_order_relaxed)) {
-        int n = drv_imu_read(a->imu, buf, 64, 50);
+        int n = drv_imu_read(a->dev.imu, buf, 64, 50);
         if (n < 0) {
             /* Device gone: the display holds the last orientation (RT_IMU_STALE_NS) while the backend retries;
              * read() itself paces the reopen attempts. */
@@ -358,20 +347,20 @@ static void *imu_thread(void *arg)
             if (!lost) {
                 atomic_fetch_add(&a->tel->imu_lost, 1);
                 drv_imu_stats ds;
-                drv_imu_stats_get(a->imu, &ds);
+                drv_imu_stats_get(a->dev.imu, &ds);
                 plat_log(PLAT_LOG_WARNING, "IMU %s lost (%s): holding the last orientation, retrying",
-                        a->imu->name, ds.last_error[0] ? ds.last_error : strerror(-n));
+                        a->dev.imu->name, ds.last_error[0] ? ds.last_error : strerror(-n));
                 lost = true;
             }
             plat_sleep_ns(20 * PLAT_NS_PER_MS);
             continue;
         }
         if (lost && n > 0) {
-            plat_log(PLAT_LOG_NOTICE, "IMU %s is back", a->imu->name);
+            plat_log(PLAT_LOG_NOTICE, "IMU %s is back", a->dev.imu->name);
             lost = false;
         }
         for (int i = 0; i < n; i++) {
-            if (a->imu_remap) remap_axes(a, &buf[i]);
+            if (a->dev.imu_remap) rt_devices_remap(&a->dev, &buf[i]);
             rt_fusion_update(a->fusion, &buf[i]);
         }
         atomic_fetch_add_explicit(&a->tel->imu_samples, (uint64_t)n, memory_order_relaxed);
@@ -426,7 +415,7 @@ static void *frames_thread(void *arg)
     uint64_t logged[DRV_FRAME_ERR_COUNT] = {0};
     while (!atomic_load_explicit(&a->stop, memory_order_relaxed)) {
         rt_frame *slot = rt_frameq_back(&a->fq);
-        int rc = drv_frames_receive(a->frames, &slot->f, 50);
+        int rc = drv_frames_receive(a->dev.frames, &slot->f, 50);
         int64_t now = plat_now_ns();
         if (rc == 0) {
             if (seen_ok && !quiet && now - last_ok > PLAT_NS_PER_S) {
@@ -443,7 +432,7 @@ static void *frames_thread(void *arg)
             uint64_t n = atomic_fetch_add(&a->tel->frames_rejected[e], 1) + 1;
             if (!logged[e] || now - last_log > PLAT_NS_PER_S) {
                 char why[200];
-                drv_frames_last_error(a->frames, why, sizeof why);
+                drv_frames_last_error(a->dev.frames, why, sizeof why);
                 plat_log(PLAT_LOG_WARNING, "host frame rejected (%s, %llu so far)%s%s; the last good frame stays",
                         drv_frame_err_str(e), (unsigned long long)n, why[0] ? ": " : "", why);
                 logged[e] = n;
@@ -461,7 +450,7 @@ static void *frames_thread(void *arg)
             rt_hist_add(&a->tel->host_render_ms, (double)(slot->f.received_ns - slot->f.render_start_ns) * 1e-6);
         /* Through a mock the simulated host's scene time is not on the wire: it is the pose time on the
          * simulated board's clock, which is what the accuracy evaluator re-renders. */
-        if (a->has_truth && !a->sim_host) slot->f.scene_time = (double)(slot->f.pose_t_ns - a->t0_ns) * 1e-9;
+        if (a->dev.has_truth && !a->dev.sim_host) slot->f.scene_time = (double)(slot->f.pose_t_ns - a->t0_ns) * 1e-9;
         atomic_fetch_add(&a->tel->frames_received, 1);
         atomic_fetch_add_explicit(&a->tel->frames_bytes, frame_bytes(&slot->f), memory_order_relaxed);
         rt_frameq_publish(&a->fq);
@@ -646,7 +635,7 @@ void rt_app_request_stop(rt_app *a) { atomic_store(&a->stop, 1); }
 void rt_app_run(rt_app *a)
 {
     pthread_t eval_th;
-    bool eval_up = a->has_truth && a->cfg.eval_every_ms > 0 && pthread_create(&eval_th, NULL, rt_eval_thread, a) == 0;
+    bool eval_up = a->dev.has_truth && a->cfg.eval_every_ms > 0 && pthread_create(&eval_th, NULL, rt_eval_thread, a) == 0;
     a->run_start_ns = plat_now_ns();
     a->th_imu_up = pthread_create(&a->th_imu, NULL, imu_thread, a) == 0;
     a->th_frames_up = pthread_create(&a->th_frames, NULL, frames_thread, a) == 0;
@@ -663,10 +652,10 @@ void rt_app_run(rt_app *a)
     if (a->th_aux_up) pthread_join(a->th_aux, NULL);
     if (eval_up) pthread_join(eval_th, NULL);
     a->run_end_ns = end;
-    plat_display_flush(a->display);
-    if (a->sim_host) {
+    plat_display_flush(a->dev.display);
+    if (a->dev.sim_host) {
         drv_frames_sim_stats st;
-        drv_frames_sim_stats_get(a->frames, &st);
+        drv_frames_sim_stats_get(a->dev.frames, &st);
         a->sim_frames = st.frames;
         memcpy(a->sim_plane_renders, st.plane_renders, sizeof st.plane_renders);
     }
@@ -734,9 +723,9 @@ void rt_app_summary(rt_app *a, FILE *out)
             fprintf(out, "  GLES errors                %llu; last: %s\n", (unsigned long long)a->gles_errors,
                     a->gles_last_error);
     }
-    if (a->kms) {
+    if (a->dev.kms) {
         plat_kms_stats ks;
-        plat_kms_stats_get(a->kms, &ks);
+        plat_kms_stats_get(a->dev.kms, &ks);
         fprintf(out, "  KMS output                 %s %dx%d@%.0f, %s, %s: %llu page flips, %llu failed, %llu late%s%s\n",
                 ks.connector, ks.w, ks.h, ks.hz, ks.api, ks.format, (unsigned long long)ks.flips,
                 (unsigned long long)ks.failed, (unsigned long long)ks.late, ks.last_error[0] ? "; last: " : "",
@@ -757,10 +746,10 @@ void rt_app_summary(rt_app *a, FILE *out)
                         (unsigned long long)t->select_why[w]);
     }
     drv_vsync_stats vs;
-    if (drv_vsync_stats_get(a->vsync, &vs))
+    if (drv_vsync_stats_get(a->dev.vsync, &vs))
         fprintf(out, "  vsync source               %s: edges %llu, spurious %llu, missed %llu, timer fallbacks %llu%s, "
                      "period %.3f ms, jitter %.0f us%s%s\n",
-                a->vsync->name, (unsigned long long)vs.edges, (unsigned long long)vs.spurious,
+                a->dev.vsync->name, (unsigned long long)vs.edges, (unsigned long long)vs.spurious,
                 (unsigned long long)vs.missed, (unsigned long long)vs.fallbacks, vs.on_timer ? " (on timer now)" : "",
                 (double)vs.period_ns * 1e-6, vs.jitter_us, vs.last_error[0] ? "; last: " : "", vs.last_error);
     pct_line(out, "motion-to-photon", &t->m2p_ms);
@@ -769,7 +758,7 @@ void rt_app_summary(rt_app *a, FILE *out)
                      "([render] stall_reserve_ms)%s\n",
                 c->stall_reserve_ms, a->use_gles ? "; on the GLES path only what fits in a period" : "");
     pct_line(out, "frame age at photon time", &t->frame_age_ms);
-    a->display->describe(a->display, buf, sizeof buf);
+    a->dev.display->describe(a->dev.display, buf, sizeof buf);
     fprintf(out, "  output                     %s\n", buf);
     fprintf(out, "host frames\n");
     uint64_t rejected = 0;
@@ -784,7 +773,7 @@ void rt_app_summary(rt_app *a, FILE *out)
             fprintf(out, "    rejected as %-13s %llu\n", drv_frame_err_str((drv_frame_err)e),
                     (unsigned long long)t->frames_rejected[e]);
     pct_line(out, "host render + transport", &t->host_render_ms);
-    if (a->sim_host) {
+    if (a->dev.sim_host) {
         static const char *const plane_names[5] = {"color", "depth", "ids", "motion", "layers"};
         buf[0] = 0;
         for (int p = 0; p < 5; p++) {
@@ -806,25 +795,25 @@ void rt_app_summary(rt_app *a, FILE *out)
                                  rt_fusion_rejected(a->fusion, RT_FUSION_TIME_JUMP)),
             (unsigned long long)t->imu_read_errors);
     drv_imu_stats is;
-    if (drv_imu_stats_get(a->imu, &is))
+    if (drv_imu_stats_get(a->dev.imu, &is))
         fprintf(out, "  IMU device                 %s: %s, reports %llu, bad %llu, read errors %llu, reconnects %llu%s%s\n",
-                a->imu->name, is.connected ? "connected" : "NOT connected", (unsigned long long)is.reports,
+                a->dev.imu->name, is.connected ? "connected" : "NOT connected", (unsigned long long)is.reports,
                 (unsigned long long)is.bad_reports, (unsigned long long)is.read_errors,
                 (unsigned long long)is.reconnects, is.last_error[0] ? "; last: " : "", is.last_error);
     if (t->imu_lost || t->imu_stale)
         fprintf(out, "  IMU lost                   %llu times; %llu vsyncs held the last orientation\n",
                 (unsigned long long)t->imu_lost, (unsigned long long)t->imu_stale);
     rt_fusion_state st;
-    if (a->has_truth && rt_fusion_latest(a->fusion, &st)) {
+    if (a->dev.has_truth && rt_fusion_latest(a->fusion, &st)) {
         double ts = (double)(st.t_ns - a->t0_ns) * 1e-9;
         warp_quat truth = sim_trace_orientation(&a->trace, ts);
         fprintf(out, "  orientation error at end   %.3f deg (gyro bias estimate %.4f %.4f %.4f rad/s)\n",
                 warp_quat_angle_between(truth, st.q) * 180 / WARP_PI, st.bias.x, st.bias.y, st.bias.z);
     }
-    if (a->has_truth && c->eval_every_ms > 0) {
+    if (a->dev.has_truth && c->eval_every_ms > 0) {
         fprintf(out, "accuracy vs ground truth     left eye at photon time, before the lens; %d frames sampled\n",
-                a->eval[RT_EVAL_NONE].n);
-        const rt_eval_pose *pe = &a->eval_pose;
+                a->eval.acc[RT_EVAL_NONE].n);
+        const rt_eval_pose *pe = &a->eval.pose;
         if (pe->n)
             fprintf(out, "  pose error at photon time  mean %.3f deg / %.2f mm, max %.3f deg / %.2f mm "
                          "(prediction and tracking; no warp can fix it)\n",
@@ -833,7 +822,7 @@ void rt_app_summary(rt_app *a, FILE *out)
         static const char *const names[RT_EVAL_METHODS] = {"no warp", "rotation (003 §3.4)", "raytrace (003 §3.5)",
                                                               "raytrace at mesh vertices"};
         for (int m = 0; m < RT_EVAL_METHODS; m++) {
-            const rt_eval_acc *e = &a->eval[m];
+            const rt_eval_acc *e = &a->eval.acc[m];
             if (!e->n) continue;
             /* printf pads by bytes: widen by the UTF-8 continuation bytes (the "§") so the columns line up */
             int wide = 26;
@@ -864,17 +853,17 @@ static void stats_kv(rt_app *a, FILE *out, bool live)
         KV("run_s", "%.1f", since > 0 ? (double)since * 1e-9 : 0.0);
     }
     KV("board", "%s", c->board_name);
-    KV("imu_backend", "%s", a->imu ? a->imu->name : "");
-    KV("frames_backend", "%s", a->frames ? a->frames->name : "");
-    KV("vsync_backend", "%s", a->vsync ? a->vsync->name : "");
+    KV("imu_backend", "%s", a->dev.imu ? a->dev.imu->name : "");
+    KV("frames_backend", "%s", a->dev.frames ? a->dev.frames->name : "");
+    KV("vsync_backend", "%s", a->dev.vsync ? a->dev.vsync->name : "");
     KV("renderer", "%s", a->use_gles ? "gles" : "cpu");
     KV("gl_renderer", "%s", a->use_gles ? plat_egl_renderer(a->egl) : "");
     KV("renderer_reason", "%s", a->render_why);
-    KV("display_output", "%s", a->kms ? "kms" : "offscreen");
+    KV("display_output", "%s", a->dev.kms ? "kms" : "offscreen");
     {
         /* always present (zeros offscreen), so scripts need not test for the keys */
         plat_kms_stats ks = {.api = "", .format = ""};
-        if (a->kms) plat_kms_stats_get(a->kms, &ks);
+        if (a->dev.kms) plat_kms_stats_get(a->dev.kms, &ks);
         KVU("kms_flips", ks.flips);
         KVU("kms_flips_failed", ks.failed);
         KVU("kms_flips_late", ks.late);
@@ -938,14 +927,14 @@ static void stats_kv(rt_app *a, FILE *out, bool live)
     KVU("imu_lost", t->imu_lost);
     KVU("imu_stale_vsyncs", t->imu_stale);
     drv_imu_stats is;
-    if (a->imu && drv_imu_stats_get(a->imu, &is)) {
+    if (a->dev.imu && drv_imu_stats_get(a->dev.imu, &is)) {
         KVU("imu_reports", is.reports);
         KVU("imu_bad_reports", is.bad_reports);
         KVU("imu_reconnects", is.reconnects);
         KV("imu_connected", "%d", is.connected);
     }
     drv_vsync_stats vs;
-    if (a->vsync && drv_vsync_stats_get(a->vsync, &vs)) {
+    if (a->dev.vsync && drv_vsync_stats_get(a->dev.vsync, &vs)) {
         KVU("vsync_edges", vs.edges);
         KVU("vsync_spurious", vs.spurious);
         KVU("vsync_missed_edges", vs.missed);
@@ -960,18 +949,18 @@ static void stats_kv(rt_app *a, FILE *out, bool live)
         KV("orientation_x", "%.6f", st.q.x);
         KV("orientation_y", "%.6f", st.q.y);
         KV("orientation_z", "%.6f", st.q.z);
-        if (a->has_truth) {
+        if (a->dev.has_truth) {
             warp_quat truth = sim_trace_orientation(&a->trace, (double)(st.t_ns - a->t0_ns) * 1e-9);
             KV("orientation_error_deg", "%.4f", warp_quat_angle_between(truth, st.q) * 180 / WARP_PI);
         }
     }
     for (int m = 0; m < RT_EVAL_METHODS && !live; m++)
-        if (a->eval[m].n) {
+        if (a->eval.acc[m].n) {
             char k[64];
             snprintf(k, sizeof k, "psnr_%s", rt_method_name(rt_eval_methods[m]));
-            KV(k, "%.3f", a->eval[m].psnr_sum / a->eval[m].n);
+            KV(k, "%.3f", a->eval.acc[m].psnr_sum / a->eval.acc[m].n);
             snprintf(k, sizeof k, "ssim_%s", rt_method_name(rt_eval_methods[m]));
-            KV(k, "%.5f", a->eval[m].ssim_sum / a->eval[m].n);
+            KV(k, "%.5f", a->eval.acc[m].ssim_sum / a->eval.acc[m].n);
         }
 #undef KV
 #undef KVU
@@ -1005,10 +994,7 @@ bool rt_app_showed_frames(const rt_app *a, char *why, int whylen)
 
 void rt_app_free(rt_app *a)
 {
-    drv_imu_destroy(a->imu);
-    drv_frames_destroy(a->frames);
-    drv_vsync_destroy(a->vsync);
-    plat_display_destroy(a->display);
+    rt_devices_close(&a->dev);
     if (a->gles && plat_egl_make_current(a->egl)) plat_gles_destroy(a->gles);
     plat_egl_close(a->egl);
     free(a->gles_ms);
@@ -1027,7 +1013,7 @@ void rt_app_free(rt_app *a)
     }
     plat_swapchain_free(&a->sc);
     rt_frameq_free(&a->fq);
-    rt_ring_free(&a->eval_ring);
+    rt_ring_free(&a->eval.ring);
     rt_ring_free(&a->csv_ring);
     if (a->csv && !a->csv_dead) fclose(a->csv);
     free(a->live_buf[0]);

@@ -7,7 +7,10 @@
 #include <string.h>
 
 #include "platform/plat_clock.h"
+#include "platform/plat_egl.h"
+#include "platform/plat_gles.h"
 #include "platform/plat_log.h"
+#include "platform/plat_workers.h"
 #include "runtime/rt_app.h"
 #include "warp/warp_raytrace.h"
 #include "warp/warp_registry.h"
@@ -356,7 +359,7 @@ void rt_compositor_run(rt_app *a)
     /* The display starts at scene time 0 (after the simulated headset's rest at boot), whatever the vsync source. */
     int64_t first = plat_now_ns() + 2 * PLAT_NS_PER_MS;
     if (first < a->t0_ns - 1) first = a->t0_ns - 1;
-    int64_t t_vs = drv_vsync_next(a->vsync, first, &period);
+    int64_t t_vs = drv_vsync_next(a->dev.vsync, first, &period);
     /* When to wake: the vsync minus the longest warp and the latest wake-up among the last WINDOW vsyncs, plus a
      * margin. A running maximum rather than an average: a miss costs a whole repeated frame, waking a little
      * early costs only that much latency (Monado's pacing likewise backs off at once and creeps back). */
@@ -495,7 +498,7 @@ void rt_compositor_run(rt_app *a)
         }
         rt_miss cause = missed ? rt_miss_classify(wake, t_start, t_vs, work, idx >= 0) : RT_MISS_OWN;
         if (idx >= 0) {
-            plat_display_present(a->display, &a->sc, idx, t_vs, vsync_no);
+            plat_display_present(a->dev.display, &a->sc, idx, t_vs, vsync_no);
             plat_swapchain_presented(&a->sc, idx, t_vs);
         }
 
@@ -517,10 +520,10 @@ void rt_compositor_run(rt_app *a)
                               (int)used, missed};
             rt_ring_push(&a->csv_ring, &row);
         }
-        if (a->has_truth && eval_every > 0 && frame && t_vs >= next_eval) {
+        if (a->dev.has_truth && eval_every > 0 && frame && t_vs >= next_eval) {
             rt_eval_record r = {vsync_no, frame->f.seq, frame->f.scene_time,
                                 (double)(t_photon - a->t0_ns) * 1e-9, frame->f.eye_pose[0], eyes[0], (int)used};
-            rt_ring_push(&a->eval_ring, &r);
+            rt_ring_push(&a->eval.ring, &r);
             next_eval += eval_every;
         }
 
@@ -557,7 +560,7 @@ void rt_compositor_run(rt_app *a)
         vsync_no++;
         /* Half a period on: an estimated phase (GPIO TE line) may move the vsync just served a few µs later, and
          * asking for "after t_vs" would then return the same vsync again. */
-        int64_t next = drv_vsync_next(a->vsync, t_vs + period / 2, &period);
+        int64_t next = drv_vsync_next(a->dev.vsync, t_vs + period / 2, &period);
         /* Overran a whole period: the vsyncs in between were not served. (The test leaves the reserve out: it is
          * there to be used up.) */
         int64_t now = plat_now_ns();
@@ -565,7 +568,7 @@ void rt_compositor_run(rt_app *a)
             /* the first vsync we can still make, and never one at or before the vsync just served */
             int64_t after = now + warp_est + margin_ns;
             if (after < t_vs + period / 2) after = t_vs + period / 2;
-            int64_t later = drv_vsync_next(a->vsync, after, &period);
+            int64_t later = drv_vsync_next(a->dev.vsync, after, &period);
             if (later < next) later = next;
             uint64_t skipped = period > 0 ? (uint64_t)((later - next + period / 2) / period) : 0;
             tel->vsyncs += skipped;

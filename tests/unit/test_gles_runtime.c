@@ -10,6 +10,7 @@
 #include <string.h>
 #include <cmocka.h>
 
+#include "platform/plat_gles.h"
 #include "runtime/rt_app.h"
 #include "tests/support/test_util.h"
 
