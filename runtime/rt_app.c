@@ -3,7 +3,6 @@
  * the run summary. hmdwarpd_main parses arguments; tests drive an instance directly. */
 #include "runtime/rt_app.h"
 
-#include <ctype.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <math.h>
@@ -21,6 +20,7 @@
 #include "platform/plat_log.h"
 #include "platform/plat_version.h"
 #include "platform/plat_workers.h"
+#include "runtime/rt_summary.h"
 #include "sim/sim_scene.h"
 #include "warp/warp_resample.h"
 
@@ -662,309 +662,86 @@ void rt_app_run(rt_app *a)
     live_final(a);
 }
 
-static void pct_line(FILE *out, const char *label, const rt_hist *h)
+/* The run's parts as the summary table reads them (rt_summary.h). live: while the run goes on (the helper thread),
+ * leaving out what another thread accumulates unpublished until the end (the accuracy evaluator's sums). */
+static void summary_src(rt_app *a, rt_summary_src *s, bool live, char *output, int outlen, char *fx, int fxlen)
 {
-    if (!h->count)
-        fprintf(out, "  %-26s -\n", label);
-    else
-        fprintf(out, "  %-26s p50 %6.2f ms   p99 %6.2f ms   max %6.2f ms   (%llu)\n", label, rt_hist_pct(h, 50),
-                rt_hist_pct(h, 99), h->max, (unsigned long long)h->count);
+    const rt_config *c = &a->cfg;
+    memset(s, 0, sizeof *s);
+    s->cfg = c;
+    s->tel = a->tel;
+    s->live = live;
+    /* since the display started (after the simulated IMU's rest) until it stopped (not the accuracy evaluation
+     * catching up afterwards): the span the vsync counts cover */
+    int64_t since = a->run_start_ns ? (a->run_end_ns ? a->run_end_ns : plat_now_ns()) - a->t0_ns : 0;
+    s->run_s = since > 0 ? (double)since * 1e-9 : 0.0;
+    s->gles = a->use_gles;
+    s->gles_software = a->gles_software;
+    s->gles_depth = a->gles_depth;
+    s->realtime = a->realtime;
+    s->memory_locked = a->memory_locked;
+    s->gl_renderer = a->use_gles ? plat_egl_renderer(a->egl) : "";
+    s->gl_version = a->use_gles ? plat_egl_version(a->egl) : "";
+    s->gles_timing = a->gles ? plat_gles_timing_method(a->gles) : "";
+    s->gles_gpu_pyramid = a->gles && plat_gles_gpu_pyramid(a->gles);
+    s->render_why = a->render_why;
+    s->cpu_kernel = warp_resample_kernel();
+    s->threads = a->workers ? plat_workers_threads(a->workers) : 0;
+    s->gles_ms = a->gles_ms;
+    s->gles_errors = a->gles_errors;
+    s->gles_last_error = a->gles_last_error;
+    s->raytrace_fallbacks = a->raytrace_fallbacks;
+    s->plane_fallbacks = a->plane_fallbacks;
+    const rt_devices *d = &a->dev;
+    s->imu_name = d->imu ? d->imu->name : "";
+    s->frames_name = d->frames ? d->frames->name : "";
+    s->vsync_name = d->vsync ? d->vsync->name : "";
+    s->has_imu_stats = d->imu && drv_imu_stats_get(d->imu, &s->imu);
+    s->has_vsync_stats = d->vsync && drv_vsync_stats_get(d->vsync, &s->vsync);
+    s->kms = d->kms != NULL;
+    s->kms_stats.api = "";
+    s->kms_stats.format = "";
+    if (d->kms) plat_kms_stats_get(d->kms, &s->kms_stats);
+    if (output) { /* the summary's alone: --stats names the output in display_output */
+        output[0] = 0;
+        if (d->display) d->display->describe(d->display, output, outlen);
+    }
+    s->output = output;
+    s->imu_rejected = rt_fusion_rejected(a->fusion, RT_FUSION_BAD_VALUE) +
+                      rt_fusion_rejected(a->fusion, RT_FUSION_TIME_REPEAT) +
+                      rt_fusion_rejected(a->fusion, RT_FUSION_TIME_JUMP);
+    s->has_orientation = rt_fusion_latest(a->fusion, &s->orientation);
+    s->has_truth = d->has_truth;
+    if (s->has_orientation && d->has_truth) {
+        warp_quat truth = sim_trace_orientation(&a->trace, (double)(s->orientation.t_ns - a->t0_ns) * 1e-9);
+        s->orientation_error_deg = warp_quat_angle_between(truth, s->orientation.q) * 180 / WARP_PI;
+    }
+    s->sim_host = d->sim_host;
+    s->sim_plane_renders = a->sim_plane_renders;
+    s->scene_effects = d->sim_host && a->scene ? sim_effects_str(sim_scene_effects(a->scene), fx, fxlen) : "";
+    s->accuracy = d->has_truth && c->eval_every_ms > 0;
+    s->eval = a->eval.acc;
+    s->eval_pose = &a->eval.pose;
+    s->csv = a->csv ? c->csv : NULL;
+}
+
+static void stats_kv(rt_app *a, FILE *out, bool live)
+{
+    rt_summary_src s;
+    char fx[160];
+    summary_src(a, &s, live, NULL, 0, fx, sizeof fx);
+    rt_summary_kv(&s, out);
 }
 
 void rt_app_summary(rt_app *a, FILE *out)
 {
-    const rt_config *c = &a->cfg;
-    const rt_telemetry *t = a->tel;
-    char buf[400];
-    double secs = (double)t->vsyncs / c->refresh_hz;
-    fprintf(out, "\nhmdwarpd %s summary — board '%s', scene '%s', head motion '%s', %.1f s\n", plat_version(),
-            c->board_name, c->scene, c->trace, secs);
-    if (a->use_gles)
-        fprintf(out, "  renderer                   gles: %s (%s; %s), warp method %s\n", plat_egl_renderer(a->egl),
-                plat_egl_version(a->egl), a->realtime ? "SCHED_FIFO" : "normal priority", rt_method_name(c->method));
-    else
-        fprintf(out, "  renderer                   cpu (%s kernel, %d threads, %s%s), warp method %s\n",
-                warp_resample_kernel(), plat_workers_threads(a->workers),
-                a->realtime           ? "SCHED_FIFO"
-                : c->rt_priority == 0 ? "normal priority (rt_priority = 0)"
-                                      : "normal priority (not permitted to use SCHED_FIFO)",
-                a->realtime ? (a->memory_locked ? ", memory locked" : ", memory not locked") : "",
-                rt_method_name(c->method));
-    fprintf(out, "  renderer chosen            %s\n", a->render_why);
-    fprintf(out, "  panel                      %dx%d at %.0f Hz, eye buffers %dx%d, lens mesh %dx%d\n", c->panel_w,
-            c->panel_h, c->refresh_hz, c->eye_w, c->eye_h, c->mesh_n, c->mesh_n);
-    fprintf(out, "display\n");
-    fprintf(out, "  vsyncs                     %llu, missed %llu (%.2f %%)%s\n", (unsigned long long)t->vsyncs,
-            (unsigned long long)t->missed, t->vsyncs ? 100.0 * (double)t->missed / (double)t->vsyncs : 0.0,
-            t->no_buffer ? " (some with no free swapchain image)" : "");
-    if (t->missed)
-        fprintf(out, "  missed, why                own %llu (the warp outran its planned time), scheduler: woken late "
-                     "%llu, descheduled %llu; no free image %llu\n",
-                (unsigned long long)t->missed_by[RT_MISS_OWN], (unsigned long long)t->missed_by[RT_MISS_LATE_WAKE],
-                (unsigned long long)t->missed_by[RT_MISS_DESCHEDULED], (unsigned long long)t->missed_by[RT_MISS_NO_BUFFER]);
-    uint64_t missed_by[RT_MISS_COUNT];
-    for (int m = 0; m < RT_MISS_COUNT; m++) missed_by[m] = t->missed_by[m];
-    rt_miss_advice(missed_by, a->use_gles, a->gles_software, buf, sizeof buf);
-    if (buf[0]) fprintf(out, "  misses, what to do         %s\n", buf);
-    for (int m = 0; m < RT_METHOD_COUNT; m++)
-        if (t->method_count[m]) {
-            snprintf(buf, sizeof buf, "warp time (%s)", rt_method_name((rt_method)m));
-            pct_line(out, buf, &t->warp_ms[m]);
-        }
-    if (a->use_gles) {
-        fprintf(out, "  GPU time per pass          %s, depth pyramid on the %s%s\n", plat_gles_timing_method(a->gles),
-                plat_gles_gpu_pyramid(a->gles) ? "GPU" : "CPU", a->gles_depth ? "" : " (not used)");
-        for (int p = 0; p < PLAT_GLES_PASSES; p++)
-            if (a->gles_ms[p].count) {
-                snprintf(buf, sizeof buf, "  gles %s", plat_gles_pass_name((plat_gles_pass)p));
-                pct_line(out, buf, &a->gles_ms[p]);
-            }
-        if (a->gles_errors)
-            fprintf(out, "  GLES errors                %llu; last: %s\n", (unsigned long long)a->gles_errors,
-                    a->gles_last_error);
-    }
-    if (a->dev.kms) {
-        plat_kms_stats ks;
-        plat_kms_stats_get(a->dev.kms, &ks);
-        fprintf(out, "  KMS output                 %s %dx%d@%.0f, %s, %s: %llu page flips, %llu failed, %llu late%s%s\n",
-                ks.connector, ks.w, ks.h, ks.hz, ks.api, ks.format, (unsigned long long)ks.flips,
-                (unsigned long long)ks.failed, (unsigned long long)ks.late, ks.last_error[0] ? "; last: " : "",
-                ks.last_error);
-    }
-    if (a->raytrace_fallbacks)
-        fprintf(out, "  raytrace fallbacks         %llu vsyncs used rotation: the frame had no depth\n",
-                (unsigned long long)a->raytrace_fallbacks);
-    if (a->plane_fallbacks)
-        fprintf(out, "  depth-warp fallbacks       %llu vsyncs used the raytrace: the frame lacked layers or ids\n",
-                (unsigned long long)a->plane_fallbacks);
-    if (c->method == RT_METHOD_AUTO) {
-        fprintf(out, "  warp selection (auto)      budget %.2f px (004 eqs. 5-7 bound of ignoring translation); why:\n",
-                c->pixel_budget);
-        for (int w = 0; w < RT_WHY_COUNT; w++)
-            if (t->select_why[w])
-                fprintf(out, "    %-24s %llu vsyncs\n", rt_select_why_str((rt_select_why)w),
-                        (unsigned long long)t->select_why[w]);
-    }
-    drv_vsync_stats vs;
-    if (drv_vsync_stats_get(a->dev.vsync, &vs))
-        fprintf(out, "  vsync source               %s: edges %llu, spurious %llu, missed %llu, timer fallbacks %llu%s, "
-                     "period %.3f ms, jitter %.0f us%s%s\n",
-                a->dev.vsync->name, (unsigned long long)vs.edges, (unsigned long long)vs.spurious,
-                (unsigned long long)vs.missed, (unsigned long long)vs.fallbacks, vs.on_timer ? " (on timer now)" : "",
-                (double)vs.period_ns * 1e-6, vs.jitter_us, vs.last_error[0] ? "; last: " : "", vs.last_error);
-    pct_line(out, "motion-to-photon", &t->m2p_ms);
-    if (c->stall_reserve_ms > 0)
-        fprintf(out, "  stall reserve              %.1f ms of the motion-to-photon latency: passes start that much earlier "
-                     "([render] stall_reserve_ms)%s\n",
-                c->stall_reserve_ms, a->use_gles ? "; on the GLES path only what fits in a period" : "");
-    pct_line(out, "frame age at photon time", &t->frame_age_ms);
-    a->dev.display->describe(a->dev.display, buf, sizeof buf);
-    fprintf(out, "  output                     %s\n", buf);
-    fprintf(out, "host frames\n");
-    uint64_t rejected = 0;
-    for (int e = 1; e < DRV_FRAME_ERR_COUNT; e++) rejected += t->frames_rejected[e];
-    fprintf(out, "  received                   %llu (%.1f Hz), shown %llu, dropped unseen %llu, rejected %llu\n",
-            (unsigned long long)t->frames_received,
-            secs + c->imu_rest_s > 0 ? (double)t->frames_received / (secs + c->imu_rest_s) : 0.0,
-            (unsigned long long)t->new_frames_shown, (unsigned long long)t->frames_dropped,
-            (unsigned long long)rejected);
-    for (int e = 1; e < DRV_FRAME_ERR_COUNT; e++)
-        if (t->frames_rejected[e])
-            fprintf(out, "    rejected as %-13s %llu\n", drv_frame_err_str((drv_frame_err)e),
-                    (unsigned long long)t->frames_rejected[e]);
-    pct_line(out, "host render + transport", &t->host_render_ms);
-    if (a->dev.sim_host) {
-        static const char *const plane_names[5] = {"color", "depth", "ids", "motion", "layers"};
-        buf[0] = 0;
-        for (int p = 0; p < 5; p++) {
-            char one[48];
-            snprintf(one, sizeof one, "%s%s %llu", p ? ", " : "", plane_names[p],
-                     (unsigned long long)a->sim_plane_renders[p]);
-            strncat(buf, one, sizeof buf - strlen(buf) - 1);
-        }
-        char fx[160];
-        fprintf(out, "  planes rendered            %s (scene effects: %s)\n", buf,
-                sim_effects_str(sim_scene_effects(a->scene), fx, sizeof fx));
-    }
-    fprintf(out, "tracking\n");
-    fprintf(out, "  IMU samples                %llu (%.0f Hz, incl. the rest at boot), rejected %llu, read errors %llu\n",
-            (unsigned long long)t->imu_samples,
-            secs + c->imu_rest_s > 0 ? (double)t->imu_samples / (secs + c->imu_rest_s) : 0.0,
-            (unsigned long long)(rt_fusion_rejected(a->fusion, RT_FUSION_BAD_VALUE) +
-                                 rt_fusion_rejected(a->fusion, RT_FUSION_TIME_REPEAT) +
-                                 rt_fusion_rejected(a->fusion, RT_FUSION_TIME_JUMP)),
-            (unsigned long long)t->imu_read_errors);
-    drv_imu_stats is;
-    if (drv_imu_stats_get(a->dev.imu, &is))
-        fprintf(out, "  IMU device                 %s: %s, reports %llu, bad %llu, read errors %llu, reconnects %llu%s%s\n",
-                a->dev.imu->name, is.connected ? "connected" : "NOT connected", (unsigned long long)is.reports,
-                (unsigned long long)is.bad_reports, (unsigned long long)is.read_errors,
-                (unsigned long long)is.reconnects, is.last_error[0] ? "; last: " : "", is.last_error);
-    if (t->imu_lost || t->imu_stale)
-        fprintf(out, "  IMU lost                   %llu times; %llu vsyncs held the last orientation\n",
-                (unsigned long long)t->imu_lost, (unsigned long long)t->imu_stale);
-    rt_fusion_state st;
-    if (a->dev.has_truth && rt_fusion_latest(a->fusion, &st)) {
-        double ts = (double)(st.t_ns - a->t0_ns) * 1e-9;
-        warp_quat truth = sim_trace_orientation(&a->trace, ts);
-        fprintf(out, "  orientation error at end   %.3f deg (gyro bias estimate %.4f %.4f %.4f rad/s)\n",
-                warp_quat_angle_between(truth, st.q) * 180 / WARP_PI, st.bias.x, st.bias.y, st.bias.z);
-    }
-    if (a->dev.has_truth && c->eval_every_ms > 0) {
-        fprintf(out, "accuracy vs ground truth     left eye at photon time, before the lens; %d frames sampled\n",
-                a->eval.acc[RT_EVAL_NONE].n);
-        const rt_eval_pose *pe = &a->eval.pose;
-        if (pe->n)
-            fprintf(out, "  pose error at photon time  mean %.3f deg / %.2f mm, max %.3f deg / %.2f mm "
-                         "(prediction and tracking; no warp can fix it)\n",
-                    pe->angle_sum / pe->n, pe->pos_sum / pe->n, pe->angle_max, pe->pos_max);
-        fprintf(out, "  %-26s %9s %9s %8s %12s\n", "method", "PSNR dB", "min dB", "SSIM", "error px %");
-        static const char *const names[RT_EVAL_METHODS] = {"no warp", "rotation (003 §3.4)", "raytrace (003 §3.5)",
-                                                              "raytrace at mesh vertices"};
-        for (int m = 0; m < RT_EVAL_METHODS; m++) {
-            const rt_eval_acc *e = &a->eval.acc[m];
-            if (!e->n) continue;
-            /* printf pads by bytes: widen by the UTF-8 continuation bytes (the "§") so the columns line up */
-            int wide = 26;
-            for (const char *p = names[m]; *p; p++) wide += ((unsigned char)*p & 0xc0) == 0x80;
-            fprintf(out, "  %-*s %9.2f %9.2f %8.4f %12.3f\n", wide, names[m], e->psnr_sum / e->n, e->psnr_min,
-                    e->ssim_sum / e->n, e->err_sum / e->n);
-        }
-    }
-    if (a->csv) fprintf(out, "per-vsync CSV                %s\n", c->csv);
+    rt_summary_src s;
+    char output[400], fx[160];
+    summary_src(a, &s, false, output, sizeof output, fx, sizeof fx);
+    rt_summary_print(&s, out);
 }
 
 void rt_app_stats_kv(rt_app *a, FILE *out) { stats_kv(a, out, false); }
-
-/* live: while the run goes on (the helper thread), leaving out what another thread accumulates unpublished until
- * the end (the accuracy evaluator's sums). */
-static void stats_kv(rt_app *a, FILE *out, bool live)
-{
-    const rt_config *c = &a->cfg;
-    const rt_telemetry *t = a->tel;
-#define KV(k, fmt, v) fprintf(out, "%s=" fmt "\n", k, v)
-#define KVU(k, v) KV(k, "%llu", (unsigned long long)(v))
-    KV("version", "%s", plat_version());
-    KV("running", "%d", live);
-    {
-        /* since the display started (after the simulated IMU's rest) until it stopped (not the accuracy
-         * evaluation catching up afterwards): the span the vsync counts cover */
-        int64_t since = a->run_start_ns ? (a->run_end_ns ? a->run_end_ns : plat_now_ns()) - a->t0_ns : 0;
-        KV("run_s", "%.1f", since > 0 ? (double)since * 1e-9 : 0.0);
-    }
-    KV("board", "%s", c->board_name);
-    KV("imu_backend", "%s", a->dev.imu ? a->dev.imu->name : "");
-    KV("frames_backend", "%s", a->dev.frames ? a->dev.frames->name : "");
-    KV("vsync_backend", "%s", a->dev.vsync ? a->dev.vsync->name : "");
-    KV("renderer", "%s", a->use_gles ? "gles" : "cpu");
-    KV("gl_renderer", "%s", a->use_gles ? plat_egl_renderer(a->egl) : "");
-    KV("renderer_reason", "%s", a->render_why);
-    KV("display_output", "%s", a->dev.kms ? "kms" : "offscreen");
-    {
-        /* always present (zeros offscreen), so scripts need not test for the keys */
-        plat_kms_stats ks = {.api = "", .format = ""};
-        if (a->dev.kms) plat_kms_stats_get(a->dev.kms, &ks);
-        KVU("kms_flips", ks.flips);
-        KVU("kms_flips_failed", ks.failed);
-        KVU("kms_flips_late", ks.late);
-        KVU("kms_vblanks", ks.vblanks);
-        KV("kms_api", "%s", ks.api);
-        KV("kms_format", "%s", ks.format);
-    }
-    if (a->use_gles) {
-        for (int p = 0; p < PLAT_GLES_PASSES; p++) {
-            char k[64];
-            snprintf(k, sizeof k, "gles_%s_ms_p50", plat_gles_pass_name((plat_gles_pass)p));
-            KV(k, "%.3f", rt_hist_pct(&a->gles_ms[p], 50));
-            snprintf(k, sizeof k, "gles_%s_ms_p99", plat_gles_pass_name((plat_gles_pass)p));
-            KV(k, "%.3f", rt_hist_pct(&a->gles_ms[p], 99));
-        }
-        KVU("gles_errors", a->gles_errors);
-    }
-    KVU("vsyncs", t->vsyncs);
-    KVU("missed", t->missed);
-    for (int m = 0; m < RT_MISS_COUNT; m++) {
-        char k[64];
-        snprintf(k, sizeof k, "missed_%s", rt_miss_name((rt_miss)m));
-        KVU(k, t->missed_by[m]);
-    }
-    KVU("no_frame", t->no_frame);
-    KVU("no_buffer", t->no_buffer);
-    for (int m = 0; m < RT_METHOD_COUNT; m++) {
-        char k[64];
-        snprintf(k, sizeof k, "method_%s", rt_method_name((rt_method)m));
-        KVU(k, t->method_count[m]);
-    }
-    KV("warp_ms_p50", "%.3f", rt_hist_pct(&t->warp_ms[c->method], 50));
-    KV("warp_ms_p99", "%.3f", rt_hist_pct(&t->warp_ms[c->method], 99));
-    KV("stall_reserve_ms", "%.3f", c->stall_reserve_ms);
-    KV("m2p_ms_p50", "%.3f", rt_hist_pct(&t->m2p_ms, 50));
-    KV("m2p_ms_p99", "%.3f", rt_hist_pct(&t->m2p_ms, 99));
-    KV("frame_age_ms_p50", "%.3f", rt_hist_pct(&t->frame_age_ms, 50));
-    KV("frame_age_ms_max", "%.3f", rt_hist_pct(&t->frame_age_ms, 100));
-    for (int w = 0; w < RT_WHY_COUNT; w++) {
-        char k[64];
-        snprintf(k, sizeof k, "select_%s", rt_select_why_key((rt_select_why)w));
-        KVU(k, t->select_why[w]);
-    }
-    KVU("method_switches", t->method_switches);
-    KVU("frames_received", t->frames_received);
-    KVU("frames_bytes", t->frames_bytes);
-    KVU("frames_shown", t->new_frames_shown);
-    KVU("frames_dropped", t->frames_dropped);
-    uint64_t rejected = 0;
-    for (int e = 1; e < DRV_FRAME_ERR_COUNT; e++) {
-        char k[64];
-        snprintf(k, sizeof k, "frames_rejected_%s", drv_frame_err_str((drv_frame_err)e));
-        for (char *p = k; *p; p++) /* "I/O error" -> i_o_error: shell-friendly keys */
-            *p = isalnum((unsigned char)*p) ? (char)tolower((unsigned char)*p) : '_';
-        KVU(k, t->frames_rejected[e]);
-        rejected += t->frames_rejected[e];
-    }
-    KVU("frames_rejected", rejected);
-    KVU("imu_samples", t->imu_samples);
-    KVU("imu_read_errors", t->imu_read_errors);
-    KVU("imu_lost", t->imu_lost);
-    KVU("imu_stale_vsyncs", t->imu_stale);
-    drv_imu_stats is;
-    if (a->dev.imu && drv_imu_stats_get(a->dev.imu, &is)) {
-        KVU("imu_reports", is.reports);
-        KVU("imu_bad_reports", is.bad_reports);
-        KVU("imu_reconnects", is.reconnects);
-        KV("imu_connected", "%d", is.connected);
-    }
-    drv_vsync_stats vs;
-    if (a->dev.vsync && drv_vsync_stats_get(a->dev.vsync, &vs)) {
-        KVU("vsync_edges", vs.edges);
-        KVU("vsync_spurious", vs.spurious);
-        KVU("vsync_missed_edges", vs.missed);
-        KVU("vsync_fallbacks", vs.fallbacks);
-        KV("vsync_on_timer", "%d", vs.on_timer);
-        KV("vsync_period_ns", "%lld", (long long)vs.period_ns);
-        KV("vsync_jitter_us", "%.1f", vs.jitter_us);
-    }
-    rt_fusion_state st;
-    if (rt_fusion_latest(a->fusion, &st)) {
-        KV("orientation_w", "%.6f", st.q.w);
-        KV("orientation_x", "%.6f", st.q.x);
-        KV("orientation_y", "%.6f", st.q.y);
-        KV("orientation_z", "%.6f", st.q.z);
-        if (a->dev.has_truth) {
-            warp_quat truth = sim_trace_orientation(&a->trace, (double)(st.t_ns - a->t0_ns) * 1e-9);
-            KV("orientation_error_deg", "%.4f", warp_quat_angle_between(truth, st.q) * 180 / WARP_PI);
-        }
-    }
-    for (int m = 0; m < RT_EVAL_METHODS && !live; m++)
-        if (a->eval.acc[m].n) {
-            char k[64];
-            snprintf(k, sizeof k, "psnr_%s", rt_method_name(rt_eval_methods[m]));
-            KV(k, "%.3f", a->eval.acc[m].psnr_sum / a->eval.acc[m].n);
-            snprintf(k, sizeof k, "ssim_%s", rt_method_name(rt_eval_methods[m]));
-            KV(k, "%.5f", a->eval.acc[m].ssim_sum / a->eval.acc[m].n);
-        }
-#undef KV
-#undef KVU
-}
 
 bool rt_app_showed_frames(const rt_app *a, char *why, int whylen)
 {
