@@ -11,7 +11,6 @@
 
 #include "drivers/drv_frames.h"
 #include "runtime/rt_config.h"
-#include "runtime/rt_fusion.h"
 
 /* Fixed-bin histogram of milliseconds: 10 us bins up to 250 ms, plus overflow. One writer thread each; the live
  * telemetry reads it while the run goes on, so every field is atomic, written with relaxed loads and stores (plain
