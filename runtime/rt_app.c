@@ -4,7 +4,6 @@
 #include "runtime/rt_app.h"
 
 #include <errno.h>
-#include <fcntl.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -20,6 +19,8 @@
 #include "platform/plat_log.h"
 #include "platform/plat_version.h"
 #include "platform/plat_workers.h"
+#include "runtime/rt_csv.h"
+#include "runtime/rt_live.h"
 #include "runtime/rt_summary.h"
 #include "sim/sim_scene.h"
 #include "warp/warp_resample.h"
@@ -179,39 +180,10 @@ static bool render_init(rt_app *a, char *err, int errlen)
 
 static void stats_kv(rt_app *a, FILE *out, bool live);
 
-#define CSV_HEADER "vsync,vsync_ns,frame_seq,method,warp_ms,missed,m2p_ms,frame_age_ms\n"
-/* The key=value text of one live update: the --stats set is about 3 KB. */
-#define LIVE_BUF_BYTES (32 * 1024)
-#define LIVE_AUTO_DIR "/run/hmdwarp"
-
-/* [telemetry] live_stats: auto means the runtime directory systemd makes (RuntimeDirectory=hmdwarp) when it is
- * there; a path named outright must be writable now, not first fail a second into the run. */
-static bool live_init(rt_app *a, char *err, int errlen)
-{
-    const char *want = a->cfg.live_stats;
-    if (strcmp(want, "auto") == 0)
-        want = access(LIVE_AUTO_DIR, W_OK) == 0 ? LIVE_AUTO_DIR "/stats" : "";
-    if (want[0]) {
-        char tmp[300];
-        snprintf(tmp, sizeof tmp, "%s.tmp", want);
-        int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-        if (fd < 0) return fail(err, errlen, "[telemetry] live_stats = %s: %s", want, strerror(errno));
-        close(fd);
-        unlink(tmp);
-        snprintf(a->live_path, sizeof a->live_path, "%s", want);
-    }
-    for (int i = 0; i < 2; i++) a->live_buf[i] = malloc(LIVE_BUF_BYTES);
-    a->live_m2p = calloc(1, sizeof *a->live_m2p);
-    a->live_age = calloc(1, sizeof *a->live_age);
-    if (!a->live_buf[0] || !a->live_buf[1] || !a->live_m2p || !a->live_age)
-        return fail(err, errlen, "%s%s", "out of memory", "");
-    return true;
-}
-
 bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen)
 {
     memset(a, 0, sizeof *a);
-    atomic_store(&a->live_pub, -1);
+    rt_live_reset(&a->live);
     a->cfg = *cfg;
     const rt_config *c = &a->cfg;
     char list[512];
@@ -320,14 +292,8 @@ bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen)
 
     if (!rt_ring_init(&a->eval.ring, sizeof(rt_eval_record), 64))
         return fail(err, errlen, "%s%s", "out of memory", "");
-    if (c->csv[0]) {
-        a->csv = fopen(c->csv, "w");
-        if (!a->csv) return fail(err, errlen, "[telemetry] csv = %s: %s", c->csv, strerror(errno));
-        a->csv_bytes = (uint64_t)fprintf(a->csv, "%s", CSV_HEADER);
-        if (!rt_ring_init(&a->csv_ring, sizeof(rt_csv_row), 8192))
-            return fail(err, errlen, "%s%s", "out of memory", "");
-    }
-    return live_init(a, err, errlen);
+    return rt_csv_open(&a->csv, c->csv, c->csv_max_mb, err, errlen) &&
+           rt_live_init(&a->live, c->live_stats, err, errlen);
 }
 
 static void *imu_thread(void *arg)
@@ -458,135 +424,10 @@ static void *frames_thread(void *arg)
     return NULL;
 }
 
-/* [telemetry] csv_max_mb: the full file becomes FILE.1 (replacing the one before) and FILE starts again with its
- * header. freopen keeps the FILE pointer, which the compositor tests (a->csv) to decide whether to queue rows. */
-static void rotate_csv(rt_app *a)
-{
-    const char *path = a->cfg.csv;
-    char old[300];
-    snprintf(old, sizeof old, "%s.1", path);
-    fflush(a->csv);
-    if (rename(path, old) != 0)
-        plat_log(PLAT_LOG_WARNING, "[telemetry] csv = %s: cannot rotate to %s (%s): starting it again", path, old,
-                 strerror(errno));
-    if (!freopen(path, "w", a->csv)) {
-        plat_log(PLAT_LOG_ERR, "[telemetry] csv = %s: cannot reopen (%s): no more CSV rows this run", path,
-                 strerror(errno));
-        a->csv_dead = true; /* freopen closed the stream */
-        return;
-    }
-    a->csv_bytes = (uint64_t)fprintf(a->csv, "%s", CSV_HEADER);
-}
+/* The live view's text: the key=value set of --stats (rt_live.h). */
+static void live_text(void *ctx, FILE *out, bool live) { stats_kv(ctx, out, live); }
 
-static void drain_csv(rt_app *a)
-{
-    rt_csv_row r;
-    const uint64_t max = (uint64_t)(a->cfg.csv_max_mb * 1024 * 1024);
-    while (rt_ring_pop(&a->csv_ring, &r)) {
-        if (a->csv_dead) continue;
-        int n = fprintf(a->csv, "%llu,%lld,%llu,%s,%.3f,%d,%.3f,%.3f\n", (unsigned long long)r.vsync_no,
-                        (long long)r.vsync_ns, (unsigned long long)r.frame_seq, rt_method_name((rt_method)r.method),
-                        r.warp_ms, r.missed, r.m2p_ms, r.frame_age_ms);
-        if (n > 0) a->csv_bytes += (uint64_t)n;
-        if (max && a->csv_bytes >= max) rotate_csv(a);
-    }
-}
-
-/* State the helper thread keeps from one live update to the next (rates are differences over the second). */
-typedef struct {
-    int64_t t_ns;
-    uint64_t vsyncs, frames, bytes;
-    bool write_failed; /* said once, not every second */
-} live_prev;
-
-/* The key=value text into the buffer not published, then published: the abort handler may read the other one
- * at any moment. fmemopen over the fixed buffer: nothing allocated per update but the FILE. */
-static size_t live_render(rt_app *a, bool live)
-{
-    int pub = atomic_load(&a->live_pub);
-    int next = pub == 0 ? 1 : 0;
-    FILE *f = fmemopen(a->live_buf[next], LIVE_BUF_BYTES, "w");
-    if (!f) return 0;
-    stats_kv(a, f, live);
-    long n = ftell(f);
-    fclose(f);
-    if (n <= 0) return 0;
-    if (n >= LIVE_BUF_BYTES) n = LIVE_BUF_BYTES - 1;
-    atomic_store(&a->live_len[next], (size_t)n);
-    atomic_store(&a->live_pub, next);
-    return (size_t)n;
-}
-
-/* Rewritten whole and renamed into place: a reader sees the last complete second or the one before, never half. */
-static bool live_write_file(rt_app *a, const char *text, size_t len)
-{
-    char tmp[300];
-    snprintf(tmp, sizeof tmp, "%s.tmp", a->live_path);
-    int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-    if (fd < 0) return false;
-    size_t off = 0;
-    while (off < len) {
-        ssize_t w = write(fd, text + off, len - off);
-        if (w < 0 && errno == EINTR) continue;
-        if (w <= 0) break;
-        off += (size_t)w;
-    }
-    bool ok = off == len && close(fd) == 0;
-    if (off != len) close(fd);
-    if (ok && rename(tmp, a->live_path) == 0) return true;
-    unlink(tmp);
-    return false;
-}
-
-/* Once a second: the stats text (file and abort handler) and systemd's STATUS line. The STATUS percentiles are
- * over the last second; the file's, like --stats, over the whole run. */
-static void live_update(rt_app *a, live_prev *p, bool notify)
-{
-    const rt_telemetry *t = a->tel;
-    size_t len = live_render(a, true);
-    if (a->live_path[0] && len) {
-        int pub = atomic_load(&a->live_pub);
-        bool ok = live_write_file(a, a->live_buf[pub], len);
-        if (!ok && !p->write_failed)
-            plat_log(PLAT_LOG_WARNING, "[telemetry] live_stats = %s: cannot write (%s); retrying each second",
-                     a->live_path, strerror(errno));
-        if (ok && p->write_failed) plat_log(PLAT_LOG_NOTICE, "[telemetry] live_stats = %s: written again", a->live_path);
-        p->write_failed = !ok;
-    }
-    int64_t now = plat_now_ns();
-    uint64_t v = t->vsyncs, fr = t->frames_received, by = t->frames_bytes;
-    double dt = p->t_ns ? (double)(now - p->t_ns) * 1e-9 : 0;
-    double m2p = rt_hist_pct_since(&t->m2p_ms, a->live_m2p, 99);
-    double age = rt_hist_pct_since(&t->frame_age_ms, a->live_age, 50);
-    if (notify && dt > 0)
-        sd_notifyf(0,
-                   "STATUS=%.1f vsyncs/s, %llu vsyncs, missed %llu (own %llu, woken late %llu, descheduled %llu, "
-                   "no free image %llu); last second: m2p p99 %.1f ms, frame age p50 %.1f ms; link %.1f MB/s, "
-                   "%.1f frames/s",
-                   (double)(v - p->vsyncs) / dt, (unsigned long long)v, (unsigned long long)t->missed,
-                   (unsigned long long)t->missed_by[RT_MISS_OWN], (unsigned long long)t->missed_by[RT_MISS_LATE_WAKE],
-                   (unsigned long long)t->missed_by[RT_MISS_DESCHEDULED],
-                   (unsigned long long)t->missed_by[RT_MISS_NO_BUFFER], m2p, age,
-                   (double)(by - p->bytes) / dt / (1024 * 1024), (double)(fr - p->frames) / dt);
-    p->t_ns = now;
-    p->vsyncs = v;
-    p->frames = fr;
-    p->bytes = by;
-}
-
-bool rt_app_write_last_stats(rt_app *a, int fd)
-{
-    int pub = atomic_load(&a->live_pub);
-    if (pub < 0 || !a->live_buf[pub]) return false;
-    size_t len = atomic_load(&a->live_len[pub]), off = 0;
-    while (off < len) {
-        ssize_t w = write(fd, a->live_buf[pub] + off, len - off);
-        if (w < 0 && errno == EINTR) continue;
-        if (w <= 0) return false;
-        off += (size_t)w;
-    }
-    return true;
-}
+bool rt_app_write_last_stats(rt_app *a, int fd) { return rt_live_write_last(&a->live, fd); }
 
 static void *aux_thread(void *arg)
 {
@@ -600,12 +441,12 @@ static void *aux_thread(void *arg)
     /* STATUS= only under systemd (sd_notify is a no-op elsewhere, but formatting it need not run) */
     bool notify = getenv("NOTIFY_SOCKET") != NULL;
     int64_t next_ping = plat_now_ns(), next_live = plat_now_ns() + PLAT_NS_PER_S;
-    live_prev lp = {0};
-    live_update(a, &lp, false); /* marks and rates start now; the abort handler has something from the start */
+    /* marks and rates start now; the abort handler has something from the start */
+    rt_live_update(&a->live, a->tel, live_text, a, false);
     while (!atomic_load(&a->stop)) {
-        if (a->csv) drain_csv(a);
+        rt_csv_drain(&a->csv);
         if (plat_now_ns() >= next_live) {
-            live_update(a, &lp, notify);
+            rt_live_update(&a->live, a->tel, live_text, a, notify);
             next_live += PLAT_NS_PER_S;
             if (next_live < plat_now_ns()) next_live = plat_now_ns() + PLAT_NS_PER_S; /* after a stall: no burst */
         }
@@ -617,17 +458,8 @@ static void *aux_thread(void *arg)
         }
         plat_sleep_ns(20 * PLAT_NS_PER_MS);
     }
-    if (a->csv) drain_csv(a);
+    rt_csv_drain(&a->csv);
     return NULL;
-}
-
-/* The last word of the live file once every thread has stopped: what --stats says (running=0), so hmdwarp-top
- * shows the end. */
-static void live_final(rt_app *a)
-{
-    size_t len = live_render(a, false);
-    if (a->live_path[0] && len && !live_write_file(a, a->live_buf[atomic_load(&a->live_pub)], len))
-        plat_log(PLAT_LOG_WARNING, "[telemetry] live_stats = %s: cannot write (%s)", a->live_path, strerror(errno));
 }
 
 void rt_app_request_stop(rt_app *a) { atomic_store(&a->stop, 1); }
@@ -635,7 +467,8 @@ void rt_app_request_stop(rt_app *a) { atomic_store(&a->stop, 1); }
 void rt_app_run(rt_app *a)
 {
     pthread_t eval_th;
-    bool eval_up = a->dev.has_truth && a->cfg.eval_every_ms > 0 && pthread_create(&eval_th, NULL, rt_eval_thread, a) == 0;
+    bool eval_up =
+        a->dev.has_truth && a->cfg.eval_every_ms > 0 && pthread_create(&eval_th, NULL, rt_eval_thread, a) == 0;
     a->run_start_ns = plat_now_ns();
     a->th_imu_up = pthread_create(&a->th_imu, NULL, imu_thread, a) == 0;
     a->th_frames_up = pthread_create(&a->th_frames, NULL, frames_thread, a) == 0;
@@ -659,7 +492,8 @@ void rt_app_run(rt_app *a)
         a->sim_frames = st.frames;
         memcpy(a->sim_plane_renders, st.plane_renders, sizeof st.plane_renders);
     }
-    live_final(a);
+    /* the live file's last word once every thread has stopped: what --stats says, so hmdwarp-top shows the end */
+    rt_live_final(&a->live, live_text, a);
 }
 
 /* The run's parts as the summary table reads them (rt_summary.h). live: while the run goes on (the helper thread),
@@ -722,7 +556,7 @@ static void summary_src(rt_app *a, rt_summary_src *s, bool live, char *output, i
     s->accuracy = d->has_truth && c->eval_every_ms > 0;
     s->eval = a->eval.acc;
     s->eval_pose = &a->eval.pose;
-    s->csv = a->csv ? c->csv : NULL;
+    s->csv = a->csv.f ? c->csv : NULL;
 }
 
 static void stats_kv(rt_app *a, FILE *out, bool live)
@@ -791,12 +625,8 @@ void rt_app_free(rt_app *a)
     plat_swapchain_free(&a->sc);
     rt_frameq_free(&a->fq);
     rt_ring_free(&a->eval.ring);
-    rt_ring_free(&a->csv_ring);
-    if (a->csv && !a->csv_dead) fclose(a->csv);
-    free(a->live_buf[0]);
-    free(a->live_buf[1]);
-    free(a->live_m2p);
-    free(a->live_age);
+    rt_csv_close(&a->csv);
+    rt_live_free(&a->live);
     free(a->fusion);
     rt_telemetry_destroy(a->tel);
     memset(a, 0, sizeof *a);

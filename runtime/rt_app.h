@@ -13,10 +13,12 @@
 #include "drivers/drv_frames.h"
 #include "platform/plat_display.h"
 #include "runtime/rt_config.h"
+#include "runtime/rt_csv.h"
 #include "runtime/rt_devices.h"
 #include "runtime/rt_eval.h"
 #include "runtime/rt_frameq.h"
 #include "runtime/rt_fusion.h"
+#include "runtime/rt_live.h"
 #include "runtime/rt_ring.h"
 #include "runtime/rt_select.h"
 #include "runtime/rt_telemetry.h"
@@ -43,15 +45,6 @@ typedef struct sim_scene sim_scene;
 
 /* Older than this, the newest IMU state is not extrapolated: the device is gone or stalled (prediction off). */
 #define RT_IMU_STALE_NS (150 * 1000000LL)
-
-/* One CSV row per vsync, produced on the vsync path and written by the telemetry thread. */
-typedef struct {
-    uint64_t vsync_no, frame_seq;
-    int64_t vsync_ns;
-    float warp_ms, m2p_ms, frame_age_ms;
-    int method;
-    int missed;
-} rt_csv_row;
 
 typedef struct {
     rt_config cfg;
@@ -114,18 +107,9 @@ typedef struct {
 
     /* telemetry */
     rt_telemetry *tel;
-    rt_ring csv_ring;
-    FILE *csv;
-    uint64_t csv_bytes;        /* written to the current CSV file (helper thread), for [telemetry] csv_max_mb */
-    bool csv_dead;             /* rotation could not reopen the CSV: rows are dropped, a->csv is closed */
-    /* live telemetry, from the helper thread once a second: the key=value set of --stats in one of two buffers,
-     * the other being rewritten; the abort handler writes the published one (rt_app_write_last_stats) */
+    rt_csv csv;                /* [telemetry] csv: rows queued on the vsync path, written by the helper thread */
+    rt_live live;              /* the --stats text once a second: live_stats file, STATUS, abort handler */
     int64_t run_start_ns, run_end_ns; /* rt_app_run's start; the compositor's return (0 while running) */
-    char live_path[256];       /* [telemetry] live_stats resolved ("" = off) */
-    char *live_buf[2];
-    _Atomic size_t live_len[2];
-    _Atomic int live_pub;      /* the buffer complete and published, -1 none yet */
-    rt_hist_mark *live_m2p, *live_age; /* the histograms' counts a second ago (STATUS's "last second") */
 
     /* simulated board */
     bool sim_loaded;           /* scene and trace loaded: some device is simulated (rt_devices_simulated) */

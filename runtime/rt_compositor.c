@@ -515,10 +515,10 @@ void rt_compositor_run(rt_app *a)
         double age = frame ? (double)(t_photon - frame->f.pose_t_ns) * 1e-6 : NAN;
         if (tracked) rt_hist_add(&tel->m2p_ms, m2p);
         if (frame) rt_hist_add(&tel->frame_age_ms, age);
-        if (a->csv) {
+        if (a->csv.f) {
             rt_csv_row row = {vsync_no, frame ? frame->f.seq : 0, t_vs, (float)warp_ms, (float)m2p, (float)age,
                               (int)used, missed};
-            rt_ring_push(&a->csv_ring, &row);
+            rt_ring_push(&a->csv.ring, &row);
         }
         if (a->dev.has_truth && eval_every > 0 && frame && t_vs >= next_eval) {
             rt_eval_record r = {vsync_no, frame->f.seq, frame->f.scene_time,
