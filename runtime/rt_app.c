@@ -20,6 +20,7 @@
 #include "platform/plat_version.h"
 #include "platform/plat_workers.h"
 #include "runtime/rt_csv.h"
+#include "runtime/rt_gles.h"
 #include "runtime/rt_live.h"
 #include "runtime/rt_summary.h"
 #include "sim/sim_scene.h"
@@ -53,39 +54,6 @@ static void names_list(const char *const *names, char *buf, size_t len)
         strncat(buf, i ? ", " : "", len - strlen(buf) - 1);
         strncat(buf, names[i], len - strlen(buf) - 1);
     }
-}
-
-bool rt_render_choose(const char *setting, const char *gl_renderer, const char *egl_err, bool kms, char *why,
-                      int whylen)
-{
-    size_t n = (size_t)whylen;
-    if (strcmp(setting, "cpu") == 0) {
-        snprintf(why, n, "renderer = cpu");
-        return false;
-    }
-    if (strcmp(setting, "gles") == 0) {
-        if (gl_renderer)
-            snprintf(why, n, "renderer = gles%s", plat_egl_renderer_is_software(gl_renderer)
-                                                      ? " (forced onto a software rasterizer)"
-                                                      : "");
-        else
-            snprintf(why, n, "renderer = gles, but no EGL: %s", egl_err ? egl_err : "unknown error");
-        return true;
-    }
-    /* with output = kms the CPU path shows through dumb buffers, so the choice is the same as offscreen */
-    const char *via = kms ? "; KMS through dumb buffers" : "";
-    if (!gl_renderer) {
-        snprintf(why, n, "auto: no usable EGL / OpenGL ES 3 (%s)%s", egl_err ? egl_err : "unknown error", via);
-        return false;
-    }
-    if (!plat_egl_renderer_is_software(gl_renderer)) {
-        snprintf(why, n, "auto: EGL offers a hardware GPU");
-        return true;
-    }
-    snprintf(why, n, "auto: EGL offers only a software rasterizer (%s); the CPU path is faster there and vsync "
-                     "comes first%s",
-             gl_renderer, via);
-    return false;
 }
 
 /* The CPU path's KMS output: dumb buffers on the panel's connector (a->dev.display; a->dev.kms borrowed from it). */
@@ -128,13 +96,13 @@ static bool render_init(rt_app *a, char *err, int errlen)
     }
     if (strcmp(c->renderer, "cpu") != 0) {
         if (kms) {
-            a->egl = plat_egl_open_kms(&kp, eerr, sizeof eerr);
+            a->gl.egl = plat_egl_open_kms(&kp, eerr, sizeof eerr);
             /* a missing device fails the same way on the CPU path: say so now, in the KMS terms */
-            if (!a->egl && (forced || strncmp(eerr, "no DRM device", 13) == 0 || strncmp(eerr, "kms_device", 10) == 0))
+            if (!a->gl.egl && (forced || strncmp(eerr, "no DRM device", 13) == 0 || strncmp(eerr, "kms_device", 10) == 0))
                 return fail(err, errlen, "[display] output = kms: %s%s", eerr, "");
-            if (a->egl) {
+            if (a->gl.egl) {
                 int mw, mh;
-                plat_egl_kms_mode(a->egl, &mw, &mh, NULL, NULL);
+                plat_egl_kms_mode(a->gl.egl, &mw, &mh, NULL, NULL);
                 if (mw != c->panel_w || mh != c->panel_h) {
                     char m[64];
                     snprintf(m, sizeof m, "%dx%d, the panel is %dx%d", mw, mh, c->panel_w, c->panel_h);
@@ -142,39 +110,39 @@ static bool render_init(rt_app *a, char *err, int errlen)
                 }
             }
         } else {
-            a->egl = plat_egl_open_offscreen(eerr, sizeof eerr);
+            a->gl.egl = plat_egl_open_offscreen(eerr, sizeof eerr);
         }
     }
-    a->use_gles = rt_render_choose(c->renderer, a->egl ? plat_egl_renderer(a->egl) : NULL, eerr, kms, a->render_why,
+    a->gl.use = rt_render_choose(c->renderer, a->gl.egl ? plat_egl_renderer(a->gl.egl) : NULL, eerr, kms, a->render_why,
                                    sizeof a->render_why);
-    if (a->use_gles && !a->egl) return fail(err, errlen, "[render] renderer = gles: %s%s", eerr, "");
-    a->gles_software = a->egl && plat_egl_renderer_is_software(plat_egl_renderer(a->egl));
-    if (!a->use_gles) {
+    if (a->gl.use && !a->gl.egl) return fail(err, errlen, "[render] renderer = gles: %s%s", eerr, "");
+    a->gl.software = a->gl.egl && plat_egl_renderer_is_software(plat_egl_renderer(a->gl.egl));
+    if (!a->gl.use) {
         /* closed before the CPU path opens the device: one master, one owner of the CRTC */
-        plat_egl_close(a->egl);
-        a->egl = NULL;
+        plat_egl_close(a->gl.egl);
+        a->gl.egl = NULL;
         return !kms || cpu_kms_init(a, &kp, err, errlen);
     }
     /* the GPU path runs transparency and object warps as its raytrace (no GLES pass for them yet) */
-    a->gles_depth = c->method != RT_METHOD_NONE && c->method != RT_METHOD_ROTATION;
+    a->gl.depth = c->method != RT_METHOD_NONE && c->method != RT_METHOD_ROTATION;
     plat_gles_params gp = {c->panel_w, c->panel_h, c->eye_w, c->eye_h, a->mesh[0].cols, a->mesh[0].rows,
-                           a->gles_depth, kms, true, false};
-    a->gles = plat_gles_create(a->egl, &gp, eerr, sizeof eerr);
-    if (!a->gles) {
+                           a->gl.depth, kms, true, false};
+    a->gl.renderer = plat_gles_create(a->gl.egl, &gp, eerr, sizeof eerr);
+    if (!a->gl.renderer) {
         if (forced) return fail(err, errlen, "[render] renderer = %s: %s", c->renderer, eerr);
         /* auto on a GPU whose driver cannot run our shaders: the CPU path still works, on KMS too */
         snprintf(a->render_why, sizeof a->render_why, "auto: the GPU (%.60s) cannot run the GLES renderer: %.140s",
-                 plat_egl_renderer(a->egl), eerr);
-        plat_egl_close(a->egl);
-        a->egl = NULL;
-        a->use_gles = false;
+                 plat_egl_renderer(a->gl.egl), eerr);
+        plat_egl_close(a->gl.egl);
+        a->gl.egl = NULL;
+        a->gl.use = false;
         return !kms || cpu_kms_init(a, &kp, err, errlen);
     }
-    if (kms) a->dev.kms = plat_egl_kms(a->egl);
-    a->gles_ms = calloc(PLAT_GLES_PASSES, sizeof *a->gles_ms);
-    if (!a->gles_ms) return fail(err, errlen, "%s%s", "out of memory", "");
+    if (kms) a->dev.kms = plat_egl_kms(a->gl.egl);
+    a->gl.ms = calloc(PLAT_GLES_PASSES, sizeof *a->gl.ms);
+    if (!a->gl.ms) return fail(err, errlen, "%s%s", "out of memory", "");
     /* The compositor thread makes the context current for itself. */
-    plat_egl_release(a->egl);
+    plat_egl_release(a->gl.egl);
     return true;
 }
 
@@ -509,21 +477,21 @@ static void summary_src(rt_app *a, rt_summary_src *s, bool live, char *output, i
      * catching up afterwards): the span the vsync counts cover */
     int64_t since = a->run_start_ns ? (a->run_end_ns ? a->run_end_ns : plat_now_ns()) - a->t0_ns : 0;
     s->run_s = since > 0 ? (double)since * 1e-9 : 0.0;
-    s->gles = a->use_gles;
-    s->gles_software = a->gles_software;
-    s->gles_depth = a->gles_depth;
+    s->gles = a->gl.use;
+    s->gles_software = a->gl.software;
+    s->gles_depth = a->gl.depth;
     s->realtime = a->realtime;
     s->memory_locked = a->memory_locked;
-    s->gl_renderer = a->use_gles ? plat_egl_renderer(a->egl) : "";
-    s->gl_version = a->use_gles ? plat_egl_version(a->egl) : "";
-    s->gles_timing = a->gles ? plat_gles_timing_method(a->gles) : "";
-    s->gles_gpu_pyramid = a->gles && plat_gles_gpu_pyramid(a->gles);
+    s->gl_renderer = a->gl.use ? plat_egl_renderer(a->gl.egl) : "";
+    s->gl_version = a->gl.use ? plat_egl_version(a->gl.egl) : "";
+    s->gles_timing = a->gl.renderer ? plat_gles_timing_method(a->gl.renderer) : "";
+    s->gles_gpu_pyramid = a->gl.renderer && plat_gles_gpu_pyramid(a->gl.renderer);
     s->render_why = a->render_why;
     s->cpu_kernel = warp_resample_kernel();
     s->threads = a->workers ? plat_workers_threads(a->workers) : 0;
-    s->gles_ms = a->gles_ms;
-    s->gles_errors = a->gles_errors;
-    s->gles_last_error = a->gles_last_error;
+    s->gles_ms = a->gl.ms;
+    s->gles_errors = a->gl.errors;
+    s->gles_last_error = a->gl.last_error;
     s->raytrace_fallbacks = a->raytrace_fallbacks;
     s->plane_fallbacks = a->plane_fallbacks;
     const rt_devices *d = &a->dev;
@@ -606,9 +574,7 @@ bool rt_app_showed_frames(const rt_app *a, char *why, int whylen)
 void rt_app_free(rt_app *a)
 {
     rt_devices_close(&a->dev);
-    if (a->gles && plat_egl_make_current(a->egl)) plat_gles_destroy(a->gles);
-    plat_egl_close(a->egl);
-    free(a->gles_ms);
+    rt_gles_free(&a->gl);
     if (a->workers) plat_workers_destroy(a->workers);
     for (int e = 0; e < 2; e++) {
         warp_mesh_free(&a->mesh[e]);

@@ -18,6 +18,7 @@
 #include "runtime/rt_eval.h"
 #include "runtime/rt_frameq.h"
 #include "runtime/rt_fusion.h"
+#include "runtime/rt_gles.h"
 #include "runtime/rt_live.h"
 #include "runtime/rt_ring.h"
 #include "runtime/rt_select.h"
@@ -38,8 +39,6 @@
 #include "warp/warp_transparency.h"
 
 /* Opaque parts held by pointer: their headers are for the files that call them. */
-typedef struct plat_egl plat_egl;
-typedef struct plat_gles plat_gles;
 typedef struct plat_workers plat_workers;
 typedef struct sim_scene sim_scene;
 
@@ -89,21 +88,9 @@ typedef struct {
     int obj_n;
     bool obj_two;                  /* two frames' object poses known: extrapolation possible */
 
-    /* renderer ([render] renderer, rt_render_choose) */
-    bool use_gles;
-    bool gles_software; /* the GLES renderer is a software rasterizer: its GPU time is CPU time after the submit */
-    char render_why[256];       /* why this renderer was chosen, for the summary */
-    plat_egl *egl;              /* EGL display + context (GLES only) */
-    plat_gles *gles;
-    bool gles_depth;            /* the GLES resources include depth, pyramid and raytrace */
-    const rt_frame *gles_frame; /* the frame whose planes are in the GLES textures */
-    uint64_t gles_frame_seq;
-    _Atomic uint64_t gles_errors; /* failed uploads, readbacks or page flips (read live: atomic) */
-    char gles_last_error[200];
-    rt_hist *gles_ms;           /* [PLAT_GLES_PASSES] GPU time per pass and vsync (compositor thread) */
-    uint64_t gles_times_seq;
-    double gles_gpu_ms;         /* newest complete frame's GPU time, all passes */
-    int64_t gles_submit_ns;     /* when the last vsync's GL work was all submitted */
+    /* renderer ([render] renderer, rt_render_choose) and the GLES path (rt_gles.h) */
+    char render_why[256];      /* why this renderer was chosen, for the summary */
+    rt_gles gl;
 
     /* telemetry */
     rt_telemetry *tel;
@@ -141,15 +128,6 @@ bool rt_app_showed_frames(const rt_app *a, char *why, int whylen);
  * async-signal-safe, for the abort handler. Returns false when none was published yet. */
 bool rt_app_write_last_stats(rt_app *a, int fd);
 void rt_app_free(rt_app *a);
-
-/* Decides the renderer from [render] renderer (`setting`: auto, cpu, gles), the GL_RENDERER string of the context
- * EGL gave (NULL when it gave none; egl_err then says why) and whether the output is KMS. Returns true for GLES
- * and writes the reason in one line to why. auto picks GLES on a hardware GPU and the CPU path when only a
- * software rasterizer (llvmpipe) or no EGL is there: there the CPU path is faster, and vsync comes first. With
- * KMS output the choice is the same (the CPU path shows through dumb buffers). A forced gles without EGL returns
- * true: the caller fails. */
-bool rt_render_choose(const char *setting, const char *gl_renderer, const char *egl_err, bool kms, char *why,
-                      int whylen);
 
 /* The compositor loop (rt_compositor.c). */
 void rt_compositor_run(rt_app *a);
