@@ -98,7 +98,8 @@ static bool render_init(rt_app *a, char *err, int errlen)
         if (kms) {
             a->gl.egl = plat_egl_open_kms(&kp, eerr, sizeof eerr);
             /* a missing device fails the same way on the CPU path: say so now, in the KMS terms */
-            if (!a->gl.egl && (forced || strncmp(eerr, "no DRM device", 13) == 0 || strncmp(eerr, "kms_device", 10) == 0))
+            if (!a->gl.egl &&
+                (forced || strncmp(eerr, "no DRM device", 13) == 0 || strncmp(eerr, "kms_device", 10) == 0))
                 return fail(err, errlen, "[display] output = kms: %s%s", eerr, "");
             if (a->gl.egl) {
                 int mw, mh;
@@ -264,44 +265,6 @@ bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen)
            rt_live_init(&a->live, c->live_stats, err, errlen);
 }
 
-static void *imu_thread(void *arg)
-{
-    rt_app *a = arg;
-    plat_thread_set_name("hmdwarp-imu");
-    /* Just below the compositor: late IMU samples are late photons. */
-    if (a->cfg.rt_priority > 1) plat_thread_set_realtime(a->cfg.rt_priority - 1);
-    drv_imu_sample buf[64];
-    bool lost = false;
-    while (!atomic_load_explicit(&a->stop, memory_order_relaxed)) {
-        int n = drv_imu_read(a->dev.imu, buf, 64, 50);
-        if (n < 0) {
-            /* Device gone: the display holds the last orientation (RT_IMU_STALE_NS) while the backend retries;
-             * read() itself paces the reopen attempts. */
-            atomic_fetch_add(&a->tel->imu_read_errors, 1);
-            if (!lost) {
-                atomic_fetch_add(&a->tel->imu_lost, 1);
-                drv_imu_stats ds;
-                drv_imu_stats_get(a->dev.imu, &ds);
-                plat_log(PLAT_LOG_WARNING, "IMU %s lost (%s): holding the last orientation, retrying",
-                        a->dev.imu->name, ds.last_error[0] ? ds.last_error : strerror(-n));
-                lost = true;
-            }
-            plat_sleep_ns(20 * PLAT_NS_PER_MS);
-            continue;
-        }
-        if (lost && n > 0) {
-            plat_log(PLAT_LOG_NOTICE, "IMU %s is back", a->dev.imu->name);
-            lost = false;
-        }
-        for (int i = 0; i < n; i++) {
-            if (a->dev.imu_remap) rt_devices_remap(&a->dev, &buf[i]);
-            rt_fusion_update(a->fusion, &buf[i]);
-        }
-        atomic_fetch_add_explicit(&a->tel->imu_samples, (uint64_t)n, memory_order_relaxed);
-    }
-    return NULL;
-}
-
 /* Everything derived from a frame is computed here, once per host frame, not once per vsync. */
 static drv_frame_err prepare_frame(rt_frame *s)
 {
@@ -322,74 +285,6 @@ static drv_frame_err prepare_frame(rt_frame *s)
             warp_transparency_unblend(&s->f.color[eye], &s->f.layers[eye], &s->opaque[eye]);
     }
     return DRV_FRAME_OK;
-}
-
-/* What a frame's dense planes hold: about what the host link carried for it (the link's MB/s), less framing and
- * compression. The A-buffer's fragments are left out: counting them would walk every pixel's count again. */
-static uint64_t frame_bytes(const drv_frame *f)
-{
-    uint64_t px = 0, b = 0;
-    for (int e = 0; e < 2; e++) px += (uint64_t)f->color[e].w * (uint64_t)f->color[e].h;
-    if (f->planes & DRV_PLANE_COLOR) b += px * 4;
-    if (f->planes & DRV_PLANE_DEPTH) b += px * 4;
-    if (f->planes & DRV_PLANE_IDS) b += px * 2;
-    if (f->planes & DRV_PLANE_MOTION) b += px * 8;
-    if (f->planes & DRV_PLANE_LAYERS) b += px; /* the per-pixel fragment counts */
-    return b;
-}
-
-static void *frames_thread(void *arg)
-{
-    rt_app *a = arg;
-    plat_thread_set_name("hmdwarp-frames");
-    /* The log (this thread may do I/O; the vsync thread never does): each kind of rejection at once, then at most
-     * one line a second; a host that goes quiet, and when it is back. */
-    int64_t last_ok = plat_now_ns(), last_log = 0;
-    bool quiet = false, seen_ok = false;
-    uint64_t logged[DRV_FRAME_ERR_COUNT] = {0};
-    while (!atomic_load_explicit(&a->stop, memory_order_relaxed)) {
-        rt_frame *slot = rt_frameq_back(&a->fq);
-        int rc = drv_frames_receive(a->dev.frames, &slot->f, 50);
-        int64_t now = plat_now_ns();
-        if (rc == 0) {
-            if (seen_ok && !quiet && now - last_ok > PLAT_NS_PER_S) {
-                plat_log(PLAT_LOG_WARNING, "no host frame for %.1f s: warping the last good frame",
-                        (double)(now - last_ok) * 1e-9);
-                quiet = true;
-            }
-            continue;
-        }
-        drv_frame_err e = rc < 0 ? (drv_frame_err)(-rc) : prepare_frame(slot);
-        if (e != DRV_FRAME_OK) {
-            /* Rejected: counted, and the compositor keeps warping the last good frame. */
-            if (e < 0 || e >= DRV_FRAME_ERR_COUNT) e = DRV_FRAME_ERR_IO;
-            uint64_t n = atomic_fetch_add(&a->tel->frames_rejected[e], 1) + 1;
-            if (!logged[e] || now - last_log > PLAT_NS_PER_S) {
-                char why[200];
-                drv_frames_last_error(a->dev.frames, why, sizeof why);
-                plat_log(PLAT_LOG_WARNING, "host frame rejected (%s, %llu so far)%s%s; the last good frame stays",
-                        drv_frame_err_str(e), (unsigned long long)n, why[0] ? ": " : "", why);
-                logged[e] = n;
-                last_log = now;
-            }
-            continue;
-        }
-        if (quiet)
-            plat_log(PLAT_LOG_NOTICE, "host frames are back after %.1f s", (double)(now - last_ok) * 1e-9);
-        quiet = false;
-        seen_ok = true;
-        last_ok = now;
-        /* A host that cannot place its render start on the board's clock sends 0. */
-        if (slot->f.render_start_ns)
-            rt_hist_add(&a->tel->host_render_ms, (double)(slot->f.received_ns - slot->f.render_start_ns) * 1e-6);
-        /* Through a mock the simulated host's scene time is not on the wire: it is the pose time on the
-         * simulated board's clock, which is what the accuracy evaluator re-renders. */
-        if (a->dev.has_truth && !a->dev.sim_host) slot->f.scene_time = (double)(slot->f.pose_t_ns - a->t0_ns) * 1e-9;
-        atomic_fetch_add(&a->tel->frames_received, 1);
-        atomic_fetch_add_explicit(&a->tel->frames_bytes, frame_bytes(&slot->f), memory_order_relaxed);
-        rt_frameq_publish(&a->fq);
-    }
-    return NULL;
 }
 
 /* The live view's text: the key=value set of --stats (rt_live.h). */
@@ -438,8 +333,10 @@ void rt_app_run(rt_app *a)
     bool eval_up =
         a->dev.has_truth && a->cfg.eval_every_ms > 0 && pthread_create(&eval_th, NULL, rt_eval_thread, a) == 0;
     a->run_start_ns = plat_now_ns();
-    a->th_imu_up = pthread_create(&a->th_imu, NULL, imu_thread, a) == 0;
-    a->th_frames_up = pthread_create(&a->th_frames, NULL, frames_thread, a) == 0;
+    a->feed = (rt_devices_feed){&a->dev, a->fusion, &a->fq, a->tel, &a->stop, a->cfg.rt_priority, a->t0_ns,
+                                prepare_frame};
+    a->th_imu_up = pthread_create(&a->th_imu, NULL, rt_devices_imu_thread, &a->feed) == 0;
+    a->th_frames_up = pthread_create(&a->th_frames, NULL, rt_devices_frames_thread, &a->feed) == 0;
     a->th_aux_up = pthread_create(&a->th_aux, NULL, aux_thread, a) == 0;
     plat_thread_set_name("hmdwarp-vsync");
     a->realtime = a->cfg.rt_priority > 0 && plat_thread_set_realtime(a->cfg.rt_priority);

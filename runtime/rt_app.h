@@ -52,6 +52,7 @@ typedef struct {
     _Atomic int stop;
 
     rt_devices dev;        /* IMU, frames, vsync and display (rt_devices.h) */
+    rt_devices_feed feed;  /* what the IMU and frames threads feed (set by rt_app_run) */
 
     /* tracking and frames */
     rt_fusion *fusion;

@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
-/* rt_devices: opens the IMU, host-frame and vsync backends board.ini names, real or mock, with one clear error
- * naming the key and the device when one cannot be opened. */
+/* rt_devices: the devices of a run as one part: the IMU, host-frame and vsync backends board.ini names (real or
+ * mock), the display output and the IMU's mounting, opened with one clear error; and the threads that read them. */
 #include <stdio.h>
 #include <string.h>
 
@@ -12,6 +12,7 @@
 #include "drivers/drv_vsync_gpio_mock.h"
 #include "drivers/drv_vsync_kms.h"
 #include "platform/plat_clock.h"
+#include "platform/plat_log.h"
 #include "runtime/rt_devices.h"
 
 static bool is_mock(const char *dev) { return strcmp(dev, "mock") == 0; }
@@ -224,4 +225,111 @@ void rt_devices_close(rt_devices *d)
     d->vsync = NULL;
     d->display = NULL;
     d->kms = NULL;
+}
+
+void *rt_devices_imu_thread(void *arg)
+{
+    rt_devices_feed *a = arg;
+    plat_thread_set_name("hmdwarp-imu");
+    /* Just below the compositor: late IMU samples are late photons. */
+    if (a->rt_priority > 1) plat_thread_set_realtime(a->rt_priority - 1);
+    drv_imu_sample buf[64];
+    bool lost = false;
+    while (!atomic_load_explicit(a->stop, memory_order_relaxed)) {
+        int n = drv_imu_read(a->dev->imu, buf, 64, 50);
+        if (n < 0) {
+            /* Device gone: the display holds the last orientation (RT_IMU_STALE_NS) while the backend retries;
+             * read() itself paces the reopen attempts. */
+            atomic_fetch_add(&a->tel->imu_read_errors, 1);
+            if (!lost) {
+                atomic_fetch_add(&a->tel->imu_lost, 1);
+                drv_imu_stats ds;
+                drv_imu_stats_get(a->dev->imu, &ds);
+                plat_log(PLAT_LOG_WARNING, "IMU %s lost (%s): holding the last orientation, retrying",
+                        a->dev->imu->name, ds.last_error[0] ? ds.last_error : strerror(-n));
+                lost = true;
+            }
+            plat_sleep_ns(20 * PLAT_NS_PER_MS);
+            continue;
+        }
+        if (lost && n > 0) {
+            plat_log(PLAT_LOG_NOTICE, "IMU %s is back", a->dev->imu->name);
+            lost = false;
+        }
+        for (int i = 0; i < n; i++) {
+            if (a->dev->imu_remap) rt_devices_remap(a->dev, &buf[i]);
+            rt_fusion_update(a->fusion, &buf[i]);
+        }
+        atomic_fetch_add_explicit(&a->tel->imu_samples, (uint64_t)n, memory_order_relaxed);
+    }
+    return NULL;
+}
+
+/* What a frame's dense planes hold: about what the host link carried for it (the link's MB/s), less framing and
+ * compression. The A-buffer's fragments are left out: counting them would walk every pixel's count again. */
+static uint64_t frame_bytes(const drv_frame *f)
+{
+    uint64_t px = 0, b = 0;
+    for (int e = 0; e < 2; e++) px += (uint64_t)f->color[e].w * (uint64_t)f->color[e].h;
+    if (f->planes & DRV_PLANE_COLOR) b += px * 4;
+    if (f->planes & DRV_PLANE_DEPTH) b += px * 4;
+    if (f->planes & DRV_PLANE_IDS) b += px * 2;
+    if (f->planes & DRV_PLANE_MOTION) b += px * 8;
+    if (f->planes & DRV_PLANE_LAYERS) b += px; /* the per-pixel fragment counts */
+    return b;
+}
+
+void *rt_devices_frames_thread(void *arg)
+{
+    rt_devices_feed *a = arg;
+    plat_thread_set_name("hmdwarp-frames");
+    /* The log (this thread may do I/O; the vsync thread never does): each kind of rejection at once, then at most
+     * one line a second; a host that goes quiet, and when it is back. */
+    int64_t last_ok = plat_now_ns(), last_log = 0;
+    bool quiet = false, seen_ok = false;
+    uint64_t logged[DRV_FRAME_ERR_COUNT] = {0};
+    while (!atomic_load_explicit(a->stop, memory_order_relaxed)) {
+        rt_frame *slot = rt_frameq_back(a->fq);
+        int rc = drv_frames_receive(a->dev->frames, &slot->f, 50);
+        int64_t now = plat_now_ns();
+        if (rc == 0) {
+            if (seen_ok && !quiet && now - last_ok > PLAT_NS_PER_S) {
+                plat_log(PLAT_LOG_WARNING, "no host frame for %.1f s: warping the last good frame",
+                        (double)(now - last_ok) * 1e-9);
+                quiet = true;
+            }
+            continue;
+        }
+        drv_frame_err e = rc < 0 ? (drv_frame_err)(-rc) : a->prepare(slot);
+        if (e != DRV_FRAME_OK) {
+            /* Rejected: counted, and the compositor keeps warping the last good frame. */
+            if (e < 0 || e >= DRV_FRAME_ERR_COUNT) e = DRV_FRAME_ERR_IO;
+            uint64_t n = atomic_fetch_add(&a->tel->frames_rejected[e], 1) + 1;
+            if (!logged[e] || now - last_log > PLAT_NS_PER_S) {
+                char why[200];
+                drv_frames_last_error(a->dev->frames, why, sizeof why);
+                plat_log(PLAT_LOG_WARNING, "host frame rejected (%s, %llu so far)%s%s; the last good frame stays",
+                        drv_frame_err_str(e), (unsigned long long)n, why[0] ? ": " : "", why);
+                logged[e] = n;
+                last_log = now;
+            }
+            continue;
+        }
+        if (quiet)
+            plat_log(PLAT_LOG_NOTICE, "host frames are back after %.1f s", (double)(now - last_ok) * 1e-9);
+        quiet = false;
+        seen_ok = true;
+        last_ok = now;
+        /* A host that cannot place its render start on the board's clock sends 0. */
+        if (slot->f.render_start_ns)
+            rt_hist_add(&a->tel->host_render_ms, (double)(slot->f.received_ns - slot->f.render_start_ns) * 1e-6);
+        /* Through a mock the simulated host's scene time is not on the wire: it is the pose time on the
+         * simulated board's clock, which is what the accuracy evaluator re-renders. */
+        if (a->dev->has_truth && !a->dev->sim_host)
+            slot->f.scene_time = (double)(slot->f.pose_t_ns - a->t0_ns) * 1e-9;
+        atomic_fetch_add(&a->tel->frames_received, 1);
+        atomic_fetch_add_explicit(&a->tel->frames_bytes, frame_bytes(&slot->f), memory_order_relaxed);
+        rt_frameq_publish(a->fq);
+    }
+    return NULL;
 }

@@ -1,10 +1,12 @@
 /* SPDX-License-Identifier: MIT */
 /* rt_devices: the devices of a run as one part: the IMU, host-frame and vsync backends board.ini names (real or
- * mock), the display output, and how the IMU is mounted; opened with one clear error naming the key and device. */
+ * mock), the display output and the IMU's mounting, opened with one clear error; and the threads that read them. */
 #ifndef RT_DEVICES_H
 #define RT_DEVICES_H
 
+#include <stdatomic.h>
 #include <stdbool.h>
+#include <stdint.h>
 
 #include "drivers/drv_frames.h"
 #include "drivers/drv_imu.h"
@@ -13,6 +15,9 @@
 #include "platform/plat_display.h"
 #include "platform/plat_kms.h"
 #include "runtime/rt_config.h"
+#include "runtime/rt_frameq.h"
+#include "runtime/rt_fusion.h"
+#include "runtime/rt_telemetry.h"
 
 typedef struct {
     drv_imu *imu;
@@ -38,6 +43,24 @@ bool rt_devices_mount(rt_devices *d, const rt_config *c, char *err, int errlen);
 bool rt_devices_simulated(const rt_config *c);
 /* Board mounting: one sample's axes into the head frame the tracker works in (when d->imu_remap). */
 void rt_devices_remap(const rt_devices *d, drv_imu_sample *s);
+/* What the devices' reading threads feed, and how (rt_devices_imu_thread, rt_devices_frames_thread). */
+typedef struct {
+    rt_devices *dev;
+    rt_fusion *fusion;     /* IMU samples, in the head frame */
+    rt_frameq *fq;         /* host frames that passed validation and prepare */
+    rt_telemetry *tel;
+    _Atomic int *stop;     /* the threads return once it is set */
+    int rt_priority;       /* the compositor's: the IMU thread runs just below it */
+    int64_t t0_ns;         /* scene time origin: a mock host's frames get their scene time from it */
+    /* validation and everything derived from a frame, on the frames thread: once per host frame, never per vsync */
+    drv_frame_err (*prepare)(rt_frame *slot);
+} rt_devices_feed;
+/* The IMU thread: samples into the tracker; a lost device is logged, counted and retried (the display holds the
+ * last orientation meanwhile). arg: an rt_devices_feed. */
+void *rt_devices_imu_thread(void *arg);
+/* The frames thread: received frames prepared and published, rejected ones counted and logged (the last good
+ * frame stays); a host that goes quiet, and when it is back. arg: an rt_devices_feed. */
+void *rt_devices_frames_thread(void *arg);
 /* Closes every device (the display last but one, the KMS output with it or with EGL); NULLs are skipped. */
 void rt_devices_close(rt_devices *d);
 
