@@ -265,28 +265,6 @@ bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen)
            rt_live_init(&a->live, c->live_stats, err, errlen);
 }
 
-/* Everything derived from a frame is computed here, once per host frame, not once per vsync. */
-static drv_frame_err prepare_frame(rt_frame *s)
-{
-    drv_frame_err e = drv_frame_validate(&s->f);
-    if (e != DRV_FRAME_OK) return e;
-    s->has_depth = (s->f.planes & DRV_PLANE_DEPTH) != 0;
-    for (int eye = 0; eye < 2; eye++) {
-        if (s->has_depth) {
-            long bad = warp_inverse_depth_from(&s->f.cam[eye], s->f.depth_encoding, &s->f.depth[eye],
-                                               &s->inv_depth[eye], &s->inv_min[eye], &s->inv_max[eye]);
-            if (bad) return DRV_FRAME_ERR_BAD_DEPTH;
-            warp_raytrace_blockmax(&s->inv_depth[eye], &s->blockmax[eye], RT_BLOCK);
-        }
-        warp_planar3_from_rgba_rows(&s->planar[eye], &s->f.color[eye], 0, s->f.color[eye].h);
-        /* The host blended its transparent fragments into the colour; the transparency warp moves them on their
-         * own, over the surface behind them: recover that once per frame, here, off the vsync path. */
-        if ((s->f.planes & DRV_PLANE_LAYERS) && s->opaque[eye].px)
-            warp_transparency_unblend(&s->f.color[eye], &s->f.layers[eye], &s->opaque[eye]);
-    }
-    return DRV_FRAME_OK;
-}
-
 /* The live view's text: the key=value set of --stats (rt_live.h). */
 static void live_text(void *ctx, FILE *out, bool live) { stats_kv(ctx, out, live); }
 
@@ -334,7 +312,7 @@ void rt_app_run(rt_app *a)
         a->dev.has_truth && a->cfg.eval_every_ms > 0 && pthread_create(&eval_th, NULL, rt_eval_thread, a) == 0;
     a->run_start_ns = plat_now_ns();
     a->feed = (rt_devices_feed){&a->dev, a->fusion, &a->fq, a->tel, &a->stop, a->cfg.rt_priority, a->t0_ns,
-                                prepare_frame};
+                                rt_frame_prepare};
     a->th_imu_up = pthread_create(&a->th_imu, NULL, rt_devices_imu_thread, &a->feed) == 0;
     a->th_frames_up = pthread_create(&a->th_frames, NULL, rt_devices_frames_thread, &a->feed) == 0;
     a->th_aux_up = pthread_create(&a->th_aux, NULL, aux_thread, a) == 0;
