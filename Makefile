@@ -81,8 +81,9 @@ FUZZ_NAMES := $(patsubst tests/fuzz/fuzz_%.c,%,$(FUZZ_SRC))
 FUZZ_REG_BINS := $(patsubst tests/%.c,$(BUILD)/tests/%,$(FUZZ_SRC))
 TEST_BINS += $(FUZZ_REG_BINS)
 # Shell tests printing TAP, run by tests/run.sh like the binaries (after `make all man deb`): make install and
-# board/flash.sh against a fake merged-/usr board root; the version, licence lines and Debian packages.
-TEST_SCRIPTS := tests/flash/test_flash.sh $(wildcard tests/packaging/test_*.sh)
+# board/flash.sh against a fake merged-/usr board root; the version, licence lines and Debian packages; runtime/'s
+# headers self-contained and including only what they use.
+TEST_SCRIPTS := tests/flash/test_flash.sh $(wildcard tests/packaging/test_*.sh) tests/build/test_headers.sh
 
 .PHONY: all programs deps run test test-busy asan install clean results bench stability hil check-cross man install-man \
         have-help2man deb deb-arm64 deb-check fuzz fuzz-build fuzz-bins fuzz-merge soak

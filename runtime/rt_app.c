@@ -3,9 +3,7 @@
  * the run summary. hmdwarpd_main parses arguments; tests drive an instance directly. */
 #include "runtime/rt_app.h"
 
-#include <ctype.h>
 #include <errno.h>
-#include <fcntl.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -15,8 +13,17 @@
 
 #include "drivers/drv_sim.h"
 #include "platform/plat_clock.h"
+#include "platform/plat_egl.h"
+#include "platform/plat_gles.h"
+#include "platform/plat_kms.h"
 #include "platform/plat_log.h"
 #include "platform/plat_version.h"
+#include "platform/plat_workers.h"
+#include "runtime/rt_csv.h"
+#include "runtime/rt_gles.h"
+#include "runtime/rt_live.h"
+#include "runtime/rt_summary.h"
+#include "sim/sim_scene.h"
 #include "warp/warp_resample.h"
 
 static bool predict_for_host(void *ctx, int64_t t_ns, warp_pose *head)
@@ -49,40 +56,7 @@ static void names_list(const char *const *names, char *buf, size_t len)
     }
 }
 
-bool rt_render_choose(const char *setting, const char *gl_renderer, const char *egl_err, bool kms, char *why,
-                      int whylen)
-{
-    size_t n = (size_t)whylen;
-    if (strcmp(setting, "cpu") == 0) {
-        snprintf(why, n, "renderer = cpu");
-        return false;
-    }
-    if (strcmp(setting, "gles") == 0) {
-        if (gl_renderer)
-            snprintf(why, n, "renderer = gles%s", plat_egl_renderer_is_software(gl_renderer)
-                                                      ? " (forced onto a software rasterizer)"
-                                                      : "");
-        else
-            snprintf(why, n, "renderer = gles, but no EGL: %s", egl_err ? egl_err : "unknown error");
-        return true;
-    }
-    /* with output = kms the CPU path shows through dumb buffers, so the choice is the same as offscreen */
-    const char *via = kms ? "; KMS through dumb buffers" : "";
-    if (!gl_renderer) {
-        snprintf(why, n, "auto: no usable EGL / OpenGL ES 3 (%s)%s", egl_err ? egl_err : "unknown error", via);
-        return false;
-    }
-    if (!plat_egl_renderer_is_software(gl_renderer)) {
-        snprintf(why, n, "auto: EGL offers a hardware GPU");
-        return true;
-    }
-    snprintf(why, n, "auto: EGL offers only a software rasterizer (%s); the CPU path is faster there and vsync "
-                     "comes first%s",
-             gl_renderer, via);
-    return false;
-}
-
-/* The CPU path's KMS output: dumb buffers on the panel's connector (a->display; a->kms borrowed from it). */
+/* The CPU path's KMS output: dumb buffers on the panel's connector (a->dev.display; a->dev.kms borrowed from it). */
 static bool cpu_kms_init(rt_app *a, const plat_kms_params *kp, char *err, int errlen)
 {
     char e[300];
@@ -95,9 +69,9 @@ static bool cpu_kms_init(rt_app *a, const plat_kms_params *kp, char *err, int er
         plat_kms_close(k);
         return fail(err, errlen, "[display] output = kms: the mode is %s%s", e, "");
     }
-    a->display = plat_display_kms(k, &a->sc, e, sizeof e);
-    if (!a->display) return fail(err, errlen, "[display] output = kms: %s%s", e, "");
-    a->kms = k;
+    a->dev.display = plat_display_kms(k, &a->sc, e, sizeof e);
+    if (!a->dev.display) return fail(err, errlen, "[display] output = kms: %s%s", e, "");
+    a->dev.kms = k;
     return true;
 }
 
@@ -122,13 +96,14 @@ static bool render_init(rt_app *a, char *err, int errlen)
     }
     if (strcmp(c->renderer, "cpu") != 0) {
         if (kms) {
-            a->egl = plat_egl_open_kms(&kp, eerr, sizeof eerr);
+            a->gl.egl = plat_egl_open_kms(&kp, eerr, sizeof eerr);
             /* a missing device fails the same way on the CPU path: say so now, in the KMS terms */
-            if (!a->egl && (forced || strncmp(eerr, "no DRM device", 13) == 0 || strncmp(eerr, "kms_device", 10) == 0))
+            if (!a->gl.egl &&
+                (forced || strncmp(eerr, "no DRM device", 13) == 0 || strncmp(eerr, "kms_device", 10) == 0))
                 return fail(err, errlen, "[display] output = kms: %s%s", eerr, "");
-            if (a->egl) {
+            if (a->gl.egl) {
                 int mw, mh;
-                plat_egl_kms_mode(a->egl, &mw, &mh, NULL, NULL);
+                plat_egl_kms_mode(a->gl.egl, &mw, &mh, NULL, NULL);
                 if (mw != c->panel_w || mh != c->panel_h) {
                     char m[64];
                     snprintf(m, sizeof m, "%dx%d, the panel is %dx%d", mw, mh, c->panel_w, c->panel_h);
@@ -136,77 +111,48 @@ static bool render_init(rt_app *a, char *err, int errlen)
                 }
             }
         } else {
-            a->egl = plat_egl_open_offscreen(eerr, sizeof eerr);
+            a->gl.egl = plat_egl_open_offscreen(eerr, sizeof eerr);
         }
     }
-    a->use_gles = rt_render_choose(c->renderer, a->egl ? plat_egl_renderer(a->egl) : NULL, eerr, kms, a->render_why,
+    a->gl.use = rt_render_choose(c->renderer, a->gl.egl ? plat_egl_renderer(a->gl.egl) : NULL, eerr, kms, a->render_why,
                                    sizeof a->render_why);
-    if (a->use_gles && !a->egl) return fail(err, errlen, "[render] renderer = gles: %s%s", eerr, "");
-    a->gles_software = a->egl && plat_egl_renderer_is_software(plat_egl_renderer(a->egl));
-    if (!a->use_gles) {
+    if (a->gl.use && !a->gl.egl) return fail(err, errlen, "[render] renderer = gles: %s%s", eerr, "");
+    a->gl.software = a->gl.egl && plat_egl_renderer_is_software(plat_egl_renderer(a->gl.egl));
+    if (!a->gl.use) {
         /* closed before the CPU path opens the device: one master, one owner of the CRTC */
-        plat_egl_close(a->egl);
-        a->egl = NULL;
+        plat_egl_close(a->gl.egl);
+        a->gl.egl = NULL;
         return !kms || cpu_kms_init(a, &kp, err, errlen);
     }
     /* the GPU path runs transparency and object warps as its raytrace (no GLES pass for them yet) */
-    a->gles_depth = c->method != RT_METHOD_NONE && c->method != RT_METHOD_ROTATION;
+    a->gl.depth = c->method != RT_METHOD_NONE && c->method != RT_METHOD_ROTATION;
     plat_gles_params gp = {c->panel_w, c->panel_h, c->eye_w, c->eye_h, a->mesh[0].cols, a->mesh[0].rows,
-                           a->gles_depth, kms, true, false};
-    a->gles = plat_gles_create(a->egl, &gp, eerr, sizeof eerr);
-    if (!a->gles) {
+                           a->gl.depth, kms, true, false};
+    a->gl.renderer = plat_gles_create(a->gl.egl, &gp, eerr, sizeof eerr);
+    if (!a->gl.renderer) {
         if (forced) return fail(err, errlen, "[render] renderer = %s: %s", c->renderer, eerr);
         /* auto on a GPU whose driver cannot run our shaders: the CPU path still works, on KMS too */
         snprintf(a->render_why, sizeof a->render_why, "auto: the GPU (%.60s) cannot run the GLES renderer: %.140s",
-                 plat_egl_renderer(a->egl), eerr);
-        plat_egl_close(a->egl);
-        a->egl = NULL;
-        a->use_gles = false;
+                 plat_egl_renderer(a->gl.egl), eerr);
+        plat_egl_close(a->gl.egl);
+        a->gl.egl = NULL;
+        a->gl.use = false;
         return !kms || cpu_kms_init(a, &kp, err, errlen);
     }
-    if (kms) a->kms = plat_egl_kms(a->egl);
-    a->gles_ms = calloc(PLAT_GLES_PASSES, sizeof *a->gles_ms);
-    if (!a->gles_ms) return fail(err, errlen, "%s%s", "out of memory", "");
+    if (kms) a->dev.kms = plat_egl_kms(a->gl.egl);
+    a->gl.ms = calloc(PLAT_GLES_PASSES, sizeof *a->gl.ms);
+    if (!a->gl.ms) return fail(err, errlen, "%s%s", "out of memory", "");
     /* The compositor thread makes the context current for itself. */
-    plat_egl_release(a->egl);
+    plat_egl_release(a->gl.egl);
     return true;
 }
 
 static void stats_kv(rt_app *a, FILE *out, bool live);
 
-#define CSV_HEADER "vsync,vsync_ns,frame_seq,method,warp_ms,missed,m2p_ms,frame_age_ms\n"
-/* The key=value text of one live update: the --stats set is about 3 KB. */
-#define LIVE_BUF_BYTES (32 * 1024)
-#define LIVE_AUTO_DIR "/run/hmdwarp"
-
-/* [telemetry] live_stats: auto means the runtime directory systemd makes (RuntimeDirectory=hmdwarp) when it is
- * there; a path named outright must be writable now, not first fail a second into the run. */
-static bool live_init(rt_app *a, char *err, int errlen)
-{
-    const char *want = a->cfg.live_stats;
-    if (strcmp(want, "auto") == 0)
-        want = access(LIVE_AUTO_DIR, W_OK) == 0 ? LIVE_AUTO_DIR "/stats" : "";
-    if (want[0]) {
-        char tmp[300];
-        snprintf(tmp, sizeof tmp, "%s.tmp", want);
-        int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-        if (fd < 0) return fail(err, errlen, "[telemetry] live_stats = %s: %s", want, strerror(errno));
-        close(fd);
-        unlink(tmp);
-        snprintf(a->live_path, sizeof a->live_path, "%s", want);
-    }
-    for (int i = 0; i < 2; i++) a->live_buf[i] = malloc(LIVE_BUF_BYTES);
-    a->live_m2p = calloc(1, sizeof *a->live_m2p);
-    a->live_age = calloc(1, sizeof *a->live_age);
-    if (!a->live_buf[0] || !a->live_buf[1] || !a->live_m2p || !a->live_age)
-        return fail(err, errlen, "%s%s", "out of memory", "");
-    return true;
-}
-
 bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen)
 {
     memset(a, 0, sizeof *a);
-    atomic_store(&a->live_pub, -1);
+    rt_live_reset(&a->live);
     a->cfg = *cfg;
     const rt_config *c = &a->cfg;
     char list[512];
@@ -297,307 +243,32 @@ bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen)
     /* The warps of this build use colour and depth; ids, motion and layers would be rendered for nothing. */
     sp.planes_wanted = DRV_PLANE_COLOR | DRV_PLANE_DEPTH | (a->can_objects ? DRV_PLANE_IDS : 0) |
                        (a->can_transparency ? DRV_PLANE_LAYERS : 0);
-    if (!rt_devices_open(a, &sp, err, errlen)) return false;
-    if (!rt_config_parse_axes(c->imu_axes, a->imu_map, a->imu_sign))
-        return fail(err, errlen, "[imu] axes = '%s': %s", c->imu_axes, "expected e.g. '-y +x +z'");
-    a->imu_remap = strcmp(c->imu_backend, "sim") != 0 &&
-                   !(a->imu_map[0] == 0 && a->imu_map[1] == 1 && a->imu_map[2] == 2 && a->imu_sign[0] > 0 &&
-                     a->imu_sign[1] > 0 && a->imu_sign[2] > 0);
-    if (!rt_frameq_init(&a->fq, c->eye_w, c->eye_h, drv_frames_planes(a->frames), 4))
+    if (!rt_devices_open(&a->dev, c, &a->trace, &sp, err, errlen) || !rt_devices_mount(&a->dev, c, err, errlen))
+        return false;
+    if (!rt_frameq_init(&a->fq, c->eye_w, c->eye_h, drv_frames_planes(a->dev.frames), 4))
         return fail(err, errlen, "cannot allocate %s%s", "the frame slots", "");
 
-    if (a->display) {
+    if (a->dev.display) {
         /* the CPU path's KMS output, opened with the renderer */
     } else if (strcmp(c->sink, "null") == 0) {
-        a->display = plat_display_null();
+        a->dev.display = plat_display_null();
     } else {
         char e2[300];
-        a->display = plat_display_files(c->sink, c->sink_path, c->sink_every, e2, sizeof e2);
-        if (!a->display) return fail(err, errlen, "[display] sink = %s: %s", c->sink, e2);
+        a->dev.display = plat_display_files(c->sink, c->sink_path, c->sink_every, e2, sizeof e2);
+        if (!a->dev.display) return fail(err, errlen, "[display] sink = %s: %s", c->sink, e2);
     }
-    if (!a->display) return fail(err, errlen, "%s%s", "out of memory", "");
+    if (!a->dev.display) return fail(err, errlen, "%s%s", "out of memory", "");
 
-    if (!rt_ring_init(&a->eval_ring, sizeof(rt_eval_record), 64))
+    if (!rt_ring_init(&a->eval.ring, sizeof(rt_eval_record), 64))
         return fail(err, errlen, "%s%s", "out of memory", "");
-    if (c->csv[0]) {
-        a->csv = fopen(c->csv, "w");
-        if (!a->csv) return fail(err, errlen, "[telemetry] csv = %s: %s", c->csv, strerror(errno));
-        a->csv_bytes = (uint64_t)fprintf(a->csv, "%s", CSV_HEADER);
-        if (!rt_ring_init(&a->csv_ring, sizeof(rt_csv_row), 8192))
-            return fail(err, errlen, "%s%s", "out of memory", "");
-    }
-    return live_init(a, err, errlen);
+    return rt_csv_open(&a->csv, c->csv, c->csv_max_mb, err, errlen) &&
+           rt_live_init(&a->live, c->live_stats, err, errlen);
 }
 
-/* Board mounting: the IMU's axes into the head frame the tracker works in. */
-static void remap_axes(const rt_app *a, drv_imu_sample *s)
-{
-    double g[3], ac[3];
-    for (int i = 0; i < 3; i++) {
-        g[i] = a->imu_sign[i] * s->gyro[a->imu_map[i]];
-        ac[i] = a->imu_sign[i] * s->accel[a->imu_map[i]];
-    }
-    memcpy(s->gyro, g, sizeof g);
-    memcpy(s->accel, ac, sizeof ac);
-}
+/* The live view's text: the key=value set of --stats (rt_live.h). */
+static void live_text(void *ctx, FILE *out, bool live) { stats_kv(ctx, out, live); }
 
-static void *imu_thread(void *arg)
-{
-    rt_app *a = arg;
-    plat_thread_set_name("hmdwarp-imu");
-    /* Just below the compositor: late IMU samples are late photons. */
-    if (a->cfg.rt_priority > 1) plat_thread_set_realtime(a->cfg.rt_priority - 1);
-    drv_imu_sample buf[64];
-    bool lost = false;
-    while (!atomic_load_explicit(&a->stop, memory_order_relaxed)) {
-        int n = drv_imu_read(a->imu, buf, 64, 50);
-        if (n < 0) {
-            /* Device gone: the display holds the last orientation (RT_IMU_STALE_NS) while the backend retries;
-             * read() itself paces the reopen attempts. */
-            atomic_fetch_add(&a->tel->imu_read_errors, 1);
-            if (!lost) {
-                atomic_fetch_add(&a->tel->imu_lost, 1);
-                drv_imu_stats ds;
-                drv_imu_stats_get(a->imu, &ds);
-                plat_log(PLAT_LOG_WARNING, "IMU %s lost (%s): holding the last orientation, retrying",
-                        a->imu->name, ds.last_error[0] ? ds.last_error : strerror(-n));
-                lost = true;
-            }
-            plat_sleep_ns(20 * PLAT_NS_PER_MS);
-            continue;
-        }
-        if (lost && n > 0) {
-            plat_log(PLAT_LOG_NOTICE, "IMU %s is back", a->imu->name);
-            lost = false;
-        }
-        for (int i = 0; i < n; i++) {
-            if (a->imu_remap) remap_axes(a, &buf[i]);
-            rt_fusion_update(a->fusion, &buf[i]);
-        }
-        atomic_fetch_add_explicit(&a->tel->imu_samples, (uint64_t)n, memory_order_relaxed);
-    }
-    return NULL;
-}
-
-/* Everything derived from a frame is computed here, once per host frame, not once per vsync. */
-static drv_frame_err prepare_frame(rt_frame *s)
-{
-    drv_frame_err e = drv_frame_validate(&s->f);
-    if (e != DRV_FRAME_OK) return e;
-    s->has_depth = (s->f.planes & DRV_PLANE_DEPTH) != 0;
-    for (int eye = 0; eye < 2; eye++) {
-        if (s->has_depth) {
-            long bad = warp_inverse_depth_from(&s->f.cam[eye], s->f.depth_encoding, &s->f.depth[eye],
-                                               &s->inv_depth[eye], &s->inv_min[eye], &s->inv_max[eye]);
-            if (bad) return DRV_FRAME_ERR_BAD_DEPTH;
-            warp_raytrace_blockmax(&s->inv_depth[eye], &s->blockmax[eye], RT_BLOCK);
-        }
-        warp_planar3_from_rgba_rows(&s->planar[eye], &s->f.color[eye], 0, s->f.color[eye].h);
-        /* The host blended its transparent fragments into the colour; the transparency warp moves them on their
-         * own, over the surface behind them: recover that once per frame, here, off the vsync path. */
-        if ((s->f.planes & DRV_PLANE_LAYERS) && s->opaque[eye].px)
-            warp_transparency_unblend(&s->f.color[eye], &s->f.layers[eye], &s->opaque[eye]);
-    }
-    return DRV_FRAME_OK;
-}
-
-/* What a frame's dense planes hold: about what the host link carried for it (the link's MB/s), less framing and
- * compression. The A-buffer's fragments are left out: counting them would walk every pixel's count again. */
-static uint64_t frame_bytes(const drv_frame *f)
-{
-    uint64_t px = 0, b = 0;
-    for (int e = 0; e < 2; e++) px += (uint64_t)f->color[e].w * (uint64_t)f->color[e].h;
-    if (f->planes & DRV_PLANE_COLOR) b += px * 4;
-    if (f->planes & DRV_PLANE_DEPTH) b += px * 4;
-    if (f->planes & DRV_PLANE_IDS) b += px * 2;
-    if (f->planes & DRV_PLANE_MOTION) b += px * 8;
-    if (f->planes & DRV_PLANE_LAYERS) b += px; /* the per-pixel fragment counts */
-    return b;
-}
-
-static void *frames_thread(void *arg)
-{
-    rt_app *a = arg;
-    plat_thread_set_name("hmdwarp-frames");
-    /* The log (this thread may do I/O; the vsync thread never does): each kind of rejection at once, then at most
-     * one line a second; a host that goes quiet, and when it is back. */
-    int64_t last_ok = plat_now_ns(), last_log = 0;
-    bool quiet = false, seen_ok = false;
-    uint64_t logged[DRV_FRAME_ERR_COUNT] = {0};
-    while (!atomic_load_explicit(&a->stop, memory_order_relaxed)) {
-        rt_frame *slot = rt_frameq_back(&a->fq);
-        int rc = drv_frames_receive(a->frames, &slot->f, 50);
-        int64_t now = plat_now_ns();
-        if (rc == 0) {
-            if (seen_ok && !quiet && now - last_ok > PLAT_NS_PER_S) {
-                plat_log(PLAT_LOG_WARNING, "no host frame for %.1f s: warping the last good frame",
-                        (double)(now - last_ok) * 1e-9);
-                quiet = true;
-            }
-            continue;
-        }
-        drv_frame_err e = rc < 0 ? (drv_frame_err)(-rc) : prepare_frame(slot);
-        if (e != DRV_FRAME_OK) {
-            /* Rejected: counted, and the compositor keeps warping the last good frame. */
-            if (e < 0 || e >= DRV_FRAME_ERR_COUNT) e = DRV_FRAME_ERR_IO;
-            uint64_t n = atomic_fetch_add(&a->tel->frames_rejected[e], 1) + 1;
-            if (!logged[e] || now - last_log > PLAT_NS_PER_S) {
-                char why[200];
-                drv_frames_last_error(a->frames, why, sizeof why);
-                plat_log(PLAT_LOG_WARNING, "host frame rejected (%s, %llu so far)%s%s; the last good frame stays",
-                        drv_frame_err_str(e), (unsigned long long)n, why[0] ? ": " : "", why);
-                logged[e] = n;
-                last_log = now;
-            }
-            continue;
-        }
-        if (quiet)
-            plat_log(PLAT_LOG_NOTICE, "host frames are back after %.1f s", (double)(now - last_ok) * 1e-9);
-        quiet = false;
-        seen_ok = true;
-        last_ok = now;
-        /* A host that cannot place its render start on the board's clock sends 0. */
-        if (slot->f.render_start_ns)
-            rt_hist_add(&a->tel->host_render_ms, (double)(slot->f.received_ns - slot->f.render_start_ns) * 1e-6);
-        /* Through a mock the simulated host's scene time is not on the wire: it is the pose time on the
-         * simulated board's clock, which is what the accuracy evaluator re-renders. */
-        if (a->has_truth && !a->sim_host) slot->f.scene_time = (double)(slot->f.pose_t_ns - a->t0_ns) * 1e-9;
-        atomic_fetch_add(&a->tel->frames_received, 1);
-        atomic_fetch_add_explicit(&a->tel->frames_bytes, frame_bytes(&slot->f), memory_order_relaxed);
-        rt_frameq_publish(&a->fq);
-    }
-    return NULL;
-}
-
-/* [telemetry] csv_max_mb: the full file becomes FILE.1 (replacing the one before) and FILE starts again with its
- * header. freopen keeps the FILE pointer, which the compositor tests (a->csv) to decide whether to queue rows. */
-static void rotate_csv(rt_app *a)
-{
-    const char *path = a->cfg.csv;
-    char old[300];
-    snprintf(old, sizeof old, "%s.1", path);
-    fflush(a->csv);
-    if (rename(path, old) != 0)
-        plat_log(PLAT_LOG_WARNING, "[telemetry] csv = %s: cannot rotate to %s (%s): starting it again", path, old,
-                 strerror(errno));
-    if (!freopen(path, "w", a->csv)) {
-        plat_log(PLAT_LOG_ERR, "[telemetry] csv = %s: cannot reopen (%s): no more CSV rows this run", path,
-                 strerror(errno));
-        a->csv_dead = true; /* freopen closed the stream */
-        return;
-    }
-    a->csv_bytes = (uint64_t)fprintf(a->csv, "%s", CSV_HEADER);
-}
-
-static void drain_csv(rt_app *a)
-{
-    rt_csv_row r;
-    const uint64_t max = (uint64_t)(a->cfg.csv_max_mb * 1024 * 1024);
-    while (rt_ring_pop(&a->csv_ring, &r)) {
-        if (a->csv_dead) continue;
-        int n = fprintf(a->csv, "%llu,%lld,%llu,%s,%.3f,%d,%.3f,%.3f\n", (unsigned long long)r.vsync_no,
-                        (long long)r.vsync_ns, (unsigned long long)r.frame_seq, rt_method_name((rt_method)r.method),
-                        r.warp_ms, r.missed, r.m2p_ms, r.frame_age_ms);
-        if (n > 0) a->csv_bytes += (uint64_t)n;
-        if (max && a->csv_bytes >= max) rotate_csv(a);
-    }
-}
-
-/* State the helper thread keeps from one live update to the next (rates are differences over the second). */
-typedef struct {
-    int64_t t_ns;
-    uint64_t vsyncs, frames, bytes;
-    bool write_failed; /* said once, not every second */
-} live_prev;
-
-/* The key=value text into the buffer not published, then published: the abort handler may read the other one
- * at any moment. fmemopen over the fixed buffer: nothing allocated per update but the FILE. */
-static size_t live_render(rt_app *a, bool live)
-{
-    int pub = atomic_load(&a->live_pub);
-    int next = pub == 0 ? 1 : 0;
-    FILE *f = fmemopen(a->live_buf[next], LIVE_BUF_BYTES, "w");
-    if (!f) return 0;
-    stats_kv(a, f, live);
-    long n = ftell(f);
-    fclose(f);
-    if (n <= 0) return 0;
-    if (n >= LIVE_BUF_BYTES) n = LIVE_BUF_BYTES - 1;
-    atomic_store(&a->live_len[next], (size_t)n);
-    atomic_store(&a->live_pub, next);
-    return (size_t)n;
-}
-
-/* Rewritten whole and renamed into place: a reader sees the last complete second or the one before, never half. */
-static bool live_write_file(rt_app *a, const char *text, size_t len)
-{
-    char tmp[300];
-    snprintf(tmp, sizeof tmp, "%s.tmp", a->live_path);
-    int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-    if (fd < 0) return false;
-    size_t off = 0;
-    while (off < len) {
-        ssize_t w = write(fd, text + off, len - off);
-        if (w < 0 && errno == EINTR) continue;
-        if (w <= 0) break;
-        off += (size_t)w;
-    }
-    bool ok = off == len && close(fd) == 0;
-    if (off != len) close(fd);
-    if (ok && rename(tmp, a->live_path) == 0) return true;
-    unlink(tmp);
-    return false;
-}
-
-/* Once a second: the stats text (file and abort handler) and systemd's STATUS line. The STATUS percentiles are
- * over the last second; the file's, like --stats, over the whole run. */
-static void live_update(rt_app *a, live_prev *p, bool notify)
-{
-    const rt_telemetry *t = a->tel;
-    size_t len = live_render(a, true);
-    if (a->live_path[0] && len) {
-        int pub = atomic_load(&a->live_pub);
-        bool ok = live_write_file(a, a->live_buf[pub], len);
-        if (!ok && !p->write_failed)
-            plat_log(PLAT_LOG_WARNING, "[telemetry] live_stats = %s: cannot write (%s); retrying each second",
-                     a->live_path, strerror(errno));
-        if (ok && p->write_failed) plat_log(PLAT_LOG_NOTICE, "[telemetry] live_stats = %s: written again", a->live_path);
-        p->write_failed = !ok;
-    }
-    int64_t now = plat_now_ns();
-    uint64_t v = t->vsyncs, fr = t->frames_received, by = t->frames_bytes;
-    double dt = p->t_ns ? (double)(now - p->t_ns) * 1e-9 : 0;
-    double m2p = rt_hist_pct_since(&t->m2p_ms, a->live_m2p, 99);
-    double age = rt_hist_pct_since(&t->frame_age_ms, a->live_age, 50);
-    if (notify && dt > 0)
-        sd_notifyf(0,
-                   "STATUS=%.1f vsyncs/s, %llu vsyncs, missed %llu (own %llu, woken late %llu, descheduled %llu, "
-                   "no free image %llu); last second: m2p p99 %.1f ms, frame age p50 %.1f ms; link %.1f MB/s, "
-                   "%.1f frames/s",
-                   (double)(v - p->vsyncs) / dt, (unsigned long long)v, (unsigned long long)t->missed,
-                   (unsigned long long)t->missed_by[RT_MISS_OWN], (unsigned long long)t->missed_by[RT_MISS_LATE_WAKE],
-                   (unsigned long long)t->missed_by[RT_MISS_DESCHEDULED],
-                   (unsigned long long)t->missed_by[RT_MISS_NO_BUFFER], m2p, age,
-                   (double)(by - p->bytes) / dt / (1024 * 1024), (double)(fr - p->frames) / dt);
-    p->t_ns = now;
-    p->vsyncs = v;
-    p->frames = fr;
-    p->bytes = by;
-}
-
-bool rt_app_write_last_stats(rt_app *a, int fd)
-{
-    int pub = atomic_load(&a->live_pub);
-    if (pub < 0 || !a->live_buf[pub]) return false;
-    size_t len = atomic_load(&a->live_len[pub]), off = 0;
-    while (off < len) {
-        ssize_t w = write(fd, a->live_buf[pub] + off, len - off);
-        if (w < 0 && errno == EINTR) continue;
-        if (w <= 0) return false;
-        off += (size_t)w;
-    }
-    return true;
-}
+bool rt_app_write_last_stats(rt_app *a, int fd) { return rt_live_write_last(&a->live, fd); }
 
 static void *aux_thread(void *arg)
 {
@@ -611,12 +282,12 @@ static void *aux_thread(void *arg)
     /* STATUS= only under systemd (sd_notify is a no-op elsewhere, but formatting it need not run) */
     bool notify = getenv("NOTIFY_SOCKET") != NULL;
     int64_t next_ping = plat_now_ns(), next_live = plat_now_ns() + PLAT_NS_PER_S;
-    live_prev lp = {0};
-    live_update(a, &lp, false); /* marks and rates start now; the abort handler has something from the start */
+    /* marks and rates start now; the abort handler has something from the start */
+    rt_live_update(&a->live, a->tel, live_text, a, false);
     while (!atomic_load(&a->stop)) {
-        if (a->csv) drain_csv(a);
+        rt_csv_drain(&a->csv);
         if (plat_now_ns() >= next_live) {
-            live_update(a, &lp, notify);
+            rt_live_update(&a->live, a->tel, live_text, a, notify);
             next_live += PLAT_NS_PER_S;
             if (next_live < plat_now_ns()) next_live = plat_now_ns() + PLAT_NS_PER_S; /* after a stall: no burst */
         }
@@ -628,17 +299,8 @@ static void *aux_thread(void *arg)
         }
         plat_sleep_ns(20 * PLAT_NS_PER_MS);
     }
-    if (a->csv) drain_csv(a);
+    rt_csv_drain(&a->csv);
     return NULL;
-}
-
-/* The last word of the live file once every thread has stopped: what --stats says (running=0), so hmdwarp-top
- * shows the end. */
-static void live_final(rt_app *a)
-{
-    size_t len = live_render(a, false);
-    if (a->live_path[0] && len && !live_write_file(a, a->live_buf[atomic_load(&a->live_pub)], len))
-        plat_log(PLAT_LOG_WARNING, "[telemetry] live_stats = %s: cannot write (%s)", a->live_path, strerror(errno));
 }
 
 void rt_app_request_stop(rt_app *a) { atomic_store(&a->stop, 1); }
@@ -646,10 +308,13 @@ void rt_app_request_stop(rt_app *a) { atomic_store(&a->stop, 1); }
 void rt_app_run(rt_app *a)
 {
     pthread_t eval_th;
-    bool eval_up = a->has_truth && a->cfg.eval_every_ms > 0 && pthread_create(&eval_th, NULL, rt_eval_thread, a) == 0;
+    bool eval_up =
+        a->dev.has_truth && a->cfg.eval_every_ms > 0 && pthread_create(&eval_th, NULL, rt_eval_thread, a) == 0;
     a->run_start_ns = plat_now_ns();
-    a->th_imu_up = pthread_create(&a->th_imu, NULL, imu_thread, a) == 0;
-    a->th_frames_up = pthread_create(&a->th_frames, NULL, frames_thread, a) == 0;
+    a->feed = (rt_devices_feed){&a->dev, a->fusion, &a->fq, a->tel, &a->stop, a->cfg.rt_priority, a->t0_ns,
+                                rt_frame_prepare};
+    a->th_imu_up = pthread_create(&a->th_imu, NULL, rt_devices_imu_thread, &a->feed) == 0;
+    a->th_frames_up = pthread_create(&a->th_frames, NULL, rt_devices_frames_thread, &a->feed) == 0;
     a->th_aux_up = pthread_create(&a->th_aux, NULL, aux_thread, a) == 0;
     plat_thread_set_name("hmdwarp-vsync");
     a->realtime = a->cfg.rt_priority > 0 && plat_thread_set_realtime(a->cfg.rt_priority);
@@ -663,319 +328,97 @@ void rt_app_run(rt_app *a)
     if (a->th_aux_up) pthread_join(a->th_aux, NULL);
     if (eval_up) pthread_join(eval_th, NULL);
     a->run_end_ns = end;
-    plat_display_flush(a->display);
-    if (a->sim_host) {
+    plat_display_flush(a->dev.display);
+    if (a->dev.sim_host) {
         drv_frames_sim_stats st;
-        drv_frames_sim_stats_get(a->frames, &st);
+        drv_frames_sim_stats_get(a->dev.frames, &st);
         a->sim_frames = st.frames;
         memcpy(a->sim_plane_renders, st.plane_renders, sizeof st.plane_renders);
     }
-    live_final(a);
+    /* the live file's last word once every thread has stopped: what --stats says, so hmdwarp-top shows the end */
+    rt_live_final(&a->live, live_text, a);
 }
 
-static void pct_line(FILE *out, const char *label, const rt_hist *h)
+/* The run's parts as the summary table reads them (rt_summary.h). live: while the run goes on (the helper thread),
+ * leaving out what another thread accumulates unpublished until the end (the accuracy evaluator's sums). */
+static void summary_src(rt_app *a, rt_summary_src *s, bool live, char *output, int outlen, char *fx, int fxlen)
 {
-    if (!h->count)
-        fprintf(out, "  %-26s -\n", label);
-    else
-        fprintf(out, "  %-26s p50 %6.2f ms   p99 %6.2f ms   max %6.2f ms   (%llu)\n", label, rt_hist_pct(h, 50),
-                rt_hist_pct(h, 99), h->max, (unsigned long long)h->count);
+    const rt_config *c = &a->cfg;
+    memset(s, 0, sizeof *s);
+    s->cfg = c;
+    s->tel = a->tel;
+    s->live = live;
+    /* since the display started (after the simulated IMU's rest) until it stopped (not the accuracy evaluation
+     * catching up afterwards): the span the vsync counts cover */
+    int64_t since = a->run_start_ns ? (a->run_end_ns ? a->run_end_ns : plat_now_ns()) - a->t0_ns : 0;
+    s->run_s = since > 0 ? (double)since * 1e-9 : 0.0;
+    s->gles = a->gl.use;
+    s->gles_software = a->gl.software;
+    s->gles_depth = a->gl.depth;
+    s->realtime = a->realtime;
+    s->memory_locked = a->memory_locked;
+    s->gl_renderer = a->gl.use ? plat_egl_renderer(a->gl.egl) : "";
+    s->gl_version = a->gl.use ? plat_egl_version(a->gl.egl) : "";
+    s->gles_timing = a->gl.renderer ? plat_gles_timing_method(a->gl.renderer) : "";
+    s->gles_gpu_pyramid = a->gl.renderer && plat_gles_gpu_pyramid(a->gl.renderer);
+    s->render_why = a->render_why;
+    s->cpu_kernel = warp_resample_kernel();
+    s->threads = a->workers ? plat_workers_threads(a->workers) : 0;
+    s->gles_ms = a->gl.ms;
+    s->gles_errors = a->gl.errors;
+    s->gles_last_error = a->gl.last_error;
+    s->raytrace_fallbacks = a->raytrace_fallbacks;
+    s->plane_fallbacks = a->plane_fallbacks;
+    const rt_devices *d = &a->dev;
+    s->imu_name = d->imu ? d->imu->name : "";
+    s->frames_name = d->frames ? d->frames->name : "";
+    s->vsync_name = d->vsync ? d->vsync->name : "";
+    s->has_imu_stats = d->imu && drv_imu_stats_get(d->imu, &s->imu);
+    s->has_vsync_stats = d->vsync && drv_vsync_stats_get(d->vsync, &s->vsync);
+    s->kms = d->kms != NULL;
+    s->kms_stats.api = "";
+    s->kms_stats.format = "";
+    if (d->kms) plat_kms_stats_get(d->kms, &s->kms_stats);
+    if (output) { /* the summary's alone: --stats names the output in display_output */
+        output[0] = 0;
+        if (d->display) d->display->describe(d->display, output, outlen);
+    }
+    s->output = output;
+    s->imu_rejected = rt_fusion_rejected(a->fusion, RT_FUSION_BAD_VALUE) +
+                      rt_fusion_rejected(a->fusion, RT_FUSION_TIME_REPEAT) +
+                      rt_fusion_rejected(a->fusion, RT_FUSION_TIME_JUMP);
+    s->has_orientation = rt_fusion_latest(a->fusion, &s->orientation);
+    s->has_truth = d->has_truth;
+    if (s->has_orientation && d->has_truth) {
+        warp_quat truth = sim_trace_orientation(&a->trace, (double)(s->orientation.t_ns - a->t0_ns) * 1e-9);
+        s->orientation_error_deg = warp_quat_angle_between(truth, s->orientation.q) * 180 / WARP_PI;
+    }
+    s->sim_host = d->sim_host;
+    s->sim_plane_renders = a->sim_plane_renders;
+    s->scene_effects = d->sim_host && a->scene ? sim_effects_str(sim_scene_effects(a->scene), fx, fxlen) : "";
+    s->accuracy = d->has_truth && c->eval_every_ms > 0;
+    s->eval = a->eval.acc;
+    s->eval_pose = &a->eval.pose;
+    s->csv = a->csv.f ? c->csv : NULL;
+}
+
+static void stats_kv(rt_app *a, FILE *out, bool live)
+{
+    rt_summary_src s;
+    char fx[160];
+    summary_src(a, &s, live, NULL, 0, fx, sizeof fx);
+    rt_summary_kv(&s, out);
 }
 
 void rt_app_summary(rt_app *a, FILE *out)
 {
-    const rt_config *c = &a->cfg;
-    const rt_telemetry *t = a->tel;
-    char buf[400];
-    double secs = (double)t->vsyncs / c->refresh_hz;
-    fprintf(out, "\nhmdwarpd %s summary — board '%s', scene '%s', head motion '%s', %.1f s\n", plat_version(),
-            c->board_name, c->scene, c->trace, secs);
-    if (a->use_gles)
-        fprintf(out, "  renderer                   gles: %s (%s; %s), warp method %s\n", plat_egl_renderer(a->egl),
-                plat_egl_version(a->egl), a->realtime ? "SCHED_FIFO" : "normal priority", rt_method_name(c->method));
-    else
-        fprintf(out, "  renderer                   cpu (%s kernel, %d threads, %s%s), warp method %s\n",
-                warp_resample_kernel(), plat_workers_threads(a->workers),
-                a->realtime           ? "SCHED_FIFO"
-                : c->rt_priority == 0 ? "normal priority (rt_priority = 0)"
-                                      : "normal priority (not permitted to use SCHED_FIFO)",
-                a->realtime ? (a->memory_locked ? ", memory locked" : ", memory not locked") : "",
-                rt_method_name(c->method));
-    fprintf(out, "  renderer chosen            %s\n", a->render_why);
-    fprintf(out, "  panel                      %dx%d at %.0f Hz, eye buffers %dx%d, lens mesh %dx%d\n", c->panel_w,
-            c->panel_h, c->refresh_hz, c->eye_w, c->eye_h, c->mesh_n, c->mesh_n);
-    fprintf(out, "display\n");
-    fprintf(out, "  vsyncs                     %llu, missed %llu (%.2f %%)%s\n", (unsigned long long)t->vsyncs,
-            (unsigned long long)t->missed, t->vsyncs ? 100.0 * (double)t->missed / (double)t->vsyncs : 0.0,
-            t->no_buffer ? " (some with no free swapchain image)" : "");
-    if (t->missed)
-        fprintf(out, "  missed, why                own %llu (the warp outran its planned time), scheduler: woken late "
-                     "%llu, descheduled %llu; no free image %llu\n",
-                (unsigned long long)t->missed_by[RT_MISS_OWN], (unsigned long long)t->missed_by[RT_MISS_LATE_WAKE],
-                (unsigned long long)t->missed_by[RT_MISS_DESCHEDULED], (unsigned long long)t->missed_by[RT_MISS_NO_BUFFER]);
-    uint64_t missed_by[RT_MISS_COUNT];
-    for (int m = 0; m < RT_MISS_COUNT; m++) missed_by[m] = t->missed_by[m];
-    rt_miss_advice(missed_by, a->use_gles, a->gles_software, buf, sizeof buf);
-    if (buf[0]) fprintf(out, "  misses, what to do         %s\n", buf);
-    for (int m = 0; m < RT_METHOD_COUNT; m++)
-        if (t->method_count[m]) {
-            snprintf(buf, sizeof buf, "warp time (%s)", rt_method_name((rt_method)m));
-            pct_line(out, buf, &t->warp_ms[m]);
-        }
-    if (a->use_gles) {
-        fprintf(out, "  GPU time per pass          %s, depth pyramid on the %s%s\n", plat_gles_timing_method(a->gles),
-                plat_gles_gpu_pyramid(a->gles) ? "GPU" : "CPU", a->gles_depth ? "" : " (not used)");
-        for (int p = 0; p < PLAT_GLES_PASSES; p++)
-            if (a->gles_ms[p].count) {
-                snprintf(buf, sizeof buf, "  gles %s", plat_gles_pass_name((plat_gles_pass)p));
-                pct_line(out, buf, &a->gles_ms[p]);
-            }
-        if (a->gles_errors)
-            fprintf(out, "  GLES errors                %llu; last: %s\n", (unsigned long long)a->gles_errors,
-                    a->gles_last_error);
-    }
-    if (a->kms) {
-        plat_kms_stats ks;
-        plat_kms_stats_get(a->kms, &ks);
-        fprintf(out, "  KMS output                 %s %dx%d@%.0f, %s, %s: %llu page flips, %llu failed, %llu late%s%s\n",
-                ks.connector, ks.w, ks.h, ks.hz, ks.api, ks.format, (unsigned long long)ks.flips,
-                (unsigned long long)ks.failed, (unsigned long long)ks.late, ks.last_error[0] ? "; last: " : "",
-                ks.last_error);
-    }
-    if (a->raytrace_fallbacks)
-        fprintf(out, "  raytrace fallbacks         %llu vsyncs used rotation: the frame had no depth\n",
-                (unsigned long long)a->raytrace_fallbacks);
-    if (a->plane_fallbacks)
-        fprintf(out, "  depth-warp fallbacks       %llu vsyncs used the raytrace: the frame lacked layers or ids\n",
-                (unsigned long long)a->plane_fallbacks);
-    if (c->method == RT_METHOD_AUTO) {
-        fprintf(out, "  warp selection (auto)      budget %.2f px (004 eqs. 5-7 bound of ignoring translation); why:\n",
-                c->pixel_budget);
-        for (int w = 0; w < RT_WHY_COUNT; w++)
-            if (t->select_why[w])
-                fprintf(out, "    %-24s %llu vsyncs\n", rt_select_why_str((rt_select_why)w),
-                        (unsigned long long)t->select_why[w]);
-    }
-    drv_vsync_stats vs;
-    if (drv_vsync_stats_get(a->vsync, &vs))
-        fprintf(out, "  vsync source               %s: edges %llu, spurious %llu, missed %llu, timer fallbacks %llu%s, "
-                     "period %.3f ms, jitter %.0f us%s%s\n",
-                a->vsync->name, (unsigned long long)vs.edges, (unsigned long long)vs.spurious,
-                (unsigned long long)vs.missed, (unsigned long long)vs.fallbacks, vs.on_timer ? " (on timer now)" : "",
-                (double)vs.period_ns * 1e-6, vs.jitter_us, vs.last_error[0] ? "; last: " : "", vs.last_error);
-    pct_line(out, "motion-to-photon", &t->m2p_ms);
-    if (c->stall_reserve_ms > 0)
-        fprintf(out, "  stall reserve              %.1f ms of the motion-to-photon latency: passes start that much earlier "
-                     "([render] stall_reserve_ms)%s\n",
-                c->stall_reserve_ms, a->use_gles ? "; on the GLES path only what fits in a period" : "");
-    pct_line(out, "frame age at photon time", &t->frame_age_ms);
-    a->display->describe(a->display, buf, sizeof buf);
-    fprintf(out, "  output                     %s\n", buf);
-    fprintf(out, "host frames\n");
-    uint64_t rejected = 0;
-    for (int e = 1; e < DRV_FRAME_ERR_COUNT; e++) rejected += t->frames_rejected[e];
-    fprintf(out, "  received                   %llu (%.1f Hz), shown %llu, dropped unseen %llu, rejected %llu\n",
-            (unsigned long long)t->frames_received,
-            secs + c->imu_rest_s > 0 ? (double)t->frames_received / (secs + c->imu_rest_s) : 0.0,
-            (unsigned long long)t->new_frames_shown, (unsigned long long)t->frames_dropped,
-            (unsigned long long)rejected);
-    for (int e = 1; e < DRV_FRAME_ERR_COUNT; e++)
-        if (t->frames_rejected[e])
-            fprintf(out, "    rejected as %-13s %llu\n", drv_frame_err_str((drv_frame_err)e),
-                    (unsigned long long)t->frames_rejected[e]);
-    pct_line(out, "host render + transport", &t->host_render_ms);
-    if (a->sim_host) {
-        static const char *const plane_names[5] = {"color", "depth", "ids", "motion", "layers"};
-        buf[0] = 0;
-        for (int p = 0; p < 5; p++) {
-            char one[48];
-            snprintf(one, sizeof one, "%s%s %llu", p ? ", " : "", plane_names[p],
-                     (unsigned long long)a->sim_plane_renders[p]);
-            strncat(buf, one, sizeof buf - strlen(buf) - 1);
-        }
-        char fx[160];
-        fprintf(out, "  planes rendered            %s (scene effects: %s)\n", buf,
-                sim_effects_str(sim_scene_effects(a->scene), fx, sizeof fx));
-    }
-    fprintf(out, "tracking\n");
-    fprintf(out, "  IMU samples                %llu (%.0f Hz, incl. the rest at boot), rejected %llu, read errors %llu\n",
-            (unsigned long long)t->imu_samples,
-            secs + c->imu_rest_s > 0 ? (double)t->imu_samples / (secs + c->imu_rest_s) : 0.0,
-            (unsigned long long)(rt_fusion_rejected(a->fusion, RT_FUSION_BAD_VALUE) +
-                                 rt_fusion_rejected(a->fusion, RT_FUSION_TIME_REPEAT) +
-                                 rt_fusion_rejected(a->fusion, RT_FUSION_TIME_JUMP)),
-            (unsigned long long)t->imu_read_errors);
-    drv_imu_stats is;
-    if (drv_imu_stats_get(a->imu, &is))
-        fprintf(out, "  IMU device                 %s: %s, reports %llu, bad %llu, read errors %llu, reconnects %llu%s%s\n",
-                a->imu->name, is.connected ? "connected" : "NOT connected", (unsigned long long)is.reports,
-                (unsigned long long)is.bad_reports, (unsigned long long)is.read_errors,
-                (unsigned long long)is.reconnects, is.last_error[0] ? "; last: " : "", is.last_error);
-    if (t->imu_lost || t->imu_stale)
-        fprintf(out, "  IMU lost                   %llu times; %llu vsyncs held the last orientation\n",
-                (unsigned long long)t->imu_lost, (unsigned long long)t->imu_stale);
-    rt_fusion_state st;
-    if (a->has_truth && rt_fusion_latest(a->fusion, &st)) {
-        double ts = (double)(st.t_ns - a->t0_ns) * 1e-9;
-        warp_quat truth = sim_trace_orientation(&a->trace, ts);
-        fprintf(out, "  orientation error at end   %.3f deg (gyro bias estimate %.4f %.4f %.4f rad/s)\n",
-                warp_quat_angle_between(truth, st.q) * 180 / WARP_PI, st.bias.x, st.bias.y, st.bias.z);
-    }
-    if (a->has_truth && c->eval_every_ms > 0) {
-        fprintf(out, "accuracy vs ground truth     left eye at photon time, before the lens; %d frames sampled\n",
-                a->eval[RT_EVAL_NONE].n);
-        const rt_eval_pose *pe = &a->eval_pose;
-        if (pe->n)
-            fprintf(out, "  pose error at photon time  mean %.3f deg / %.2f mm, max %.3f deg / %.2f mm "
-                         "(prediction and tracking; no warp can fix it)\n",
-                    pe->angle_sum / pe->n, pe->pos_sum / pe->n, pe->angle_max, pe->pos_max);
-        fprintf(out, "  %-26s %9s %9s %8s %12s\n", "method", "PSNR dB", "min dB", "SSIM", "error px %");
-        static const char *const names[RT_EVAL_METHODS] = {"no warp", "rotation (003 §3.4)", "raytrace (003 §3.5)",
-                                                              "raytrace at mesh vertices"};
-        for (int m = 0; m < RT_EVAL_METHODS; m++) {
-            const rt_eval_acc *e = &a->eval[m];
-            if (!e->n) continue;
-            /* printf pads by bytes: widen by the UTF-8 continuation bytes (the "§") so the columns line up */
-            int wide = 26;
-            for (const char *p = names[m]; *p; p++) wide += ((unsigned char)*p & 0xc0) == 0x80;
-            fprintf(out, "  %-*s %9.2f %9.2f %8.4f %12.3f\n", wide, names[m], e->psnr_sum / e->n, e->psnr_min,
-                    e->ssim_sum / e->n, e->err_sum / e->n);
-        }
-    }
-    if (a->csv) fprintf(out, "per-vsync CSV                %s\n", c->csv);
+    rt_summary_src s;
+    char output[400], fx[160];
+    summary_src(a, &s, false, output, sizeof output, fx, sizeof fx);
+    rt_summary_print(&s, out);
 }
 
 void rt_app_stats_kv(rt_app *a, FILE *out) { stats_kv(a, out, false); }
-
-/* live: while the run goes on (the helper thread), leaving out what another thread accumulates unpublished until
- * the end (the accuracy evaluator's sums). */
-static void stats_kv(rt_app *a, FILE *out, bool live)
-{
-    const rt_config *c = &a->cfg;
-    const rt_telemetry *t = a->tel;
-#define KV(k, fmt, v) fprintf(out, "%s=" fmt "\n", k, v)
-#define KVU(k, v) KV(k, "%llu", (unsigned long long)(v))
-    KV("version", "%s", plat_version());
-    KV("running", "%d", live);
-    {
-        /* since the display started (after the simulated IMU's rest) until it stopped (not the accuracy
-         * evaluation catching up afterwards): the span the vsync counts cover */
-        int64_t since = a->run_start_ns ? (a->run_end_ns ? a->run_end_ns : plat_now_ns()) - a->t0_ns : 0;
-        KV("run_s", "%.1f", since > 0 ? (double)since * 1e-9 : 0.0);
-    }
-    KV("board", "%s", c->board_name);
-    KV("imu_backend", "%s", a->imu ? a->imu->name : "");
-    KV("frames_backend", "%s", a->frames ? a->frames->name : "");
-    KV("vsync_backend", "%s", a->vsync ? a->vsync->name : "");
-    KV("renderer", "%s", a->use_gles ? "gles" : "cpu");
-    KV("gl_renderer", "%s", a->use_gles ? plat_egl_renderer(a->egl) : "");
-    KV("renderer_reason", "%s", a->render_why);
-    KV("display_output", "%s", a->kms ? "kms" : "offscreen");
-    {
-        /* always present (zeros offscreen), so scripts need not test for the keys */
-        plat_kms_stats ks = {.api = "", .format = ""};
-        if (a->kms) plat_kms_stats_get(a->kms, &ks);
-        KVU("kms_flips", ks.flips);
-        KVU("kms_flips_failed", ks.failed);
-        KVU("kms_flips_late", ks.late);
-        KVU("kms_vblanks", ks.vblanks);
-        KV("kms_api", "%s", ks.api);
-        KV("kms_format", "%s", ks.format);
-    }
-    if (a->use_gles) {
-        for (int p = 0; p < PLAT_GLES_PASSES; p++) {
-            char k[64];
-            snprintf(k, sizeof k, "gles_%s_ms_p50", plat_gles_pass_name((plat_gles_pass)p));
-            KV(k, "%.3f", rt_hist_pct(&a->gles_ms[p], 50));
-            snprintf(k, sizeof k, "gles_%s_ms_p99", plat_gles_pass_name((plat_gles_pass)p));
-            KV(k, "%.3f", rt_hist_pct(&a->gles_ms[p], 99));
-        }
-        KVU("gles_errors", a->gles_errors);
-    }
-    KVU("vsyncs", t->vsyncs);
-    KVU("missed", t->missed);
-    for (int m = 0; m < RT_MISS_COUNT; m++) {
-        char k[64];
-        snprintf(k, sizeof k, "missed_%s", rt_miss_name((rt_miss)m));
-        KVU(k, t->missed_by[m]);
-    }
-    KVU("no_frame", t->no_frame);
-    KVU("no_buffer", t->no_buffer);
-    for (int m = 0; m < RT_METHOD_COUNT; m++) {
-        char k[64];
-        snprintf(k, sizeof k, "method_%s", rt_method_name((rt_method)m));
-        KVU(k, t->method_count[m]);
-    }
-    KV("warp_ms_p50", "%.3f", rt_hist_pct(&t->warp_ms[c->method], 50));
-    KV("warp_ms_p99", "%.3f", rt_hist_pct(&t->warp_ms[c->method], 99));
-    KV("stall_reserve_ms", "%.3f", c->stall_reserve_ms);
-    KV("m2p_ms_p50", "%.3f", rt_hist_pct(&t->m2p_ms, 50));
-    KV("m2p_ms_p99", "%.3f", rt_hist_pct(&t->m2p_ms, 99));
-    KV("frame_age_ms_p50", "%.3f", rt_hist_pct(&t->frame_age_ms, 50));
-    KV("frame_age_ms_max", "%.3f", rt_hist_pct(&t->frame_age_ms, 100));
-    for (int w = 0; w < RT_WHY_COUNT; w++) {
-        char k[64];
-        snprintf(k, sizeof k, "select_%s", rt_select_why_key((rt_select_why)w));
-        KVU(k, t->select_why[w]);
-    }
-    KVU("method_switches", t->method_switches);
-    KVU("frames_received", t->frames_received);
-    KVU("frames_bytes", t->frames_bytes);
-    KVU("frames_shown", t->new_frames_shown);
-    KVU("frames_dropped", t->frames_dropped);
-    uint64_t rejected = 0;
-    for (int e = 1; e < DRV_FRAME_ERR_COUNT; e++) {
-        char k[64];
-        snprintf(k, sizeof k, "frames_rejected_%s", drv_frame_err_str((drv_frame_err)e));
-        for (char *p = k; *p; p++) /* "I/O error" -> i_o_error: shell-friendly keys */
-            *p = isalnum((unsigned char)*p) ? (char)tolower((unsigned char)*p) : '_';
-        KVU(k, t->frames_rejected[e]);
-        rejected += t->frames_rejected[e];
-    }
-    KVU("frames_rejected", rejected);
-    KVU("imu_samples", t->imu_samples);
-    KVU("imu_read_errors", t->imu_read_errors);
-    KVU("imu_lost", t->imu_lost);
-    KVU("imu_stale_vsyncs", t->imu_stale);
-    drv_imu_stats is;
-    if (a->imu && drv_imu_stats_get(a->imu, &is)) {
-        KVU("imu_reports", is.reports);
-        KVU("imu_bad_reports", is.bad_reports);
-        KVU("imu_reconnects", is.reconnects);
-        KV("imu_connected", "%d", is.connected);
-    }
-    drv_vsync_stats vs;
-    if (a->vsync && drv_vsync_stats_get(a->vsync, &vs)) {
-        KVU("vsync_edges", vs.edges);
-        KVU("vsync_spurious", vs.spurious);
-        KVU("vsync_missed_edges", vs.missed);
-        KVU("vsync_fallbacks", vs.fallbacks);
-        KV("vsync_on_timer", "%d", vs.on_timer);
-        KV("vsync_period_ns", "%lld", (long long)vs.period_ns);
-        KV("vsync_jitter_us", "%.1f", vs.jitter_us);
-    }
-    rt_fusion_state st;
-    if (rt_fusion_latest(a->fusion, &st)) {
-        KV("orientation_w", "%.6f", st.q.w);
-        KV("orientation_x", "%.6f", st.q.x);
-        KV("orientation_y", "%.6f", st.q.y);
-        KV("orientation_z", "%.6f", st.q.z);
-        if (a->has_truth) {
-            warp_quat truth = sim_trace_orientation(&a->trace, (double)(st.t_ns - a->t0_ns) * 1e-9);
-            KV("orientation_error_deg", "%.4f", warp_quat_angle_between(truth, st.q) * 180 / WARP_PI);
-        }
-    }
-    for (int m = 0; m < RT_EVAL_METHODS && !live; m++)
-        if (a->eval[m].n) {
-            char k[64];
-            snprintf(k, sizeof k, "psnr_%s", rt_method_name(rt_eval_methods[m]));
-            KV(k, "%.3f", a->eval[m].psnr_sum / a->eval[m].n);
-            snprintf(k, sizeof k, "ssim_%s", rt_method_name(rt_eval_methods[m]));
-            KV(k, "%.5f", a->eval[m].ssim_sum / a->eval[m].n);
-        }
-#undef KV
-#undef KVU
-}
 
 bool rt_app_showed_frames(const rt_app *a, char *why, int whylen)
 {
@@ -1005,13 +448,8 @@ bool rt_app_showed_frames(const rt_app *a, char *why, int whylen)
 
 void rt_app_free(rt_app *a)
 {
-    drv_imu_destroy(a->imu);
-    drv_frames_destroy(a->frames);
-    drv_vsync_destroy(a->vsync);
-    plat_display_destroy(a->display);
-    if (a->gles && plat_egl_make_current(a->egl)) plat_gles_destroy(a->gles);
-    plat_egl_close(a->egl);
-    free(a->gles_ms);
+    rt_devices_close(&a->dev);
+    rt_gles_free(&a->gl);
     if (a->workers) plat_workers_destroy(a->workers);
     for (int e = 0; e < 2; e++) {
         warp_mesh_free(&a->mesh[e]);
@@ -1027,13 +465,9 @@ void rt_app_free(rt_app *a)
     }
     plat_swapchain_free(&a->sc);
     rt_frameq_free(&a->fq);
-    rt_ring_free(&a->eval_ring);
-    rt_ring_free(&a->csv_ring);
-    if (a->csv && !a->csv_dead) fclose(a->csv);
-    free(a->live_buf[0]);
-    free(a->live_buf[1]);
-    free(a->live_m2p);
-    free(a->live_age);
+    rt_ring_free(&a->eval.ring);
+    rt_csv_close(&a->csv);
+    rt_live_free(&a->live);
     free(a->fusion);
     rt_telemetry_destroy(a->tel);
     memset(a, 0, sizeof *a);

@@ -7,73 +7,43 @@
 #include <pthread.h>
 #include <stdatomic.h>
 #include <stdbool.h>
+#include <stdint.h>
 #include <stdio.h>
 
 #include "drivers/drv_frames.h"
-#include "drivers/drv_imu.h"
-#include "drivers/drv_sim.h"
-#include "drivers/drv_vsync.h"
 #include "platform/plat_display.h"
-#include "platform/plat_egl.h"
-#include "platform/plat_gles.h"
-#include "platform/plat_workers.h"
 #include "runtime/rt_config.h"
+#include "runtime/rt_csv.h"
+#include "runtime/rt_devices.h"
+#include "runtime/rt_eval.h"
 #include "runtime/rt_frameq.h"
 #include "runtime/rt_fusion.h"
+#include "runtime/rt_gles.h"
+#include "runtime/rt_live.h"
 #include "runtime/rt_ring.h"
+#include "runtime/rt_select.h"
 #include "runtime/rt_telemetry.h"
-#include "sim/sim_scene.h"
 #include "sim/sim_trace.h"
-#include "warp/warp_head.h"
-#include "warp/warp_lens.h"
-#include "warp/warp_mesh.h"
+#include "warp/warp_camera.h"
 #include "warp/warp_forward.h"
 #include "warp/warp_grid.h"
+#include "warp/warp_head.h"
 #include "warp/warp_holes.h"
+#include "warp/warp_image.h"
+#include "warp/warp_lens.h"
+#include "warp/warp_math.h"
+#include "warp/warp_mesh.h"
 #include "warp/warp_objects.h"
 #include "warp/warp_raytrace.h"
+#include "warp/warp_resample.h"
 #include "warp/warp_transparency.h"
-#include "runtime/rt_select.h"
+
+/* Opaque parts held by pointer: their headers are for the files that call them. */
+typedef struct plat_workers plat_workers;
+typedef struct sim_scene sim_scene;
 
 /* Older than this, the newest IMU state is not extrapolated: the device is gone or stalled (prediction off). */
 #define RT_IMU_STALE_NS (150 * 1000000LL)
-
-/* What the compositor hands the accuracy evaluator about one displayed frame (simulated board only). */
-typedef struct {
-    uint64_t vsync_no, frame_seq;
-    double src_scene_time;     /* the scene time the host rendered */
-    double photon_scene_time;  /* when the warped frame is seen */
-    warp_pose src_eye;         /* left eye pose the frame was rendered with */
-    warp_pose shown_eye;       /* left eye pose the compositor warped to (the prediction) */
-    int method;
-} rt_eval_record;
-
-/* How far the pose the compositor warped to was from the true pose at photon time: the error no warp can fix. */
-typedef struct {
-    int n;
-    double angle_sum, angle_max;  /* degrees */
-    double pos_sum, pos_max;      /* millimetres */
-} rt_eval_pose;
-
-/* Accuracy of one method over the evaluated frames (left eye, before lens distortion, vs ground truth). */
-typedef struct {
-    int n;
-    double psnr_sum, ssim_sum, err_sum; /* err: error-pixel % (002 §4) */
-    double psnr_min;
-} rt_eval_acc;
-
-enum { RT_EVAL_NONE, RT_EVAL_ROTATION, RT_EVAL_RAYTRACE, RT_EVAL_RAYTRACE_MESH, RT_EVAL_METHODS };
-/* The registry methods the evaluator scores, by RT_EVAL_* (their --stats keys are psnr_NAME, ssim_NAME). */
-extern const rt_method rt_eval_methods[RT_EVAL_METHODS];
-
-/* One CSV row per vsync, produced on the vsync path and written by the telemetry thread. */
-typedef struct {
-    uint64_t vsync_no, frame_seq;
-    int64_t vsync_ns;
-    float warp_ms, m2p_ms, frame_age_ms;
-    int method;
-    int missed;
-} rt_csv_row;
 
 typedef struct {
     rt_config cfg;
@@ -81,16 +51,8 @@ typedef struct {
     int64_t t_end_ns;      /* 0 = run until stopped */
     _Atomic int stop;
 
-    /* devices */
-    bool sim_host;         /* frames come straight from the simulated host (its render statistics are known) */
-    bool has_truth;        /* the head motion and the scene are simulated: accuracy can be scored */
-    bool imu_remap;        /* [imu] axes is not the identity */
-    int imu_map[3], imu_sign[3];
-    drv_imu *imu;
-    drv_frames *frames;
-    drv_vsync *vsync;
-    plat_display *display;
-    plat_kms *kms;         /* the KMS output (owned by display on the CPU path, by egl on GLES), NULL offscreen */
+    rt_devices dev;        /* IMU, frames, vsync and display (rt_devices.h) */
+    rt_devices_feed feed;  /* what the IMU and frames threads feed (set by rt_app_run) */
 
     /* tracking and frames */
     rt_fusion *fusion;
@@ -127,45 +89,21 @@ typedef struct {
     int obj_n;
     bool obj_two;                  /* two frames' object poses known: extrapolation possible */
 
-    /* renderer ([render] renderer, rt_render_choose) */
-    bool use_gles;
-    bool gles_software; /* the GLES renderer is a software rasterizer: its GPU time is CPU time after the submit */
-    char render_why[256];       /* why this renderer was chosen, for the summary */
-    plat_egl *egl;              /* EGL display + context (GLES only) */
-    plat_gles *gles;
-    bool gles_depth;            /* the GLES resources include depth, pyramid and raytrace */
-    const rt_frame *gles_frame; /* the frame whose planes are in the GLES textures */
-    uint64_t gles_frame_seq;
-    _Atomic uint64_t gles_errors; /* failed uploads, readbacks or page flips (read live: atomic) */
-    char gles_last_error[200];
-    rt_hist *gles_ms;           /* [PLAT_GLES_PASSES] GPU time per pass and vsync (compositor thread) */
-    uint64_t gles_times_seq;
-    double gles_gpu_ms;         /* newest complete frame's GPU time, all passes */
-    int64_t gles_submit_ns;     /* when the last vsync's GL work was all submitted */
+    /* renderer ([render] renderer, rt_render_choose) and the GLES path (rt_gles.h) */
+    char render_why[256];      /* why this renderer was chosen, for the summary */
+    rt_gles gl;
 
     /* telemetry */
     rt_telemetry *tel;
-    rt_ring csv_ring;
-    FILE *csv;
-    uint64_t csv_bytes;        /* written to the current CSV file (helper thread), for [telemetry] csv_max_mb */
-    bool csv_dead;             /* rotation could not reopen the CSV: rows are dropped, a->csv is closed */
-    /* live telemetry, from the helper thread once a second: the key=value set of --stats in one of two buffers,
-     * the other being rewritten; the abort handler writes the published one (rt_app_write_last_stats) */
+    rt_csv csv;                /* [telemetry] csv: rows queued on the vsync path, written by the helper thread */
+    rt_live live;              /* the --stats text once a second: live_stats file, STATUS, abort handler */
     int64_t run_start_ns, run_end_ns; /* rt_app_run's start; the compositor's return (0 while running) */
-    char live_path[256];       /* [telemetry] live_stats resolved ("" = off) */
-    char *live_buf[2];
-    _Atomic size_t live_len[2];
-    _Atomic int live_pub;      /* the buffer complete and published, -1 none yet */
-    rt_hist_mark *live_m2p, *live_age; /* the histograms' counts a second ago (STATUS's "last second") */
 
     /* simulated board */
     bool sim_loaded;           /* scene and trace loaded: some device is simulated (rt_devices_simulated) */
     const sim_scene *scene;    /* NULL unless sim_loaded */
     sim_trace trace;
-    rt_ring eval_ring;
-    rt_eval_acc eval[RT_EVAL_METHODS];
-    rt_eval_pose eval_pose;
-    int eval_done;
+    rt_eval eval;              /* the accuracy evaluator (has_truth and [sim] eval_every_ms) */
     uint64_t sim_plane_renders[5];
     uint64_t sim_frames;
 
@@ -192,24 +130,7 @@ bool rt_app_showed_frames(const rt_app *a, char *why, int whylen);
 bool rt_app_write_last_stats(rt_app *a, int fd);
 void rt_app_free(rt_app *a);
 
-/* Opens the IMU, frames and vsync backends board.ini names (rt_devices.c); sp describes the simulated host,
- * used by the sim backend and the mocks. Sets has_truth and sim_host. */
-bool rt_devices_open(rt_app *a, const drv_frames_sim_params *sp, char *err, int errlen);
-/* Whether the configuration has the simulator play a device (a sim backend or a mock device). */
-bool rt_devices_simulated(const rt_config *c);
-
-/* Decides the renderer from [render] renderer (`setting`: auto, cpu, gles), the GL_RENDERER string of the context
- * EGL gave (NULL when it gave none; egl_err then says why) and whether the output is KMS. Returns true for GLES
- * and writes the reason in one line to why. auto picks GLES on a hardware GPU and the CPU path when only a
- * software rasterizer (llvmpipe) or no EGL is there: there the CPU path is faster, and vsync comes first. With
- * KMS output the choice is the same (the CPU path shows through dumb buffers). A forced gles without EGL returns
- * true: the caller fails. */
-bool rt_render_choose(const char *setting, const char *gl_renderer, const char *egl_err, bool kms, char *why,
-                      int whylen);
-
 /* The compositor loop (rt_compositor.c). */
 void rt_compositor_run(rt_app *a);
-/* The accuracy evaluator (rt_eval.c): processes records until stop is set and the ring is empty. */
-void *rt_eval_thread(void *arg);
 
 #endif

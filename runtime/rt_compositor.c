@@ -7,7 +7,10 @@
 #include <string.h>
 
 #include "platform/plat_clock.h"
+#include "platform/plat_egl.h"
+#include "platform/plat_gles.h"
 #include "platform/plat_log.h"
+#include "platform/plat_workers.h"
 #include "runtime/rt_app.h"
 #include "warp/warp_raytrace.h"
 #include "warp/warp_registry.h"
@@ -246,25 +249,25 @@ static rt_method compose(rt_app *a, job *j, const rt_frame *frame, const warp_po
 static rt_method compose_gles(rt_app *a, job *j, const rt_frame *frame, const warp_pose eyes[2], rt_method method,
                               warp_image_rgba8 *out)
 {
-    plat_gles *g = a->gles;
+    plat_gles *g = a->gl.renderer;
     char err[200];
     /* the GPU's methods need depth at most: the other planes are not asked for */
     method = usable(a, frame, passes[method].gles, 0);
-    if (frame != a->gles_frame || frame->f.seq != a->gles_frame_seq) {
+    if (frame != a->gl.frame || frame->f.seq != a->gl.frame_seq) {
         bool ok = true;
         for (int e = 0; e < 2; e++)
             ok &= plat_gles_upload(g, e, &frame->f.color[e],
-                                   a->gles_depth && frame->has_depth ? &frame->inv_depth[e] : NULL);
+                                   a->gl.depth && frame->has_depth ? &frame->inv_depth[e] : NULL);
         if (!ok) {
-            a->gles_errors++;
-            snprintf(a->gles_last_error, sizeof a->gles_last_error, "frame %llu: texture upload failed",
+            a->gl.errors++;
+            snprintf(a->gl.last_error, sizeof a->gl.last_error, "frame %llu: texture upload failed",
                      (unsigned long long)frame->f.seq);
         }
-        a->gles_frame = frame;
-        a->gles_frame_seq = frame->f.seq;
+        a->gl.frame = frame;
+        a->gl.frame_seq = frame->f.seq;
     }
     bool drawn = false;
-    if (method == RT_METHOD_RAYTRACE && a->gles_depth) {
+    if (method == RT_METHOD_RAYTRACE && a->gl.depth) {
         bool ok = true;
         for (int e = 0; e < 2 && ok; e++) {
             j->views[e] = rt_frame_view(frame, e);
@@ -289,12 +292,12 @@ static rt_method compose_gles(rt_app *a, job *j, const rt_frame *frame, const wa
             plat_gles_lens(g, e, &a->mesh[e], false);
         }
     }
-    a->gles_submit_ns = plat_now_ns();
-    bool ok = plat_egl_is_kms(a->egl) ? plat_egl_present(a->egl, err, sizeof err)
+    a->gl.submit_ns = plat_now_ns();
+    bool ok = plat_egl_is_kms(a->gl.egl) ? plat_egl_present(a->gl.egl, err, sizeof err)
                                       : plat_gles_read(g, out, err, sizeof err);
     if (!ok) {
-        a->gles_errors++;
-        snprintf(a->gles_last_error, sizeof a->gles_last_error, "%s", err);
+        a->gl.errors++;
+        snprintf(a->gl.last_error, sizeof a->gl.last_error, "%s", err);
     }
     plat_gles_end_frame(g);
     return method;
@@ -304,15 +307,15 @@ static rt_method compose_gles(rt_app *a, job *j, const rt_frame *frame, const wa
 static void gles_times(rt_app *a)
 {
     plat_gles_times gt;
-    if (!plat_gles_times_latest(a->gles, &gt) || gt.seq == a->gles_times_seq) return;
-    a->gles_times_seq = gt.seq;
+    if (!plat_gles_times_latest(a->gl.renderer, &gt) || gt.seq == a->gl.times_seq) return;
+    a->gl.times_seq = gt.seq;
     double total = 0;
     for (int p = 0; p < PLAT_GLES_PASSES; p++)
         if (gt.valid[p]) {
-            rt_hist_add(&a->gles_ms[p], gt.ms[p]);
+            rt_hist_add(&a->gl.ms[p], gt.ms[p]);
             total += gt.ms[p];
         }
-    a->gles_gpu_ms = total;
+    a->gl.gpu_ms = total;
 }
 
 /* Keeps the object poses of the two newest frames (002 §3.2: extrapolation needs two) and whether any object
@@ -356,7 +359,7 @@ void rt_compositor_run(rt_app *a)
     /* The display starts at scene time 0 (after the simulated headset's rest at boot), whatever the vsync source. */
     int64_t first = plat_now_ns() + 2 * PLAT_NS_PER_MS;
     if (first < a->t0_ns - 1) first = a->t0_ns - 1;
-    int64_t t_vs = drv_vsync_next(a->vsync, first, &period);
+    int64_t t_vs = drv_vsync_next(a->dev.vsync, first, &period);
     /* When to wake: the vsync minus the longest warp and the latest wake-up among the last WINDOW vsyncs, plus a
      * margin. A running maximum rather than an average: a miss costs a whole repeated frame, waking a little
      * early costs only that much latency (Monado's pacing likewise backs off at once and creeps back). */
@@ -387,13 +390,13 @@ void rt_compositor_run(rt_app *a)
     job j;
     memset(&j, 0, sizeof j);
     j.a = a;
-    bool gles = a->use_gles;
-    if (gles && !plat_egl_make_current(a->egl)) {
+    bool gles = a->gl.use;
+    if (gles && !plat_egl_make_current(a->gl.egl)) {
         plat_log(PLAT_LOG_WARNING, "cannot make the EGL context current on the compositor thread: using the CPU "
                                    "path");
         snprintf(a->render_why + strlen(a->render_why), sizeof a->render_why - strlen(a->render_why),
                  "; the EGL context could not be made current: fell back to cpu");
-        a->use_gles = gles = false;
+        a->gl.use = gles = false;
     }
 
     while (!atomic_load_explicit(&a->stop, memory_order_relaxed)) {
@@ -460,10 +463,10 @@ void rt_compositor_run(rt_app *a)
         } else if (!frame) {
             tel->no_frame++;
             clear_image(&a->sc.img[idx]);
-            if (gles && plat_egl_is_kms(a->egl)) {
+            if (gles && plat_egl_is_kms(a->gl.egl)) {
                 char err[200];
-                plat_gles_clear(a->gles);
-                if (!plat_egl_present(a->egl, err, sizeof err)) a->gles_errors++;
+                plat_gles_clear(a->gl.renderer);
+                if (!plat_egl_present(a->gl.egl, err, sizeof err)) a->gl.errors++;
             }
         } else if (gles) {
             used = compose_gles(a, &j, frame, eyes, want, &a->sc.img[idx]);
@@ -478,8 +481,8 @@ void rt_compositor_run(rt_app *a)
             /* The GPU may still be drawing when the CPU is done (KMS: no readback waits for it): the estimate
              * takes submission plus the GPU time the timer queries measured, whichever is longer. */
             gles_times(a);
-            int64_t gpu = (int64_t)(a->gles_gpu_ms * 1e6);
-            if (frame && idx >= 0 && a->gles_submit_ns - t_start + gpu > dur) dur = a->gles_submit_ns - t_start + gpu;
+            int64_t gpu = (int64_t)(a->gl.gpu_ms * 1e6);
+            if (frame && idx >= 0 && a->gl.submit_ns - t_start + gpu > dur) dur = a->gl.submit_ns - t_start + gpu;
         }
         bool missed = t_done > t_vs || idx < 0;
         /* the compositor spins while it waits for a worker's last task: CPU time, but not its own work when the
@@ -490,12 +493,12 @@ void rt_compositor_run(rt_app *a)
         if (gles && frame && idx >= 0) {
             /* before the first timer query has come back, the wait from submission to done is the GPU's (a fence
              * wait: the readback, or the flip of the previous frame) */
-            int64_t gpu = a->gles_gpu_ms > 0 ? (int64_t)(a->gles_gpu_ms * 1e6) : t_done - a->gles_submit_ns;
-            work = rt_miss_gles_work(work, gpu, a->gles_software);
+            int64_t gpu = a->gl.gpu_ms > 0 ? (int64_t)(a->gl.gpu_ms * 1e6) : t_done - a->gl.submit_ns;
+            work = rt_miss_gles_work(work, gpu, a->gl.software);
         }
         rt_miss cause = missed ? rt_miss_classify(wake, t_start, t_vs, work, idx >= 0) : RT_MISS_OWN;
         if (idx >= 0) {
-            plat_display_present(a->display, &a->sc, idx, t_vs, vsync_no);
+            plat_display_present(a->dev.display, &a->sc, idx, t_vs, vsync_no);
             plat_swapchain_presented(&a->sc, idx, t_vs);
         }
 
@@ -512,15 +515,15 @@ void rt_compositor_run(rt_app *a)
         double age = frame ? (double)(t_photon - frame->f.pose_t_ns) * 1e-6 : NAN;
         if (tracked) rt_hist_add(&tel->m2p_ms, m2p);
         if (frame) rt_hist_add(&tel->frame_age_ms, age);
-        if (a->csv) {
+        if (a->csv.f) {
             rt_csv_row row = {vsync_no, frame ? frame->f.seq : 0, t_vs, (float)warp_ms, (float)m2p, (float)age,
                               (int)used, missed};
-            rt_ring_push(&a->csv_ring, &row);
+            rt_ring_push(&a->csv.ring, &row);
         }
-        if (a->has_truth && eval_every > 0 && frame && t_vs >= next_eval) {
+        if (a->dev.has_truth && eval_every > 0 && frame && t_vs >= next_eval) {
             rt_eval_record r = {vsync_no, frame->f.seq, frame->f.scene_time,
                                 (double)(t_photon - a->t0_ns) * 1e-9, frame->f.eye_pose[0], eyes[0], (int)used};
-            rt_ring_push(&a->eval_ring, &r);
+            rt_ring_push(&a->eval.ring, &r);
             next_eval += eval_every;
         }
 
@@ -557,7 +560,7 @@ void rt_compositor_run(rt_app *a)
         vsync_no++;
         /* Half a period on: an estimated phase (GPIO TE line) may move the vsync just served a few µs later, and
          * asking for "after t_vs" would then return the same vsync again. */
-        int64_t next = drv_vsync_next(a->vsync, t_vs + period / 2, &period);
+        int64_t next = drv_vsync_next(a->dev.vsync, t_vs + period / 2, &period);
         /* Overran a whole period: the vsyncs in between were not served. (The test leaves the reserve out: it is
          * there to be used up.) */
         int64_t now = plat_now_ns();
@@ -565,7 +568,7 @@ void rt_compositor_run(rt_app *a)
             /* the first vsync we can still make, and never one at or before the vsync just served */
             int64_t after = now + warp_est + margin_ns;
             if (after < t_vs + period / 2) after = t_vs + period / 2;
-            int64_t later = drv_vsync_next(a->vsync, after, &period);
+            int64_t later = drv_vsync_next(a->dev.vsync, after, &period);
             if (later < next) later = next;
             uint64_t skipped = period > 0 ? (uint64_t)((later - next + period / 2) / period) : 0;
             tel->vsyncs += skipped;
@@ -578,5 +581,5 @@ void rt_compositor_run(rt_app *a)
         }
         t_vs = next;
     }
-    if (gles) plat_egl_release(a->egl);
+    if (gles) plat_egl_release(a->gl.egl);
 }

@@ -7,6 +7,8 @@
 
 #include "platform/plat_clock.h"
 #include "runtime/rt_app.h"
+#include "runtime/rt_eval.h"
+#include "sim/sim_scene.h"
 #include "warp/warp_mesh.h"
 #include "warp/warp_metrics.h"
 #include "warp/warp_raytrace.h"
@@ -58,7 +60,7 @@ void *rt_eval_thread(void *arg)
     warp_raytrace_params rp = a->rt_params;
     for (;;) {
         rt_eval_record r;
-        if (!rt_ring_pop(&a->eval_ring, &r)) {
+        if (!rt_ring_pop(&a->eval.ring, &r)) {
             if (atomic_load(&a->stop)) break;
             plat_sleep_ns(5 * PLAT_NS_PER_MS);
             continue;
@@ -69,7 +71,7 @@ void *rt_eval_thread(void *arg)
         warp_pose true_head = sim_trace_head_pose(&a->trace, r.photon_scene_time);
         warp_pose true_eye = warp_head_eye_pose(&a->head, true_head, 0);
         sim_render(a->scene, r.photon_scene_time, true_eye, cam, SIM_PLANE_COLOR, &truth);
-        rt_eval_pose *pe = &a->eval_pose;
+        rt_eval_pose *pe = &a->eval.pose;
         double ang = warp_quat_angle_between(true_eye.q, r.shown_eye.q) * 180 / WARP_PI;
         double mm = warp_v3_norm(warp_v3_sub(true_eye.p, r.shown_eye.p)) * 1000;
         pe->n++;
@@ -81,20 +83,20 @@ void *rt_eval_thread(void *arg)
         warp_view v = {.cam = *cam, .pose = r.src_eye, .color = &src.color, .inv_depth = &inv};
         warp_inverse_depth_from(cam, WARP_DEPTH_LINEAR, &src.depth, &inv, &v.inv_depth_min, &v.inv_depth_max);
 
-        score(&a->eval[RT_EVAL_NONE], &src.color, &truth.color);
+        score(&a->eval.acc[RT_EVAL_NONE], &src.color, &truth.color);
         warp_mat3 h = warp_reproject_homography(&v, cam, r.shown_eye.q);
         warp_reproject_rows(&v, &h, &out, NULL, 0, out.h);
-        score(&a->eval[RT_EVAL_ROTATION], &out, &truth.color);
+        score(&a->eval.acc[RT_EVAL_ROTATION], &out, &truth.color);
         warp_raytrace_setup s;
         if (!warp_raytrace_prepare(&s, &v, cam, r.shown_eye, &rp)) {
             warp_raytrace_rows(&s, &out, NULL, 0, out.h, NULL);
-            score(&a->eval[RT_EVAL_RAYTRACE], &out, &truth.color);
+            score(&a->eval.acc[RT_EVAL_RAYTRACE], &out, &truth.color);
             warp_planar3_from_rgba_rows(&planar, &src.color, 0, src.color.h);
             warp_mesh_update_raytrace(&mesh, cam, &s);
             warp_mesh_resample(&mesh, &planar, &out, 0, 0, out.w, out.h);
-            score(&a->eval[RT_EVAL_RAYTRACE_MESH], &out, &truth.color);
+            score(&a->eval.acc[RT_EVAL_RAYTRACE_MESH], &out, &truth.color);
         }
-        a->eval_done++;
+        a->eval.done++;
     }
     sim_buffers_free(&src);
     sim_buffers_free(&truth);

@@ -5,6 +5,9 @@
 
 #include <string.h>
 
+#include "warp/warp_raytrace.h"
+#include "warp/warp_transparency.h"
+
 #define NEW_BIT 4
 
 warp_view rt_frame_view(const rt_frame *fr, int eye)
@@ -27,6 +30,27 @@ warp_view rt_frame_view(const rt_frame *fr, int eye)
     v.object_pose = fr->f.object_pose;
     v.time = fr->f.scene_time;
     return v;
+}
+
+drv_frame_err rt_frame_prepare(rt_frame *s)
+{
+    drv_frame_err e = drv_frame_validate(&s->f);
+    if (e != DRV_FRAME_OK) return e;
+    s->has_depth = (s->f.planes & DRV_PLANE_DEPTH) != 0;
+    for (int eye = 0; eye < 2; eye++) {
+        if (s->has_depth) {
+            long bad = warp_inverse_depth_from(&s->f.cam[eye], s->f.depth_encoding, &s->f.depth[eye],
+                                               &s->inv_depth[eye], &s->inv_min[eye], &s->inv_max[eye]);
+            if (bad) return DRV_FRAME_ERR_BAD_DEPTH;
+            warp_raytrace_blockmax(&s->inv_depth[eye], &s->blockmax[eye], RT_BLOCK);
+        }
+        warp_planar3_from_rgba_rows(&s->planar[eye], &s->f.color[eye], 0, s->f.color[eye].h);
+        /* The host blended its transparent fragments into the colour; the transparency warp moves them on their
+         * own, over the surface behind them: recover that once per frame, here, off the vsync path. */
+        if ((s->f.planes & DRV_PLANE_LAYERS) && s->opaque[eye].px)
+            warp_transparency_unblend(&s->f.color[eye], &s->f.layers[eye], &s->opaque[eye]);
+    }
+    return DRV_FRAME_OK;
 }
 
 bool rt_frameq_init(rt_frameq *q, int w, int h, unsigned planes, int max_layers)

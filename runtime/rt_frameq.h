@@ -25,6 +25,9 @@ typedef struct {
 
 #define RT_BLOCK 8
 
+/* Validates a received frame and derives what the warps read from it (inverse depth and its block maxima, planar
+ * colour, the colour behind transparent fragments): on the frames thread, once per host frame, never per vsync. */
+drv_frame_err rt_frame_prepare(rt_frame *s);
 /* Builds the warp input for one eye of a prepared frame. */
 warp_view rt_frame_view(const rt_frame *fr, int eye);
 

@@ -24,16 +24,24 @@ void rt_hist_add(rt_hist *h, double ms)
 #undef BUMP
 }
 
-double rt_hist_pct(const rt_hist *h, double p)
+double rt_hist_pct(const rt_hist *h, double p) { return rt_hist_pct_of(h, 1, p); }
+
+double rt_hist_pct_of(const rt_hist *h, int n, double p)
 {
-    uint64_t count = atomic_load_explicit(&h->count, memory_order_relaxed);
-    double max = atomic_load_explicit(&h->max, memory_order_relaxed);
+    uint64_t count = 0;
+    double max = 0;
+    for (int i = 0; i < n; i++) {
+        uint64_t c = atomic_load_explicit(&h[i].count, memory_order_relaxed);
+        double m = atomic_load_explicit(&h[i].max, memory_order_relaxed);
+        if (c && (!count || m > max)) max = m;
+        count += c;
+    }
     if (!count) return NAN;
     uint64_t want = (uint64_t)ceil(p / 100.0 * (double)count);
     if (want < 1) want = 1;
     uint64_t acc = 0;
     for (long b = 0; b <= RT_HIST_BINS; b++) {
-        acc += atomic_load_explicit(&h->bin[b], memory_order_relaxed);
+        for (int i = 0; i < n; i++) acc += atomic_load_explicit(&h[i].bin[b], memory_order_relaxed);
         if (acc >= want) return b == RT_HIST_BINS ? max : (b + 0.5) / 100.0;
     }
     return max;

@@ -11,7 +11,6 @@
 
 #include "drivers/drv_frames.h"
 #include "runtime/rt_config.h"
-#include "runtime/rt_fusion.h"
 
 /* Fixed-bin histogram of milliseconds: 10 us bins up to 250 ms, plus overflow. One writer thread each; the live
  * telemetry reads it while the run goes on, so every field is atomic, written with relaxed loads and stores (plain
@@ -27,6 +26,8 @@ typedef struct {
 void rt_hist_add(rt_hist *h, double ms);
 /* p-th percentile (0..100), bin-centre resolution; NAN when empty. */
 double rt_hist_pct(const rt_hist *h, double p);
+/* p-th percentile of the samples of h[0..n-1] together (the warp time over every method auto chose). */
+double rt_hist_pct_of(const rt_hist *h, int n, double p);
 
 /* A histogram's counts as they were at some moment, so a reader can take percentiles over what came since (the
  * live view's "last second"). The reader's own copy: allocate it (about 100 KB), never on the vsync path. */

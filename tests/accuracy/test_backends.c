@@ -76,7 +76,7 @@ static void assert_nominal(void)
     assert_true(t->frames_received >= 8);
     assert_true(t->imu_samples >= 1000);
     assert_true(t->method_count[RT_METHOD_ROTATION] > 100);
-    assert_true(drv_frames_planes(app.frames) & DRV_PLANE_DEPTH); /* the translation scene's depth crosses the link */
+    assert_true(drv_frames_planes(app.dev.frames) & DRV_PLANE_DEPTH); /* the translation scene's depth crosses the link */
     rt_fusion_state st;
     assert_true(rt_fusion_latest(app.fusion, &st));
     warp_quat truth = sim_trace_orientation(&app.trace, (double)(st.t_ns - app.t0_ns) * 1e-9);
@@ -97,10 +97,10 @@ static void test_hid_usb_gpio(void **state)
     assert_nominal();
     assert_int_equal(rejected(), 0);
     drv_imu_stats is;
-    assert_true(drv_imu_stats_get(app.imu, &is));
+    assert_true(drv_imu_stats_get(app.dev.imu, &is));
     assert_true(is.reports > 500 && is.bad_reports == 0 && is.connected);
     drv_vsync_stats vs;
-    assert_true(drv_vsync_stats_get(app.vsync, &vs));
+    assert_true(drv_vsync_stats_get(app.dev.vsync, &vs));
     assert_true(vs.edges >= 120 && !vs.on_timer);
     rt_app_free(&app);
 }
@@ -135,10 +135,10 @@ static void test_faults_keep_the_display_going(void **state)
     assert_int_equal(t->imu_lost, 1);
     assert_true(t->imu_stale > 0); /* the display held the last orientation meanwhile */
     drv_imu_stats is;
-    assert_true(drv_imu_stats_get(app.imu, &is));
+    assert_true(drv_imu_stats_get(app.dev.imu, &is));
     assert_true(is.reconnects == 1 && is.connected);
     drv_vsync_stats vs;
-    assert_true(drv_vsync_stats_get(app.vsync, &vs));
+    assert_true(drv_vsync_stats_get(app.dev.vsync, &vs));
     assert_true(vs.fallbacks >= 1 && !vs.on_timer);
     rt_app_free(&app);
 }

@@ -59,7 +59,7 @@ static void test_rotation_only_scene(void **state)
     rt_telemetry *t = app.tel;
     print_message("vsyncs %llu missed %llu frames %llu imu %llu eval %d\n", (unsigned long long)t->vsyncs,
                   (unsigned long long)t->missed, (unsigned long long)t->frames_received,
-                  (unsigned long long)t->imu_samples, app.eval[RT_EVAL_NONE].n);
+                  (unsigned long long)t->imu_samples, app.eval.acc[RT_EVAL_NONE].n);
     assert_true(t->vsyncs >= 120 && t->vsyncs <= test_run_max_vsyncs(&app, 90)); /* 1.5 s at 90 Hz, skipped ones too */
     assert_true(t->frames_received >= 2);                                          /* 10 quiet */
     assert_true(t->imu_samples >= 100);                                            /* 1300 quiet */
@@ -76,7 +76,7 @@ static void test_rotation_only_scene(void **state)
      * second: a pass kept off its CPU shows an older sample) */
     print_message("m2p p50 %.2f ms, other processes used %.0f %% of the CPUs\n", rt_hist_pct(&t->m2p_ms, 50), others * 100);
     assert_true(rt_hist_pct(&t->m2p_ms, 50) > 0 && rt_hist_pct(&t->m2p_ms, 50) < (others < QUIET_OTHERS ? 30 : 1000));
-    assert_true(app.eval[RT_EVAL_NONE].n >= 1);
+    assert_true(app.eval.acc[RT_EVAL_NONE].n >= 1);
     rt_app_free(&app);
 }
 
@@ -204,8 +204,8 @@ static void test_depth_scene_raytrace_mesh(void **state)
     /* Against ground truth the mesh raytrace is scored on the same frames as the others: it corrects what the
      * unwarped frame gets wrong about as well as the per-pixel raytrace does (the latency's few millimetres of
      * translation separate the warps by tenths of a dB here, too little to rank them). */
-    const rt_eval_acc *none = &app.eval[RT_EVAL_NONE], *rot = &app.eval[RT_EVAL_ROTATION],
-                      *ray = &app.eval[RT_EVAL_RAYTRACE], *mesh = &app.eval[RT_EVAL_RAYTRACE_MESH];
+    const rt_eval_acc *none = &app.eval.acc[RT_EVAL_NONE], *rot = &app.eval.acc[RT_EVAL_ROTATION],
+                      *ray = &app.eval.acc[RT_EVAL_RAYTRACE], *mesh = &app.eval.acc[RT_EVAL_RAYTRACE_MESH];
     assert_true(mesh->n >= 2 && mesh->n == none->n && mesh->n == ray->n);
     const double p_none = none->psnr_sum / none->n, p_rot = rot->psnr_sum / rot->n, p_ray = ray->psnr_sum / ray->n,
                  p_mesh = mesh->psnr_sum / mesh->n;

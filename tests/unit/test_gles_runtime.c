@@ -10,6 +10,7 @@
 #include <string.h>
 #include <cmocka.h>
 
+#include "platform/plat_gles.h"
 #include "runtime/rt_app.h"
 #include "tests/support/test_util.h"
 
@@ -153,16 +154,16 @@ static void test_gles_run_on_llvmpipe(void **state)
     small_config(&c, "gles", "raytrace");
     char err[300];
     if (!rt_app_init(&app, &c, err, sizeof err)) fail_msg("init: %s", err);
-    assert_true(app.use_gles);
+    assert_true(app.gl.use);
     rt_app_run(&app);
     rt_telemetry *t = app.tel;
     print_message("vsyncs %llu, raytrace %llu, gles errors %llu\n", (unsigned long long)t->vsyncs,
-                  (unsigned long long)t->method_count[RT_METHOD_RAYTRACE], (unsigned long long)app.gles_errors);
+                  (unsigned long long)t->method_count[RT_METHOD_RAYTRACE], (unsigned long long)app.gl.errors);
     assert_true(t->method_count[RT_METHOD_RAYTRACE] > 0);
-    assert_int_equal(app.gles_errors, 0);
-    assert_true(app.gles_ms[PLAT_GLES_RAYTRACE].count > 0);
-    assert_true(app.gles_ms[PLAT_GLES_LENS].count > 0);
-    assert_true(app.gles_ms[PLAT_GLES_PYRAMID].count > 0); /* built for new frames */
+    assert_int_equal(app.gl.errors, 0);
+    assert_true(app.gl.ms[PLAT_GLES_RAYTRACE].count > 0);
+    assert_true(app.gl.ms[PLAT_GLES_LENS].count > 0);
+    assert_true(app.gl.ms[PLAT_GLES_PYRAMID].count > 0); /* built for new frames */
     /* something was drawn: the image on screen is not all black */
     int idx = app.sc.on_screen;
     assert_true(idx >= 0);
@@ -199,7 +200,7 @@ static void test_gles_misses_are_the_warps(void **state)
     if (!rt_config_validate(&c, &e)) fail_msg("config: %s", e.msg[0]);
     char err[300];
     if (!rt_app_init(&app, &c, err, sizeof err)) fail_msg("init: %s", err);
-    assert_true(app.use_gles && app.gles_software);
+    assert_true(app.gl.use && app.gl.software);
     test_others others0 = test_others_mark();
     rt_app_run(&app);
     const rt_telemetry *t = app.tel;
@@ -237,8 +238,8 @@ static void test_auto_picks_cpu_on_llvmpipe(void **state)
     assert_true(rt_config_set(&c, "sim.duration_s=0.1", &e));
     char err[300];
     if (!rt_app_init(&app, &c, err, sizeof err)) fail_msg("init: %s", err);
-    assert_false(app.use_gles);
-    assert_null(app.egl); /* not kept open for nothing */
+    assert_false(app.gl.use);
+    assert_null(app.gl.egl); /* not kept open for nothing */
     rt_app_run(&app);
     char *kv = stats_text(), *sum = summary_text();
     assert_non_null(strstr(kv, "renderer=cpu\n"));
