@@ -151,7 +151,8 @@ static bool render_init(rt_app *a, char *err, int errlen)
     }
     /* the GPU path runs transparency and object warps as its raytrace (no GLES pass for them yet) */
     a->gles_depth = c->method != RT_METHOD_NONE && c->method != RT_METHOD_ROTATION;
-    plat_gles_params gp = {c->panel_w, c->panel_h, c->eye_w, c->eye_h, a->mesh[0].cols, a->mesh[0].rows,
+    const warp_mesh *mesh = rt_render_cpu_mesh(a->render, 0);
+    plat_gles_params gp = {c->panel_w, c->panel_h, c->eye_w, c->eye_h, mesh->cols, mesh->rows,
                            a->gles_depth, kms, true, false};
     a->gles = plat_gles_create(a->egl, &gp, eerr, sizeof eerr);
     if (!a->gles) {
@@ -230,42 +231,20 @@ bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen)
 
     a->head = warp_head_default();
     a->head.ipd = c->ipd;
-    int vw = c->panel_w / 2;
-    for (int e = 0; e < 2; e++) {
-        a->eye_cam[e] = rt_config_eye_camera(c, e);
-        a->lens[e] = rt_config_lens(c, e);
-        if (!warp_mesh_init(&a->mesh[e], c->mesh_n, &a->lens[e], e * vw, 0, vw, c->panel_h))
-            return fail(err, errlen, "%s%s: cannot allocate the distortion mesh", "[lens] mesh", "");
-    }
+    for (int e = 0; e < 2; e++) a->eye_cam[e] = rt_config_eye_camera(c, e);
     /* one shown, one waiting for its vsync, one being drawn; a fourth while a file sink still reads one, or while
      * a pass started by [render] stall_reserve_ms more than a period ahead keeps two out of reach */
     if (!plat_swapchain_init(&a->sc, c->stall_reserve_ms > 0 ? 4 : 3, c->panel_w, c->panel_h))
         return fail(err, errlen, "cannot allocate the swapchain (%s%s)", "[display] width/height", "");
-    if (!render_init(a, err, errlen)) return false;
     a->workers = plat_workers_create(c->threads - 1, c->rt_priority);
     if (!a->workers) return fail(err, errlen, "cannot start %s%s", "compositor worker threads", "");
-    a->rt_params = warp_raytrace_default_params();
-    a->rt_params.max_steps = c->raytrace_steps;
-    a->rt_params.edge_fill = (warp_edge_fill)c->edge_fill;
-    a->rt_params.edge_jump = (float)c->edge_jump;
-    const bool depth_warps = c->method != RT_METHOD_NONE && c->method != RT_METHOD_ROTATION;
-    a->can_transparency = c->method == RT_METHOD_TRANSPARENCY || c->method == RT_METHOD_AUTO;
-    a->can_objects = c->method == RT_METHOD_OBJECTS || c->method == RT_METHOD_AUTO;
-    for (int e = 0; e < 2 && depth_warps; e++) {
-        bool ok = warp_image_rgba8_alloc(&a->inter[e], c->eye_w, c->eye_h) &&
-                  warp_planar3_alloc(&a->inter_planar[e], c->eye_w, c->eye_h) &&
-                  warp_image_u8_alloc(&a->wmask[e], c->eye_w, c->eye_h);
-        if (ok && a->can_transparency)
-            ok = warp_grid_alloc(&a->grid[e], c->eye_w, c->eye_h, warp_grid_default_params().tile) &&
-                 warp_minmax_alloc(&a->abuf[e], c->eye_w, c->eye_h) &&
-                 warp_image_f32_alloc(&a->zb[e], c->eye_w, c->eye_h);
-        if (ok && a->can_objects) {
-            a->objs[e] = calloc(1, sizeof *a->objs[e]);
-            ok = a->objs[e] && warp_fwd_scratch_alloc(&a->fwd[e], c->eye_w, c->eye_h, c->eye_w, c->eye_h) &&
-                 warp_holes_init(&a->holes[e], c->eye_w, c->eye_h, 12);
-        }
-        if (!ok) return fail(err, errlen, "cannot allocate %s%s", "the depth warps' buffers", "");
-    }
+    /* the CPU pass before the renderer: its lens meshes are the GLES path's too */
+    rt_render_cpu_params rp = rt_render_cpu_params_from_config(c);
+    a->render = rt_render_cpu_create(&rp, a->workers, err, errlen);
+    if (!a->render) return false;
+    if (!render_init(a, err, errlen)) return false;
+    a->can_transparency = rp.transparency;
+    a->can_objects = rp.objects;
     rt_select_params selp = rt_select_default_params();
     selp.pixel_budget = c->pixel_budget;
     rt_select_init(&a->sel, &selp, &a->eye_cam[0]);
@@ -379,28 +358,6 @@ static void *imu_thread(void *arg)
     return NULL;
 }
 
-/* Everything derived from a frame is computed here, once per host frame, not once per vsync. */
-static drv_frame_err prepare_frame(rt_frame *s)
-{
-    drv_frame_err e = drv_frame_validate(&s->f);
-    if (e != DRV_FRAME_OK) return e;
-    s->has_depth = (s->f.planes & DRV_PLANE_DEPTH) != 0;
-    for (int eye = 0; eye < 2; eye++) {
-        if (s->has_depth) {
-            long bad = warp_inverse_depth_from(&s->f.cam[eye], s->f.depth_encoding, &s->f.depth[eye],
-                                               &s->inv_depth[eye], &s->inv_min[eye], &s->inv_max[eye]);
-            if (bad) return DRV_FRAME_ERR_BAD_DEPTH;
-            warp_raytrace_blockmax(&s->inv_depth[eye], &s->blockmax[eye], RT_BLOCK);
-        }
-        warp_planar3_from_rgba_rows(&s->planar[eye], &s->f.color[eye], 0, s->f.color[eye].h);
-        /* The host blended its transparent fragments into the colour; the transparency warp moves them on their
-         * own, over the surface behind them: recover that once per frame, here, off the vsync path. */
-        if ((s->f.planes & DRV_PLANE_LAYERS) && s->opaque[eye].px)
-            warp_transparency_unblend(&s->f.color[eye], &s->f.layers[eye], &s->opaque[eye]);
-    }
-    return DRV_FRAME_OK;
-}
-
 /* What a frame's dense planes hold: about what the host link carried for it (the link's MB/s), less framing and
  * compression. The A-buffer's fragments are left out: counting them would walk every pixel's count again. */
 static uint64_t frame_bytes(const drv_frame *f)
@@ -436,7 +393,7 @@ static void *frames_thread(void *arg)
             }
             continue;
         }
-        drv_frame_err e = rc < 0 ? (drv_frame_err)(-rc) : prepare_frame(slot);
+        drv_frame_err e = rc < 0 ? (drv_frame_err)(-rc) : rt_frame_prepare(slot);
         if (e != DRV_FRAME_OK) {
             /* Rejected: counted, and the compositor keeps warping the last good frame. */
             if (e < 0 || e >= DRV_FRAME_ERR_COUNT) e = DRV_FRAME_ERR_IO;
@@ -742,12 +699,13 @@ void rt_app_summary(rt_app *a, FILE *out)
                 (unsigned long long)ks.failed, (unsigned long long)ks.late, ks.last_error[0] ? "; last: " : "",
                 ks.last_error);
     }
-    if (a->raytrace_fallbacks)
+    rt_render_cpu_stats rs = rt_render_cpu_stats_get(a->render);
+    if (rs.raytrace_fallbacks)
         fprintf(out, "  raytrace fallbacks         %llu vsyncs used rotation: the frame had no depth\n",
-                (unsigned long long)a->raytrace_fallbacks);
-    if (a->plane_fallbacks)
+                (unsigned long long)rs.raytrace_fallbacks);
+    if (rs.plane_fallbacks)
         fprintf(out, "  depth-warp fallbacks       %llu vsyncs used the raytrace: the frame lacked layers or ids\n",
-                (unsigned long long)a->plane_fallbacks);
+                (unsigned long long)rs.plane_fallbacks);
     if (c->method == RT_METHOD_AUTO) {
         fprintf(out, "  warp selection (auto)      budget %.2f px (004 eqs. 5-7 bound of ignoring translation); why:\n",
                 c->pixel_budget);
@@ -1012,19 +970,8 @@ void rt_app_free(rt_app *a)
     if (a->gles && plat_egl_make_current(a->egl)) plat_gles_destroy(a->gles);
     plat_egl_close(a->egl);
     free(a->gles_ms);
+    rt_render_cpu_destroy(&a->render); /* before the workers it borrows */
     if (a->workers) plat_workers_destroy(a->workers);
-    for (int e = 0; e < 2; e++) {
-        warp_mesh_free(&a->mesh[e]);
-        warp_image_free(&a->inter[e]);
-        warp_planar3_free(&a->inter_planar[e]);
-        warp_image_free(&a->wmask[e]);
-        warp_image_free(&a->zb[e]);
-        if (a->grid[e].w) warp_grid_free(&a->grid[e]);
-        warp_minmax_free(&a->abuf[e]);
-        warp_fwd_scratch_free(&a->fwd[e]);
-        if (a->objs[e]) warp_holes_free(&a->holes[e]);
-        free(a->objs[e]);
-    }
     plat_swapchain_free(&a->sc);
     rt_frameq_free(&a->fq);
     rt_ring_free(&a->eval_ring);

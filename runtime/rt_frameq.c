@@ -5,6 +5,9 @@
 
 #include <string.h>
 
+#include "warp/warp_raytrace.h"
+#include "warp/warp_transparency.h"
+
 #define NEW_BIT 4
 
 warp_view rt_frame_view(const rt_frame *fr, int eye)
@@ -29,24 +32,62 @@ warp_view rt_frame_view(const rt_frame *fr, int eye)
     return v;
 }
 
+/* here rather than in the frames thread: the bench and the tests prepare their frames exactly as hmdwarpd does */
+drv_frame_err rt_frame_prepare(rt_frame *s)
+{
+    drv_frame_err e = drv_frame_validate(&s->f);
+    if (e != DRV_FRAME_OK) return e;
+    s->has_depth = (s->f.planes & DRV_PLANE_DEPTH) != 0;
+    for (int eye = 0; eye < 2; eye++) {
+        if (s->has_depth) {
+            long bad = warp_inverse_depth_from(&s->f.cam[eye], s->f.depth_encoding, &s->f.depth[eye],
+                                               &s->inv_depth[eye], &s->inv_min[eye], &s->inv_max[eye]);
+            if (bad) return DRV_FRAME_ERR_BAD_DEPTH;
+            warp_raytrace_blockmax(&s->inv_depth[eye], &s->blockmax[eye], RT_BLOCK);
+        }
+        warp_planar3_from_rgba_rows(&s->planar[eye], &s->f.color[eye], 0, s->f.color[eye].h);
+        /* The host blended its transparent fragments into the colour; the transparency warp moves them on their
+         * own, over the surface behind them: recover that once per frame, here, off the vsync path. */
+        if ((s->f.planes & DRV_PLANE_LAYERS) && s->opaque[eye].px)
+            warp_transparency_unblend(&s->f.color[eye], &s->f.layers[eye], &s->opaque[eye]);
+    }
+    return DRV_FRAME_OK;
+}
+
+bool rt_frame_alloc(rt_frame *s, int w, int h, unsigned planes, int max_layers)
+{
+    memset(s, 0, sizeof *s);
+    bool ok = drv_frame_alloc(&s->f, w, h, planes, max_layers);
+    for (int e = 0; ok && e < 2; e++) {
+        ok = warp_planar3_alloc(&s->planar[e], w, h);
+        if (ok && (planes & DRV_PLANE_DEPTH))
+            ok = warp_image_f32_alloc(&s->inv_depth[e], w, h) &&
+                 warp_image_f32_alloc(&s->blockmax[e], (w + RT_BLOCK - 1) / RT_BLOCK, (h + RT_BLOCK - 1) / RT_BLOCK);
+        if (ok && (planes & DRV_PLANE_LAYERS)) ok = warp_image_rgba8_alloc(&s->opaque[e], w, h);
+    }
+    if (!ok) rt_frame_free(s);
+    return ok;
+}
+
+void rt_frame_free(rt_frame *s)
+{
+    drv_frame_free(&s->f);
+    for (int e = 0; e < 2; e++) {
+        warp_image_free(&s->inv_depth[e]);
+        warp_planar3_free(&s->planar[e]);
+        warp_image_free(&s->opaque[e]);
+        warp_image_free(&s->blockmax[e]);
+    }
+}
+
 bool rt_frameq_init(rt_frameq *q, int w, int h, unsigned planes, int max_layers)
 {
     memset(q, 0, sizeof *q);
-    for (int i = 0; i < 3; i++) {
-        rt_frame *s = &q->slot[i];
-        bool ok = drv_frame_alloc(&s->f, w, h, planes, max_layers);
-        for (int e = 0; ok && e < 2; e++) {
-            ok = warp_planar3_alloc(&s->planar[e], w, h);
-            if (ok && (planes & DRV_PLANE_DEPTH))
-                ok = warp_image_f32_alloc(&s->inv_depth[e], w, h) &&
-                     warp_image_f32_alloc(&s->blockmax[e], (w + RT_BLOCK - 1) / RT_BLOCK, (h + RT_BLOCK - 1) / RT_BLOCK);
-            if (ok && (planes & DRV_PLANE_LAYERS)) ok = warp_image_rgba8_alloc(&s->opaque[e], w, h);
-        }
-        if (!ok) {
+    for (int i = 0; i < 3; i++)
+        if (!rt_frame_alloc(&q->slot[i], w, h, planes, max_layers)) {
             rt_frameq_free(q);
             return false;
         }
-    }
     q->back = 0;
     atomic_store(&q->middle, 1);
     q->front = 2;
@@ -55,15 +96,7 @@ bool rt_frameq_init(rt_frameq *q, int w, int h, unsigned planes, int max_layers)
 
 void rt_frameq_free(rt_frameq *q)
 {
-    for (int i = 0; i < 3; i++) {
-        drv_frame_free(&q->slot[i].f);
-        for (int e = 0; e < 2; e++) {
-            warp_image_free(&q->slot[i].inv_depth[e]);
-            warp_planar3_free(&q->slot[i].planar[e]);
-            warp_image_free(&q->slot[i].opaque[e]);
-            warp_image_free(&q->slot[i].blockmax[e]);
-        }
-    }
+    for (int i = 0; i < 3; i++) rt_frame_free(&q->slot[i]);
 }
 
 rt_frame *rt_frameq_back(rt_frameq *q) { return &q->slot[q->back]; }
