@@ -84,6 +84,20 @@ static rt_render_cpu *fail(rt_render_cpu *r, char *err, int errlen, const char *
 
 rt_render_cpu *rt_render_cpu_create(const rt_render_cpu_params *p, plat_workers *workers, char *err, int errlen)
 {
+    /* the ranges rt_config enforces for [lens] mesh and the sizes; a caller that built its own params gets told */
+    if (p->mesh_n < 2 || p->mesh_n > 1024) {
+        snprintf(err, (size_t)errlen, "[lens] mesh = %d: the distortion mesh takes 2..1024 vertices per side", p->mesh_n);
+        return NULL;
+    }
+    if (p->panel_w < 2 || p->panel_h < 1 || p->eye_w < 1 || p->eye_h < 1) {
+        snprintf(err, (size_t)errlen, "a %dx%d panel with %dx%d eyes: no pixels to render", p->panel_w, p->panel_h,
+                 p->eye_w, p->eye_h);
+        return NULL;
+    }
+    if (!workers) {
+        snprintf(err, (size_t)errlen, "the CPU pass needs the compositor's workers");
+        return NULL;
+    }
     rt_render_cpu *r = calloc(1, sizeof *r);
     if (!r) return fail(r, err, errlen, "out of memory");
     r->p = *p;
@@ -149,17 +163,32 @@ static void resample_task(void *ctx, int task)
     warp_mesh_resample(m, j->src[e], j->out, x0, y0, x1, y1);
 }
 
-/* Raytrace one band of one eye into eye space, then deinterleave it for the lens pass. */
+/* Task `task` of 2 * j->bands: one band of one eye, rows [*y0, *y1). */
+static int band(const job *j, int task, int *y0, int *y1)
+{
+    int e = task >= j->bands ? 1 : 0;
+    int h = j->r->inter[e].h;
+    *y0 = (task - e * j->bands) * BAND_H;
+    *y1 = *y0 + BAND_H < h ? *y0 + BAND_H : h;
+    return e;
+}
+
+/* Raytrace one band of one eye into eye space. */
 static void raytrace_task(void *ctx, int task)
 {
     job *j = ctx;
-    int e = task >= j->bands ? 1 : 0;
-    int b = task - e * j->bands;
-    rt_render_cpu *r = j->r;
-    int h = r->inter[e].h;
-    int y0 = b * BAND_H, y1 = y0 + BAND_H < h ? y0 + BAND_H : h;
-    warp_raytrace_rows(&j->rts[e], &r->inter[e], NULL, y0, y1, NULL);
-    warp_planar3_from_rgba_rows(&r->inter_planar[e], &r->inter[e], y0, y1);
+    int y0, y1, e = band(j, task, &y0, &y1);
+    warp_raytrace_rows(&j->rts[e], &j->r->inter[e], NULL, y0, y1, NULL);
+}
+
+/* Deinterleave one band for the lens pass, once every band is traced: a planar row pairs its row with the next
+ * one, which for a band's last row is the next band's first (done in the trace's task, it raced that band's
+ * thread and showed a row of the previous vsync or of uninitialised memory). */
+static void planar_task(void *ctx, int task)
+{
+    job *j = ctx;
+    int y0, y1, e = band(j, task, &y0, &y1);
+    warp_planar3_from_rgba_rows(&j->r->inter_planar[e], &j->r->inter[e], y0, y1);
 }
 
 /* One eye's distortion mesh for a rotation (both eyes at once: done in turn they took a sixth of the pass while
@@ -277,6 +306,7 @@ static rt_method pass_raytrace(rt_render_cpu *r, job *j, const rt_frame *frame, 
     }
     j->bands = (r->inter[0].h + BAND_H - 1) / BAND_H;
     plat_workers_run(r->workers, 2 * j->bands, raytrace_task, j);
+    plat_workers_run(r->workers, 2 * j->bands, planar_task, j);
     lens_pass_eye_space(r, j);
     return method;
 }
