@@ -130,7 +130,8 @@ typedef struct {
 } knob_set;
 
 static const knob_set knobs[] = {
-    {"raytrace", {"steps=16", "steps=64", "steps=512", "steps=512,refine=0", "grid=mesh", "grid=mesh,mesh=128"}},
+    {"raytrace", {"steps=16", "steps=64", "steps=512", "steps=512,refine=0", NULL, NULL}},
+    {"raytrace_mesh", {"mesh=64", "mesh=128", NULL, NULL, NULL, NULL}},
     {"iterative", {"seeds=1,bound=0", "seeds=1,bound=1", "seeds=4,bound=1", "seeds=8,bound=2,fill=2",
                    "seeds=8,iters=8,bound=2,dilate=1,awoc=1", NULL}},
     {"grid", {"strategy=0", "strategy=1", "strategy=2", "strategy=3", "strategy=3,fill=2", NULL}},
@@ -149,42 +150,6 @@ static int knob_list(const char *warp, const char *out[8])
         }
     out[0] = NULL;
     return 1;
-}
-
-/* The catalogue's raytrace with grid=mesh (the registry's raytrace_mesh on meshes built once, so the timing leaves
- * out the mesh's allocation, which the catalogue's entry pays on every call): rays at
- * the vertices of a lens-free mesh over the eye buffer (warp_mesh_init_eye, mesh=N vertices per side, default the
- * panel's), the resampler in between, so it is scored one eye before the lens like every other warp. Timed with
- * what the runtime does once per host frame (planar source, skipping grid), as the per-pixel raytrace is; the
- * meshes themselves are built at start-up. */
-typedef struct {
-    warp_mesh mesh[2]; /* mesh_n and 128 vertices per side */
-    int n[2];
-    warp_planar3 planar;
-    warp_image_f32 bmax;
-} mesh_cat;
-
-static bool is_grid_mesh(const char *params) { return params && strstr(params, "grid=mesh") != NULL; }
-
-static const char *run_raytrace_mesh(mesh_cat *mc, const warp_view *src, const warp_camera *dst_cam,
-                                     warp_pose dst_pose, const char *params, warp_image_rgba8 *dst, cat_stats *st)
-{
-    int n = (int)cat_param(params, "mesh", mc->n[0], NULL);
-    warp_mesh *m = n == mc->n[0] ? &mc->mesh[0] : n == mc->n[1] ? &mc->mesh[1] : NULL;
-    if (!m) return "raytrace grid=mesh: no mesh of that size";
-    warp_raytrace_params p = warp_raytrace_default_params();
-    warp_raytrace_setup s;
-    const char *why = warp_raytrace_prepare(&s, src, dst_cam, dst_pose, &p);
-    if (why) return why;
-    warp_planar3_from_rgba_rows(&mc->planar, src->color, 0, src->color->h);
-    warp_raytrace_blockmax(src->inv_depth, &mc->bmax, 8);
-    warp_raytrace_use_blockmax(&s, &mc->bmax, 8);
-    warp_mesh_update_raytrace(m, dst_cam, &s);
-    warp_mesh_resample(m, &mc->planar, dst, 0, 0, m->vp_w, m->vp_h);
-    st->primitives = (long)(m->rows - 1) * (m->cols - 1);
-    st->samples = -1;
-    st->fringe = st->holes = 0;
-    return NULL;
 }
 
 /* ---- the display path: hmdwarpd's CPU pass (bench_display) ---- */
@@ -512,18 +477,13 @@ int main(int argc, char **argv)
     warp_image_rgba8_alloc(&eye_out, cfg.eye_w, cfg.eye_h);
     warp_image_rgba8_alloc(&eye_out2, cfg.eye_w, cfg.eye_h);
     warp_image_u8_alloc(&eye_mask, cfg.eye_w, cfg.eye_h);
-    /* the mesh raytrace before the lens: a lens-free mesh over the eye buffer, as dense as the panel's; and the
-     * catalogue's two mesh sizes */
-    mesh_cat mc;
-    memset(&mc, 0, sizeof mc);
-    mc.n[0] = cfg.mesh_n;
-    mc.n[1] = 128;
-    warp_planar3 planar0; /* the left eye's source as the resampler reads it (the mesh raytrace's accuracy) */
+    /* the mesh raytrace's accuracy before the lens: a lens-free mesh over the eye buffer, as dense as the panel's,
+     * resampling the left eye's source */
+    warp_mesh eye_mesh;
+    warp_planar3 planar0;
+    memset(&eye_mesh, 0, sizeof eye_mesh);
     memset(&planar0, 0, sizeof planar0);
-    if (!warp_mesh_init_eye(&mc.mesh[0], mc.n[0], &cam[0]) || !warp_mesh_init_eye(&mc.mesh[1], mc.n[1], &cam[0]) ||
-        !warp_planar3_alloc(&planar0, cfg.eye_w, cfg.eye_h) ||
-        !warp_planar3_alloc(&mc.planar, cfg.eye_w, cfg.eye_h) ||
-        !warp_image_f32_alloc(&mc.bmax, (cfg.eye_w + 7) / 8, (cfg.eye_h + 7) / 8)) {
+    if (!warp_mesh_init_eye(&eye_mesh, cfg.mesh_n, &cam[0]) || !warp_planar3_alloc(&planar0, cfg.eye_w, cfg.eye_h)) {
         fprintf(stderr, "hmdwarp-bench: out of memory\n");
         return 1;
     }
@@ -550,8 +510,8 @@ int main(int argc, char **argv)
         ray_steps[m] = (double)st.steps / (double)st.rays;
         ray_psnr[m] = warp_psnr(&eye_out, &fc[0].truth.color, NULL, 0);
         warp_planar3_from_rgba_rows(&planar0, &fc[0].src.color, 0, cfg.eye_h);
-        warp_mesh_update_raytrace(&mc.mesh[0], &cam[0], &rts0);
-        warp_mesh_resample(&mc.mesh[0], &planar0, &eye_out2, 0, 0, cfg.eye_w, cfg.eye_h);
+        warp_mesh_update_raytrace(&eye_mesh, &cam[0], &rts0);
+        warp_mesh_resample(&eye_mesh, &planar0, &eye_out2, 0, 0, cfg.eye_w, cfg.eye_h);
         mesh_psnr[m] = warp_psnr(&eye_out2, &fc[0].truth.color, NULL, 0);
         mesh_vs_ray[m] = warp_psnr(&eye_out2, &eye_out, NULL, 0);
         cat_stats cs;
@@ -617,8 +577,6 @@ int main(int argc, char **argv)
             if (o.quick && m == 0) continue;
             case_render(&fc[0], sc, mdeg[m], mcm[m], sim_scene_object_count(sc) ? 0.033 : 0);
             for (const cat_warp *const *wp = cat_all(); *wp; wp++) {
-                /* raytrace_mesh is swept as the raytrace's grid=mesh rows, on the meshes built at start-up */
-                if ((*wp)->id == WARP_METHOD_RAYTRACE_MESH) continue;
                 const char *params[8];
                 int nk = knob_list((*wp)->name, params);
                 for (int k = 0; k < nk && nrows < MAX_ROWS; k++) {
@@ -633,11 +591,8 @@ int main(int argc, char **argv)
                         memset(&cs, 0, sizeof cs);
                         warp_image_u8_fill(&eye_mask, 0);
                         int64_t t = plat_now_ns();
-                        if ((*wp)->id == WARP_METHOD_RAYTRACE && is_grid_mesh(params[k]))
-                            why = run_raytrace_mesh(&mc, &fc[0].v, &fc[0].cam, fc[0].b, params[k], &eye_out, &cs);
-                        else
-                            why = (*wp)->run(&fc[0].v, &fc[0].cam, fc[0].b, fc[0].t1, params[k], &eye_out,
-                                             &eye_mask, &cs);
+                        why = (*wp)->run(&fc[0].v, &fc[0].cam, fc[0].b, fc[0].t1, params[k], &eye_out, &eye_mask,
+                                         &cs);
                         add(&ts, (double)(plat_now_ns() - t) * 1e-6);
                     }
                     if (why) continue;
@@ -796,9 +751,11 @@ int main(int argc, char **argv)
                 ray_steps[m], ray_psnr[m], rot_ms[m], rot_psnr[m], mesh_ms[m], mesh_psnr[m], mesh_vs_ray[m]);
     fprintf(md, "\n## Every warp against ground truth (one eye, before the lens, single thread)\n\n"
                 "Pareto = no other configuration of the same scene and motion is both faster and more accurate. "
-                "raytrace `grid=mesh` traces only the vertices of a lens-free mesh over the eye buffer (`mesh=N` "
-                "per side, default %d) and resamples in between; its time includes the per-host-frame preparation "
-                "(planar source, skipping grid), as the per-pixel raytrace's includes its skipping grid.\n",
+                "raytrace_mesh traces only the vertices of a lens-free mesh over the eye buffer (`mesh=N` per "
+                "side, [lens] mesh's %d by default) and resamples in between; its time includes the per-host-frame "
+                "preparation (planar source, skipping grid), as the per-pixel raytrace's includes its skipping grid, "
+                "and, like every catalogue warp's, the allocation of its scratch (here the mesh and the planar "
+                "source).\n",
             cfg.mesh_n);
     for (size_t s = 0; s < sizeof scenes / sizeof scenes[0]; s++) {
         fprintf(md, "\n### %s ![quality vs time](quality_vs_time_%s.png)\n\n"
@@ -879,9 +836,7 @@ int main(int argc, char **argv)
     warp_image_free(&eye_out);
     warp_image_free(&eye_out2);
     warp_image_free(&eye_mask);
-    for (int i = 0; i < 2; i++) warp_mesh_free(&mc.mesh[i]);
-    warp_planar3_free(&mc.planar);
-    warp_image_free(&mc.bmax);
+    warp_mesh_free(&eye_mesh);
     plat_workers_destroy(workers);
     plat_workers_destroy(workers1);
     return 0;
