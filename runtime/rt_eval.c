@@ -60,8 +60,8 @@ void *rt_eval_thread(void *arg)
      * resampling of the truth as well as the warp. The lens pass is the same for every method, so it adds nothing
      * to their comparison. What the warp part takes from the pass: the raytrace's knobs (the same setup as
      * rt_render_cpu's raytrace and raytrace_mesh), and for raytrace_mesh the mesh's vertex tracing and resampling
-     * (through a lens-free mesh as dense as the lens mesh). The CPU pass's rotation is a lens mesh of the rotation,
-     * which in eye space is exactly the homography warp_reproject applies. */
+     * (through a lens-free mesh as dense as the lens mesh). The pass's rotation is the homography warp_reproject
+     * applies here per pixel, there sampled at the lens mesh's vertices. */
     warp_raytrace_params rp = *rt_render_cpu_raytrace_params(a->render);
     for (;;) {
         rt_eval_record r;
