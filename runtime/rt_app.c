@@ -126,7 +126,8 @@ static bool render_init(rt_app *a, char *err, int errlen)
     }
     /* the GPU path runs transparency and object warps as its raytrace (no GLES pass for them yet) */
     a->gl.depth = c->method != RT_METHOD_NONE && c->method != RT_METHOD_ROTATION;
-    plat_gles_params gp = {c->panel_w, c->panel_h, c->eye_w, c->eye_h, a->mesh[0].cols, a->mesh[0].rows,
+    const warp_mesh *mesh = rt_render_cpu_mesh(a->render, 0);
+    plat_gles_params gp = {c->panel_w, c->panel_h, c->eye_w, c->eye_h, mesh->cols, mesh->rows,
                            a->gl.depth, kms, true, false};
     a->gl.renderer = plat_gles_create(a->gl.egl, &gp, eerr, sizeof eerr);
     if (!a->gl.renderer) {
@@ -176,42 +177,20 @@ bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen)
 
     a->head = warp_head_default();
     a->head.ipd = c->ipd;
-    int vw = c->panel_w / 2;
-    for (int e = 0; e < 2; e++) {
-        a->eye_cam[e] = rt_config_eye_camera(c, e);
-        a->lens[e] = rt_config_lens(c, e);
-        if (!warp_mesh_init(&a->mesh[e], c->mesh_n, &a->lens[e], e * vw, 0, vw, c->panel_h))
-            return fail(err, errlen, "%s%s: cannot allocate the distortion mesh", "[lens] mesh", "");
-    }
+    for (int e = 0; e < 2; e++) a->eye_cam[e] = rt_config_eye_camera(c, e);
     /* one shown, one waiting for its vsync, one being drawn; a fourth while a file sink still reads one, or while
      * a pass started by [render] stall_reserve_ms more than a period ahead keeps two out of reach */
     if (!plat_swapchain_init(&a->sc, c->stall_reserve_ms > 0 ? 4 : 3, c->panel_w, c->panel_h))
         return fail(err, errlen, "cannot allocate the swapchain (%s%s)", "[display] width/height", "");
-    if (!render_init(a, err, errlen)) return false;
     a->workers = plat_workers_create(c->threads - 1, c->rt_priority);
     if (!a->workers) return fail(err, errlen, "cannot start %s%s", "compositor worker threads", "");
-    a->rt_params = warp_raytrace_default_params();
-    a->rt_params.max_steps = c->raytrace_steps;
-    a->rt_params.edge_fill = (warp_edge_fill)c->edge_fill;
-    a->rt_params.edge_jump = (float)c->edge_jump;
-    const bool depth_warps = c->method != RT_METHOD_NONE && c->method != RT_METHOD_ROTATION;
-    a->can_transparency = c->method == RT_METHOD_TRANSPARENCY || c->method == RT_METHOD_AUTO;
-    a->can_objects = c->method == RT_METHOD_OBJECTS || c->method == RT_METHOD_AUTO;
-    for (int e = 0; e < 2 && depth_warps; e++) {
-        bool ok = warp_image_rgba8_alloc(&a->inter[e], c->eye_w, c->eye_h) &&
-                  warp_planar3_alloc(&a->inter_planar[e], c->eye_w, c->eye_h) &&
-                  warp_image_u8_alloc(&a->wmask[e], c->eye_w, c->eye_h);
-        if (ok && a->can_transparency)
-            ok = warp_grid_alloc(&a->grid[e], c->eye_w, c->eye_h, warp_grid_default_params().tile) &&
-                 warp_minmax_alloc(&a->abuf[e], c->eye_w, c->eye_h) &&
-                 warp_image_f32_alloc(&a->zb[e], c->eye_w, c->eye_h);
-        if (ok && a->can_objects) {
-            a->objs[e] = calloc(1, sizeof *a->objs[e]);
-            ok = a->objs[e] && warp_fwd_scratch_alloc(&a->fwd[e], c->eye_w, c->eye_h, c->eye_w, c->eye_h) &&
-                 warp_holes_init(&a->holes[e], c->eye_w, c->eye_h, 12);
-        }
-        if (!ok) return fail(err, errlen, "cannot allocate %s%s", "the depth warps' buffers", "");
-    }
+    /* the CPU pass before the renderer: its lens meshes are the GLES path's too */
+    rt_render_cpu_params rp = rt_render_cpu_params_from_config(c);
+    a->render = rt_render_cpu_create(&rp, a->workers, err, errlen);
+    if (!a->render) return false;
+    if (!render_init(a, err, errlen)) return false;
+    a->can_transparency = rp.transparency;
+    a->can_objects = rp.objects;
     rt_select_params selp = rt_select_default_params();
     selp.pixel_budget = c->pixel_budget;
     rt_select_init(&a->sel, &selp, &a->eye_cam[0]);
@@ -367,8 +346,9 @@ static void summary_src(rt_app *a, rt_summary_src *s, bool live, char *output, i
     s->gles_ms = a->gl.ms;
     s->gles_errors = a->gl.errors;
     s->gles_last_error = a->gl.last_error;
-    s->raytrace_fallbacks = a->raytrace_fallbacks;
-    s->plane_fallbacks = a->plane_fallbacks;
+    rt_render_cpu_stats rs = a->render ? rt_render_cpu_stats_get(a->render) : (rt_render_cpu_stats){0};
+    s->raytrace_fallbacks = rs.raytrace_fallbacks;
+    s->plane_fallbacks = rs.plane_fallbacks;
     const rt_devices *d = &a->dev;
     s->imu_name = d->imu ? d->imu->name : "";
     s->frames_name = d->frames ? d->frames->name : "";
@@ -450,19 +430,8 @@ void rt_app_free(rt_app *a)
 {
     rt_devices_close(&a->dev);
     rt_gles_free(&a->gl);
+    rt_render_cpu_destroy(&a->render); /* before the workers it borrows */
     if (a->workers) plat_workers_destroy(a->workers);
-    for (int e = 0; e < 2; e++) {
-        warp_mesh_free(&a->mesh[e]);
-        warp_image_free(&a->inter[e]);
-        warp_planar3_free(&a->inter_planar[e]);
-        warp_image_free(&a->wmask[e]);
-        warp_image_free(&a->zb[e]);
-        if (a->grid[e].w) warp_grid_free(&a->grid[e]);
-        warp_minmax_free(&a->abuf[e]);
-        warp_fwd_scratch_free(&a->fwd[e]);
-        if (a->objs[e]) warp_holes_free(&a->holes[e]);
-        free(a->objs[e]);
-    }
     plat_swapchain_free(&a->sc);
     rt_frameq_free(&a->fq);
     rt_ring_free(&a->eval.ring);

@@ -24,19 +24,8 @@
 #include "runtime/rt_select.h"
 #include "runtime/rt_telemetry.h"
 #include "sim/sim_trace.h"
-#include "warp/warp_camera.h"
-#include "warp/warp_forward.h"
-#include "warp/warp_grid.h"
+#include "runtime/rt_render_cpu.h"
 #include "warp/warp_head.h"
-#include "warp/warp_holes.h"
-#include "warp/warp_image.h"
-#include "warp/warp_lens.h"
-#include "warp/warp_math.h"
-#include "warp/warp_mesh.h"
-#include "warp/warp_objects.h"
-#include "warp/warp_raytrace.h"
-#include "warp/warp_resample.h"
-#include "warp/warp_transparency.h"
 
 /* Opaque parts held by pointer: their headers are for the files that call them. */
 typedef struct plat_workers plat_workers;
@@ -61,29 +50,14 @@ typedef struct {
 
     /* compositor */
     warp_camera eye_cam[2];
-    warp_lens lens[2];
-    warp_mesh mesh[2];
     plat_swapchain sc;
     plat_workers *workers;
-    warp_raytrace_params rt_params;
-    warp_image_rgba8 inter[2];  /* raytrace output in eye space, before the lens pass */
-    warp_planar3 inter_planar[2];
+    rt_render_cpu *render;      /* the CPU pass: lens meshes (GLES draws through them too), scratch, fallbacks */
     bool realtime;              /* compositor got SCHED_FIFO */
     bool memory_locked;         /* mlockall succeeded */
-    uint64_t raytrace_fallbacks; /* raytrace requested but the frame had no depth */
-    uint64_t plane_fallbacks;    /* transparency / objects requested but the frame lacked layers / ids */
     /* auto selection (rt_select) and the further depth warps, allocated when the method may use them */
     rt_select sel;
     bool can_transparency, can_objects;
-    warp_grid grid[2];
-    warp_minmax_tree abuf[2];
-    const void *abuf_frame[2];     /* the frame slot and sequence the grid and tree were built from: they depend */
-    uint64_t abuf_seq[2];          /* on the source only, so they are built once per host frame, not per vsync */
-    warp_image_f32 zb[2];          /* warped opaque inverse depth (transparency) */
-    warp_image_u8 wmask[2];        /* the depth warps' masks (holes, fringe) */
-    warp_fwd_scratch fwd[2];
-    warp_objects_setup *objs[2];
-    warp_holes_ctx holes[2];
     warp_pose obj_prev[DRV_MAX_OBJECTS], obj_cur[DRV_MAX_OBJECTS], obj_at[DRV_MAX_OBJECTS];
     double obj_prev_t, obj_cur_t;  /* pose times of the two newest frames, seconds on the board clock */
     int obj_n;

@@ -12,247 +12,33 @@
 #include "platform/plat_log.h"
 #include "platform/plat_workers.h"
 #include "runtime/rt_app.h"
+#include "runtime/rt_render_cpu.h"
+#include "warp/warp_objects.h"
 #include "warp/warp_raytrace.h"
-#include "warp/warp_registry.h"
-#include "warp/warp_resample.h"
 
-#define TILE_W 128
-#define TILE_H 32
-#define BAND_H 16
-
-/* One vsync's work, shared with the worker threads. */
-typedef struct {
-    rt_app *a;
-    const rt_frame *frame;
-    warp_image_rgba8 *out;
-    const warp_planar3 *src[2];
-    int tiles_x[2], tiles_y[2];
-    warp_view views[2]; /* the raytrace setups point at these */
-    warp_raytrace_setup rts[2];
-    int bands;
-    rt_method method;   /* depth_task: which further warp */
-    warp_pose eyes[2];
-    warp_quat src_from_dst[2]; /* mesh_task */
-} job;
-
-static void resample_task(void *ctx, int task)
-{
-    job *j = ctx;
-    int per_eye = j->tiles_x[0] * j->tiles_y[0];
-    int e = task >= per_eye ? 1 : 0;
-    int t = task - e * per_eye;
-    const warp_mesh *m = &j->a->mesh[e];
-    int tx = t % j->tiles_x[e], ty = t / j->tiles_x[e];
-    int x0 = tx * TILE_W, y0 = ty * TILE_H;
-    int x1 = x0 + TILE_W < m->vp_w ? x0 + TILE_W : m->vp_w;
-    int y1 = y0 + TILE_H < m->vp_h ? y0 + TILE_H : m->vp_h;
-    warp_mesh_resample(m, j->src[e], j->out, x0, y0, x1, y1);
-}
-
-/* Raytrace one band of one eye into eye space, then deinterleave it for the lens pass. */
-static void raytrace_task(void *ctx, int task)
-{
-    job *j = ctx;
-    int e = task >= j->bands ? 1 : 0;
-    int b = task - e * j->bands;
-    rt_app *a = j->a;
-    int h = a->inter[e].h;
-    int y0 = b * BAND_H, y1 = y0 + BAND_H < h ? y0 + BAND_H : h;
-    warp_raytrace_rows(&j->rts[e], &a->inter[e], NULL, y0, y1, NULL);
-    warp_planar3_from_rgba_rows(&a->inter_planar[e], &a->inter[e], y0, y1);
-}
-
-/* One eye's distortion mesh for a rotation (both eyes at once: done in turn they took a sixth of the pass while
- * the other thread waited). */
-static void mesh_task(void *ctx, int e)
-{
-    job *j = ctx;
-    warp_mesh_update(&j->a->mesh[e], &j->frame->f.cam[e], j->src_from_dst[e]);
-}
-
-/* raytrace_mesh: one eye's rays, at its lens mesh's vertices (the resample then reads the frame). */
-static void mesh_raytrace_task(void *ctx, int e)
-{
-    job *j = ctx;
-    warp_mesh_update_raytrace(&j->a->mesh[e], &j->frame->f.cam[e], &j->rts[e]);
-}
-
-/* The warps that need a whole eye at once (they rasterise or splat): one task per eye, into eye space, holes
- * filled, then deinterleaved for the lens pass. */
-static void depth_task(void *ctx, int e)
-{
-    job *j = ctx;
-    rt_app *a = j->a;
-    const rt_frame *fr = j->frame;
-    warp_image_u8 *m = &a->wmask[e];
-    warp_image_u8_fill(m, 0);
-    if (j->method == RT_METHOD_TRANSPARENCY) {
-        warp_grid_params gp = warp_grid_default_params();
-        warp_transparency_params tp = warp_transparency_default_params();
-        /* warp_transparency_run would rebuild the source's grid and fragment tree every vsync */
-        bool ok = true;
-        if (a->abuf_frame[e] != fr || a->abuf_seq[e] != fr->f.seq) {
-            ok = !warp_grid_build(&a->grid[e], &j->views[e], &gp, NULL);
-            warp_minmax_build(&a->abuf[e], j->views[e].layers);
-            a->abuf_frame[e] = ok ? fr : NULL;
-            a->abuf_seq[e] = fr->f.seq;
-        }
-        warp_transparency_setup ts;
-        ok = ok && !warp_grid_warp_rows(&a->grid[e], &j->views[e], &fr->f.cam[e], j->eyes[e], &gp, &a->inter[e],
-                                        &a->zb[e], m, 0, a->inter[e].h, NULL);
-        ok = ok && !warp_transparency_prepare(&ts, &j->views[e], &a->abuf[e], &fr->f.cam[e], j->eyes[e], &tp);
-        if (ok) warp_transparency_rows(&ts, &a->zb[e], &a->inter[e], 0, a->inter[e].h, NULL);
-    } else {
-        warp_splat_params sp = warp_splat_default_params(WARP_SPLAT_MESH);
-        warp_objects_run(a->objs[e], &j->views[e], &fr->f.cam[e], j->eyes[e], a->obj_two ? a->obj_at : NULL, &sp,
-                         &a->fwd[e], &a->inter[e], m, NULL);
-        /* Disocclusions the splats left: the depth-aware low-pass fill (000 §5.2) from the warped depth. */
-        warp_image_f32 zb = {fr->f.cam[e].width, fr->f.cam[e].height, fr->f.cam[e].width, a->fwd[e].zbuf};
-        warp_holes_params hp = warp_holes_default_params();
-        warp_epipole ep = warp_epipole_from_poses(&fr->f.cam[e], j->eyes[e], fr->f.eye_pose[e]);
-        warp_holes_fill(&a->holes[e], &a->inter[e], m, &zb, &ep, &hp, NULL);
-    }
-    warp_planar3_from_rgba_rows(&a->inter_planar[e], &a->inter[e], 0, a->inter[e].h);
-}
-
-static void run_resample(rt_app *a, job *j)
-{
-    for (int e = 0; e < 2; e++) {
-        j->tiles_x[e] = (a->mesh[e].vp_w + TILE_W - 1) / TILE_W;
-        j->tiles_y[e] = (a->mesh[e].vp_h + TILE_H - 1) / TILE_H;
-    }
-    plat_workers_run(a->workers, j->tiles_x[0] * j->tiles_y[0] + j->tiles_x[1] * j->tiles_y[1], resample_task, j);
-}
-
-/* The lens pass: both eyes' meshes for j->src_from_dst at once, then the resampling from j->src. */
-static void lens_pass(rt_app *a, job *j)
-{
-    plat_workers_run(a->workers, 2, mesh_task, j);
-    run_resample(a, j);
-}
-
-/* The lens pass after a warp into eye space (inter_planar): distortion and CA only. */
-static void lens_pass_eye_space(rt_app *a, job *j)
-{
-    for (int e = 0; e < 2; e++) {
-        j->src_from_dst[e] = warp_quat_identity();
-        j->src[e] = &a->inter_planar[e];
-    }
-    lens_pass(a, j);
-}
-
-/* none and rotation: both eyes' meshes, then the resampling from the host frame. */
-static rt_method pass_lens(rt_app *a, job *j, const rt_frame *frame, const warp_pose eyes[2], rt_method method)
-{
-    for (int e = 0; e < 2; e++) {
-        /* 003 §3.4: only orientations matter; NONE shows the frame as rendered, through the lens. */
-        j->src_from_dst[e] = method == RT_METHOD_ROTATION
-                                 ? warp_quat_mul(warp_quat_conj(frame->f.eye_pose[e].q), eyes[e].q)
-                                 : warp_quat_identity();
-        j->src[e] = &frame->planar[e];
-    }
-    lens_pass(a, j);
-    return method;
-}
-
-/* raytrace and raytrace_mesh: the per-host-frame setup (prepare, skipping grid), then per pixel in bands, or at
- * the mesh's vertices. A setup the frame cannot give falls to rotation. */
-static rt_method pass_raytrace(rt_app *a, job *j, const rt_frame *frame, const warp_pose eyes[2], rt_method method)
-{
-    bool ok = true;
-    for (int e = 0; e < 2 && ok; e++) {
-        j->views[e] = rt_frame_view(frame, e);
-        ok = warp_raytrace_prepare(&j->rts[e], &j->views[e], &frame->f.cam[e], eyes[e], &a->rt_params) == NULL;
-        if (ok) warp_raytrace_use_blockmax(&j->rts[e], &frame->blockmax[e], RT_BLOCK);
-    }
-    if (!ok) return pass_lens(a, j, frame, eyes, RT_METHOD_ROTATION);
-    if (method == RT_METHOD_RAYTRACE_MESH) {
-        /* no eye-space image: depth warp, lens and CA in the one resampling pass from the host frame */
-        plat_workers_run(a->workers, 2, mesh_raytrace_task, j);
-        for (int e = 0; e < 2; e++) j->src[e] = &frame->planar[e];
-        run_resample(a, j);
-        return method;
-    }
-    j->bands = (a->inter[0].h + BAND_H - 1) / BAND_H;
-    plat_workers_run(a->workers, 2 * j->bands, raytrace_task, j);
-    lens_pass_eye_space(a, j);
-    return method;
-}
-
-/* transparency and objects: a whole eye at once into eye space (depth_task), then the lens. */
-static rt_method pass_depth(rt_app *a, job *j, const rt_frame *frame, const warp_pose eyes[2], rt_method method)
-{
-    j->method = method;
-    for (int e = 0; e < 2; e++) {
-        j->views[e] = rt_frame_view(frame, e);
-        j->eyes[e] = eyes[e];
-    }
-    plat_workers_run(a->workers, 2, depth_task, j);
-    lens_pass_eye_space(a, j);
-    return method;
-}
-
-/* The runtime half of the warp registry (warp/warp_registry.h has names, planes and fallbacks), indexed the same:
- * per method its CPU pass and the method the GLES renderer runs for it (no GLES pass for the A-buffer and object
- * warps yet: the raytrace is the GPU's depth warp; and the GPU traces every pixel, so the mesh raytrace, a CPU
- * economy, is the raytrace there). */
-typedef rt_method (*cpu_pass)(rt_app *a, job *j, const rt_frame *frame, const warp_pose eyes[2], rt_method method);
-static const struct {
-    cpu_pass cpu;
-    rt_method gles;
-} passes[] = {
-    [RT_METHOD_NONE] = {pass_lens, RT_METHOD_NONE},
-    [RT_METHOD_ROTATION] = {pass_lens, RT_METHOD_ROTATION},
-    [RT_METHOD_RAYTRACE] = {pass_raytrace, RT_METHOD_RAYTRACE},
-    [RT_METHOD_TRANSPARENCY] = {pass_depth, RT_METHOD_RAYTRACE},
-    [RT_METHOD_OBJECTS] = {pass_depth, RT_METHOD_RAYTRACE},
-    [RT_METHOD_RAYTRACE_MESH] = {pass_raytrace, RT_METHOD_RAYTRACE},
+/* The method the GLES renderer runs for each runtime method (no GLES pass for the A-buffer and object warps yet:
+ * the raytrace is the GPU's depth warp; and the GPU traces every pixel, so the mesh raytrace, a CPU economy, is
+ * the raytrace there). The CPU passes are rt_render_cpu's. */
+static const rt_method gles_method[] = {
+    [RT_METHOD_NONE] = RT_METHOD_NONE,
+    [RT_METHOD_ROTATION] = RT_METHOD_ROTATION,
+    [RT_METHOD_RAYTRACE] = RT_METHOD_RAYTRACE,
+    [RT_METHOD_TRANSPARENCY] = RT_METHOD_RAYTRACE,
+    [RT_METHOD_OBJECTS] = RT_METHOD_RAYTRACE,
+    [RT_METHOD_RAYTRACE_MESH] = RT_METHOD_RAYTRACE,
 };
-_Static_assert(sizeof passes / sizeof passes[0] == RT_METHOD_COUNT, "a pass per runtime method");
-_Static_assert((int)RT_METHOD_COUNT == (int)WARP_METHOD_RUNTIME_COUNT, "rt_method is the registry's runtime part");
-#define SAME_(id, name) _Static_assert((int)RT_METHOD_##id == (int)WARP_METHOD_##id, "rt_method order: " name);
-WARP_RUNTIME_METHODS(SAME_)
-#undef SAME_
-/* the registry's plane bits are the frames' */
-_Static_assert((unsigned)WARP_NEEDS_DEPTH == (unsigned)DRV_PLANE_DEPTH &&
-                   (unsigned)WARP_NEEDS_IDS == (unsigned)DRV_PLANE_IDS &&
-                   (unsigned)WARP_NEEDS_MOTION == (unsigned)DRV_PLANE_MOTION &&
-                   (unsigned)WARP_NEEDS_LAYERS == (unsigned)DRV_PLANE_LAYERS,
-               "WARP_NEEDS_* == DRV_PLANE_*");
+_Static_assert(sizeof gles_method / sizeof gles_method[0] == RT_METHOD_COUNT, "a GLES method per runtime method");
 
-/* The registry method `method` can run on `frame`: down its fallback ladder past what lacks a plane, counted as a
- * plane fallback (ids, layers, or a warp this run did not allocate for) or a raytrace fallback (no depth). */
-static rt_method usable(rt_app *a, const rt_frame *frame, rt_method method, unsigned planes)
-{
-    unsigned have = planes & ~(unsigned)DRV_PLANE_DEPTH;
-    if (frame->has_depth) have |= DRV_PLANE_DEPTH;
-    if (!a->can_transparency) have &= ~(unsigned)DRV_PLANE_LAYERS;
-    if (!a->can_objects) have &= ~(unsigned)DRV_PLANE_IDS;
-    unsigned missing = 0;
-    rt_method m = (rt_method)warp_method_usable((warp_method)method, have, &missing);
-    if (missing & ~(unsigned)DRV_PLANE_DEPTH) a->plane_fallbacks++;
-    if (missing & DRV_PLANE_DEPTH) a->raytrace_fallbacks++;
-    return m;
-}
-
-/* Warps `frame` to the eye poses `eyes` into `out`. Returns the method actually used. */
-static rt_method compose(rt_app *a, job *j, const rt_frame *frame, const warp_pose eyes[2], rt_method method)
-{
-    j->frame = frame;
-    method = usable(a, frame, method, frame->f.planes);
-    return passes[method].cpu(a, j, frame, eyes, method);
-}
-
-/* compose() on the GPU: the frame's planes go to textures once per host frame, then the same warps as the CPU
+/* The CPU pass on the GPU: the frame's planes go to textures once per host frame, then the same warps as the CPU
  * path (same mesh, same raytrace setup) draw the panel, which is read back into `out` (offscreen) or page-flipped
  * onto the panel (KMS). */
-static rt_method compose_gles(rt_app *a, job *j, const rt_frame *frame, const warp_pose eyes[2], rt_method method,
+static rt_method compose_gles(rt_app *a, const rt_frame *frame, const warp_pose eyes[2], rt_method method,
                               warp_image_rgba8 *out)
 {
     plat_gles *g = a->gl.renderer;
     char err[200];
     /* the GPU's methods need depth at most: the other planes are not asked for */
-    method = usable(a, frame, passes[method].gles, 0);
+    method = rt_render_cpu_usable(a->render, frame, gles_method[method], 0);
     if (frame != a->gl.frame || frame->f.seq != a->gl.frame_seq) {
         bool ok = true;
         for (int e = 0; e < 2; e++)
@@ -269,15 +55,19 @@ static rt_method compose_gles(rt_app *a, job *j, const rt_frame *frame, const wa
     bool drawn = false;
     if (method == RT_METHOD_RAYTRACE && a->gl.depth) {
         bool ok = true;
+        warp_view views[2]; /* the raytrace setups point at these */
+        warp_raytrace_setup rts[2];
+        const warp_raytrace_params *rp = rt_render_cpu_raytrace_params(a->render);
         for (int e = 0; e < 2 && ok; e++) {
-            j->views[e] = rt_frame_view(frame, e);
-            ok = warp_raytrace_prepare(&j->rts[e], &j->views[e], &frame->f.cam[e], eyes[e], &a->rt_params) == NULL;
+            views[e] = rt_frame_view(frame, e);
+            ok = warp_raytrace_prepare(&rts[e], &views[e], &frame->f.cam[e], eyes[e], rp) == NULL;
         }
         if (ok) {
             for (int e = 0; e < 2; e++) {
-                plat_gles_raytrace(g, e, &j->rts[e]);
-                warp_mesh_update(&a->mesh[e], &frame->f.cam[e], warp_quat_identity());
-                plat_gles_lens(g, e, &a->mesh[e], true);
+                warp_mesh *mesh = rt_render_cpu_mesh(a->render, e);
+                plat_gles_raytrace(g, e, &rts[e]);
+                warp_mesh_update(mesh, &frame->f.cam[e], warp_quat_identity());
+                plat_gles_lens(g, e, mesh, true);
             }
             drawn = true;
         }
@@ -288,8 +78,9 @@ static rt_method compose_gles(rt_app *a, job *j, const rt_frame *frame, const wa
             warp_quat src_from_dst = method == RT_METHOD_ROTATION
                                          ? warp_quat_mul(warp_quat_conj(frame->f.eye_pose[e].q), eyes[e].q)
                                          : warp_quat_identity();
-            warp_mesh_update(&a->mesh[e], &frame->f.cam[e], src_from_dst);
-            plat_gles_lens(g, e, &a->mesh[e], false);
+            warp_mesh *mesh = rt_render_cpu_mesh(a->render, e);
+            warp_mesh_update(mesh, &frame->f.cam[e], src_from_dst);
+            plat_gles_lens(g, e, mesh, false);
         }
     }
     a->gl.submit_ns = plat_now_ns();
@@ -387,9 +178,6 @@ void rt_compositor_run(rt_app *a)
     double cost_ns[RT_METHOD_COUNT] = {0};
     bool objects_moving = false;
     uint64_t vsync_no = 0, last_seq = 0;
-    job j;
-    memset(&j, 0, sizeof j);
-    j.a = a;
     bool gles = a->gl.use;
     if (gles && !plat_egl_make_current(a->gl.egl)) {
         plat_log(PLAT_LOG_WARNING, "cannot make the EGL context current on the compositor thread: using the CPU "
@@ -469,10 +257,9 @@ void rt_compositor_run(rt_app *a)
                 if (!plat_egl_present(a->gl.egl, err, sizeof err)) a->gl.errors++;
             }
         } else if (gles) {
-            used = compose_gles(a, &j, frame, eyes, want, &a->sc.img[idx]);
+            used = compose_gles(a, frame, eyes, want, &a->sc.img[idx]);
         } else {
-            j.out = &a->sc.img[idx];
-            used = compose(a, &j, frame, eyes, want);
+            used = rt_render_cpu_frame(a->render, frame, eyes, want, a->obj_two ? a->obj_at : NULL, &a->sc.img[idx]);
         }
         if (used == RT_METHOD_AUTO) used = RT_METHOD_ROTATION; /* no frame: nothing was warped */
         int64_t t_done = plat_now_ns();

@@ -57,7 +57,14 @@ void *rt_eval_thread(void *arg)
               warp_image_rgba8_alloc(&out, cam->width, cam->height) &&
               warp_image_f32_alloc(&inv, cam->width, cam->height) && warp_mesh_init_eye(&mesh, a->cfg.mesh_n, cam) &&
               warp_planar3_alloc(&planar, cam->width, cam->height);
-    warp_raytrace_params rp = a->rt_params;
+    /* The display methods are scored here with the warp part of the CPU pass alone, on the left eye, in eye space
+     * before the lens: the truth is an eye-space render, and scoring after the lens would measure the mesh's
+     * resampling of the truth as well as the warp. The lens pass is the same for every method, so it adds nothing
+     * to their comparison. What the warp part takes from the pass: the raytrace's knobs (the same setup as
+     * rt_render_cpu's raytrace and raytrace_mesh), and for raytrace_mesh the mesh's vertex tracing and resampling
+     * (through a lens-free mesh as dense as the lens mesh). The pass's rotation is the homography warp_reproject
+     * applies here per pixel, there sampled at the lens mesh's vertices. */
+    warp_raytrace_params rp = *rt_render_cpu_raytrace_params(a->render);
     for (;;) {
         rt_eval_record r;
         if (!rt_ring_pop(&a->eval.ring, &r)) {

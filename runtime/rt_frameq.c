@@ -32,6 +32,7 @@ warp_view rt_frame_view(const rt_frame *fr, int eye)
     return v;
 }
 
+/* here rather than in the frames thread: the bench and the tests prepare their frames exactly as hmdwarpd does */
 drv_frame_err rt_frame_prepare(rt_frame *s)
 {
     drv_frame_err e = drv_frame_validate(&s->f);
@@ -53,24 +54,40 @@ drv_frame_err rt_frame_prepare(rt_frame *s)
     return DRV_FRAME_OK;
 }
 
+bool rt_frame_alloc(rt_frame *s, int w, int h, unsigned planes, int max_layers)
+{
+    memset(s, 0, sizeof *s);
+    bool ok = drv_frame_alloc(&s->f, w, h, planes, max_layers);
+    for (int e = 0; ok && e < 2; e++) {
+        ok = warp_planar3_alloc(&s->planar[e], w, h);
+        if (ok && (planes & DRV_PLANE_DEPTH))
+            ok = warp_image_f32_alloc(&s->inv_depth[e], w, h) &&
+                 warp_image_f32_alloc(&s->blockmax[e], (w + RT_BLOCK - 1) / RT_BLOCK, (h + RT_BLOCK - 1) / RT_BLOCK);
+        if (ok && (planes & DRV_PLANE_LAYERS)) ok = warp_image_rgba8_alloc(&s->opaque[e], w, h);
+    }
+    if (!ok) rt_frame_free(s);
+    return ok;
+}
+
+void rt_frame_free(rt_frame *s)
+{
+    drv_frame_free(&s->f);
+    for (int e = 0; e < 2; e++) {
+        warp_image_free(&s->inv_depth[e]);
+        warp_planar3_free(&s->planar[e]);
+        warp_image_free(&s->opaque[e]);
+        warp_image_free(&s->blockmax[e]);
+    }
+}
+
 bool rt_frameq_init(rt_frameq *q, int w, int h, unsigned planes, int max_layers)
 {
     memset(q, 0, sizeof *q);
-    for (int i = 0; i < 3; i++) {
-        rt_frame *s = &q->slot[i];
-        bool ok = drv_frame_alloc(&s->f, w, h, planes, max_layers);
-        for (int e = 0; ok && e < 2; e++) {
-            ok = warp_planar3_alloc(&s->planar[e], w, h);
-            if (ok && (planes & DRV_PLANE_DEPTH))
-                ok = warp_image_f32_alloc(&s->inv_depth[e], w, h) &&
-                     warp_image_f32_alloc(&s->blockmax[e], (w + RT_BLOCK - 1) / RT_BLOCK, (h + RT_BLOCK - 1) / RT_BLOCK);
-            if (ok && (planes & DRV_PLANE_LAYERS)) ok = warp_image_rgba8_alloc(&s->opaque[e], w, h);
-        }
-        if (!ok) {
+    for (int i = 0; i < 3; i++)
+        if (!rt_frame_alloc(&q->slot[i], w, h, planes, max_layers)) {
             rt_frameq_free(q);
             return false;
         }
-    }
     q->back = 0;
     atomic_store(&q->middle, 1);
     q->front = 2;
@@ -79,15 +96,7 @@ bool rt_frameq_init(rt_frameq *q, int w, int h, unsigned planes, int max_layers)
 
 void rt_frameq_free(rt_frameq *q)
 {
-    for (int i = 0; i < 3; i++) {
-        drv_frame_free(&q->slot[i].f);
-        for (int e = 0; e < 2; e++) {
-            warp_image_free(&q->slot[i].inv_depth[e]);
-            warp_planar3_free(&q->slot[i].planar[e]);
-            warp_image_free(&q->slot[i].opaque[e]);
-            warp_image_free(&q->slot[i].blockmax[e]);
-        }
-    }
+    for (int i = 0; i < 3; i++) rt_frame_free(&q->slot[i]);
 }
 
 rt_frame *rt_frameq_back(rt_frameq *q) { return &q->slot[q->back]; }

@@ -25,8 +25,12 @@ typedef struct {
 
 #define RT_BLOCK 8
 
-/* Validates a received frame and derives what the warps read from it (inverse depth and its block maxima, planar
- * colour, the colour behind transparent fragments): on the frames thread, once per host frame, never per vsync. */
+/* One frame slot's planes for two eyes of w x h (what rt_frameq_init allocates three of). */
+bool rt_frame_alloc(rt_frame *s, int w, int h, unsigned planes, int max_layers);
+void rt_frame_free(rt_frame *s);
+/* Validates a received frame and derives what the warps read from it (inverse depth and its range, the raytrace's
+ * skipping grid, planar colour, the opaque colour under layers): once per host frame, on the frames thread, never
+ * per vsync. DRV_FRAME_OK, or why the frame is rejected. */
 drv_frame_err rt_frame_prepare(rt_frame *s);
 /* Builds the warp input for one eye of a prepared frame. */
 warp_view rt_frame_view(const rt_frame *fr, int eye);

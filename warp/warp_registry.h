@@ -9,7 +9,8 @@
 
 /* Adding a warp: its module (warp/warp_NAME.[ch]), one line in the X-list below and one entry in warp_registry.c's
  * table; then its entry points where it runs: tools/common/cat_warps.c's runs[] (hmdwarp-warp, the bench) and, for
- * a runtime method, runtime/rt_compositor.c's passes[]. Each of those tables is _Static_assert-ed to the count.
+ * a runtime method, runtime/rt_render_cpu.c's passes[] and rt_compositor.c's gles_method[]. Each of those tables is
+ * _Static_assert-ed to the count.
  *
  * X(ID, "name"): the methods the runtime can run, in the order of [warp] method's values (config files and --stats
  * use the names, so neither order nor names may change; a new one goes at the end). */

@@ -169,7 +169,7 @@ static void test_depth_scene_raytrace(void **state)
     rt_telemetry *t = app.tel;
     assert_true(app.sim_plane_renders[1] > 0); /* translation scene: the host sends depth */
     assert_true(t->method_count[RT_METHOD_RAYTRACE] > 0);
-    assert_int_equal(app.raytrace_fallbacks, 0);
+    assert_int_equal(rt_render_cpu_stats_get(app.render).raytrace_fallbacks, 0);
     assert_int_equal(app.sim_plane_renders[2] + app.sim_plane_renders[3] + app.sim_plane_renders[4], 0);
     rt_app_free(&app);
 }
@@ -189,8 +189,8 @@ static void test_depth_scene_raytrace_mesh(void **state)
     assert_true(app.sim_plane_renders[1] > 0);
     assert_true(t->method_count[RT_METHOD_RAYTRACE_MESH] > 0);
     assert_int_equal(t->method_count[RT_METHOD_ROTATION] + t->method_count[RT_METHOD_RAYTRACE], 0);
-    assert_int_equal(app.raytrace_fallbacks, 0);
-    assert_int_equal(app.plane_fallbacks, 0);
+    assert_int_equal(rt_render_cpu_stats_get(app.render).raytrace_fallbacks, 0);
+    assert_int_equal(rt_render_cpu_stats_get(app.render).plane_fallbacks, 0);
     char *text = NULL;
     size_t len = 0;
     FILE *f = open_memstream(&text, &len);
@@ -215,7 +215,7 @@ static void test_depth_scene_raytrace_mesh(void **state)
     assert_true(fabs(p_mesh - p_ray) < 1);
     /* The last vsync's mesh holds traced positions, not the lens-only ones the per-pixel path leaves there (the
      * head moved between the frame and the vsync, so they differ). */
-    warp_mesh *m = &app.mesh[0];
+    warp_mesh *m = rt_render_cpu_mesh(app.render, 0);
     size_t n = (size_t)m->rows * (size_t)m->cols * 3;
     warp_vec2f *traced = malloc(n * sizeof *traced);
     assert_non_null(traced);
@@ -238,7 +238,7 @@ static void test_raytrace_without_depth_falls_back(void **state)
     rt_config c;
     small_config(&c, "room", "raytrace");
     run(&c);
-    assert_true(app.raytrace_fallbacks > 0);
+    assert_true(rt_render_cpu_stats_get(app.render).raytrace_fallbacks > 0);
     assert_int_equal(app.tel->method_count[RT_METHOD_RAYTRACE], 0);
     assert_true(app.tel->method_count[RT_METHOD_ROTATION] > 0);
     rt_app_free(&app);

@@ -1,8 +1,8 @@
 /* SPDX-License-Identifier: MIT */
-/* hmdwarp-bench: what accuracy costs in time. Times the display path (rotation + lens + chromatic aberration, both
- * eyes) against a memcpy of the frame and OpenCV's cv::remap measured interleaved in the same run, sweeps every warp
- * of the catalogue x its knobs x scenes x motion magnitudes against ground truth, and soaks hmdwarpd at 90 Hz.
- * Writes a CSV, a Markdown table and gnuplot plots. */
+/* hmdwarp-bench: what accuracy costs in time. Times hmdwarpd's own display path (its CPU render pass: rotation +
+ * lens + chromatic aberration, both eyes) against a memcpy of the frame and OpenCV's cv::remap measured interleaved
+ * in the same run, sweeps every warp of the catalogue x its knobs x scenes x motion magnitudes against ground
+ * truth, and soaks hmdwarpd at 90 Hz. Writes a CSV, a Markdown table and gnuplot plots. */
 #include <errno.h>
 #include <getopt.h>
 #include <math.h>
@@ -15,6 +15,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include "bench_display.h"
 #include "bench_opencv.h"
 #include "platform/plat_clock.h"
 #include "platform/plat_egl.h"
@@ -22,6 +23,7 @@
 #include "platform/plat_version.h"
 #include "platform/plat_workers.h"
 #include "runtime/rt_config.h"
+#include "runtime/rt_render_cpu.h"
 #include "sim/sim_scene.h"
 #include "tools/common/cat_warps.h"
 #include "warp/warp_metrics.h"
@@ -29,9 +31,6 @@
 #include "warp/warp_raytrace.h"
 #include "warp/warp_resample.h"
 
-#define TILE_W 128
-#define TILE_H 32
-#define BAND_H 16
 #define MAX_REPS 400
 
 typedef struct {
@@ -68,88 +67,6 @@ static double pct(const samples *s, double p)
     qsort(t, (size_t)s->n, sizeof(double), cmpd);
     int i = (int)ceil(p / 100.0 * s->n) - 1;
     return t[i < 0 ? 0 : (i >= s->n ? s->n - 1 : i)];
-}
-
-/* ---- the display path, as the compositor runs it ---- */
-
-typedef struct {
-    warp_mesh mesh[2];
-    warp_camera cam[2];
-    warp_lens lens[2];
-    int panel_w, panel_h, eye_w, eye_h;
-    warp_image_rgba8 panel;
-    /* per eye: the source (host frame) and the raytrace's eye-space output */
-    warp_planar3 planar[2], inter_planar[2];
-    warp_image_rgba8 inter[2];
-    const warp_planar3 *src[2];
-    int tiles_x, tiles_y;
-    warp_raytrace_setup rts[2];
-    int bands;
-    plat_workers *workers1, *workers;
-    warp_quat src_from_dst[2]; /* mesh_task */
-} display;
-
-static void resample_task(void *ctx, int task)
-{
-    display *d = ctx;
-    int per_eye = d->tiles_x * d->tiles_y;
-    int e = task >= per_eye ? 1 : 0, t = task - e * per_eye;
-    const warp_mesh *m = &d->mesh[e];
-    int x0 = (t % d->tiles_x) * TILE_W, y0 = (t / d->tiles_x) * TILE_H;
-    int x1 = x0 + TILE_W < m->vp_w ? x0 + TILE_W : m->vp_w, y1 = y0 + TILE_H < m->vp_h ? y0 + TILE_H : m->vp_h;
-    warp_mesh_resample(m, d->src[e], &d->panel, x0, y0, x1, y1);
-}
-
-static void raytrace_task(void *ctx, int task)
-{
-    display *d = ctx;
-    int e = task >= d->bands ? 1 : 0, b = task - e * d->bands;
-    int y0 = b * BAND_H, y1 = y0 + BAND_H < d->eye_h ? y0 + BAND_H : d->eye_h;
-    warp_raytrace_rows(&d->rts[e], &d->inter[e], NULL, y0, y1, NULL);
-    warp_planar3_from_rgba_rows(&d->inter_planar[e], &d->inter[e], y0, y1);
-}
-
-static void mesh_task(void *ctx, int e)
-{
-    display *d = ctx;
-    warp_mesh_update(&d->mesh[e], &d->cam[e], d->src_from_dst[e]);
-}
-
-/* Rotation + lens + CA for both eyes: what the compositor does every vsync (both meshes at once, then the
- * resampling). */
-static void display_rotation(display *d, plat_workers *w, const warp_quat src_from_dst[2])
-{
-    for (int e = 0; e < 2; e++) {
-        d->src_from_dst[e] = src_from_dst[e];
-        d->src[e] = &d->planar[e];
-    }
-    plat_workers_run(w, 2, mesh_task, d);
-    plat_workers_run(w, 2 * d->tiles_x * d->tiles_y, resample_task, d);
-}
-
-/* Raytrace (003 §3.5) into eye space, then the lens pass: the compositor's depth path. */
-static void display_raytrace(display *d, plat_workers *w)
-{
-    plat_workers_run(w, 2 * d->bands, raytrace_task, d);
-    for (int e = 0; e < 2; e++) {
-        warp_mesh_update(&d->mesh[e], &d->cam[e], warp_quat_identity());
-        d->src[e] = &d->inter_planar[e];
-    }
-    plat_workers_run(w, 2 * d->tiles_x * d->tiles_y, resample_task, d);
-}
-
-static void mesh_raytrace_task(void *ctx, int e)
-{
-    display *d = ctx;
-    warp_mesh_update_raytrace(&d->mesh[e], &d->cam[e], &d->rts[e]);
-}
-
-/* The raytrace at the lens mesh's vertices ([warp] method = raytrace_mesh): one resampling pass from the frame. */
-static void display_raytrace_mesh(display *d, plat_workers *w)
-{
-    plat_workers_run(w, 2, mesh_raytrace_task, d);
-    for (int e = 0; e < 2; e++) d->src[e] = &d->planar[e];
-    plat_workers_run(w, 2 * d->tiles_x * d->tiles_y, resample_task, d);
 }
 
 /* ---- scenes and ground truth ---- */
@@ -213,7 +130,8 @@ typedef struct {
 } knob_set;
 
 static const knob_set knobs[] = {
-    {"raytrace", {"steps=16", "steps=64", "steps=512", "steps=512,refine=0", "grid=mesh", "grid=mesh,mesh=128"}},
+    {"raytrace", {"steps=16", "steps=64", "steps=512", "steps=512,refine=0", NULL, NULL}},
+    {"raytrace_mesh", {"mesh=64", "mesh=128", NULL, NULL, NULL, NULL}},
     {"iterative", {"seeds=1,bound=0", "seeds=1,bound=1", "seeds=4,bound=1", "seeds=8,bound=2,fill=2",
                    "seeds=8,iters=8,bound=2,dilate=1,awoc=1", NULL}},
     {"grid", {"strategy=0", "strategy=1", "strategy=2", "strategy=3", "strategy=3,fill=2", NULL}},
@@ -234,40 +152,34 @@ static int knob_list(const char *warp, const char *out[8])
     return 1;
 }
 
-/* The catalogue's raytrace with grid=mesh (the registry's raytrace_mesh on meshes built once, so the timing leaves
- * out the mesh's allocation, which the catalogue's entry pays on every call): rays at
- * the vertices of a lens-free mesh over the eye buffer (warp_mesh_init_eye, mesh=N vertices per side, default the
- * panel's), the resampler in between, so it is scored one eye before the lens like every other warp. Timed with
- * what the runtime does once per host frame (planar source, skipping grid), as the per-pixel raytrace is; the
- * meshes themselves are built at start-up. */
-typedef struct {
-    warp_mesh mesh[2]; /* mesh_n and 128 vertices per side */
-    int n[2];
-    warp_planar3 planar;
-    warp_image_f32 bmax;
-} mesh_cat;
+/* ---- the display path: hmdwarpd's CPU pass (bench_display) ---- */
 
-static bool is_grid_mesh(const char *params) { return params && strstr(params, "grid=mesh") != NULL; }
-
-static const char *run_raytrace_mesh(mesh_cat *mc, const warp_view *src, const warp_camera *dst_cam,
-                                     warp_pose dst_pose, const char *params, warp_image_rgba8 *dst, cat_stats *st)
+/* The two eyes' cases as the host frame the pass warps (colour and depth, prepared as hmdwarpd does). */
+static bool load_frame(bench_display *d, frame_case fc[2], uint64_t seq)
 {
-    int n = (int)cat_param(params, "mesh", mc->n[0], NULL);
-    warp_mesh *m = n == mc->n[0] ? &mc->mesh[0] : n == mc->n[1] ? &mc->mesh[1] : NULL;
-    if (!m) return "raytrace grid=mesh: no mesh of that size";
-    warp_raytrace_params p = warp_raytrace_default_params();
-    warp_raytrace_setup s;
-    const char *why = warp_raytrace_prepare(&s, src, dst_cam, dst_pose, &p);
-    if (why) return why;
-    warp_planar3_from_rgba_rows(&mc->planar, src->color, 0, src->color->h);
-    warp_raytrace_blockmax(src->inv_depth, &mc->bmax, 8);
-    warp_raytrace_use_blockmax(&s, &mc->bmax, 8);
-    warp_mesh_update_raytrace(m, dst_cam, &s);
-    warp_mesh_resample(m, &mc->planar, dst, 0, 0, m->vp_w, m->vp_h);
-    st->primitives = (long)(m->rows - 1) * (m->cols - 1);
-    st->samples = -1;
-    st->fringe = st->holes = 0;
-    return NULL;
+    const warp_camera cam[2] = {fc[0].cam, fc[1].cam};
+    const warp_pose pose[2] = {fc[0].a, fc[1].a};
+    const warp_image_rgba8 *const color[2] = {&fc[0].src.color, &fc[1].src.color};
+    const warp_image_f32 *const depth[2] = {&fc[0].src.depth, &fc[1].src.depth};
+    char err[200];
+    if (bench_display_set_frame(d, cam, pose, color, depth, seq, err, sizeof err)) return true;
+    fprintf(stderr, "hmdwarp-bench: the host frame: %s\n", err);
+    return false;
+}
+
+/* One vsync of the pass, in ms. A pass that ran another method than asked (its fallback) would time the wrong
+ * path: that stops the bench. */
+static double timed(bench_display *d, int which, const warp_pose eyes[2], rt_method m)
+{
+    int64_t t = plat_now_ns();
+    rt_method ran = bench_display_run(d, which, eyes, m);
+    double ms = (double)(plat_now_ns() - t) * 1e-6;
+    if (ran != m) {
+        fprintf(stderr, "hmdwarp-bench: the display path ran %s instead of %s\n", rt_method_name(ran),
+                rt_method_name(m));
+        exit(1);
+    }
+    return ms;
 }
 
 /* ---- output ---- */
@@ -425,44 +337,26 @@ int main(int argc, char **argv)
         return 1;
     }
 
-    /* The reference panel: 1440x1600 per eye (quick: half in each direction), the default lens with CA. */
+    /* The reference panel: 1440x1600 per eye (quick: half in each direction), the default lens with CA. The
+     * display path is hmdwarpd's own CPU pass, on 2 threads and on 1. */
     rt_config cfg;
-    rt_config_defaults(&cfg);
-    if (o.quick) {
-        cfg.panel_w = 1440, cfg.panel_h = 800, cfg.eye_w = 720, cfg.eye_h = 800;
-        cfg.lens_scale = 360, cfg.lens_center[0] = 380, cfg.lens_center[1] = 400;
-    }
-    if (o.eye_w) {
-        /* the reference lens, scaled with the eye (its scale and centre are in panel pixels) */
-        double sx = (double)o.eye_w / 1440, sy = (double)o.eye_h / 1600;
-        rt_config ref;
-        rt_config_defaults(&ref);
-        cfg.panel_w = 2 * o.eye_w, cfg.panel_h = o.eye_h, cfg.eye_w = o.eye_w, cfg.eye_h = o.eye_h;
-        cfg.lens_scale = ref.lens_scale * sx;
-        cfg.lens_center[0] = ref.lens_center[0] * sx, cfg.lens_center[1] = ref.lens_center[1] * sy;
-    }
-    display D;
+    bench_config(&cfg, o.quick, o.eye_w, o.eye_h);
+    bench_display D;
     memset(&D, 0, sizeof D);
-    D.panel_w = cfg.panel_w, D.panel_h = cfg.panel_h, D.eye_w = cfg.eye_w, D.eye_h = cfg.eye_h;
     int vw = cfg.panel_w / 2;
-    bool ok = warp_image_rgba8_alloc(&D.panel, cfg.panel_w, cfg.panel_h);
-    for (int e = 0; e < 2 && ok; e++) {
-        D.cam[e] = rt_config_eye_camera(&cfg, e);
-        D.lens[e] = rt_config_lens(&cfg, e);
-        ok = warp_mesh_init(&D.mesh[e], cfg.mesh_n, &D.lens[e], e * vw, 0, vw, cfg.panel_h) &&
-             warp_planar3_alloc(&D.planar[e], cfg.eye_w, cfg.eye_h) &&
-             warp_planar3_alloc(&D.inter_planar[e], cfg.eye_w, cfg.eye_h) &&
-             warp_image_rgba8_alloc(&D.inter[e], cfg.eye_w, cfg.eye_h);
+    warp_camera cam[2];
+    warp_lens lens[2];
+    for (int e = 0; e < 2; e++) {
+        cam[e] = rt_config_eye_camera(&cfg, e);
+        lens[e] = rt_config_lens(&cfg, e);
     }
-    D.tiles_x = (vw + TILE_W - 1) / TILE_W;
-    D.tiles_y = (cfg.panel_h + TILE_H - 1) / TILE_H;
-    D.bands = (cfg.eye_h + BAND_H - 1) / BAND_H;
-    D.workers = plat_workers_create(o.threads - 1, 0);
-    D.workers1 = plat_workers_create(0, 0);
+    plat_workers *workers = plat_workers_create(o.threads - 1, 0), *workers1 = plat_workers_create(0, 0);
+    char err[300] = "out of memory";
     frame_case fc[2];
-    ok = ok && D.workers && D.workers1 && case_alloc(&fc[0], &D.cam[0]) && case_alloc(&fc[1], &D.cam[1]);
+    bool ok = workers && workers1 && bench_display_init(&D, &cfg, workers, workers1, err, sizeof err) &&
+              case_alloc(&fc[0], &cam[0]) && case_alloc(&fc[1], &cam[1]);
     if (!ok) {
-        fprintf(stderr, "hmdwarp-bench: out of memory\n");
+        fprintf(stderr, "hmdwarp-bench: %s\n", err);
         return 1;
     }
     printf("hmdwarp-bench: panel %dx%d (eyes %dx%d), lens mesh %d, %d threads, %d reps, kernel %s\n", cfg.panel_w,
@@ -471,12 +365,15 @@ int main(int argc, char **argv)
 
     /* Both eyes' host frames of the translation scene, 5 deg and 5 cm away from the displayed pose. */
     const sim_scene *near = sim_scene_find("near");
-    for (int e = 0; e < 2; e++) {
-        case_render(&fc[e], near, 5, 5, 0);
-        warp_planar3_from_rgba_rows(&D.planar[e], &fc[e].src.color, 0, cfg.eye_h);
-    }
+    uint64_t seq = 0;
+    for (int e = 0; e < 2; e++) case_render(&fc[e], near, 5, 5, 0);
+    if (!load_frame(&D, fc, ++seq)) return 1;
     warp_quat rot[2];
-    for (int e = 0; e < 2; e++) rot[e] = warp_quat_mul(warp_quat_conj(fc[e].a.q), fc[e].b.q);
+    warp_pose eyes[2];
+    for (int e = 0; e < 2; e++) {
+        rot[e] = warp_quat_mul(warp_quat_conj(fc[e].a.q), fc[e].b.q);
+        eyes[e] = fc[e].b;
+    }
 
     /* OpenCV gets the exact per-pixel, per-channel positions the mesh approximates, for both eyes. */
     const size_t npx = (size_t)vw * (size_t)cfg.panel_h;
@@ -484,7 +381,7 @@ int main(int argc, char **argv)
     bench_cv *cv[2];
     uint8_t *cv_src[2][3], *cv_dst[2][3];
     for (int e = 0; e < 2; e++) {
-        warp_mat3 k = warp_camera_K(&D.cam[e]), r = warp_quat_to_mat3(rot[e]);
+        warp_mat3 k = warp_camera_K(&cam[e]), r = warp_quat_to_mat3(rot[e]);
         warp_mat3 h = warp_mat3_mul(&k, &r);
         for (int i = 0; i < 6; i++) maps[e][i] = malloc(sizeof(float) * npx);
         for (int ch = 0; ch < 3; ch++) {
@@ -498,7 +395,7 @@ int main(int argc, char **argv)
             for (int y = 0; y < cfg.panel_h; y++)
                 for (int x = 0; x < vw; x++) {
                     double u, v;
-                    warp_lens_distort(&D.lens[e], ch, x + 0.5, y + 0.5, &u, &v);
+                    warp_lens_distort(&lens[e], ch, x + 0.5, y + 0.5, &u, &v);
                     double sx = h.m[0][0] * u + h.m[0][1] * v - h.m[0][2];
                     double sy = h.m[1][0] * u + h.m[1][1] * v - h.m[1][2];
                     double sw = h.m[2][0] * u + h.m[2][1] * v - h.m[2][2];
@@ -510,16 +407,6 @@ int main(int argc, char **argv)
         const float *mx[3] = {maps[e][0], maps[e][1], maps[e][2]}, *my[3] = {maps[e][3], maps[e][4], maps[e][5]};
         cv[e] = bench_cv_create(vw, cfg.panel_h, mx, my, cfg.eye_w, cfg.eye_h);
     }
-    warp_image_f32 bmax[2];
-    for (int e = 0; e < 2; e++) {
-        warp_image_f32_alloc(&bmax[e], (cfg.eye_w + 7) / 8, (cfg.eye_h + 7) / 8);
-        warp_raytrace_params rp = warp_raytrace_default_params();
-        warp_raytrace_prepare(&D.rts[e], &fc[e].v, &D.cam[e], fc[e].b, &rp);
-        /* as the runtime does once per host frame */
-        warp_raytrace_blockmax(&fc[e].inv, &bmax[e], 8);
-        warp_raytrace_use_blockmax(&D.rts[e], &bmax[e], 8);
-    }
-
     /* ---- 1. the display path, interleaved rounds ---- */
     samples t_memcpy = {0}, t_ours = {0}, t_ours1 = {0}, t_cv = {0}, t_cv1 = {0}, t_ray = {0}, r_cv = {0},
             r_ray = {0}, t_raymesh = {0}, r_raymesh = {0};
@@ -541,27 +428,18 @@ int main(int argc, char **argv)
         for (int e = 0; e < 2; e++) bench_cv_remap(cv[e], (const uint8_t *const *)cv_src[e], cfg.eye_w, cv_dst[e], vw);
         double ms_cv = (double)(plat_now_ns() - t) * 1e-6;
         t = plat_now_ns();
-        display_rotation(&D, D.workers, rot);
-        double ms_ours = (double)(plat_now_ns() - t) * 1e-6;
+        double ms_ours = timed(&D, 0, eyes, RT_METHOD_ROTATION);
         bench_cv_set_threads(1);
         t = plat_now_ns();
         for (int e = 0; e < 2; e++) bench_cv_remap(cv[e], (const uint8_t *const *)cv_src[e], cfg.eye_w, cv_dst[e], vw);
         double ms_cv1 = (double)(plat_now_ns() - t) * 1e-6;
-        t = plat_now_ns();
-        display_rotation(&D, D.workers1, rot);
-        double ms_ours1 = (double)(plat_now_ns() - t) * 1e-6;
+        double ms_ours1 = timed(&D, 1, eyes, RT_METHOD_ROTATION);
         /* the per-pixel raytrace takes some 80 display paths: every fourth round (and the first warm-up) keeps the
          * bench to minutes and still gives its ratio a median of 15 in a full run (60 rounds) */
         const bool ray_round = r < 0 ? r == -2 : r % 4 == 0;
         double ms_ray = 0;
-        if (ray_round) {
-            t = plat_now_ns();
-            display_raytrace(&D, D.workers);
-            ms_ray = (double)(plat_now_ns() - t) * 1e-6;
-        }
-        t = plat_now_ns();
-        display_raytrace_mesh(&D, D.workers);
-        double ms_raymesh = (double)(plat_now_ns() - t) * 1e-6;
+        if (ray_round) ms_ray = timed(&D, 0, eyes, RT_METHOD_RAYTRACE);
+        double ms_raymesh = timed(&D, 0, eyes, RT_METHOD_RAYTRACE_MESH);
         if (r < 0) continue;
         add(&t_memcpy, ms_memcpy);
         add(&t_cv, ms_cv);
@@ -578,9 +456,7 @@ int main(int argc, char **argv)
         if (r % 4 == 0)
             for (int k = 0; k < 4; k++) {
                 if (!warp_resample_force_kernel(kern[k])) continue;
-                t = plat_now_ns();
-                display_rotation(&D, D.workers, rot);
-                add(&t_kern[k], (double)(plat_now_ns() - t) * 1e-6);
+                add(&t_kern[k], timed(&D, 0, eyes, RT_METHOD_ROTATION));
                 warp_resample_force_kernel(WARP_RESAMPLE_AUTO);
             }
     }
@@ -601,50 +477,41 @@ int main(int argc, char **argv)
     warp_image_rgba8_alloc(&eye_out, cfg.eye_w, cfg.eye_h);
     warp_image_rgba8_alloc(&eye_out2, cfg.eye_w, cfg.eye_h);
     warp_image_u8_alloc(&eye_mask, cfg.eye_w, cfg.eye_h);
-    /* the mesh raytrace before the lens: a lens-free mesh over the eye buffer, as dense as the panel's; and the
-     * catalogue's two mesh sizes */
-    mesh_cat mc;
-    memset(&mc, 0, sizeof mc);
-    mc.n[0] = cfg.mesh_n;
-    mc.n[1] = 128;
-    if (!warp_mesh_init_eye(&mc.mesh[0], mc.n[0], &D.cam[0]) || !warp_mesh_init_eye(&mc.mesh[1], mc.n[1], &D.cam[0]) ||
-        !warp_planar3_alloc(&mc.planar, cfg.eye_w, cfg.eye_h) ||
-        !warp_image_f32_alloc(&mc.bmax, (cfg.eye_w + 7) / 8, (cfg.eye_h + 7) / 8)) {
+    /* the mesh raytrace's accuracy before the lens: a lens-free mesh over the eye buffer, as dense as the panel's,
+     * resampling the left eye's source */
+    warp_mesh eye_mesh;
+    warp_planar3 planar0;
+    memset(&eye_mesh, 0, sizeof eye_mesh);
+    memset(&planar0, 0, sizeof planar0);
+    if (!warp_mesh_init_eye(&eye_mesh, cfg.mesh_n, &cam[0]) || !warp_planar3_alloc(&planar0, cfg.eye_w, cfg.eye_h)) {
         fprintf(stderr, "hmdwarp-bench: out of memory\n");
         return 1;
     }
     for (int m = 0; m < n_motion; m++) {
         for (int e = 0; e < 2; e++) {
             case_render(&fc[e], near, 2, motions_cm[m], 0);
-            warp_planar3_from_rgba_rows(&D.planar[e], &fc[e].src.color, 0, cfg.eye_h);
-            warp_raytrace_params rp = warp_raytrace_default_params();
-            warp_raytrace_prepare(&D.rts[e], &fc[e].v, &D.cam[e], fc[e].b, &rp);
-            warp_raytrace_blockmax(&fc[e].inv, &bmax[e], 8);
-            warp_raytrace_use_blockmax(&D.rts[e], &bmax[e], 8);
-            rot[e] = warp_quat_mul(warp_quat_conj(fc[e].a.q), fc[e].b.q);
+            eyes[e] = fc[e].b;
         }
+        if (!load_frame(&D, fc, ++seq)) return 1;
         samples sr = {0}, so = {0}, sm = {0};
         for (int r = 0; r < (o.quick ? 3 : 7); r++) {
-            int64_t t = plat_now_ns();
-            display_raytrace(&D, D.workers);
-            add(&sr, (double)(plat_now_ns() - t) * 1e-6);
-            t = plat_now_ns();
-            display_rotation(&D, D.workers, rot);
-            add(&so, (double)(plat_now_ns() - t) * 1e-6);
-            t = plat_now_ns();
-            display_raytrace_mesh(&D, D.workers);
-            add(&sm, (double)(plat_now_ns() - t) * 1e-6);
+            add(&sr, timed(&D, 0, eyes, RT_METHOD_RAYTRACE));
+            add(&so, timed(&D, 0, eyes, RT_METHOD_ROTATION));
+            add(&sm, timed(&D, 0, eyes, RT_METHOD_RAYTRACE_MESH));
         }
         ray_ms[m] = pct(&sr, 50);
         rot_ms[m] = pct(&so, 50);
         mesh_ms[m] = pct(&sm, 50);
         /* accuracy before the lens, left eye */
+        warp_raytrace_setup rts0;
         warp_raytrace_stats st = {0};
-        warp_raytrace_rows(&D.rts[0], &eye_out, &eye_mask, 0, cfg.eye_h, &st);
+        warp_raytrace_prepare(&rts0, &fc[0].v, &cam[0], fc[0].b, rt_render_cpu_raytrace_params(D.pass[0]));
+        warp_raytrace_rows(&rts0, &eye_out, &eye_mask, 0, cfg.eye_h, &st);
         ray_steps[m] = (double)st.steps / (double)st.rays;
         ray_psnr[m] = warp_psnr(&eye_out, &fc[0].truth.color, NULL, 0);
-        warp_mesh_update_raytrace(&mc.mesh[0], &D.cam[0], &D.rts[0]);
-        warp_mesh_resample(&mc.mesh[0], &D.planar[0], &eye_out2, 0, 0, cfg.eye_w, cfg.eye_h);
+        warp_planar3_from_rgba_rows(&planar0, &fc[0].src.color, 0, cfg.eye_h);
+        warp_mesh_update_raytrace(&eye_mesh, &cam[0], &rts0);
+        warp_mesh_resample(&eye_mesh, &planar0, &eye_out2, 0, 0, cfg.eye_w, cfg.eye_h);
         mesh_psnr[m] = warp_psnr(&eye_out2, &fc[0].truth.color, NULL, 0);
         mesh_vs_ray[m] = warp_psnr(&eye_out2, &eye_out, NULL, 0);
         cat_stats cs;
@@ -667,17 +534,18 @@ int main(int argc, char **argv)
     {
         plat_egl *egl = plat_egl_open_offscreen(gl_err, sizeof gl_err);
         if (egl && plat_egl_make_current(egl)) {
-            plat_gles_params gp = {cfg.panel_w, cfg.panel_h, cfg.eye_w, cfg.eye_h, D.mesh[0].cols, D.mesh[0].rows,
+            const warp_mesh *meshes[2] = {rt_render_cpu_mesh(D.pass[0], 0), rt_render_cpu_mesh(D.pass[0], 1)};
+            plat_gles_params gp = {cfg.panel_w, cfg.panel_h, cfg.eye_w, cfg.eye_h, meshes[0]->cols, meshes[0]->rows,
                                    true, false, true, false};
             plat_gles *g = plat_gles_create(egl, &gp, gl_err, sizeof gl_err);
             if (g) {
+                warp_raytrace_setup gl_rts[2];
                 for (int e = 0; e < 2; e++) {
                     case_render(&fc[e], near, 5, 5, 0);
-                    warp_raytrace_params rp = warp_raytrace_default_params();
-                    warp_raytrace_prepare(&D.rts[e], &fc[e].v, &D.cam[e], fc[e].b, &rp);
+                    warp_raytrace_prepare(&gl_rts[e], &fc[e].v, &cam[e], fc[e].b,
+                                          rt_render_cpu_raytrace_params(D.pass[0]));
                 }
-                const warp_raytrace_setup *rts[2] = {&D.rts[0], &D.rts[1]};
-                const warp_mesh *meshes[2] = {&D.mesh[0], &D.mesh[1]};
+                const warp_raytrace_setup *rts[2] = {&gl_rts[0], &gl_rts[1]};
                 have_gpu = plat_gles_bench(g, &fc[0].src.color, &fc[0].inv, rts, meshes, o.quick ? 3 : 10, &gpu);
                 snprintf(gl_renderer, sizeof gl_renderer, "%s", plat_egl_renderer(egl));
                 snprintf(gl_timing, sizeof gl_timing, "%s", plat_gles_timing_method(g));
@@ -709,8 +577,6 @@ int main(int argc, char **argv)
             if (o.quick && m == 0) continue;
             case_render(&fc[0], sc, mdeg[m], mcm[m], sim_scene_object_count(sc) ? 0.033 : 0);
             for (const cat_warp *const *wp = cat_all(); *wp; wp++) {
-                /* raytrace_mesh is swept as the raytrace's grid=mesh rows, on the meshes built at start-up */
-                if ((*wp)->id == WARP_METHOD_RAYTRACE_MESH) continue;
                 const char *params[8];
                 int nk = knob_list((*wp)->name, params);
                 for (int k = 0; k < nk && nrows < MAX_ROWS; k++) {
@@ -725,11 +591,8 @@ int main(int argc, char **argv)
                         memset(&cs, 0, sizeof cs);
                         warp_image_u8_fill(&eye_mask, 0);
                         int64_t t = plat_now_ns();
-                        if ((*wp)->id == WARP_METHOD_RAYTRACE && is_grid_mesh(params[k]))
-                            why = run_raytrace_mesh(&mc, &fc[0].v, &fc[0].cam, fc[0].b, params[k], &eye_out, &cs);
-                        else
-                            why = (*wp)->run(&fc[0].v, &fc[0].cam, fc[0].b, fc[0].t1, params[k], &eye_out,
-                                             &eye_mask, &cs);
+                        why = (*wp)->run(&fc[0].v, &fc[0].cam, fc[0].b, fc[0].t1, params[k], &eye_out, &eye_mask,
+                                         &cs);
                         add(&ts, (double)(plat_now_ns() - t) * 1e-6);
                     }
                     if (why) continue;
@@ -882,15 +745,17 @@ int main(int argc, char **argv)
                 "| translation cm | raytrace+lens ms | steps/ray | raytrace PSNR dB | rotation ms | rotation PSNR dB "
                 "| mesh raytrace ms | mesh raytrace PSNR dB | mesh vs per-pixel dB |\n"
                 "|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
-            D.mesh[0].cols, D.mesh[0].rows);
+            rt_render_cpu_mesh(D.pass[0], 0)->cols, rt_render_cpu_mesh(D.pass[0], 0)->rows);
     for (int m = 0; m < n_motion; m++)
         fprintf(md, "| %g | %.2f | %.1f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f |\n", motions_cm[m], ray_ms[m],
                 ray_steps[m], ray_psnr[m], rot_ms[m], rot_psnr[m], mesh_ms[m], mesh_psnr[m], mesh_vs_ray[m]);
     fprintf(md, "\n## Every warp against ground truth (one eye, before the lens, single thread)\n\n"
                 "Pareto = no other configuration of the same scene and motion is both faster and more accurate. "
-                "raytrace `grid=mesh` traces only the vertices of a lens-free mesh over the eye buffer (`mesh=N` "
-                "per side, default %d) and resamples in between; its time includes the per-host-frame preparation "
-                "(planar source, skipping grid), as the per-pixel raytrace's includes its skipping grid.\n",
+                "raytrace_mesh traces only the vertices of a lens-free mesh over the eye buffer (`mesh=N` per "
+                "side, [lens] mesh's %d by default) and resamples in between; its time includes the per-host-frame "
+                "preparation (planar source, skipping grid), as the per-pixel raytrace's includes its skipping grid, "
+                "and, like every catalogue warp's, the allocation of its scratch (here the mesh and the planar "
+                "source).\n",
             cfg.mesh_n);
     for (size_t s = 0; s < sizeof scenes / sizeof scenes[0]; s++) {
         fprintf(md, "\n### %s ![quality vs time](quality_vs_time_%s.png)\n\n"
@@ -963,22 +828,16 @@ int main(int argc, char **argv)
             free(cv_src[e][ch]);
             free(cv_dst[e][ch]);
         }
-        warp_mesh_free(&D.mesh[e]);
-        warp_image_free(&bmax[e]);
-        warp_planar3_free(&D.planar[e]);
-        warp_planar3_free(&D.inter_planar[e]);
-        warp_image_free(&D.inter[e]);
         case_free(&fc[e]);
     }
-    warp_image_free(&D.panel);
+    bench_display_free(&D);
+    warp_planar3_free(&planar0);
     warp_image_free(&copy);
     warp_image_free(&eye_out);
     warp_image_free(&eye_out2);
     warp_image_free(&eye_mask);
-    for (int i = 0; i < 2; i++) warp_mesh_free(&mc.mesh[i]);
-    warp_planar3_free(&mc.planar);
-    warp_image_free(&mc.bmax);
-    plat_workers_destroy(D.workers);
-    plat_workers_destroy(D.workers1);
+    warp_mesh_free(&eye_mesh);
+    plat_workers_destroy(workers);
+    plat_workers_destroy(workers1);
     return 0;
 }

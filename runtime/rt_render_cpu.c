@@ -1,0 +1,374 @@
+/* SPDX-License-Identifier: MIT */
+/* rt_render_cpu: the CPU render pass: per vsync, the warp the frame and the method allow, then the lens pass
+ * (distortion and chromatic aberration) into the panel image, split into tasks over the compositor's workers. */
+#include "runtime/rt_render_cpu.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "warp/warp_forward.h"
+#include "warp/warp_grid.h"
+#include "warp/warp_holes.h"
+#include "warp/warp_objects.h"
+#include "warp/warp_registry.h"
+#include "warp/warp_resample.h"
+#include "warp/warp_transparency.h"
+
+#define TILE_W 128
+#define TILE_H 32
+#define BAND_H 16
+
+/* One vsync's work, shared with the worker threads. */
+typedef struct {
+    rt_render_cpu *r;
+    const rt_frame *frame;
+    warp_image_rgba8 *out;
+    const warp_planar3 *src[2];
+    int tiles_x[2], tiles_y[2];
+    warp_view views[2]; /* the raytrace setups point at these */
+    warp_raytrace_setup rts[2];
+    int bands;
+    rt_method method;   /* depth_task: which further warp */
+    warp_pose eyes[2];
+    const warp_pose *objects_at; /* depth_task: the objects at photon time, NULL = as the frame saw them */
+    warp_quat src_from_dst[2]; /* mesh_task */
+} job;
+
+struct rt_render_cpu {
+    rt_render_cpu_params p;
+    plat_workers *workers;
+    job j;                         /* here, not on the caller's stack: a vsync's job is a few KB */
+    warp_mesh mesh[2];
+    warp_image_rgba8 inter[2];     /* eye-space warps' output, before the lens pass */
+    warp_planar3 inter_planar[2];
+    /* the further depth warps, allocated when the method may use them */
+    warp_grid grid[2];
+    warp_minmax_tree abuf[2];
+    const void *abuf_frame[2];     /* the frame slot and sequence the grid and tree were built from: they depend */
+    uint64_t abuf_seq[2];          /* on the source only, so they are built once per host frame, not per vsync */
+    warp_image_f32 zb[2];          /* warped opaque inverse depth (transparency) */
+    warp_image_u8 wmask[2];        /* the depth warps' masks (holes, fringe) */
+    warp_fwd_scratch fwd[2];
+    warp_objects_setup *objs[2];
+    warp_holes_ctx holes[2];
+    rt_render_cpu_stats stats;
+};
+
+rt_render_cpu_params rt_render_cpu_params_from_config(const rt_config *c)
+{
+    rt_render_cpu_params p;
+    memset(&p, 0, sizeof p);
+    p.panel_w = c->panel_w;
+    p.panel_h = c->panel_h;
+    p.eye_w = c->eye_w;
+    p.eye_h = c->eye_h;
+    p.mesh_n = c->mesh_n;
+    for (int e = 0; e < 2; e++) p.lens[e] = rt_config_lens(c, e);
+    p.raytrace = warp_raytrace_default_params();
+    p.raytrace.max_steps = c->raytrace_steps;
+    p.raytrace.edge_fill = (warp_edge_fill)c->edge_fill;
+    p.raytrace.edge_jump = (float)c->edge_jump;
+    p.depth_warps = c->method != RT_METHOD_NONE && c->method != RT_METHOD_ROTATION;
+    p.transparency = c->method == RT_METHOD_TRANSPARENCY || c->method == RT_METHOD_AUTO;
+    p.objects = c->method == RT_METHOD_OBJECTS || c->method == RT_METHOD_AUTO;
+    return p;
+}
+
+static rt_render_cpu *fail(rt_render_cpu *r, char *err, int errlen, const char *what)
+{
+    snprintf(err, (size_t)errlen, "%s", what);
+    rt_render_cpu_destroy(&r);
+    return NULL;
+}
+
+rt_render_cpu *rt_render_cpu_create(const rt_render_cpu_params *p, plat_workers *workers, char *err, int errlen)
+{
+    /* the ranges rt_config enforces for [lens] mesh and the sizes; a caller that built its own params gets told */
+    if (p->mesh_n < 2 || p->mesh_n > 1024) {
+        snprintf(err, (size_t)errlen, "[lens] mesh = %d: the distortion mesh takes 2..1024 vertices per side", p->mesh_n);
+        return NULL;
+    }
+    if (p->panel_w < 2 || p->panel_h < 1 || p->eye_w < 1 || p->eye_h < 1) {
+        snprintf(err, (size_t)errlen, "a %dx%d panel with %dx%d eyes: no pixels to render", p->panel_w, p->panel_h,
+                 p->eye_w, p->eye_h);
+        return NULL;
+    }
+    if (!workers) {
+        snprintf(err, (size_t)errlen, "the CPU pass needs the compositor's workers");
+        return NULL;
+    }
+    rt_render_cpu *r = calloc(1, sizeof *r);
+    if (!r) return fail(r, err, errlen, "out of memory");
+    r->p = *p;
+    r->workers = workers;
+    r->j.r = r;
+    int vw = p->panel_w / 2;
+    for (int e = 0; e < 2; e++)
+        if (!warp_mesh_init(&r->mesh[e], p->mesh_n, &r->p.lens[e], e * vw, 0, vw, p->panel_h))
+            return fail(r, err, errlen, "[lens] mesh: cannot allocate the distortion mesh");
+    for (int e = 0; e < 2 && p->depth_warps; e++) {
+        bool ok = warp_image_rgba8_alloc(&r->inter[e], p->eye_w, p->eye_h) &&
+                  warp_planar3_alloc(&r->inter_planar[e], p->eye_w, p->eye_h) &&
+                  warp_image_u8_alloc(&r->wmask[e], p->eye_w, p->eye_h);
+        if (ok && p->transparency)
+            ok = warp_grid_alloc(&r->grid[e], p->eye_w, p->eye_h, warp_grid_default_params().tile) &&
+                 warp_minmax_alloc(&r->abuf[e], p->eye_w, p->eye_h) &&
+                 warp_image_f32_alloc(&r->zb[e], p->eye_w, p->eye_h);
+        if (ok && p->objects) {
+            r->objs[e] = calloc(1, sizeof *r->objs[e]);
+            ok = r->objs[e] && warp_fwd_scratch_alloc(&r->fwd[e], p->eye_w, p->eye_h, p->eye_w, p->eye_h) &&
+                 warp_holes_init(&r->holes[e], p->eye_w, p->eye_h, 12);
+        }
+        if (!ok) return fail(r, err, errlen, "cannot allocate the depth warps' buffers");
+    }
+    return r;
+}
+
+void rt_render_cpu_destroy(rt_render_cpu **rp)
+{
+    rt_render_cpu *r = rp ? *rp : NULL;
+    if (!r) return;
+    for (int e = 0; e < 2; e++) {
+        warp_mesh_free(&r->mesh[e]);
+        warp_image_free(&r->inter[e]);
+        warp_planar3_free(&r->inter_planar[e]);
+        warp_image_free(&r->wmask[e]);
+        warp_image_free(&r->zb[e]);
+        if (r->grid[e].w) warp_grid_free(&r->grid[e]);
+        warp_minmax_free(&r->abuf[e]);
+        warp_fwd_scratch_free(&r->fwd[e]);
+        if (r->objs[e]) warp_holes_free(&r->holes[e]);
+        free(r->objs[e]);
+    }
+    free(r);
+    *rp = NULL;
+}
+
+rt_render_cpu_stats rt_render_cpu_stats_get(const rt_render_cpu *r) { return r->stats; }
+warp_mesh *rt_render_cpu_mesh(rt_render_cpu *r, int eye) { return &r->mesh[eye]; }
+const warp_raytrace_params *rt_render_cpu_raytrace_params(const rt_render_cpu *r) { return &r->p.raytrace; }
+
+static void resample_task(void *ctx, int task)
+{
+    job *j = ctx;
+    int per_eye = j->tiles_x[0] * j->tiles_y[0];
+    int e = task >= per_eye ? 1 : 0;
+    int t = task - e * per_eye;
+    const warp_mesh *m = &j->r->mesh[e];
+    int tx = t % j->tiles_x[e], ty = t / j->tiles_x[e];
+    int x0 = tx * TILE_W, y0 = ty * TILE_H;
+    int x1 = x0 + TILE_W < m->vp_w ? x0 + TILE_W : m->vp_w;
+    int y1 = y0 + TILE_H < m->vp_h ? y0 + TILE_H : m->vp_h;
+    warp_mesh_resample(m, j->src[e], j->out, x0, y0, x1, y1);
+}
+
+/* Task `task` of 2 * j->bands: one band of one eye, rows [*y0, *y1). */
+static int band(const job *j, int task, int *y0, int *y1)
+{
+    int e = task >= j->bands ? 1 : 0;
+    int h = j->r->inter[e].h;
+    *y0 = (task - e * j->bands) * BAND_H;
+    *y1 = *y0 + BAND_H < h ? *y0 + BAND_H : h;
+    return e;
+}
+
+/* Raytrace one band of one eye into eye space. */
+static void raytrace_task(void *ctx, int task)
+{
+    job *j = ctx;
+    int y0, y1, e = band(j, task, &y0, &y1);
+    warp_raytrace_rows(&j->rts[e], &j->r->inter[e], NULL, y0, y1, NULL);
+}
+
+/* Deinterleave one band for the lens pass, once every band is traced: a planar row pairs its row with the next
+ * one, which for a band's last row is the next band's first (done in the trace's task, it raced that band's
+ * thread and showed a row of the previous vsync or of uninitialised memory). */
+static void planar_task(void *ctx, int task)
+{
+    job *j = ctx;
+    int y0, y1, e = band(j, task, &y0, &y1);
+    warp_planar3_from_rgba_rows(&j->r->inter_planar[e], &j->r->inter[e], y0, y1);
+}
+
+/* One eye's distortion mesh for a rotation (both eyes at once: done in turn they took a sixth of the pass while
+ * the other thread waited). */
+static void mesh_task(void *ctx, int e)
+{
+    job *j = ctx;
+    warp_mesh_update(&j->r->mesh[e], &j->frame->f.cam[e], j->src_from_dst[e]);
+}
+
+/* raytrace_mesh: one eye's rays, at its lens mesh's vertices (the resample then reads the frame). */
+static void mesh_raytrace_task(void *ctx, int e)
+{
+    job *j = ctx;
+    warp_mesh_update_raytrace(&j->r->mesh[e], &j->frame->f.cam[e], &j->rts[e]);
+}
+
+/* The warps that need a whole eye at once (they rasterise or splat): one task per eye, into eye space, holes
+ * filled, then deinterleaved for the lens pass. */
+static void depth_task(void *ctx, int e)
+{
+    job *j = ctx;
+    rt_render_cpu *r = j->r;
+    const rt_frame *fr = j->frame;
+    warp_image_u8 *m = &r->wmask[e];
+    warp_image_u8_fill(m, 0);
+    if (j->method == RT_METHOD_TRANSPARENCY) {
+        warp_grid_params gp = warp_grid_default_params();
+        warp_transparency_params tp = warp_transparency_default_params();
+        /* warp_transparency_run would rebuild the source's grid and fragment tree every vsync */
+        bool ok = true;
+        if (r->abuf_frame[e] != fr || r->abuf_seq[e] != fr->f.seq) {
+            ok = !warp_grid_build(&r->grid[e], &j->views[e], &gp, NULL);
+            warp_minmax_build(&r->abuf[e], j->views[e].layers);
+            r->abuf_frame[e] = ok ? fr : NULL;
+            r->abuf_seq[e] = fr->f.seq;
+        }
+        warp_transparency_setup ts;
+        ok = ok && !warp_grid_warp_rows(&r->grid[e], &j->views[e], &fr->f.cam[e], j->eyes[e], &gp, &r->inter[e],
+                                        &r->zb[e], m, 0, r->inter[e].h, NULL);
+        ok = ok && !warp_transparency_prepare(&ts, &j->views[e], &r->abuf[e], &fr->f.cam[e], j->eyes[e], &tp);
+        if (ok) warp_transparency_rows(&ts, &r->zb[e], &r->inter[e], 0, r->inter[e].h, NULL);
+    } else {
+        warp_splat_params sp = warp_splat_default_params(WARP_SPLAT_MESH);
+        warp_objects_run(r->objs[e], &j->views[e], &fr->f.cam[e], j->eyes[e], j->objects_at, &sp, &r->fwd[e],
+                         &r->inter[e], m, NULL);
+        /* Disocclusions the splats left: the depth-aware low-pass fill (000 §5.2) from the warped depth. */
+        warp_image_f32 zb = {fr->f.cam[e].width, fr->f.cam[e].height, fr->f.cam[e].width, r->fwd[e].zbuf};
+        warp_holes_params hp = warp_holes_default_params();
+        warp_epipole ep = warp_epipole_from_poses(&fr->f.cam[e], j->eyes[e], fr->f.eye_pose[e]);
+        warp_holes_fill(&r->holes[e], &r->inter[e], m, &zb, &ep, &hp, NULL);
+    }
+    warp_planar3_from_rgba_rows(&r->inter_planar[e], &r->inter[e], 0, r->inter[e].h);
+}
+
+static void run_resample(rt_render_cpu *r, job *j)
+{
+    for (int e = 0; e < 2; e++) {
+        j->tiles_x[e] = (r->mesh[e].vp_w + TILE_W - 1) / TILE_W;
+        j->tiles_y[e] = (r->mesh[e].vp_h + TILE_H - 1) / TILE_H;
+    }
+    plat_workers_run(r->workers, j->tiles_x[0] * j->tiles_y[0] + j->tiles_x[1] * j->tiles_y[1], resample_task, j);
+}
+
+/* The lens pass: both eyes' meshes for j->src_from_dst at once, then the resampling from j->src. */
+static void lens_pass(rt_render_cpu *r, job *j)
+{
+    plat_workers_run(r->workers, 2, mesh_task, j);
+    run_resample(r, j);
+}
+
+/* The lens pass after a warp into eye space (inter_planar): distortion and CA only. */
+static void lens_pass_eye_space(rt_render_cpu *r, job *j)
+{
+    for (int e = 0; e < 2; e++) {
+        j->src_from_dst[e] = warp_quat_identity();
+        j->src[e] = &r->inter_planar[e];
+    }
+    lens_pass(r, j);
+}
+
+/* none and rotation: both eyes' meshes, then the resampling from the host frame. */
+static rt_method pass_lens(rt_render_cpu *r, job *j, const rt_frame *frame, const warp_pose eyes[2],
+                           rt_method method)
+{
+    for (int e = 0; e < 2; e++) {
+        /* 003 §3.4: only orientations matter; NONE shows the frame as rendered, through the lens. */
+        j->src_from_dst[e] = method == RT_METHOD_ROTATION
+                                 ? warp_quat_mul(warp_quat_conj(frame->f.eye_pose[e].q), eyes[e].q)
+                                 : warp_quat_identity();
+        j->src[e] = &frame->planar[e];
+    }
+    lens_pass(r, j);
+    return method;
+}
+
+/* raytrace and raytrace_mesh: the per-host-frame setup (prepare, skipping grid), then per pixel in bands, or at
+ * the mesh's vertices. A setup the frame cannot give falls to rotation. */
+static rt_method pass_raytrace(rt_render_cpu *r, job *j, const rt_frame *frame, const warp_pose eyes[2],
+                               rt_method method)
+{
+    bool ok = true;
+    for (int e = 0; e < 2 && ok; e++) {
+        j->views[e] = rt_frame_view(frame, e);
+        ok = warp_raytrace_prepare(&j->rts[e], &j->views[e], &frame->f.cam[e], eyes[e], &r->p.raytrace) == NULL;
+        if (ok) warp_raytrace_use_blockmax(&j->rts[e], &frame->blockmax[e], RT_BLOCK);
+    }
+    if (!ok) return pass_lens(r, j, frame, eyes, RT_METHOD_ROTATION);
+    if (method == RT_METHOD_RAYTRACE_MESH) {
+        /* no eye-space image: depth warp, lens and CA in the one resampling pass from the host frame */
+        plat_workers_run(r->workers, 2, mesh_raytrace_task, j);
+        for (int e = 0; e < 2; e++) j->src[e] = &frame->planar[e];
+        run_resample(r, j);
+        return method;
+    }
+    j->bands = (r->inter[0].h + BAND_H - 1) / BAND_H;
+    plat_workers_run(r->workers, 2 * j->bands, raytrace_task, j);
+    plat_workers_run(r->workers, 2 * j->bands, planar_task, j);
+    lens_pass_eye_space(r, j);
+    return method;
+}
+
+/* transparency and objects: a whole eye at once into eye space (depth_task), then the lens. */
+static rt_method pass_depth(rt_render_cpu *r, job *j, const rt_frame *frame, const warp_pose eyes[2],
+                            rt_method method)
+{
+    j->method = method;
+    for (int e = 0; e < 2; e++) {
+        j->views[e] = rt_frame_view(frame, e);
+        j->eyes[e] = eyes[e];
+    }
+    plat_workers_run(r->workers, 2, depth_task, j);
+    lens_pass_eye_space(r, j);
+    return method;
+}
+
+/* The CPU half of the warp registry (warp/warp_registry.h has names, planes and fallbacks), indexed the same. */
+typedef rt_method (*cpu_pass)(rt_render_cpu *r, job *j, const rt_frame *frame, const warp_pose eyes[2],
+                              rt_method method);
+static const cpu_pass passes[] = {
+    [RT_METHOD_NONE] = pass_lens,
+    [RT_METHOD_ROTATION] = pass_lens,
+    [RT_METHOD_RAYTRACE] = pass_raytrace,
+    [RT_METHOD_TRANSPARENCY] = pass_depth,
+    [RT_METHOD_OBJECTS] = pass_depth,
+    [RT_METHOD_RAYTRACE_MESH] = pass_raytrace,
+};
+_Static_assert(sizeof passes / sizeof passes[0] == RT_METHOD_COUNT, "a pass per runtime method");
+_Static_assert((int)RT_METHOD_COUNT == (int)WARP_METHOD_RUNTIME_COUNT, "rt_method is the registry's runtime part");
+#define SAME_(id, name) _Static_assert((int)RT_METHOD_##id == (int)WARP_METHOD_##id, "rt_method order: " name);
+WARP_RUNTIME_METHODS(SAME_)
+#undef SAME_
+/* the registry's plane bits are the frames' */
+_Static_assert((unsigned)WARP_NEEDS_DEPTH == (unsigned)DRV_PLANE_DEPTH &&
+                   (unsigned)WARP_NEEDS_IDS == (unsigned)DRV_PLANE_IDS &&
+                   (unsigned)WARP_NEEDS_MOTION == (unsigned)DRV_PLANE_MOTION &&
+                   (unsigned)WARP_NEEDS_LAYERS == (unsigned)DRV_PLANE_LAYERS,
+               "WARP_NEEDS_* == DRV_PLANE_*");
+
+rt_method rt_render_cpu_usable(rt_render_cpu *r, const rt_frame *frame, rt_method method, unsigned planes)
+{
+    unsigned have = planes & ~(unsigned)DRV_PLANE_DEPTH;
+    /* without its eye buffers the pass cannot run a depth warp (hmdwarpd asks for none then; a caller might) */
+    if (frame->has_depth && r->p.depth_warps) have |= DRV_PLANE_DEPTH;
+    if (!r->p.transparency) have &= ~(unsigned)DRV_PLANE_LAYERS;
+    if (!r->p.objects) have &= ~(unsigned)DRV_PLANE_IDS;
+    unsigned missing = 0;
+    rt_method m = (rt_method)warp_method_usable((warp_method)method, have, &missing);
+    if (missing & ~(unsigned)DRV_PLANE_DEPTH) r->stats.plane_fallbacks++;
+    if (missing & DRV_PLANE_DEPTH) r->stats.raytrace_fallbacks++;
+    return m;
+}
+
+rt_method rt_render_cpu_frame(rt_render_cpu *r, const rt_frame *frame, const warp_pose eyes[2], rt_method method,
+                              const warp_pose *objects_at, warp_image_rgba8 *out)
+{
+    job *j = &r->j;
+    j->frame = frame;
+    j->out = out;
+    j->objects_at = objects_at;
+    method = rt_render_cpu_usable(r, frame, method, frame->f.planes);
+    return passes[method](r, j, frame, eyes, method);
+}

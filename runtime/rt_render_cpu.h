@@ -1,0 +1,65 @@
+/* SPDX-License-Identifier: MIT */
+/* rt_render_cpu: the CPU render pass: one host frame warped to the eye poses and distorted for the lens into a
+ * panel image, on the compositor's workers. hmdwarpd, hmdwarp-bench and the tests all run this one pass. */
+#ifndef RT_RENDER_CPU_H
+#define RT_RENDER_CPU_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "platform/plat_workers.h"
+#include "runtime/rt_config.h"
+#include "runtime/rt_frameq.h"
+#include "warp/warp_lens.h"
+#include "warp/warp_mesh.h"
+#include "warp/warp_raytrace.h"
+
+/* What the pass is built for: the panel, the lens, the raytrace's knobs, and which warps it allocates for (a
+ * method not allocated for falls down its ladder: rt_render_cpu_usable). */
+typedef struct {
+    int panel_w, panel_h;   /* the panel: the left eye's viewport is its left half */
+    int eye_w, eye_h;       /* the host frame's eye buffers */
+    int mesh_n;             /* lens mesh vertices per side */
+    warp_lens lens[2];
+    warp_raytrace_params raytrace;
+    bool depth_warps;       /* the eye-space warps (raytrace, transparency, objects): their eye buffers */
+    bool transparency;      /* the A-buffer warp's grid, tree and depth buffer */
+    bool objects;           /* the per-object warp's splat and hole-filling scratch */
+} rt_render_cpu_params;
+
+/* The pass as hmdwarpd configures it from c ([display], [lens], [warp]); the bench and the tests use this too, so
+ * they run what the daemon runs. */
+rt_render_cpu_params rt_render_cpu_params_from_config(const rt_config *c);
+
+typedef struct rt_render_cpu rt_render_cpu;
+
+/* Allocates everything the pass will use (the vsync path never allocates). The workers are borrowed: they must
+ * outlive the pass. NULL with the reason in err on failure. */
+rt_render_cpu *rt_render_cpu_create(const rt_render_cpu_params *p, plat_workers *workers, char *err, int errlen);
+/* Frees the pass and clears *r; NULL or *r NULL is fine. */
+void rt_render_cpu_destroy(rt_render_cpu **r);
+
+/* Where the registry method `method` lands for `frame` (whose planes are `planes`; depth counts only when the frame
+ * has it): down its fallback ladder past what lacks a plane or was not allocated for, counting a raytrace fallback
+ * (no depth) or a plane fallback (no ids, no layers). The GLES path asks it too (planes 0: depth at most). */
+rt_method rt_render_cpu_usable(rt_render_cpu *r, const rt_frame *frame, rt_method method, unsigned planes);
+
+/* Renders `frame` warped to the eye poses `eyes` with `method` (or what its ladder gives the frame) into `out`
+ * (panel-sized). objects_at: the objects' poses at photon time for the per-object warp (NULL: where the frame saw
+ * them). Returns the method actually run. Allocation-, lock- and I/O-free: the vsync path. */
+rt_method rt_render_cpu_frame(rt_render_cpu *r, const rt_frame *frame, const warp_pose eyes[2], rt_method method,
+                              const warp_pose *objects_at, warp_image_rgba8 *out);
+
+typedef struct {
+    uint64_t raytrace_fallbacks; /* a depth warp requested, but the frame had no depth */
+    uint64_t plane_fallbacks;    /* transparency / objects requested, but the frame lacked layers / ids */
+} rt_render_cpu_stats;
+/* Read by the compositor's thread, or after it stopped. */
+rt_render_cpu_stats rt_render_cpu_stats_get(const rt_render_cpu *r);
+
+/* The lens meshes (the GLES renderer draws through the same ones) and the raytrace's knobs (the GLES raytrace and
+ * the accuracy evaluator use the pass's). */
+warp_mesh *rt_render_cpu_mesh(rt_render_cpu *r, int eye);
+const warp_raytrace_params *rt_render_cpu_raytrace_params(const rt_render_cpu *r);
+
+#endif
