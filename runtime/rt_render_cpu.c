@@ -3,6 +3,7 @@
  * (distortion and chromatic aberration) into the panel image, split into tasks over the compositor's workers. */
 #include "runtime/rt_render_cpu.h"
 
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -52,7 +53,8 @@ struct rt_render_cpu {
     warp_fwd_scratch fwd[2];
     warp_objects_setup *objs[2];
     warp_holes_ctx holes[2];
-    rt_render_cpu_stats stats;
+    /* counted on the vsync path, read by the helper thread for the live stats: relaxed atomics */
+    _Atomic uint64_t raytrace_fallbacks, plane_fallbacks;
 };
 
 rt_render_cpu_params rt_render_cpu_params_from_config(const rt_config *c)
@@ -145,7 +147,12 @@ void rt_render_cpu_destroy(rt_render_cpu **rp)
     *rp = NULL;
 }
 
-rt_render_cpu_stats rt_render_cpu_stats_get(const rt_render_cpu *r) { return r->stats; }
+rt_render_cpu_stats rt_render_cpu_stats_get(const rt_render_cpu *r)
+{
+    rt_render_cpu_stats st = {atomic_load_explicit(&r->raytrace_fallbacks, memory_order_relaxed),
+                              atomic_load_explicit(&r->plane_fallbacks, memory_order_relaxed)};
+    return st;
+}
 warp_mesh *rt_render_cpu_mesh(rt_render_cpu *r, int eye) { return &r->mesh[eye]; }
 const warp_raytrace_params *rt_render_cpu_raytrace_params(const rt_render_cpu *r) { return &r->p.raytrace; }
 
@@ -357,8 +364,8 @@ rt_method rt_render_cpu_usable(rt_render_cpu *r, const rt_frame *frame, rt_metho
     if (!r->p.objects) have &= ~(unsigned)DRV_PLANE_IDS;
     unsigned missing = 0;
     rt_method m = (rt_method)warp_method_usable((warp_method)method, have, &missing);
-    if (missing & ~(unsigned)DRV_PLANE_DEPTH) r->stats.plane_fallbacks++;
-    if (missing & DRV_PLANE_DEPTH) r->stats.raytrace_fallbacks++;
+    if (missing & ~(unsigned)DRV_PLANE_DEPTH) atomic_fetch_add_explicit(&r->plane_fallbacks, 1, memory_order_relaxed);
+    if (missing & DRV_PLANE_DEPTH) atomic_fetch_add_explicit(&r->raytrace_fallbacks, 1, memory_order_relaxed);
     return m;
 }
 

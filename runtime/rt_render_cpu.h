@@ -54,7 +54,7 @@ typedef struct {
     uint64_t raytrace_fallbacks; /* a depth warp requested, but the frame had no depth */
     uint64_t plane_fallbacks;    /* transparency / objects requested, but the frame lacked layers / ids */
 } rt_render_cpu_stats;
-/* Read by the compositor's thread, or after it stopped. */
+/* Any thread (the helper thread reads them live). */
 rt_render_cpu_stats rt_render_cpu_stats_get(const rt_render_cpu *r);
 
 /* The lens meshes (the GLES renderer draws through the same ones) and the raytrace's knobs (the GLES raytrace and
