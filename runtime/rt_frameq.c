@@ -82,9 +82,10 @@ const rt_frame *rt_frameq_latest(rt_frameq *q, bool *is_new)
     if (atomic_load_explicit(&q->middle, memory_order_relaxed) & NEW_BIT) {
         int old = atomic_exchange_explicit(&q->middle, q->front, memory_order_acq_rel);
         q->front = old & 3;
+        q->have_front = true;
         fresh = true;
     }
     if (is_new) *is_new = fresh;
     /* Until the first publish the consumer's slot holds nothing. */
-    return q->slot[q->front].f.seq ? &q->slot[q->front] : NULL;
+    return q->have_front ? &q->slot[q->front] : NULL;
 }

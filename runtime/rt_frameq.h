@@ -34,7 +34,9 @@ typedef struct {
      * taken. Producer and consumer each own one more slot; ownership moves only by atomic exchange. */
     _Atomic int middle;
     int back;  /* producer-owned */
-    int front; /* consumer-owned; -1 until the first frame */
+    int front; /* consumer-owned */
+    /* consumer-owned: whether front holds a frame yet. Not the frame's seq: a host may start counting at 0. */
+    bool have_front;
 } rt_frameq;
 
 bool rt_frameq_init(rt_frameq *q, int w, int h, unsigned planes, int max_layers);
