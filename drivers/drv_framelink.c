@@ -9,6 +9,8 @@
 #include <string.h>
 #include <zlib.h>
 
+#include "warp/warp_err.h"
+
 /* ---- little-endian primitives (explicit bytes: the wire layout never depends on the compiler's structs) ---- */
 
 static void put_u16(uint8_t *p, uint16_t v)
@@ -338,12 +340,10 @@ static drv_frame_err fail(char *detail, int len, drv_frame_err e, const char *fm
     __attribute__((format(printf, 4, 5)));
 static drv_frame_err fail(char *detail, int len, drv_frame_err e, const char *fmt, ...)
 {
-    if (detail && len > 0) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(detail, (size_t)len, fmt, ap);
-        va_end(ap);
-    }
+    va_list ap;
+    va_start(ap, fmt);
+    warp_verr(detail, len, fmt, ap);
+    va_end(ap);
     return e;
 }
 

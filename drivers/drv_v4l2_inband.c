@@ -9,6 +9,8 @@
 #include <string.h>
 #include <zlib.h>
 
+#include "warp/warp_err.h"
+
 #define META_BITS (DRV_V4L2_META_BYTES * 8)
 #define CHUNK 512 /* pixels per row piece handled on the stack (unpack never allocates) */
 /* Block means are thresholded halfway between the levels: a block survives any error below ~100 levels. */
@@ -39,13 +41,13 @@ bool drv_v4l2_layout(int eye_w, int eye_h, bool depth, int *img_w, int *img_h)
 }
 
 static drv_frame_err fail(char *why, int whylen, drv_frame_err e, const char *fmt, ...)
+    __attribute__((format(printf, 4, 5)));
+static drv_frame_err fail(char *why, int whylen, drv_frame_err e, const char *fmt, ...)
 {
-    if (why && whylen > 0) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(why, (size_t)whylen, fmt, ap);
-        va_end(ap);
-    }
+    va_list ap;
+    va_start(ap, fmt);
+    warp_verr(why, whylen, fmt, ap);
+    va_end(ap);
     return e;
 }
 
