@@ -90,7 +90,7 @@ enum {
     OFF_HOST_SEND = 64, OFF_DEPTH_ENC = 72, OFF_N_OBJECTS = 74, OFF_N_PLANES = 76, OFF_RESERVED = 78,
     OFF_SCENE_TIME = 80, OFF_EYES = 88, EYE_BYTES = 112, EYE_CAM = 56,
 };
-#define MAX_DIM 16384
+#define MAX_DIM WARP_MAX_SIDE
 #define FRAG_BYTES 10
 
 static size_t header_bytes(int n_objects, int n_planes)

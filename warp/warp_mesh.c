@@ -10,7 +10,7 @@
 static bool mesh_alloc(warp_mesh *m, int n, int vp_x, int vp_y, int vp_w, int vp_h)
 {
     memset(m, 0, sizeof *m);
-    if (n < 2 || n > 1024 || vp_w <= 0 || vp_h <= 0 || vp_w > 16384 || vp_h > 16384) return false;
+    if (n < 2 || n > 1024 || vp_w <= 0 || vp_h <= 0 || vp_w > WARP_MAX_SIDE || vp_h > WARP_MAX_SIDE) return false;
     /* Columns a multiple of 8 pixels apart (see warp_mesh.h): the nearest such spacing to n evenly spread. */
     int cell_w = 8 * (int)((double)vp_w / (n - 1) / 8.0 + 0.5);
     if (cell_w < 8) cell_w = 8;

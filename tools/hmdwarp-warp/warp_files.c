@@ -121,7 +121,7 @@ float *warpfile_read_pfm(const char *path, int *w, int *h, int *channels, char *
     char magic[3] = {0};
     double scale;
     if (fscanf(f, "%2s %6d %6d %lf", magic, w, h, &scale) != 4 || (strcmp(magic, "Pf") && strcmp(magic, "PF")) ||
-        *w <= 0 || *h <= 0 || *w > 16384 || *h > 16384 || fgetc(f) == EOF) {
+        *w <= 0 || *h <= 0 || *w > WARP_MAX_SIDE || *h > WARP_MAX_SIDE || fgetc(f) == EOF) {
         fclose(f);
         return warp_err(err, errlen, "%s: not a PFM file (expected Pf/PF, width, height, scale)", path), NULL;
     }
