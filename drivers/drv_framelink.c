@@ -90,6 +90,9 @@ enum {
     OFF_HOST_SEND = 64, OFF_DEPTH_ENC = 72, OFF_N_OBJECTS = 74, OFF_N_PLANES = 76, OFF_RESERVED = 78,
     OFF_SCENE_TIME = 80, OFF_EYES = 88, EYE_BYTES = 112, EYE_CAM = 56,
 };
+/* depth_encoding travels as the warp_depth_encoding value itself; docs/framelink.md numbers it for hosts */
+_Static_assert(WARP_DEPTH_LINEAR == 0 && WARP_DEPTH_STANDARD == 1 && WARP_DEPTH_REVERSED == 2,
+               "framelink's depth_encoding values (docs/framelink.md) are warp_depth_encoding's");
 #define MAX_DIM WARP_MAX_SIDE
 #define FRAG_BYTES 10
 

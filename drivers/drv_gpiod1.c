@@ -5,7 +5,7 @@
  * The kernel stamps each event in its IRQ handler (CLOCK_MONOTONIC since Linux 5.7, CLOCK_REALTIME before), so the
  * edge times do not depend on when this thread gets to run. The v1 event FIFO holds 16 events and drops new ones
  * when full; a late reader therefore sees missed edges, which the estimator tolerates. */
-#include "drivers/drv_vsync_gpio.h"
+#include "drivers/drv_gpiod1.h"
 
 #include <errno.h>
 #include <gpiod.h>

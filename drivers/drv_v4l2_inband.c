@@ -81,6 +81,8 @@ enum {
     O_CRC = O_EYE + 2 * EYE_BYTES,
 };
 _Static_assert(O_CRC + 4 == DRV_V4L2_META_BYTES, "metadata layout");
+_Static_assert(WARP_DEPTH_LINEAR == 0 && WARP_DEPTH_STANDARD == 1 && WARP_DEPTH_REVERSED == 2,
+               "the band's depth encoding byte (docs/v4l2-inband.md) is warp_depth_encoding's value");
 #define FLAG_DEPTH 1u
 
 static void meta_serialise(const drv_v4l2_meta *m, uint8_t *b)

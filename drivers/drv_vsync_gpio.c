@@ -11,6 +11,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "drivers/drv_gpiod1.h"
 #include "drivers/drv_vsync_est.h"
 #include "platform/plat_clock.h"
 #include "warp/warp_err.h"
