@@ -133,7 +133,7 @@ static void dev_destroy(drv_i2c_bus *b)
     free(d);
 }
 
-drv_i2c_bus *drv_i2c_dev_open(const char *path, int addr, char *err, int errlen)
+drv_i2c_bus *drv_i2c_dev_create(const char *path, int addr, char *err, int errlen)
 {
     i2c_dev *d = calloc(1, sizeof *d);
     if (!d) {
@@ -427,7 +427,7 @@ drv_imu *drv_imu_i2c_create(const drv_imu_i2c_params *p, char *err, int errlen)
 {
     drv_i2c_chip_kind kind;
     if (!params_ok(p, &kind, err, errlen)) return NULL;
-    drv_i2c_bus *bus = drv_i2c_dev_open(p->bus, p->addr, err, errlen);
+    drv_i2c_bus *bus = drv_i2c_dev_create(p->bus, p->addr, err, errlen);
     if (!bus) return NULL;
     return create_on_bus(bus, p, err, errlen);
 }

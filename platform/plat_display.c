@@ -15,7 +15,7 @@
 #include "platform/plat_png.h"
 #include "warp/warp_err.h"
 
-bool plat_swapchain_init(plat_swapchain *sc, int count, int w, int h)
+bool plat_swapchain_alloc(plat_swapchain *sc, int count, int w, int h)
 {
     memset(sc, 0, sizeof *sc);
     if (count < 2 || count > PLAT_SWAPCHAIN_MAX) return false;
@@ -73,7 +73,7 @@ static void null_describe(plat_display *d, char *buf, int len)
 }
 static void null_destroy(plat_display *d) { free(d); }
 
-plat_display *plat_display_null(void)
+plat_display *plat_display_null_create(void)
 {
     plat_display *d = calloc(1, sizeof *d);
     if (!d) return NULL;
@@ -192,7 +192,7 @@ static void files_destroy(plat_display *d)
     free(f);
 }
 
-plat_display *plat_display_files(const char *kind, const char *dir, int every, char *err, int errlen)
+plat_display *plat_display_files_create(const char *kind, const char *dir, int every, char *err, int errlen)
 {
     bool raw = strcmp(kind, "raw") == 0;
     if (!raw && strcmp(kind, "png") != 0) {

@@ -820,7 +820,7 @@ static void kms_destroy(plat_display *base)
     free(d);
 }
 
-plat_display *plat_display_kms(plat_kms *k, plat_swapchain *sc, char *err, int errlen)
+plat_display *plat_display_kms_create(plat_kms *k, plat_swapchain *sc, char *err, int errlen)
 {
     kms_display *d = calloc(1, sizeof *d);
     if (!d) {

@@ -95,7 +95,7 @@ static bool cpu_kms_init(rt_app *a, const plat_kms_params *kp, char *err, int er
         plat_kms_close(k);
         return fail(err, errlen, "[display] output = kms: the mode is %s%s", e, "");
     }
-    a->display = plat_display_kms(k, &a->sc, e, sizeof e);
+    a->display = plat_display_kms_create(k, &a->sc, e, sizeof e);
     if (!a->display) return fail(err, errlen, "[display] output = kms: %s%s", e, "");
     a->kms = k;
     return true;
@@ -234,12 +234,12 @@ bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen)
     for (int e = 0; e < 2; e++) {
         a->eye_cam[e] = rt_config_eye_camera(c, e);
         a->lens[e] = rt_config_lens(c, e);
-        if (!warp_mesh_init(&a->mesh[e], c->mesh_n, &a->lens[e], e * vw, 0, vw, c->panel_h))
+        if (!warp_mesh_alloc(&a->mesh[e], c->mesh_n, &a->lens[e], e * vw, 0, vw, c->panel_h))
             return fail(err, errlen, "%s%s: cannot allocate the distortion mesh", "[lens] mesh", "");
     }
     /* one shown, one waiting for its vsync, one being drawn; a fourth while a file sink still reads one, or while
      * a pass started by [render] stall_reserve_ms more than a period ahead keeps two out of reach */
-    if (!plat_swapchain_init(&a->sc, c->stall_reserve_ms > 0 ? 4 : 3, c->panel_w, c->panel_h))
+    if (!plat_swapchain_alloc(&a->sc, c->stall_reserve_ms > 0 ? 4 : 3, c->panel_w, c->panel_h))
         return fail(err, errlen, "cannot allocate the swapchain (%s%s)", "[display] width/height", "");
     if (!render_init(a, err, errlen)) return false;
     a->workers = plat_workers_create(c->threads - 1, c->rt_priority);
@@ -262,7 +262,7 @@ bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen)
         if (ok && a->can_objects) {
             a->objs[e] = calloc(1, sizeof *a->objs[e]);
             ok = a->objs[e] && warp_fwd_scratch_alloc(&a->fwd[e], c->eye_w, c->eye_h, c->eye_w, c->eye_h) &&
-                 warp_holes_init(&a->holes[e], c->eye_w, c->eye_h, 12);
+                 warp_holes_alloc(&a->holes[e], c->eye_w, c->eye_h, 12);
         }
         if (!ok) return fail(err, errlen, "cannot allocate %s%s", "the depth warps' buffers", "");
     }
@@ -303,16 +303,16 @@ bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen)
     a->imu_remap = strcmp(c->imu_backend, "sim") != 0 &&
                    !(a->imu_map[0] == 0 && a->imu_map[1] == 1 && a->imu_map[2] == 2 && a->imu_sign[0] > 0 &&
                      a->imu_sign[1] > 0 && a->imu_sign[2] > 0);
-    if (!rt_frameq_init(&a->fq, c->eye_w, c->eye_h, drv_frames_planes(a->frames), 4))
+    if (!rt_frameq_alloc(&a->fq, c->eye_w, c->eye_h, drv_frames_planes(a->frames), 4))
         return fail(err, errlen, "cannot allocate %s%s", "the frame slots", "");
 
     if (a->display) {
         /* the CPU path's KMS output, opened with the renderer */
     } else if (strcmp(c->sink, "null") == 0) {
-        a->display = plat_display_null();
+        a->display = plat_display_null_create();
     } else {
         char e2[300];
-        a->display = plat_display_files(c->sink, c->sink_path, c->sink_every, e2, sizeof e2);
+        a->display = plat_display_files_create(c->sink, c->sink_path, c->sink_every, e2, sizeof e2);
         if (!a->display) return fail(err, errlen, "[display] sink = %s: %s", c->sink, e2);
     }
     if (!a->display) return fail(err, errlen, "%s%s", "out of memory", "");

@@ -736,7 +736,7 @@ uint64_t rt_config_frame_bytes(const rt_config *c)
 
 uint64_t rt_config_memory_bytes(const rt_config *c)
 {
-    /* Bytes per eye-buffer pixel and eye of each allocation (rt_app_init, rt_frameq_init, drv_frame_alloc). */
+    /* Bytes per eye-buffer pixel and eye of each allocation (rt_app_init, rt_frameq_alloc, drv_frame_alloc). */
     enum { COLOR = 4, DEPTH = 4, IDS = 2, LAYERS = 1 + 4 * 12, PLANAR = 6, INV_DEPTH = 4, OPAQUE = 4 };
     const bool ids = wants_ids(c), layers = wants_layers(c);
     const uint64_t eye_px = (uint64_t)c->eye_w * (uint64_t)c->eye_h, eyes = 2;

@@ -29,7 +29,7 @@ warp_view rt_frame_view(const rt_frame *fr, int eye)
     return v;
 }
 
-bool rt_frameq_init(rt_frameq *q, int w, int h, unsigned planes, int max_layers)
+bool rt_frameq_alloc(rt_frameq *q, int w, int h, unsigned planes, int max_layers)
 {
     memset(q, 0, sizeof *q);
     for (int i = 0; i < 3; i++) {

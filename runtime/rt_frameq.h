@@ -39,7 +39,7 @@ typedef struct {
     bool have_front;
 } rt_frameq;
 
-bool rt_frameq_init(rt_frameq *q, int w, int h, unsigned planes, int max_layers);
+bool rt_frameq_alloc(rt_frameq *q, int w, int h, unsigned planes, int max_layers);
 void rt_frameq_free(rt_frameq *q);
 
 /* Producer: the slot to fill, and publishing it (the previous unconsumed frame, if any, is replaced: the

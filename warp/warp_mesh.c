@@ -45,7 +45,7 @@ static void vertex_xy(const warp_mesh *m, int i, int j, double *x, double *y)
     *y = (double)j * m->vp_h / (m->rows - 1);
 }
 
-bool warp_mesh_init(warp_mesh *m, int n, const warp_lens *lens, int vp_x, int vp_y, int vp_w, int vp_h)
+bool warp_mesh_alloc(warp_mesh *m, int n, const warp_lens *lens, int vp_x, int vp_y, int vp_w, int vp_h)
 {
     if (!mesh_alloc(m, n, vp_x, vp_y, vp_w, vp_h)) return false;
     for (int j = 0; j < m->rows; j++)
@@ -61,7 +61,7 @@ bool warp_mesh_init(warp_mesh *m, int n, const warp_lens *lens, int vp_x, int vp
     return true;
 }
 
-bool warp_mesh_init_eye(warp_mesh *m, int n, const warp_camera *cam)
+bool warp_mesh_alloc_eye(warp_mesh *m, int n, const warp_camera *cam)
 {
     if (!mesh_alloc(m, n, 0, 0, cam->width, cam->height)) return false;
     for (int j = 0; j < m->rows; j++)

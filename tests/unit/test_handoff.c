@@ -45,7 +45,7 @@ static void *producer(void *arg)
 static void test_frameq_concurrent(void **state)
 {
     (void)state;
-    assert_true(rt_frameq_init(&q, W, H, DRV_PLANE_COLOR, 1));
+    assert_true(rt_frameq_alloc(&q, W, H, DRV_PLANE_COLOR, 1));
     bool is_new;
     assert_null(rt_frameq_latest(&q, &is_new));
     pthread_t th;
@@ -82,7 +82,7 @@ static void test_frameq_concurrent(void **state)
 static void test_frameq_replaces_unconsumed(void **state)
 {
     (void)state;
-    assert_true(rt_frameq_init(&q, 8, 8, DRV_PLANE_COLOR, 1));
+    assert_true(rt_frameq_alloc(&q, 8, 8, DRV_PLANE_COLOR, 1));
     rt_frameq_back(&q)->f.seq = 1;
     assert_false(rt_frameq_publish(&q));
     rt_frameq_back(&q)->f.seq = 2;
@@ -102,7 +102,7 @@ static void test_frameq_replaces_unconsumed(void **state)
 static void test_frameq_seq_zero_shown(void **state)
 {
     (void)state;
-    assert_true(rt_frameq_init(&q, 8, 8, DRV_PLANE_COLOR, 1));
+    assert_true(rt_frameq_alloc(&q, 8, 8, DRV_PLANE_COLOR, 1));
     bool is_new = true;
     assert_null(rt_frameq_latest(&q, &is_new)); /* nothing published yet */
     assert_false(is_new);

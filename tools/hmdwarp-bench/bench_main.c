@@ -236,7 +236,7 @@ static int knob_list(const char *warp, const char *out[8])
 
 /* The catalogue's raytrace with grid=mesh (the registry's raytrace_mesh on meshes built once, so the timing leaves
  * out the mesh's allocation, which the catalogue's entry pays on every call): rays at
- * the vertices of a lens-free mesh over the eye buffer (warp_mesh_init_eye, mesh=N vertices per side, default the
+ * the vertices of a lens-free mesh over the eye buffer (warp_mesh_alloc_eye, mesh=N vertices per side, default the
  * panel's), the resampler in between, so it is scored one eye before the lens like every other warp. Timed with
  * what the runtime does once per host frame (planar source, skipping grid), as the per-pixel raytrace is; the
  * meshes themselves are built at start-up. */
@@ -449,7 +449,7 @@ int main(int argc, char **argv)
     for (int e = 0; e < 2 && ok; e++) {
         D.cam[e] = rt_config_eye_camera(&cfg, e);
         D.lens[e] = rt_config_lens(&cfg, e);
-        ok = warp_mesh_init(&D.mesh[e], cfg.mesh_n, &D.lens[e], e * vw, 0, vw, cfg.panel_h) &&
+        ok = warp_mesh_alloc(&D.mesh[e], cfg.mesh_n, &D.lens[e], e * vw, 0, vw, cfg.panel_h) &&
              warp_planar3_alloc(&D.planar[e], cfg.eye_w, cfg.eye_h) &&
              warp_planar3_alloc(&D.inter_planar[e], cfg.eye_w, cfg.eye_h) &&
              warp_image_rgba8_alloc(&D.inter[e], cfg.eye_w, cfg.eye_h);
@@ -607,8 +607,8 @@ int main(int argc, char **argv)
     memset(&mc, 0, sizeof mc);
     mc.n[0] = cfg.mesh_n;
     mc.n[1] = 128;
-    if (!warp_mesh_init_eye(&mc.mesh[0], mc.n[0], &D.cam[0]) || !warp_mesh_init_eye(&mc.mesh[1], mc.n[1], &D.cam[0]) ||
-        !warp_planar3_alloc(&mc.planar, cfg.eye_w, cfg.eye_h) ||
+    if (!warp_mesh_alloc_eye(&mc.mesh[0], mc.n[0], &D.cam[0]) ||
+        !warp_mesh_alloc_eye(&mc.mesh[1], mc.n[1], &D.cam[0]) || !warp_planar3_alloc(&mc.planar, cfg.eye_w, cfg.eye_h) ||
         !warp_image_f32_alloc(&mc.bmax, (cfg.eye_w + 7) / 8, (cfg.eye_h + 7) / 8)) {
         fprintf(stderr, "hmdwarp-bench: out of memory\n");
         return 1;
