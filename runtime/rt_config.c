@@ -721,7 +721,7 @@ static const char *keys_at(const rt_config *c, const char *list, char *buf, size
  * choose any of them. */
 static bool method_needs(const rt_config *c, unsigned plane)
 {
-    return c->method == RT_METHOD_AUTO || (warp_method_get((warp_method)c->method)->needs & plane);
+    return c->method == RT_METHOD_AUTO || (warp_method_get(rt_method_warp(c->method))->needs & plane);
 }
 static bool wants_ids(const rt_config *c) { return method_needs(c, WARP_NEEDS_IDS); }
 static bool wants_layers(const rt_config *c) { return method_needs(c, WARP_NEEDS_LAYERS); }
