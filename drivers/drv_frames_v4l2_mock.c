@@ -6,7 +6,6 @@
 #include <errno.h>
 #include <linux/videodev2.h>
 #include <poll.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>

@@ -5,7 +5,8 @@
  * The convention: a function that can fail takes (char *err, int errlen) last and returns false / NULL / -1 (or its
  * module's error enum, e.g. drv_frame_err, drv_hid_err, which keep their codes and fill the text with warp_verr).
  * The message names the object and what was wrong ("HID IMU /dev/hidraw0: ..."); the caller adds context in front.
- * err may be NULL or errlen 0 when the caller wants no text. Never called on the vsync path (it formats). */
+ * err may be NULL or errlen 0 when the caller wants no text. It only formats into the caller's buffer (vsnprintf: no
+ * allocation, no lock, no I/O), so a failure on the vsync path (a page flip refused) may report through it too. */
 #ifndef WARP_ERR_H
 #define WARP_ERR_H
 
