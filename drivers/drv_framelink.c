@@ -4,7 +4,6 @@
 #include "drivers/drv_framelink.h"
 
 #include <math.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <string.h>
 #include <zlib.h>
@@ -88,7 +87,10 @@ enum {
     OFF_HOST_SEND = 64, OFF_DEPTH_ENC = 72, OFF_N_OBJECTS = 74, OFF_N_PLANES = 76, OFF_RESERVED = 78,
     OFF_SCENE_TIME = 80, OFF_EYES = 88, EYE_BYTES = 112, EYE_CAM = 56,
 };
-#define MAX_DIM 16384
+/* depth_encoding travels as the warp_depth_encoding value itself; docs/framelink.md numbers it for hosts */
+_Static_assert(WARP_DEPTH_LINEAR == 0 && WARP_DEPTH_STANDARD == 1 && WARP_DEPTH_REVERSED == 2,
+               "framelink's depth_encoding values (docs/framelink.md) are warp_depth_encoding's");
+#define MAX_DIM WARP_MAX_SIDE
 #define FRAG_BYTES 10
 
 static size_t header_bytes(int n_objects, int n_planes)
@@ -334,19 +336,6 @@ size_t drv_framelink_encode(const drv_frame *f, uint8_t *buf, size_t cap)
 
 /* ---- decoding ---- */
 
-static drv_frame_err fail(char *detail, int len, drv_frame_err e, const char *fmt, ...)
-    __attribute__((format(printf, 4, 5)));
-static drv_frame_err fail(char *detail, int len, drv_frame_err e, const char *fmt, ...)
-{
-    if (detail && len > 0) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(detail, (size_t)len, fmt, ap);
-        va_end(ap);
-    }
-    return e;
-}
-
 size_t drv_framelink_find_magic(const uint8_t *buf, size_t len)
 {
     uint8_t m[4];
@@ -365,29 +354,31 @@ static drv_frame_err check_header(const uint8_t *buf, size_t len, size_t max_fra
     uint8_t m[4];
     put_u32(m, DRV_FRAMELINK_MAGIC);
     size_t n = len < 4 ? len : 4;
-    if (memcmp(buf, m, n) != 0) return fail(detail, dlen, DRV_FRAME_ERR_BAD_MAGIC, "no frame magic at the start");
+    if (memcmp(buf, m, n) != 0) return drv_frame_fail(detail, dlen, DRV_FRAME_ERR_BAD_MAGIC,
+                                                      "no frame magic at the start");
     *need = DRV_FRAMELINK_PREFIX_BYTES;
-    if (len < 6) return fail(detail, dlen, DRV_FRAME_ERR_TRUNCATED, "%zu bytes: no version yet", len);
+    if (len < 6) return drv_frame_fail(detail, dlen, DRV_FRAME_ERR_TRUNCATED, "%zu bytes: no version yet", len);
     unsigned version = get_u16(buf + OFF_VERSION);
     if (version != DRV_FRAMELINK_VERSION)
-        return fail(detail, dlen, DRV_FRAME_ERR_BAD_VERSION, "version %u (this build reads %d)", version,
-                    DRV_FRAMELINK_VERSION);
+        return drv_frame_fail(detail, dlen, DRV_FRAME_ERR_BAD_VERSION, "version %u (this build reads %d)", version,
+                              DRV_FRAMELINK_VERSION);
     if (len < DRV_FRAMELINK_PREFIX_BYTES)
-        return fail(detail, dlen, DRV_FRAME_ERR_TRUNCATED, "%zu bytes: header prefix incomplete", len);
+        return drv_frame_fail(detail, dlen, DRV_FRAME_ERR_TRUNCATED, "%zu bytes: header prefix incomplete", len);
     size_t hdr = get_u16(buf + OFF_HEADER_SIZE);
     if (hdr < header_bytes(0, 1) || hdr > DRV_FRAMELINK_MAX_HEADER)
-        return fail(detail, dlen, DRV_FRAME_ERR_BAD_SIZE, "header size %zu outside [%zu, %d]", hdr,
-                    header_bytes(0, 1), DRV_FRAMELINK_MAX_HEADER);
+        return drv_frame_fail(detail, dlen, DRV_FRAME_ERR_BAD_SIZE, "header size %zu outside [%zu, %d]", hdr,
+                              header_bytes(0, 1), DRV_FRAMELINK_MAX_HEADER);
     *need = hdr;
-    if (len < hdr) return fail(detail, dlen, DRV_FRAME_ERR_TRUNCATED, "%zu of %zu header bytes", len, hdr);
+    if (len < hdr) return drv_frame_fail(detail, dlen, DRV_FRAME_ERR_TRUNCATED, "%zu of %zu header bytes", len, hdr);
     uint32_t want = get_u32(buf + hdr - 4), got = crc(buf, hdr - 4);
     if (want != got)
-        return fail(detail, dlen, DRV_FRAME_ERR_CRC, "header CRC 0x%08x, computed 0x%08x", want, got);
+        return drv_frame_fail(detail, dlen, DRV_FRAME_ERR_CRC, "header CRC 0x%08x, computed 0x%08x", want, got);
     size_t total = get_u32(buf + OFF_TOTAL);
-    if (total < hdr + 4) return fail(detail, dlen, DRV_FRAME_ERR_BAD_SIZE, "total size %zu < header %zu", total, hdr);
+    if (total < hdr + 4) return drv_frame_fail(detail, dlen, DRV_FRAME_ERR_BAD_SIZE, "total size %zu < header %zu",
+                                               total, hdr);
     *need = total; /* also on TOO_LARGE: a stream receiver skips exactly this many bytes */
     if (max_frame && total > max_frame)
-        return fail(detail, dlen, DRV_FRAME_ERR_TOO_LARGE, "frame of %zu bytes, limit %zu", total, max_frame);
+        return drv_frame_fail(detail, dlen, DRV_FRAME_ERR_TOO_LARGE, "frame of %zu bytes, limit %zu", total, max_frame);
     *need = total;
     return DRV_FRAME_OK;
 }
@@ -477,22 +468,23 @@ drv_frame_err drv_framelink_decode_ex(const uint8_t *buf, size_t len, size_t max
     int depth_enc = get_u16(buf + OFF_DEPTH_ENC), n_obj = get_u16(buf + OFF_N_OBJECTS);
     int n_planes = get_u16(buf + OFF_N_PLANES);
     if (n_obj > DRV_MAX_OBJECTS)
-        return fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE, "%d objects (at most %d)", n_obj, DRV_MAX_OBJECTS);
+        return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE, "%d objects (at most %d)", n_obj, DRV_MAX_OBJECTS);
     if (n_planes < 1 || n_planes > DRV_FRAMELINK_MAX_PLANES)
-        return fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE, "%d planes", n_planes);
+        return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE, "%d planes", n_planes);
     if (hdr != header_bytes(n_obj, n_planes))
-        return fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE, "header size %zu but %d objects and %d planes need %zu", hdr,
-                    n_obj, n_planes, header_bytes(n_obj, n_planes));
+        return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE,
+                              "header size %zu but %d objects and %d planes need %zu", hdr, n_obj, n_planes,
+                              header_bytes(n_obj, n_planes));
     if (get_u16(buf + OFF_RESERVED))
-        return fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "reserved header field set (a newer sender?)");
+        return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "reserved header field set (a newer sender?)");
     if (depth_enc > WARP_DEPTH_REVERSED)
-        return fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "unknown depth encoding %d", depth_enc);
+        return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "unknown depth encoding %d", depth_enc);
     int w[2], h[2];
     for (int e = 0; e < 2; e++) {
         const uint8_t *p = buf + OFF_EYES + e * EYE_BYTES + EYE_CAM;
         uint32_t cw = get_u32(p), ch = get_u32(p + 4);
         if (cw == 0 || ch == 0 || cw > MAX_DIM || ch > MAX_DIM)
-            return fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE, "eye %d is %ux%u", e, cw, ch);
+            return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE, "eye %d is %ux%u", e, cw, ch);
         w[e] = (int)cw, h[e] = (int)ch;
     }
 
@@ -507,50 +499,55 @@ drv_frame_err drv_framelink_decode_ex(const uint8_t *buf, size_t len, size_t max
         d->type = dp[0], d->format = dp[1], d->param = get_u16(dp + 2);
         d->off = get_u32(dp + 4), d->size = get_u32(dp + 8);
         if (d->type >= DRV_FRAMELINK_MAX_PLANES || (seen >> d->type))
-            return fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "plane %d: type %d out of order or unknown", i,
-                        d->type);
+            return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "plane %d: type %d out of order or unknown", i,
+                                  d->type);
         seen |= 1u << d->type;
         if (!format_ok(d->type, d->format))
-            return fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "plane type %d: format %d not supported", d->type,
-                        d->format);
+            return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "plane type %d: format %d not supported",
+                                  d->type, d->format);
         if (d->type == 1 && d->format == DRV_FRAMELINK_FMT_UNORM16 && depth_enc == WARP_DEPTH_LINEAR)
-            return fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "unorm16 depth with linear encoding");
+            return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "unorm16 depth with linear encoding");
         if (d->type != 4 && d->param)
-            return fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "plane type %d: parameter %d set", d->type, d->param);
+            return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "plane type %d: parameter %d set", d->type,
+                                  d->param);
         if (get_u32(dp + 12))
-            return fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "plane type %d: reserved field set", d->type);
+            return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "plane type %d: reserved field set", d->type);
         for (int e = 0; e < 2; e++) {
             int aw, ah;
             bool allocated;
             plane_dims(out, d->type, e, &aw, &ah, &allocated);
             if (!allocated)
-                return fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "plane type %d sent but not allocated here",
-                            d->type);
+                return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "plane type %d sent but not allocated here",
+                                      d->type);
             if (aw != w[e] || ah != h[e])
-                return fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE, "eye %d is %dx%d, allocated %dx%d", e, w[e], h[e],
-                            aw, ah);
+                return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE, "eye %d is %dx%d, allocated %dx%d", e, w[e],
+                                      h[e], aw, ah);
         }
         if (d->off != off)
-            return fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE, "plane type %d at offset %zu, expected %zu", d->type,
-                        d->off, off);
+            return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE, "plane type %d at offset %zu, expected %zu",
+                                  d->type, d->off, off);
         if (d->type != 4) {
             size_t want = ((size_t)w[0] * h[0] + (size_t)w[1] * h[1]) * (size_t)bytes_per_pixel(d->format);
             if (d->size != want)
-                return fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE, "plane type %d: %zu bytes, %dx%d eyes need %zu",
-                            d->type, d->size, w[0], h[0], want);
+                return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE,
+                                      "plane type %d: %zu bytes, %dx%d eyes need %zu", d->type, d->size, w[0], h[0],
+                                      want);
         }
         if (d->size > payload - off)
-            return fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE, "plane type %d overruns the payload", d->type);
+            return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE, "plane type %d overruns the payload", d->type);
         off += d->size;
     }
     if (seen != planes)
-        return fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "plane mask 0x%x but descriptors for 0x%x", planes, seen);
-    if (!(planes & DRV_PLANE_COLOR)) return fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "no colour plane");
+        return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "plane mask 0x%x but descriptors for 0x%x", planes,
+                              seen);
+    if (!(planes & DRV_PLANE_COLOR)) return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "no colour plane");
     if (off != payload)
-        return fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE, "planes add up to %zu bytes, payload is %zu", off, payload);
-    if (len < total) return fail(detail, dl, DRV_FRAME_ERR_TRUNCATED, "%zu of %zu bytes", len, total);
+        return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE, "planes add up to %zu bytes, payload is %zu", off,
+                              payload);
+    if (len < total) return drv_frame_fail(detail, dl, DRV_FRAME_ERR_TRUNCATED, "%zu of %zu bytes", len, total);
     uint32_t want = get_u32(buf + total - 4), got = crc(buf + hdr, payload);
-    if (want != got) return fail(detail, dl, DRV_FRAME_ERR_CRC, "payload CRC 0x%08x, computed 0x%08x", want, got);
+    if (want != got) return drv_frame_fail(detail, dl, DRV_FRAME_ERR_CRC, "payload CRC 0x%08x, computed 0x%08x", want,
+                                           got);
     /* Layers: variable length, checked in full before anything is written. */
     for (int i = 0; i < n_planes; i++) {
         if (pd[i].type != 4) continue;
@@ -561,14 +558,16 @@ drv_frame_err drv_framelink_decode_ex(const uint8_t *buf, size_t len, size_t max
             int ml = out->layers[e].max_layers;
             size_t b = layers_check(p, left, w[e], h[e], ml, &deepest);
             if (!b)
-                return fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE,
-                            "eye %d layers: counts above the %d allocated or fragments overrun the plane", e, ml);
+                return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE,
+                                      "eye %d layers: counts above the %d allocated or fragments overrun the plane", e,
+                                      ml);
             p += b, left -= b;
         }
-        if (left) return fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE, "layers plane has %zu bytes left over", left);
+        if (left) return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE, "layers plane has %zu bytes left over",
+                                        left);
         if (deepest != pd[i].param)
-            return fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE, "layers descriptor says %d deep, counts reach %d",
-                        pd[i].param, deepest);
+            return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE, "layers descriptor says %d deep, counts reach %d",
+                                  pd[i].param, deepest);
     }
 
     /* Times and poses: the host's values must be usable as they are, the warps and the runtime's time arithmetic
@@ -582,18 +581,19 @@ drv_frame_err drv_framelink_decode_ex(const uint8_t *buf, size_t len, size_t max
     for (size_t i = 0; i < sizeof times / sizeof times[0]; i++) {
         int64_t t = (int64_t)get_u64(buf + times[i].off);
         if (!time_ok(t))
-            return fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "%s %lld outside [0, 2^62]", times[i].name,
-                        (long long)t);
+            return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "%s %lld outside [0, 2^62]", times[i].name,
+                                  (long long)t);
     }
     if (!isfinite(get_f64(buf + OFF_SCENE_TIME)))
-        return fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "scene_time not finite");
+        return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "scene_time not finite");
     for (int e = 0; e < 2; e++)
         if (!pose_ok(get_pose(buf + OFF_EYES + e * EYE_BYTES)))
-            return fail(detail, dl, DRV_FRAME_ERR_BAD_POSE, "eye %d pose not finite or not a unit quaternion", e);
+            return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_POSE, "eye %d pose not finite or not a unit quaternion",
+                                  e);
     for (int i = 0; i < n_obj; i++)
         if (!pose_ok(get_pose(buf + DRV_FRAMELINK_FIXED_BYTES + (size_t)i * DRV_FRAMELINK_OBJECT_BYTES)))
-            return fail(detail, dl, DRV_FRAME_ERR_BAD_POSE, "object %d pose not finite or not a unit quaternion",
-                        i + 1);
+            return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_POSE,
+                                  "object %d pose not finite or not a unit quaternion", i + 1);
 
     /* All checks passed: write the frame. */
     drv_framelink_tx tx;

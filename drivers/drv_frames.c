@@ -4,7 +4,10 @@
 #include "drivers/drv_frames.h"
 
 #include <math.h>
+#include <stdarg.h>
 #include <string.h>
+
+#include "warp/warp_err.h"
 
 bool drv_frame_alloc(drv_frame *f, int w, int h, unsigned planes, int max_layers)
 {
@@ -42,6 +45,15 @@ const char *drv_frame_err_str(drv_frame_err e)
         "bad magic", "too large", "bad format",
     };
     return e >= 0 && e < DRV_FRAME_ERR_COUNT ? names[e] : "unknown";
+}
+
+drv_frame_err drv_frame_fail(char *why, int whylen, drv_frame_err e, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    warp_verr(why, whylen, fmt, ap);
+    va_end(ap);
+    return e;
 }
 
 drv_frame_err drv_frame_validate(const drv_frame *f)

@@ -69,6 +69,10 @@ typedef enum {
     DRV_FRAME_ERR_COUNT
 } drv_frame_err;
 const char *drv_frame_err_str(drv_frame_err e);
+/* A decoder's failure: the detail into why[whylen] (warp_verr: printf-checked, cut to fit, why may be NULL) and e
+ * returned, so a rejection reads `return drv_frame_fail(why, whylen, DRV_FRAME_ERR_BAD_CRC, "...", ...);`. */
+drv_frame_err drv_frame_fail(char *why, int whylen, drv_frame_err e, const char *fmt, ...)
+    __attribute__((format(printf, 4, 5)));
 
 typedef struct drv_frames drv_frames;
 struct drv_frames {

@@ -23,6 +23,7 @@
 
 #include "drivers/drv_framelink.h"
 #include "platform/plat_clock.h"
+#include "warp/warp_err.h"
 #include "warp/warp_head.h"
 
 #define CHUNK (256 * 1024)        /* bytes per receive step: a multiple of every bulk max packet size */
@@ -251,24 +252,12 @@ static void usb_destroy(drv_frames *fr)
     free(u);
 }
 
-static bool set_err(char *err, int errlen, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
-static bool set_err(char *err, int errlen, const char *fmt, ...)
-{
-    if (err && errlen > 0) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(err, (size_t)errlen, fmt, ap);
-        va_end(ap);
-    }
-    return false;
-}
-
 static usb_frames *board_new(const drv_frames_usb_params *p, char *err, int errlen)
 {
     if (!p->poses.predict || !(p->pose_rate_hz > 0) || p->eye_w <= 0 || p->eye_h <= 0 ||
         !(p->planes & DRV_PLANE_COLOR) || p->max_frame_bytes < 1024) {
-        set_err(err, errlen, "usb frames: bad parameters (need a pose source, pose_rate_hz > 0, eye size, colour, "
-                             "max_frame_bytes >= 1024)");
+        warp_err(err, errlen, "usb frames: bad parameters (need a pose source, pose_rate_hz > 0, eye size, colour, "
+                              "max_frame_bytes >= 1024)");
         return NULL;
     }
     usb_frames *u = calloc(1, sizeof *u);
@@ -280,7 +269,7 @@ static usb_frames *board_new(const drv_frames_usb_params *p, char *err, int errl
     if (!u->buf || !u->scratch) {
         free(u->buf);
         free(u->scratch);
-        set_err(err, errlen, "usb frames: cannot allocate a %zu byte receive buffer", u->cap);
+        warp_err(err, errlen, "usb frames: cannot allocate a %zu byte receive buffer", u->cap);
         free(u);
         return NULL;
     }
@@ -297,7 +286,7 @@ static usb_frames *board_new(const drv_frames_usb_params *p, char *err, int errl
 static bool board_start(usb_frames *u, char *err, int errlen)
 {
     u->pose_up = pthread_create(&u->pose_th, NULL, pose_thread, u) == 0;
-    if (!u->pose_up) return set_err(err, errlen, "usb frames: cannot start the pose thread");
+    if (!u->pose_up) return warp_err(err, errlen, "usb frames: cannot start the pose thread");
     return true;
 }
 
@@ -364,7 +353,7 @@ drv_frames *drv_frames_usb_create_fed(const drv_frames_usb_params *p, char *err,
     u->t = calloc(1, sizeof *u->t);
     if (!u->t) {
         usb_destroy(&u->base);
-        set_err(err, errlen, "usb frames: out of memory");
+        warp_err(err, errlen, "usb frames: out of memory");
         return NULL;
     }
     *u->t = (drv_usb_transport){fed_read, fed_write, fed_connected, fed_destroy};
@@ -659,7 +648,7 @@ static bool ffs_write_descriptors(int ep0, char *err, int errlen, const char *di
     desc.fs = ep_pair(64);
     desc.hs = ep_pair(512);
     if (write(ep0, &desc, sizeof desc) != (ssize_t)sizeof desc)
-        return set_err(err, errlen, "usb frames: %s/ep0: writing the descriptors: %s", dir, strerror(errno));
+        return warp_err(err, errlen, "usb frames: %s/ep0: writing the descriptors: %s", dir, strerror(errno));
     static const char name[] = "hmdwarp frames";
     struct {
         struct usb_functionfs_strings_head head;
@@ -673,7 +662,7 @@ static bool ffs_write_descriptors(int ep0, char *err, int errlen, const char *di
     strs.lang = htole16(0x0409);
     memcpy(strs.str, name, sizeof name);
     if (write(ep0, &strs, sizeof strs) != (ssize_t)sizeof strs)
-        return set_err(err, errlen, "usb frames: %s/ep0: writing the strings: %s", dir, strerror(errno));
+        return warp_err(err, errlen, "usb frames: %s/ep0: writing the strings: %s", dir, strerror(errno));
     return true;
 }
 
@@ -681,9 +670,9 @@ drv_frames *drv_frames_usb_create(const drv_frames_usb_params *p, char *err, int
 {
     struct stat sb;
     if (stat(p->ffs_dir, &sb) != 0 || !S_ISDIR(sb.st_mode)) {
-        set_err(err, errlen,
-                "usb frames: FunctionFS directory %s: %s (mount it first: board/gadget.sh start)", p->ffs_dir,
-                stat(p->ffs_dir, &sb) != 0 ? strerror(errno) : "not a directory");
+        warp_err(err, errlen,
+                 "usb frames: FunctionFS directory %s: %s (mount it first: board/gadget.sh start)", p->ffs_dir,
+                 stat(p->ffs_dir, &sb) != 0 ? strerror(errno) : "not a directory");
         return NULL;
     }
     usb_frames *u = board_new(p, err, errlen);
@@ -712,7 +701,7 @@ drv_frames *drv_frames_usb_create(const drv_frames_usb_params *p, char *err, int
     snprintf(path, sizeof path, "%s/ep0", p->ffs_dir);
     t->ep0 = open(path, O_RDWR | O_CLOEXEC);
     if (t->ep0 < 0) {
-        set_err(err, errlen, "usb frames: cannot open %s: %s (is FunctionFS mounted there?)", path, strerror(errno));
+        warp_err(err, errlen, "usb frames: cannot open %s: %s (is FunctionFS mounted there?)", path, strerror(errno));
         goto fail;
     }
     if (!ffs_write_descriptors(t->ep0, err, errlen, p->ffs_dir)) goto fail;
@@ -723,13 +712,13 @@ drv_frames *drv_frames_usb_create(const drv_frames_usb_params *p, char *err, int
     int in_fd = open(path, O_RDWR | O_CLOEXEC);
     bool ok_out = aio_ep_init(&t->out, out_fd, FFS_READ), ok_in = aio_ep_init(&t->in, in_fd, DRV_FRAMELINK_POSE_BYTES);
     if (out_fd < 0 || in_fd < 0 || !ok_out || !ok_in) {
-        set_err(err, errlen, "usb frames: %s: cannot open ep1/ep2 for asynchronous I/O: %s", p->ffs_dir,
-                strerror(errno));
+        warp_err(err, errlen, "usb frames: %s: cannot open ep1/ep2 for asynchronous I/O: %s", p->ffs_dir,
+                 strerror(errno));
         goto fail;
     }
     t->ep0_up = pthread_create(&t->ep0_th, NULL, ep0_thread, t) == 0;
     if (!t->ep0_up) {
-        set_err(err, errlen, "usb frames: cannot start the ep0 thread");
+        warp_err(err, errlen, "usb frames: cannot start the ep0 thread");
         goto fail;
     }
     if (!board_start(u, err, errlen)) goto fail;

@@ -16,6 +16,7 @@
 
 #include "drivers/drv_framelink.h"
 #include "platform/plat_clock.h"
+#include "warp/warp_err.h"
 
 /* The transport and the host behind it, in one: the board's ends of the socket pairs and the host thread's. */
 struct mock_host {
@@ -173,13 +174,13 @@ drv_frames *drv_frames_usb_create_mock(const drv_frames_sim_params *host, const 
     for (int e = 0; e < 2; e++)
         if (host->cam[e].width != p->eye_w || host->cam[e].height != p->eye_h) {
             if (err && errlen > 0)
-                snprintf(err, (size_t)errlen, "usb mock: host camera %dx%d differs from the board's eye %dx%d",
+                warp_err(err, errlen, "usb mock: host camera %dx%d differs from the board's eye %dx%d",
                          host->cam[e].width, host->cam[e].height, p->eye_w, p->eye_h);
             return NULL;
         }
     struct mock_host *m = calloc(1, sizeof *m);
     if (!m) {
-        if (err && errlen > 0) snprintf(err, (size_t)errlen, "usb mock: out of memory");
+        warp_err(err, errlen, "usb mock: out of memory");
         return NULL;
     }
     m->out_fd = m->in_fd = m->board_out_fd = m->board_in_fd = -1;
@@ -192,7 +193,7 @@ drv_frames *drv_frames_usb_create_mock(const drv_frames_sim_params *host, const 
     int outp[2] = {-1, -1}, inp[2] = {-1, -1};
     if (socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, outp) ||
         socketpair(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0, inp)) {
-        if (err && errlen > 0) snprintf(err, (size_t)errlen, "usb mock: socketpair: %s", strerror(errno));
+        warp_err(err, errlen, "usb mock: socketpair: %s", strerror(errno));
         if (outp[0] >= 0) close(outp[0]), close(outp[1]);
         free(m);
         return NULL;
@@ -230,7 +231,7 @@ drv_frames *drv_frames_usb_create_mock(const drv_frames_sim_params *host, const 
     }
     return fr;
 fail:
-    if (err && errlen > 0) snprintf(err, (size_t)errlen, "usb mock: %s", why);
+    warp_err(err, errlen, "usb mock: %s", why);
     drv_frames_destroy(fr); /* destroys m with the transport */
     return NULL;
 }

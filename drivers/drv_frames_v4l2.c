@@ -19,19 +19,10 @@
 #include "drivers/drv_v4l2_convert.h"
 #include "drivers/drv_v4l2_inband.h"
 #include "platform/plat_clock.h"
+#include "warp/warp_err.h"
 
 #define NBUF DRV_V4L2_NBUF
 #define REOPEN_NS (500 * PLAT_NS_PER_MS)
-
-static void msg(char *err, int errlen, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
-static void msg(char *err, int errlen, const char *fmt, ...)
-{
-    if (!err || errlen <= 0) return;
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(err, (size_t)errlen, fmt, ap);
-    va_end(ap);
-}
 
 /* ---- capture backend ---- */
 
@@ -82,28 +73,28 @@ static bool cap_start(v4l2_cap *c, char *err, int errlen)
     const char *dev = c->p.device;
     c->fd = c->ops->open(c->ctx, dev, O_RDWR | O_NONBLOCK | O_CLOEXEC);
     if (c->fd < 0) {
-        msg(err, errlen, "%s: cannot open the capture device: %s", dev, strerror(errno));
+        warp_err(err, errlen, "%s: cannot open the capture device: %s", dev, strerror(errno));
         return false;
     }
     struct v4l2_capability cap;
     memset(&cap, 0, sizeof cap);
     if (c->ops->ioctl(c->ctx, c->fd, VIDIOC_QUERYCAP, &cap) < 0) {
-        msg(err, errlen, "%s: VIDIOC_QUERYCAP: %s (not a V4L2 device?)", dev, strerror(errno));
+        warp_err(err, errlen, "%s: VIDIOC_QUERYCAP: %s (not a V4L2 device?)", dev, strerror(errno));
         goto fail;
     }
     uint32_t caps = (cap.capabilities & V4L2_CAP_DEVICE_CAPS) ? cap.device_caps : cap.capabilities;
     if (!(caps & V4L2_CAP_VIDEO_CAPTURE) || !(caps & V4L2_CAP_STREAMING)) {
-        msg(err, errlen, "%s (%.32s): not a single-planar streaming video capture device (caps 0x%08x)%s", dev,
-            (const char *)cap.card, caps,
-            (caps & V4L2_CAP_VIDEO_CAPTURE_MPLANE) ? "; multi-planar capture is not supported" : "");
+        warp_err(err, errlen, "%s (%.32s): not a single-planar streaming video capture device (caps 0x%08x)%s", dev,
+                 (const char *)cap.card, caps,
+                 (caps & V4L2_CAP_VIDEO_CAPTURE_MPLANE) ? "; multi-planar capture is not supported" : "");
         goto fail;
     }
     char offered[160], fc[8];
     uint32_t f =
         drv_v4l2_choose_format(c->ops, c->ctx, c->fd, V4L2_BUF_TYPE_VIDEO_CAPTURE, c->want, offered, sizeof offered);
     if (!f) {
-        msg(err, errlen, "%s: offers [%s], none of which is %s", dev, offered,
-            c->want ? drv_v4l2_fourcc_str(c->want, fc) : "YUYV, NV12, XBGR32/BGR32 or RGB24");
+        warp_err(err, errlen, "%s: offers [%s], none of which is %s", dev, offered,
+                 c->want ? drv_v4l2_fourcc_str(c->want, fc) : "YUYV, NV12, XBGR32/BGR32 or RGB24");
         goto fail;
     }
     if (!drv_v4l2_set_format(c->ops, c->ctx, c->fd, dev, V4L2_BUF_TYPE_VIDEO_CAPTURE, f, c->layout.width,
@@ -115,12 +106,12 @@ static bool cap_start(v4l2_cap *c, char *err, int errlen)
     if (!c->nbuf) goto fail;
     for (int i = 0; i < c->nbuf; i++)
         if (drv_v4l2_queue_buffer(c->ops, c->ctx, c->fd, V4L2_BUF_TYPE_VIDEO_CAPTURE, i, 0) < 0) {
-            msg(err, errlen, "%s: VIDIOC_QBUF: %s", dev, strerror(errno));
+            warp_err(err, errlen, "%s: VIDIOC_QBUF: %s", dev, strerror(errno));
             goto fail;
         }
     int type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
     if (c->ops->ioctl(c->ctx, c->fd, VIDIOC_STREAMON, &type) < 0) {
-        msg(err, errlen, "%s: VIDIOC_STREAMON: %s (no signal?)", dev, strerror(errno));
+        warp_err(err, errlen, "%s: VIDIOC_STREAMON: %s (no signal?)", dev, strerror(errno));
         goto fail;
     }
     pthread_mutex_lock(&c->lock);
@@ -284,18 +275,18 @@ static drv_frames *cap_create(const drv_frames_v4l2_params *p, const drv_v4l2_de
     const char *dev = p->device[0] ? p->device : "(no device)";
     uint32_t want;
     if (!drv_v4l2_parse_format(p->format, &want)) {
-        msg(err, errlen, "%s: unknown format '%s' (auto, yuyv, nv12, bgr32, rgb24)", dev, p->format);
+        warp_err(err, errlen, "%s: unknown format '%s' (auto, yuyv, nv12, bgr32, rgb24)", dev, p->format);
         return NULL;
     }
     drv_v4l2_layout_info l;
     if (!drv_v4l2_layout_get(p->eye_w, p->eye_h, p->depth, &l)) {
-        msg(err, errlen, "%s: eye size %dx%d has no in-band layout (even sizes, width >= %d)", dev, p->eye_w, p->eye_h,
-            DRV_V4L2_MIN_EYE_W);
+        warp_err(err, errlen, "%s: eye size %dx%d has no in-band layout (even sizes, width >= %d)", dev, p->eye_w,
+                 p->eye_h, DRV_V4L2_MIN_EYE_W);
         return NULL;
     }
     v4l2_cap *c = calloc(1, sizeof *c);
     if (!c) {
-        msg(err, errlen, "%s: out of memory", dev);
+        warp_err(err, errlen, "%s: out of memory", dev);
         return NULL;
     }
     c->p = *p;

@@ -6,7 +6,6 @@
 #include <errno.h>
 #include <linux/videodev2.h>
 #include <poll.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -15,6 +14,7 @@
 #include "drivers/drv_v4l2_convert.h"
 #include "drivers/drv_v4l2_inband.h"
 #include "platform/plat_clock.h"
+#include "warp/warp_err.h"
 
 typedef enum { MB_USER = 0, MB_QUEUED, MB_DONE } mock_state;
 
@@ -308,34 +308,24 @@ static void mock_destroy(void *ctx)
 static const drv_v4l2_dev_ops mock_ops = {mock_open, mock_close, mock_ioctl, mock_mmap, mock_munmap, mock_poll,
                                          mock_destroy};
 
-static void msg(char *err, int errlen, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
-static void msg(char *err, int errlen, const char *fmt, ...)
-{
-    if (!err || errlen <= 0) return;
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(err, (size_t)errlen, fmt, ap);
-    va_end(ap);
-}
-
 drv_frames *drv_frames_v4l2_create_mock(const drv_frames_sim_params *host, const drv_frames_v4l2_params *p,
                                         char *err, int errlen)
 {
     if (host->cam[0].width != p->eye_w || host->cam[0].height != p->eye_h || host->cam[1].width != p->eye_w ||
         host->cam[1].height != p->eye_h) {
-        msg(err, errlen, "v4l2 mock: host renders %dx%d, capture expects eyes of %dx%d", host->cam[0].width,
-            host->cam[0].height, p->eye_w, p->eye_h);
+        warp_err(err, errlen, "v4l2 mock: host renders %dx%d, capture expects eyes of %dx%d", host->cam[0].width,
+                 host->cam[0].height, p->eye_w, p->eye_h);
         return NULL;
     }
     mock_dev *m = calloc(1, sizeof *m);
     if (!m) {
-        msg(err, errlen, "v4l2 mock: out of memory");
+        warp_err(err, errlen, "v4l2 mock: out of memory");
         return NULL;
     }
     m->eye_w = p->eye_w, m->eye_h = p->eye_h, m->depth = p->depth;
     m->host = drv_frames_sim_create(host);
     if (!m->host || !drv_frame_alloc(&m->hf, p->eye_w, p->eye_h, drv_frames_planes(m->host), 1)) {
-        msg(err, errlen, "v4l2 mock: cannot create the simulated host");
+        warp_err(err, errlen, "v4l2 mock: cannot create the simulated host");
         mock_destroy(m);
         return NULL;
     }

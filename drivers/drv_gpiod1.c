@@ -5,7 +5,7 @@
  * The kernel stamps each event in its IRQ handler (CLOCK_MONOTONIC since Linux 5.7, CLOCK_REALTIME before), so the
  * edge times do not depend on when this thread gets to run. The v1 event FIFO holds 16 events and drops new ones
  * when full; a late reader therefore sees missed edges, which the estimator tolerates. */
-#include "drivers/drv_vsync_gpio.h"
+#include "drivers/drv_gpiod1.h"
 
 #include <errno.h>
 #include <gpiod.h>
@@ -14,6 +14,8 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+
+#include "warp/warp_err.h"
 
 #define CONSUMER "hmdwarp-vsync"
 #define FIFO 16 /* events the v1 kernel FIFO holds */
@@ -33,15 +35,14 @@ static int64_t clock_ns(clockid_t id)
     return (int64_t)ts.tv_sec * 1000000000LL + ts.tv_nsec;
 }
 
+/* the text by warp_verr; the value as libgpiod v2 returns it (-errno) */
 static int fail(char *err, int errlen, int e, const char *fmt, ...) __attribute__((format(printf, 4, 5)));
 static int fail(char *err, int errlen, int e, const char *fmt, ...)
 {
-    if (err && errlen > 0) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(err, (size_t)errlen, fmt, ap);
-        va_end(ap);
-    }
+    va_list ap;
+    va_start(ap, fmt);
+    warp_verr(err, errlen, fmt, ap);
+    va_end(ap);
     return e > 0 ? -e : -EIO;
 }
 

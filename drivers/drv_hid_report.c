@@ -9,6 +9,8 @@
 #include <string.h>
 #include <zlib.h>
 
+#include "warp/warp_err.h"
+
 #define PI 3.14159265358979323846
 
 /* Vendor report layout (byte offsets; docs/hid-report.md is the reference). */
@@ -94,12 +96,10 @@ static drv_hid_err fail(drv_hid_err e, char *msg, int msglen, const char *fmt, .
     __attribute__((format(printf, 4, 5)));
 static drv_hid_err fail(drv_hid_err e, char *msg, int msglen, const char *fmt, ...)
 {
-    if (msg && msglen > 0) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(msg, (size_t)msglen, fmt, ap);
-        va_end(ap);
-    }
+    va_list ap;
+    va_start(ap, fmt);
+    warp_verr(msg, msglen, fmt, ap);
+    va_end(ap);
     return e;
 }
 

@@ -9,6 +9,7 @@
 #include <string.h>
 
 #include "platform/plat_clock.h"
+#include "warp/warp_err.h"
 
 #define DEG2RAD (3.14159265358979323846 / 180.0)
 
@@ -47,7 +48,7 @@ static const range *pick_range(const range *t, int n, int want, const char *what
     if (want <= 0) return &t[n - 1];
     for (int i = 0; i < n; i++)
         if (t[i].fs >= want) return &t[i];
-    snprintf(err, (size_t)errlen, "%s %d exceeds the %s maximum of +-%g %s", what, want, model, t[n - 1].fs, unit);
+    warp_err(err, errlen, "%s %d exceeds the %s maximum of +-%g %s", what, want, model, t[n - 1].fs, unit);
     return NULL;
 }
 
@@ -72,7 +73,7 @@ static const dlpf *pick_dlpf(const dlpf *t, int n, double rate_hz)
 static bool rate_ok(const drv_i2c_request *rq, const char *model, char *err, int errlen)
 {
     if (!(rq->rate_hz > 0) || !isfinite(rq->rate_hz)) {
-        snprintf(err, (size_t)errlen, "%s: rate_hz %g is not a positive rate", model, rq->rate_hz);
+        warp_err(err, errlen, "%s: rate_hz %g is not a positive rate", model, rq->rate_hz);
         return false;
     }
     return true;
@@ -268,7 +269,7 @@ int drv_i2c_chip_identify(drv_i2c_bus *bus, const drv_i2c_chip *expect, const dr
     if (expect && expect->bank_sel_reg) {
         int rc = drv_i2c_write(bus, expect->bank_sel_reg, 0);
         if (rc < 0) {
-            snprintf(err, (size_t)errlen, "%s: %s writing REG_BANK_SEL (reg 0x%02x)", bus->name, drv_i2c_strerror(rc),
+            warp_err(err, errlen, "%s: %s writing REG_BANK_SEL (reg 0x%02x)", bus->name, drv_i2c_strerror(rc),
                      expect->bank_sel_reg);
             return rc;
         }
@@ -276,7 +277,7 @@ int drv_i2c_chip_identify(drv_i2c_bus *bus, const drv_i2c_chip *expect, const dr
     uint8_t who = 0;
     int rc = drv_i2c_read(bus, MPU_REG_WHO_AM_I, &who, 1);
     if (rc < 0) {
-        snprintf(err, (size_t)errlen, "%s: %s reading WHO_AM_I (reg 0x%02x)%s", bus->name, drv_i2c_strerror(rc),
+        warp_err(err, errlen, "%s: %s reading WHO_AM_I (reg 0x%02x)%s", bus->name, drv_i2c_strerror(rc),
                  MPU_REG_WHO_AM_I,
                  rc == -ENXIO || rc == -EREMOTEIO || rc == -ENODEV ? " - nothing at this address? check wiring, power and AD0" : "");
         return rc;
@@ -284,7 +285,7 @@ int drv_i2c_chip_identify(drv_i2c_bus *bus, const drv_i2c_chip *expect, const dr
     const drv_i2c_chip *c = drv_i2c_chip_by_who_am_i(who);
     if (!expect) {
         if (!c) {
-            snprintf(err, (size_t)errlen,
+            warp_err(err, errlen,
                      "%s: WHO_AM_I (reg 0x75) 0x%02x matches no supported chip (MPU-6050 0x68, MPU-9250 0x71/0x73, "
                      "ICM-42688-P 0x47)",
                      bus->name, who);
@@ -294,12 +295,12 @@ int drv_i2c_chip_identify(drv_i2c_bus *bus, const drv_i2c_chip *expect, const dr
         char exp[32];
         who_list(expect, exp, sizeof exp);
         if (c)
-            snprintf(err, (size_t)errlen,
+            warp_err(err, errlen,
                      "%s: WHO_AM_I (reg 0x75) 0x%02x is not an %s (expected %s); it looks like an %s: set chip = %s "
                      "or auto",
                      bus->name, who, expect->model, exp, c->model, c->name);
         else
-            snprintf(err, (size_t)errlen, "%s: WHO_AM_I (reg 0x75) 0x%02x is not an %s (expected %s)", bus->name, who,
+            warp_err(err, errlen, "%s: WHO_AM_I (reg 0x75) 0x%02x is not an %s (expected %s)", bus->name, who,
                      expect->model, exp);
         return -ENODEV;
     } else {
@@ -319,7 +320,7 @@ int drv_i2c_chip_step(drv_i2c_bus *bus, const drv_i2c_step *st, char *err, int e
 {
     int rc = drv_i2c_write(bus, st->reg, st->val);
     if (rc < 0) {
-        snprintf(err, (size_t)errlen, "%s: %s writing %s (reg 0x%02x) = 0x%02x", bus->name, drv_i2c_strerror(rc),
+        warp_err(err, errlen, "%s: %s writing %s (reg 0x%02x) = 0x%02x", bus->name, drv_i2c_strerror(rc),
                  st->what, st->reg, st->val);
         return rc;
     }
@@ -327,12 +328,12 @@ int drv_i2c_chip_step(drv_i2c_bus *bus, const drv_i2c_step *st, char *err, int e
     uint8_t back = 0;
     rc = drv_i2c_read(bus, st->reg, &back, 1);
     if (rc < 0) {
-        snprintf(err, (size_t)errlen, "%s: %s reading back %s (reg 0x%02x)", bus->name, drv_i2c_strerror(rc),
+        warp_err(err, errlen, "%s: %s reading back %s (reg 0x%02x)", bus->name, drv_i2c_strerror(rc),
                  st->what, st->reg);
         return rc;
     }
     if (back != st->val) {
-        snprintf(err, (size_t)errlen, "%s: %s (reg 0x%02x) reads 0x%02x after writing 0x%02x", bus->name, st->what,
+        warp_err(err, errlen, "%s: %s (reg 0x%02x) reads 0x%02x after writing 0x%02x", bus->name, st->what,
                  st->reg, back, st->val);
         return -EIO;
     }
@@ -354,7 +355,7 @@ int drv_i2c_chip_data_ready(drv_i2c_bus *bus, const drv_i2c_chip *chip, bool *re
     uint8_t st = 0;
     int rc = drv_i2c_read(bus, chip->status_reg, &st, 1);
     if (rc < 0) {
-        snprintf(err, (size_t)errlen, "%s: %s reading INT_STATUS (reg 0x%02x)", bus->name, drv_i2c_strerror(rc),
+        warp_err(err, errlen, "%s: %s reading INT_STATUS (reg 0x%02x)", bus->name, drv_i2c_strerror(rc),
                  chip->status_reg);
         return rc;
     }
@@ -395,7 +396,7 @@ int drv_i2c_chip_read(drv_i2c_bus *bus, const drv_i2c_chip *chip, const drv_i2c_
     int rc = drv_i2c_read(bus, reg, buf, len);
     int64_t t1 = plat_now_ns();
     if (rc < 0) {
-        snprintf(err, (size_t)errlen, "%s: %s burst-reading regs 0x%02x..0x%02x", bus->name, drv_i2c_strerror(rc),
+        warp_err(err, errlen, "%s: %s burst-reading regs 0x%02x..0x%02x", bus->name, drv_i2c_strerror(rc),
                  reg, reg + len - 1);
         return rc;
     }

@@ -13,6 +13,7 @@
 
 #include "drivers/drv_hid_report.h"
 #include "platform/plat_clock.h"
+#include "warp/warp_err.h"
 
 #define REPORT_BUF 256 /* larger than any report we accept, so an oversized one shows as such */
 
@@ -199,32 +200,22 @@ static void imu_hid_destroy(drv_imu *imu)
     free(h);
 }
 
-static void set_err(char *err, int errlen, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
-static void set_err(char *err, int errlen, const char *fmt, ...)
-{
-    if (!err || errlen <= 0) return;
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(err, (size_t)errlen, fmt, ap);
-    va_end(ap);
-}
-
 drv_imu *drv_imu_hid_create_with_transport(const drv_hid_transport *t, void *ctx, const char *device, double rate_hz,
                                            char *err, int errlen)
 {
     if (!t || !t->open || !t->read || !t->close) {
-        set_err(err, errlen, "HID IMU %s: incomplete transport", device ? device : "?");
+        warp_err(err, errlen, "HID IMU %s: incomplete transport", device ? device : "?");
         if (t && t->destroy) t->destroy(ctx);
         return NULL;
     }
     if (!device || !device[0] || !(rate_hz >= 0) || rate_hz > 100000) {
-        set_err(err, errlen, "HID IMU %s: bad parameters (rate %g Hz)", device ? device : "(no device)", rate_hz);
+        warp_err(err, errlen, "HID IMU %s: bad parameters (rate %g Hz)", device ? device : "(no device)", rate_hz);
         if (t->destroy) t->destroy(ctx);
         return NULL;
     }
     imu_hid *h = calloc(1, sizeof *h);
     if (!h) {
-        set_err(err, errlen, "HID IMU %s: out of memory", device);
+        warp_err(err, errlen, "HID IMU %s: out of memory", device);
         if (t->destroy) t->destroy(ctx);
         return NULL;
     }
@@ -241,7 +232,7 @@ drv_imu *drv_imu_hid_create_with_transport(const drv_hid_transport *t, void *ctx
     char msg[128] = "";
     int rc = t->open(ctx, h->device, msg, sizeof msg);
     if (rc < 0) {
-        set_err(err, errlen, "HID IMU %s: %s", h->device, msg[0] ? msg : strerror(-rc));
+        warp_err(err, errlen, "HID IMU %s: %s", h->device, msg[0] ? msg : strerror(-rc));
         imu_hid_destroy(&h->base);
         return NULL;
     }
@@ -284,7 +275,7 @@ static int hidapi_open(void *vctx, const char *device, char *err, int errlen)
 {
     hidapi_ctx *c = vctx;
     if (hid_init() != 0) {
-        set_err(err, errlen, "hid_init failed: %ls", hid_why(NULL));
+        warp_err(err, errlen, "hid_init failed: %ls", hid_why(NULL));
         return -EIO;
     }
     char path[256];
@@ -294,21 +285,21 @@ static int hidapi_open(void *vctx, const char *device, char *err, int errlen)
     } else if (drv_hid_parse_vid_pid(device, &vid, &pid)) {
         struct hid_device_info *list = hid_enumerate(vid, pid);
         if (!list) {
-            set_err(err, errlen, "no HID device %04x:%04x present", vid, pid);
+            warp_err(err, errlen, "no HID device %04x:%04x present", vid, pid);
             return -ENODEV;
         }
         snprintf(path, sizeof path, "%s", list->path);
         hid_free_enumeration(list);
     } else {
-        set_err(err, errlen, "neither a /dev/hidrawN path nor a VVVV:PPPP vendor:product id");
+        warp_err(err, errlen, "neither a /dev/hidrawN path nor a VVVV:PPPP vendor:product id");
         return -EINVAL;
     }
     errno = 0;
     c->dev = hid_open_path(path);
     if (!c->dev) {
         int e = errno ? errno : ENODEV;
-        set_err(err, errlen, "cannot open %s: %ls%s", path, hid_why(NULL),
-                e == EACCES ? " (no permission: see the udev rule in docs/hid-report.md)" : "");
+        warp_err(err, errlen, "cannot open %s: %ls%s", path, hid_why(NULL),
+                 e == EACCES ? " (no permission: see the udev rule in docs/hid-report.md)" : "");
         return -e;
     }
     return 0;
@@ -342,20 +333,20 @@ static const drv_hid_transport hidapi_transport = {
 drv_imu *drv_imu_hid_create(const drv_imu_hid_params *p, char *err, int errlen)
 {
     if (!p) {
-        set_err(err, errlen, "HID IMU: no parameters");
+        warp_err(err, errlen, "HID IMU: no parameters");
         return NULL;
     }
     char device[sizeof p->device];
     snprintf(device, sizeof device, "%.*s", (int)sizeof p->device - 1, p->device);
     uint16_t vid, pid;
     if (device[0] != '/' && !drv_hid_parse_vid_pid(device, &vid, &pid)) {
-        set_err(err, errlen, "HID IMU \"%s\": neither a /dev/hidrawN path nor a VVVV:PPPP vendor:product id",
-                device);
+        warp_err(err, errlen, "HID IMU \"%s\": neither a /dev/hidrawN path nor a VVVV:PPPP vendor:product id",
+                 device);
         return NULL;
     }
     hidapi_ctx *c = calloc(1, sizeof *c);
     if (!c) {
-        set_err(err, errlen, "HID IMU %s: out of memory", device);
+        warp_err(err, errlen, "HID IMU %s: out of memory", device);
         return NULL;
     }
     return drv_imu_hid_create_with_transport(&hidapi_transport, c, device, p->rate_hz, err, errlen);

@@ -10,6 +10,7 @@
 
 #include "drivers/drv_hid_report.h"
 #include "platform/plat_clock.h"
+#include "warp/warp_err.h"
 
 /* ---- mock transport: another drv_imu's samples encoded as vendor reports ---- */
 
@@ -41,7 +42,7 @@ static int mock_open(void *vctx, const char *device, char *err, int errlen)
     mock_ctx *m = vctx;
     (void)device;
     if (mock_unplugged(m, plat_now_ns())) {
-        if (err && errlen > 0) snprintf(err, (size_t)errlen, "mock device unplugged");
+        warp_err(err, errlen, "mock device unplugged");
         return -ENODEV;
     }
     if (m->reports > 0 || m->nbuf > 0) {

@@ -10,7 +10,6 @@
 #include <linux/i2c.h>
 #include <math.h>
 #include <pthread.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -18,20 +17,11 @@
 #include <unistd.h>
 
 #include "platform/plat_clock.h"
+#include "warp/warp_err.h"
 
 #define RETRY_NS (250 * PLAT_NS_PER_MS)   /* re-initialise a lost chip at most this often */
 #define NO_DATA_NS (250 * PLAT_NS_PER_MS) /* no data-ready for this long while the bus works: chip reset/asleep */
 #define FAILS_LOST 3                      /* consecutive failed transfers that mean the chip is gone */
-
-static void set_err(char *err, int errlen, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
-static void set_err(char *err, int errlen, const char *fmt, ...)
-{
-    if (!err || errlen <= 0) return;
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(err, (size_t)errlen, fmt, ap);
-    va_end(ap);
-}
 
 /* ==== the real bus: /dev/i2c-N ==== */
 
@@ -84,17 +74,17 @@ static int dev_connect(i2c_dev *d, char *err, int errlen)
     if (d->fd < 0) {
         int e = errno;
         if (e == ENOENT || e == ENODEV || e == ENXIO)
-            set_err(err, errlen, "%s: no such bus (i2c-dev loaded? `modprobe i2c-dev`, `ls /dev/i2c-*`)", d->path);
+            warp_err(err, errlen, "%s: no such bus (i2c-dev loaded? `modprobe i2c-dev`, `ls /dev/i2c-*`)", d->path);
         else if (e == EACCES || e == EPERM)
-            set_err(err, errlen, "%s: permission denied (add the user to group i2c or use a udev rule)", d->path);
+            warp_err(err, errlen, "%s: permission denied (add the user to group i2c or use a udev rule)", d->path);
         else
-            set_err(err, errlen, "%s: cannot open: %s", d->path, strerror(e));
+            warp_err(err, errlen, "%s: cannot open: %s", d->path, strerror(e));
         return -e;
     }
     unsigned long funcs = 0;
     if (ioctl(d->fd, I2C_FUNCS, &funcs) < 0) {
         int e = errno;
-        set_err(err, errlen, "%s: not an I2C adapter (I2C_FUNCS: %s)", d->path, strerror(e));
+        warp_err(err, errlen, "%s: not an I2C adapter (I2C_FUNCS: %s)", d->path, strerror(e));
         close(d->fd);
         d->fd = -1;
         return -e;
@@ -103,9 +93,9 @@ static int dev_connect(i2c_dev *d, char *err, int errlen)
     bool smb_read = funcs & I2C_FUNC_SMBUS_READ_I2C_BLOCK, smb_write = funcs & I2C_FUNC_SMBUS_WRITE_BYTE_DATA;
     bool plain = funcs & I2C_FUNC_I2C;
     if ((!smb_read || !smb_write) && !plain) {
-        set_err(err, errlen,
-                "%s: adapter supports neither SMBus I2C-block reads + byte writes nor plain I2C (funcs 0x%08lx)",
-                d->path, funcs);
+        warp_err(err, errlen,
+                 "%s: adapter supports neither SMBus I2C-block reads + byte writes nor plain I2C (funcs 0x%08lx)",
+                 d->path, funcs);
         close(d->fd);
         d->fd = -1;
         return -EOPNOTSUPP;
@@ -115,10 +105,10 @@ static int dev_connect(i2c_dev *d, char *err, int errlen)
     if (ioctl(d->fd, I2C_SLAVE, (unsigned long)d->addr) < 0) {
         int e = errno;
         if (e == EBUSY)
-            set_err(err, errlen, "%s addr 0x%02x: address in use by a kernel driver (unbind it first)", d->path,
-                    d->addr);
+            warp_err(err, errlen, "%s addr 0x%02x: address in use by a kernel driver (unbind it first)", d->path,
+                     d->addr);
         else
-            set_err(err, errlen, "%s addr 0x%02x: I2C_SLAVE: %s", d->path, d->addr, strerror(e));
+            warp_err(err, errlen, "%s addr 0x%02x: I2C_SLAVE: %s", d->path, d->addr, strerror(e));
         close(d->fd);
         d->fd = -1;
         return -e;
@@ -142,11 +132,11 @@ static void dev_destroy(drv_i2c_bus *b)
     free(d);
 }
 
-drv_i2c_bus *drv_i2c_dev_open(const char *path, int addr, char *err, int errlen)
+drv_i2c_bus *drv_i2c_dev_create(const char *path, int addr, char *err, int errlen)
 {
     i2c_dev *d = calloc(1, sizeof *d);
     if (!d) {
-        set_err(err, errlen, "%s: out of memory", path);
+        warp_err(err, errlen, "%s: out of memory", path);
         return NULL;
     }
     snprintf(d->path, sizeof d->path, "%s", path);
@@ -369,17 +359,17 @@ static void imu_i2c_destroy(drv_imu *imu)
 static bool params_ok(const drv_imu_i2c_params *p, drv_i2c_chip_kind *kind, char *err, int errlen)
 {
     if (!p) {
-        set_err(err, errlen, "i2c imu: no parameters");
+        warp_err(err, errlen, "i2c imu: no parameters");
         return false;
     }
     if (p->addr < 0x03 || p->addr > 0x77) {
-        set_err(err, errlen, "%s addr 0x%02x: not a 7-bit I2C device address (0x03..0x77; MPU/ICM: 0x68 or 0x69)",
-                p->bus, p->addr);
+        warp_err(err, errlen, "%s addr 0x%02x: not a 7-bit I2C device address (0x03..0x77; MPU/ICM: 0x68 or 0x69)",
+                 p->bus, p->addr);
         return false;
     }
     if (!drv_i2c_chip_parse(p->chip, kind)) {
-        set_err(err, errlen, "%s addr 0x%02x: chip '%s' unknown (auto, mpu6050, mpu9250, icm42688)", p->bus, p->addr,
-                p->chip);
+        warp_err(err, errlen, "%s addr 0x%02x: chip '%s' unknown (auto, mpu6050, mpu9250, icm42688)", p->bus, p->addr,
+                 p->chip);
         return false;
     }
     return true;
@@ -394,7 +384,7 @@ static drv_imu *create_on_bus(drv_i2c_bus *bus, const drv_imu_i2c_params *p, cha
     }
     imu_i2c *s = calloc(1, sizeof *s);
     if (!s) {
-        set_err(err, errlen, "%s: out of memory", bus->name);
+        warp_err(err, errlen, "%s: out of memory", bus->name);
         drv_i2c_bus_destroy(bus);
         return NULL;
     }
@@ -404,7 +394,7 @@ static drv_imu *create_on_bus(drv_i2c_bus *bus, const drv_imu_i2c_params *p, cha
     char e[200];
     if (drv_i2c_chip_identify(bus, drv_i2c_chip_get(kind), &s->chip, err, errlen) < 0) goto fail;
     if (drv_i2c_chip_plan(s->chip, &rq, &s->setup, e, sizeof e) < 0) {
-        set_err(err, errlen, "%s: %s", bus->name, e);
+        warp_err(err, errlen, "%s: %s", bus->name, e);
         goto fail;
     }
     init_begin(s);
@@ -426,7 +416,7 @@ fail:
 drv_imu *drv_imu_i2c_create_on_bus(drv_i2c_bus *bus, const drv_imu_i2c_params *p, char *err, int errlen)
 {
     if (!bus) {
-        set_err(err, errlen, "i2c imu: no bus");
+        warp_err(err, errlen, "i2c imu: no bus");
         return NULL;
     }
     return create_on_bus(bus, p, err, errlen);
@@ -436,7 +426,7 @@ drv_imu *drv_imu_i2c_create(const drv_imu_i2c_params *p, char *err, int errlen)
 {
     drv_i2c_chip_kind kind;
     if (!params_ok(p, &kind, err, errlen)) return NULL;
-    drv_i2c_bus *bus = drv_i2c_dev_open(p->bus, p->addr, err, errlen);
+    drv_i2c_bus *bus = drv_i2c_dev_create(p->bus, p->addr, err, errlen);
     if (!bus) return NULL;
     return create_on_bus(bus, p, err, errlen);
 }

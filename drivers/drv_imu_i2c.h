@@ -37,6 +37,6 @@ drv_i2c_bus *drv_imu_i2c_bus(drv_imu *imu);
 
 /* Opens `path`, selects `addr` (I2C_SLAVE) and checks the adapter (I2C_FUNCS): SMBus I2C-block reads and SMBus
  * byte writes, or plain I2C (I2C_RDWR) where those are missing. NULL and a message on failure. */
-drv_i2c_bus *drv_i2c_dev_open(const char *path, int addr, char *err, int errlen);
+drv_i2c_bus *drv_i2c_dev_create(const char *path, int addr, char *err, int errlen);
 
 #endif

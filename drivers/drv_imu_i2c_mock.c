@@ -9,6 +9,7 @@
 #include <string.h>
 
 #include "drivers/drv_i2c_chip_emu.h"
+#include "warp/warp_err.h"
 
 static bool mock_is_mpu(const drv_i2c_mockbus *m) { return drv_i2c_emu_is_mpu(m->model); }
 
@@ -182,14 +183,14 @@ drv_imu *drv_imu_i2c_create_mock(drv_imu *source, const drv_imu_i2c_params *p, c
     /* An unknown chip name is refused by drv_imu_i2c_create_on_bus with the backend's own message. */
     if (!p) {
         drv_imu_destroy(source);
-        if (err && errlen > 0) snprintf(err, (size_t)errlen, "i2c imu: no parameters");
+        warp_err(err, errlen, "i2c imu: no parameters");
         return NULL;
     }
     drv_i2c_chip_kind kind;
     if (!drv_i2c_chip_parse(p->chip, &kind) || kind == DRV_I2C_CHIP_AUTO) kind = DRV_I2C_CHIP_MPU6050;
     drv_i2c_mockbus *m = drv_i2c_mockbus_create(kind, p->addr, source);
     if (!m) {
-        if (err && errlen > 0) snprintf(err, (size_t)errlen, "%s addr 0x%02x: out of memory", p->bus, p->addr);
+        warp_err(err, errlen, "%s addr 0x%02x: out of memory", p->bus, p->addr);
         return NULL;
     }
     snprintf(m->name, sizeof m->name, "%s addr 0x%02x (mock)", p->bus[0] ? p->bus : "mock", p->addr);

@@ -5,21 +5,14 @@
 
 #include <math.h>
 
-/* splitmix64 (Steele, Lea, Flood 2014): a well-mixed 64-bit value per input, so per-slot draws need no state. */
-static uint64_t mix64(uint64_t x)
-{
-    x += 0x9e3779b97f4a7c15ULL;
-    x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
-    x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
-    return x ^ (x >> 31);
-}
+#include "warp/warp_rand.h"
 
 /* Draw `what` of slot k in [0, 1): independent draws, so a fault's probability never shifts the others. */
 enum { DRAW_JITTER = 0, DRAW_MISS = 1, DRAW_GLITCH = 2, DRAW_WHERE = 3 };
 static double draw(const drv_te_schedule *s, int64_t k, unsigned what)
 {
     uint64_t x = s->seed * 0x100000001b3ULL + (uint64_t)k + (uint64_t)what * 0xd1b54a32d192ed03ULL;
-    return (double)(mix64(x) >> 11) * 0x1.0p-53;
+    return warp_unit53(warp_splitmix64(x)); /* a well-mixed value per input: per-slot draws need no state */
 }
 
 drv_te_schedule drv_te_schedule_clean(double period_ns, uint64_t seed)

@@ -7,13 +7,14 @@
 #include <fcntl.h>
 #include <linux/videodev2.h>
 #include <poll.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <string.h>
 #include <strings.h>
 #include <sys/ioctl.h>
 #include <sys/mman.h>
 #include <unistd.h>
+
+#include "warp/warp_err.h"
 
 static int real_open(void *ctx, const char *path, int flags)
 {
@@ -52,16 +53,6 @@ static int real_poll(void *ctx, int fd, short events, int timeout_ms, short *rev
     return r;
 }
 const drv_v4l2_dev_ops drv_v4l2_real_ops = {real_open, real_close, real_ioctl, real_mmap, real_munmap, real_poll, NULL};
-
-static void msg(char *err, int errlen, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
-static void msg(char *err, int errlen, const char *fmt, ...)
-{
-    if (!err || errlen <= 0) return;
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(err, (size_t)errlen, fmt, ap);
-    va_end(ap);
-}
 
 /* Our formats in order of preference: YUV first (what HDMI bridges such as the TC358743 deliver natively, and half
  * the bytes of BGR32), then the RGB ones. */
@@ -138,26 +129,28 @@ bool drv_v4l2_set_format(const drv_v4l2_dev_ops *ops, void *ctx, int fd, const c
     fmt.fmt.pix.quantization = V4L2_QUANTIZATION_LIM_RANGE;
     char fc[8], fc2[8];
     if (ops->ioctl(ctx, fd, VIDIOC_S_FMT, &fmt) < 0) {
-        msg(err, errlen, "%s: VIDIOC_S_FMT %s %dx%d: %s", dev, drv_v4l2_fourcc_str(fourcc, fc), w, h, strerror(errno));
+        warp_err(err, errlen, "%s: VIDIOC_S_FMT %s %dx%d: %s", dev, drv_v4l2_fourcc_str(fourcc, fc), w, h,
+                 strerror(errno));
         return false;
     }
     const struct v4l2_pix_format *pf = &fmt.fmt.pix;
     if (pf->pixelformat != fourcc) {
-        msg(err, errlen, "%s: asked for %s, driver set %s", dev, drv_v4l2_fourcc_str(fourcc, fc),
-            drv_v4l2_fourcc_str(pf->pixelformat, fc2));
+        warp_err(err, errlen, "%s: asked for %s, driver set %s", dev, drv_v4l2_fourcc_str(fourcc, fc),
+                 drv_v4l2_fourcc_str(pf->pixelformat, fc2));
         return false;
     }
     if ((int)pf->width < w || (int)pf->height < h) {
-        msg(err, errlen, "%s: frames are %ux%u, the layout (eyes and band) needs at least %dx%d", dev, pf->width,
-            pf->height, w, h);
+        warp_err(err, errlen, "%s: frames are %ux%u, the layout (eyes and band) needs at least %dx%d", dev, pf->width,
+                 pf->height, w, h);
         return false;
     }
     if (pf->field != V4L2_FIELD_NONE && pf->field != V4L2_FIELD_ANY) {
-        msg(err, errlen, "%s: interlaced video (field %u) is not supported", dev, pf->field);
+        warp_err(err, errlen, "%s: interlaced video (field %u) is not supported", dev, pf->field);
         return false;
     }
     if (!drv_v4l2_geom_init(g, fourcc, (int)pf->width, (int)pf->height, (int)pf->bytesperline)) {
-        msg(err, errlen, "%s: unusable geometry %ux%u, bytesperline %u", dev, pf->width, pf->height, pf->bytesperline);
+        warp_err(err, errlen, "%s: unusable geometry %ux%u, bytesperline %u", dev, pf->width, pf->height,
+                 pf->bytesperline);
         return false;
     }
     if (pf->sizeimage > g->size) g->size = pf->sizeimage;
@@ -176,11 +169,11 @@ int drv_v4l2_map_buffers(const drv_v4l2_dev_ops *ops, void *ctx, int fd, const c
     rb.type = type;
     rb.memory = V4L2_MEMORY_MMAP;
     if (ops->ioctl(ctx, fd, VIDIOC_REQBUFS, &rb) < 0) {
-        msg(err, errlen, "%s: VIDIOC_REQBUFS (mmap): %s", dev, strerror(errno));
+        warp_err(err, errlen, "%s: VIDIOC_REQBUFS (mmap): %s", dev, strerror(errno));
         return 0;
     }
     if (rb.count < 2) {
-        msg(err, errlen, "%s: driver granted %u buffers, need at least 2", dev, rb.count);
+        warp_err(err, errlen, "%s: driver granted %u buffers, need at least 2", dev, rb.count);
         return 0;
     }
     int n = rb.count < DRV_V4L2_NBUF ? (int)rb.count : DRV_V4L2_NBUF;
@@ -191,17 +184,17 @@ int drv_v4l2_map_buffers(const drv_v4l2_dev_ops *ops, void *ctx, int fd, const c
         vb.type = type;
         vb.memory = V4L2_MEMORY_MMAP;
         if (ops->ioctl(ctx, fd, VIDIOC_QUERYBUF, &vb) < 0) {
-            msg(err, errlen, "%s: VIDIOC_QUERYBUF %d: %s", dev, i, strerror(errno));
+            warp_err(err, errlen, "%s: VIDIOC_QUERYBUF %d: %s", dev, i, strerror(errno));
             return 0;
         }
         if (vb.length < need) {
-            msg(err, errlen, "%s: buffer %d holds %u bytes, the format needs %zu", dev, i, vb.length, need);
+            warp_err(err, errlen, "%s: buffer %d holds %u bytes, the format needs %zu", dev, i, vb.length, need);
             return 0;
         }
         b[i].p = ops->mmap(ctx, vb.length, fd, (off_t)vb.m.offset);
         if (b[i].p == MAP_FAILED) {
             b[i].p = NULL;
-            msg(err, errlen, "%s: mmap of buffer %d: %s", dev, i, strerror(errno));
+            warp_err(err, errlen, "%s: mmap of buffer %d: %s", dev, i, strerror(errno));
             return 0;
         }
         b[i].len = vb.length;

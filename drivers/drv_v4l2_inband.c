@@ -4,7 +4,6 @@
 #include "drivers/drv_v4l2_inband.h"
 
 #include <math.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <string.h>
 #include <zlib.h>
@@ -38,17 +37,6 @@ bool drv_v4l2_layout(int eye_w, int eye_h, bool depth, int *img_w, int *img_h)
     return true;
 }
 
-static drv_frame_err fail(char *why, int whylen, drv_frame_err e, const char *fmt, ...)
-{
-    if (why && whylen > 0) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(why, (size_t)whylen, fmt, ap);
-        va_end(ap);
-    }
-    return e;
-}
-
 /* ---- serialisation (little endian; doubles as their IEEE bits, so they arrive bit exact) ---- */
 
 static void put16(uint8_t *p, uint32_t v) { p[0] = (uint8_t)v, p[1] = (uint8_t)(v >> 8); }
@@ -79,6 +67,8 @@ enum {
     O_CRC = O_EYE + 2 * EYE_BYTES,
 };
 _Static_assert(O_CRC + 4 == DRV_V4L2_META_BYTES, "metadata layout");
+_Static_assert(WARP_DEPTH_LINEAR == 0 && WARP_DEPTH_STANDARD == 1 && WARP_DEPTH_REVERSED == 2,
+               "the band's depth encoding byte (docs/v4l2-inband.md) is warp_depth_encoding's value");
 #define FLAG_DEPTH 1u
 
 static void meta_serialise(const drv_v4l2_meta *m, uint8_t *b)
@@ -155,13 +145,14 @@ static drv_frame_err check_geom(const drv_v4l2_geom *g, const drv_v4l2_layout_in
 {
     char fc[8];
     if (!drv_v4l2_fourcc_supported(g->fourcc))
-        return fail(why, whylen, DRV_FRAME_ERR_BAD_FORMAT, "unsupported pixel format %s", fourcc_name(g->fourcc, fc));
+        return drv_frame_fail(why, whylen, DRV_FRAME_ERR_BAD_FORMAT, "unsupported pixel format %s",
+                              fourcc_name(g->fourcc, fc));
     const char *e = drv_v4l2_geom_check(g);
-    if (e) return fail(why, whylen, DRV_FRAME_ERR_BAD_SIZE, "%s image %dx%d: %s", fourcc_name(g->fourcc, fc),
-                       g->width, g->height, e);
+    if (e) return drv_frame_fail(why, whylen, DRV_FRAME_ERR_BAD_SIZE, "%s image %dx%d: %s", fourcc_name(g->fourcc, fc),
+                                 g->width, g->height, e);
     if (g->width < l->width || g->height < l->height)
-        return fail(why, whylen, DRV_FRAME_ERR_BAD_SIZE, "image %dx%d is smaller than the layout's %dx%d", g->width,
-                    g->height, l->width, l->height);
+        return drv_frame_fail(why, whylen, DRV_FRAME_ERR_BAD_SIZE, "image %dx%d is smaller than the layout's %dx%d",
+                              g->width, g->height, l->width, l->height);
     return DRV_FRAME_OK;
 }
 
@@ -250,39 +241,40 @@ drv_frame_err drv_v4l2_read_meta(const uint8_t *img, const drv_v4l2_geom *g, int
     char fc[8];
     memset(m, 0, sizeof *m);
     if (!drv_v4l2_fourcc_supported(g->fourcc))
-        return fail(why, whylen, DRV_FRAME_ERR_BAD_FORMAT, "unsupported pixel format %s", fourcc_name(g->fourcc, fc));
+        return drv_frame_fail(why, whylen, DRV_FRAME_ERR_BAD_FORMAT, "unsupported pixel format %s",
+                              fourcc_name(g->fourcc, fc));
     const char *ge = drv_v4l2_geom_check(g);
-    if (ge) return fail(why, whylen, DRV_FRAME_ERR_BAD_SIZE, "image %dx%d: %s", g->width, g->height, ge);
+    if (ge) return drv_frame_fail(why, whylen, DRV_FRAME_ERR_BAD_SIZE, "image %dx%d: %s", g->width, g->height, ge);
     drv_v4l2_layout_info l;
     if (!drv_v4l2_layout_get(eye_w, 2, false, &l) || g->width < l.width || g->height < l.band_rows)
-        return fail(why, whylen, DRV_FRAME_ERR_BAD_SIZE, "image %dx%d cannot hold the band for eyes %d wide",
-                    g->width, g->height, eye_w);
+        return drv_frame_fail(why, whylen, DRV_FRAME_ERR_BAD_SIZE, "image %dx%d cannot hold the band for eyes %d wide",
+                              g->width, g->height, eye_w);
     uint8_t b[DRV_V4L2_META_BYTES];
     read_band(img, g, eye_w, 64, b); /* the preamble first: a blank or foreign picture is rejected cheaply */
     uint32_t magic = get32(b + O_MAGIC);
     if (magic != DRV_V4L2_MAGIC)
-        return fail(why, whylen, DRV_FRAME_ERR_BAD_MAGIC, "no in-band metadata (magic 0x%08x, want 0x%08x)", magic,
-                    DRV_V4L2_MAGIC);
+        return drv_frame_fail(why, whylen, DRV_FRAME_ERR_BAD_MAGIC, "no in-band metadata (magic 0x%08x, want 0x%08x)",
+                              magic, DRV_V4L2_MAGIC);
     m->eye_w = (int)get16(b + O_EYE_W), m->eye_h = (int)get16(b + O_EYE_H);
     if (m->eye_w != eye_w)
-        return fail(why, whylen, DRV_FRAME_ERR_BAD_SIZE, "host sends eyes %dx%d, board expects %d wide", m->eye_w,
-                    m->eye_h, eye_w);
+        return drv_frame_fail(why, whylen, DRV_FRAME_ERR_BAD_SIZE, "host sends eyes %dx%d, board expects %d wide",
+                              m->eye_w, m->eye_h, eye_w);
     read_band(img, g, eye_w, META_BITS, b);
     /* CRC before version: a flipped version bit is garbage, not a newer host (later versions keep the CRC of the
      * first 256 bytes at the same place, or change the magic). */
     uint32_t crc = (uint32_t)crc32(0L, b, O_CRC), want = get32(b + O_CRC);
     if (crc != want)
-        return fail(why, whylen, DRV_FRAME_ERR_CRC, "metadata CRC 0x%08x, band says 0x%08x", crc, want);
+        return drv_frame_fail(why, whylen, DRV_FRAME_ERR_CRC, "metadata CRC 0x%08x, band says 0x%08x", crc, want);
     m->version = (int)get16(b + O_VERSION);
     if (m->version != DRV_V4L2_VERSION)
-        return fail(why, whylen, DRV_FRAME_ERR_BAD_VERSION, "metadata version %d, want %d", m->version,
-                    DRV_V4L2_VERSION);
+        return drv_frame_fail(why, whylen, DRV_FRAME_ERR_BAD_VERSION, "metadata version %d, want %d", m->version,
+                              DRV_V4L2_VERSION);
     unsigned flags = get16(b + O_FLAGS);
     m->depth = flags & FLAG_DEPTH;
     m->depth_encoding = (warp_depth_encoding)b[O_DEPTH_ENC];
     if (b[O_DEPTH_ENC] > WARP_DEPTH_REVERSED || (m->depth && b[O_DEPTH_WIRE] != DRV_V4L2_DEPTH_WIRE_INV16))
-        return fail(why, whylen, DRV_FRAME_ERR_BAD_FORMAT, "unknown depth encoding %u / wire format %u",
-                    b[O_DEPTH_ENC], b[O_DEPTH_WIRE]);
+        return drv_frame_fail(why, whylen, DRV_FRAME_ERR_BAD_FORMAT, "unknown depth encoding %u / wire format %u",
+                              b[O_DEPTH_ENC], b[O_DEPTH_WIRE]);
     m->seq = get64(b + O_SEQ);
     m->pose_t_ns = (int64_t)get64(b + O_POSE_T);
     m->render_start_ns = (int64_t)get64(b + O_RENDER_START);
@@ -290,9 +282,10 @@ drv_frame_err drv_v4l2_read_meta(const uint8_t *img, const drv_v4l2_geom *g, int
     /* Board-clock times in [0, 2^62] (as framelink's DRV_FRAMELINK_TIME_MAX_NS): the runtime subtracts them from its
      * clock unchecked, which cannot overflow then. */
     if (m->pose_t_ns < 0 || m->pose_t_ns > TIME_MAX_NS || m->render_start_ns < 0 || m->render_start_ns > TIME_MAX_NS)
-        return fail(why, whylen, DRV_FRAME_ERR_BAD_FORMAT, "pose_t_ns %lld / render_start_ns %lld outside [0, 2^62]",
-                    (long long)m->pose_t_ns, (long long)m->render_start_ns);
-    if (!isfinite(m->scene_time)) return fail(why, whylen, DRV_FRAME_ERR_BAD_FORMAT, "scene_time not finite");
+        return drv_frame_fail(why, whylen, DRV_FRAME_ERR_BAD_FORMAT,
+                              "pose_t_ns %lld / render_start_ns %lld outside [0, 2^62]", (long long)m->pose_t_ns,
+                              (long long)m->render_start_ns);
+    if (!isfinite(m->scene_time)) return drv_frame_fail(why, whylen, DRV_FRAME_ERR_BAD_FORMAT, "scene_time not finite");
     for (int e = 0; e < 2; e++) {
         const uint8_t *p = b + O_EYE + e * EYE_BYTES;
         double v[13];
@@ -300,9 +293,10 @@ drv_frame_err drv_v4l2_read_meta(const uint8_t *img, const drv_v4l2_geom *g, int
         m->eye_pose[e] = (warp_pose){{v[0], v[1], v[2], v[3]}, {v[4], v[5], v[6]}};
         m->cam[e] = (warp_camera){m->eye_w, m->eye_h, v[7], v[8], v[9], v[10], v[11], v[12]};
         if (!pose_ok(m->eye_pose[e]))
-            return fail(why, whylen, DRV_FRAME_ERR_BAD_POSE, "eye %d pose not finite or not a unit quaternion", e);
+            return drv_frame_fail(why, whylen, DRV_FRAME_ERR_BAD_POSE,
+                                  "eye %d pose not finite or not a unit quaternion", e);
         const char *ce = warp_camera_check(&m->cam[e]);
-        if (ce) return fail(why, whylen, DRV_FRAME_ERR_BAD_CAMERA, "eye %d camera: %s", e, ce);
+        if (ce) return drv_frame_fail(why, whylen, DRV_FRAME_ERR_BAD_CAMERA, "eye %d camera: %s", e, ce);
     }
     return DRV_FRAME_OK;
 }
@@ -312,27 +306,28 @@ drv_frame_err drv_v4l2_unpack(const uint8_t *img, const drv_v4l2_geom *g, const 
 {
     int ew = out->color[0].w, eh = out->color[0].h;
     if (!out->color[0].px || !out->color[1].px || out->color[1].w != ew || out->color[1].h != eh)
-        return fail(why, whylen, DRV_FRAME_ERR_BAD_SIZE, "output frame has no colour planes of one size");
+        return drv_frame_fail(why, whylen, DRV_FRAME_ERR_BAD_SIZE, "output frame has no colour planes of one size");
     drv_v4l2_layout_info l;
     if (!drv_v4l2_layout_get(ew, eh, false, &l))
-        return fail(why, whylen, DRV_FRAME_ERR_BAD_SIZE, "eye size %dx%d has no layout", ew, eh);
+        return drv_frame_fail(why, whylen, DRV_FRAME_ERR_BAD_SIZE, "eye size %dx%d has no layout", ew, eh);
     drv_frame_err err = check_geom(g, &l, why, whylen);
     if (err) return err;
     drv_v4l2_meta m;
     err = drv_v4l2_read_meta(img, g, ew, &m, why, whylen);
     if (err) return err;
     if (m.eye_h != eh)
-        return fail(why, whylen, DRV_FRAME_ERR_BAD_SIZE, "host sends eyes %dx%d, board expects %dx%d", m.eye_w,
-                    m.eye_h, ew, eh);
+        return drv_frame_fail(why, whylen, DRV_FRAME_ERR_BAD_SIZE, "host sends eyes %dx%d, board expects %dx%d",
+                              m.eye_w, m.eye_h, ew, eh);
     bool want_depth = m.depth && out->depth[0].px && out->depth[1].px;
     if (want_depth) {
         for (int e = 0; e < 2; e++)
             if (out->depth[e].w != ew || out->depth[e].h != eh)
-                return fail(why, whylen, DRV_FRAME_ERR_BAD_SIZE, "output depth plane is not %dx%d", ew, eh);
+                return drv_frame_fail(why, whylen, DRV_FRAME_ERR_BAD_SIZE, "output depth plane is not %dx%d", ew, eh);
         drv_v4l2_layout_get(ew, eh, true, &l);
         if (g->height < l.height)
-            return fail(why, whylen, DRV_FRAME_ERR_BAD_SIZE, "image %dx%d too small for the depth rows (%dx%d)",
-                        g->width, g->height, l.width, l.height);
+            return drv_frame_fail(why, whylen, DRV_FRAME_ERR_BAD_SIZE,
+                                  "image %dx%d too small for the depth rows (%dx%d)", g->width, g->height, l.width,
+                                  l.height);
     }
 
     for (int e = 0; e < 2; e++)

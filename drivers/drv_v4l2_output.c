@@ -7,7 +7,6 @@
 #include <fcntl.h>
 #include <linux/videodev2.h>
 #include <poll.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -15,16 +14,7 @@
 
 #include "drivers/drv_v4l2_dev.h"
 #include "drivers/drv_v4l2_inband.h"
-
-static void msg(char *err, int errlen, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
-static void msg(char *err, int errlen, const char *fmt, ...)
-{
-    if (!err || errlen <= 0) return;
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(err, (size_t)errlen, fmt, ap);
-    va_end(ap);
-}
+#include "warp/warp_err.h"
 
 struct drv_v4l2_output {
     const drv_v4l2_dev_ops *ops;
@@ -47,17 +37,17 @@ drv_v4l2_output *drv_v4l2_output_open(const char *device, const char *format, in
 {
     uint32_t want;
     if (!drv_v4l2_parse_format(format, &want)) {
-        msg(err, errlen, "%s: unknown format '%s' (auto, yuyv, nv12, bgr32, rgb24)", device, format);
+        warp_err(err, errlen, "%s: unknown format '%s' (auto, yuyv, nv12, bgr32, rgb24)", device, format);
         return NULL;
     }
     drv_v4l2_layout_info l;
     if (!drv_v4l2_layout_get(eye_w, eye_h, depth, &l)) {
-        msg(err, errlen, "%s: eye size %dx%d has no in-band layout", device, eye_w, eye_h);
+        warp_err(err, errlen, "%s: eye size %dx%d has no in-band layout", device, eye_w, eye_h);
         return NULL;
     }
     drv_v4l2_output *o = calloc(1, sizeof *o);
     if (!o) {
-        msg(err, errlen, "%s: out of memory", device);
+        warp_err(err, errlen, "%s: out of memory", device);
         return NULL;
     }
     o->ops = &drv_v4l2_real_ops;
@@ -66,7 +56,7 @@ drv_v4l2_output *drv_v4l2_output_open(const char *device, const char *format, in
     o->spare = -1;
     o->fd = o->ops->open(NULL, device, O_RDWR | O_CLOEXEC);
     if (o->fd < 0) {
-        msg(err, errlen, "%s: cannot open the output device: %s", device, strerror(errno));
+        warp_err(err, errlen, "%s: cannot open the output device: %s", device, strerror(errno));
         free(o);
         return NULL;
     }
@@ -75,20 +65,20 @@ drv_v4l2_output *drv_v4l2_output_open(const char *device, const char *format, in
     char offered[160], fc[8];
     uint32_t caps, f;
     if (o->ops->ioctl(NULL, o->fd, VIDIOC_QUERYCAP, &cap) < 0) {
-        msg(err, errlen, "%s: VIDIOC_QUERYCAP: %s (not a V4L2 device?)", device, strerror(errno));
+        warp_err(err, errlen, "%s: VIDIOC_QUERYCAP: %s (not a V4L2 device?)", device, strerror(errno));
         goto fail;
     }
     caps = (cap.capabilities & V4L2_CAP_DEVICE_CAPS) ? cap.device_caps : cap.capabilities;
     if (!(caps & V4L2_CAP_VIDEO_OUTPUT) || !(caps & (V4L2_CAP_STREAMING | V4L2_CAP_READWRITE))) {
-        msg(err, errlen, "%s (%.32s): not a single-planar video output device (caps 0x%08x)", device,
-            (const char *)cap.card, caps);
+        warp_err(err, errlen, "%s (%.32s): not a single-planar video output device (caps 0x%08x)", device,
+                 (const char *)cap.card, caps);
         goto fail;
     }
     o->streaming = caps & V4L2_CAP_STREAMING;
     f = drv_v4l2_choose_format(o->ops, NULL, o->fd, V4L2_BUF_TYPE_VIDEO_OUTPUT, want, offered, sizeof offered);
     if (!f) {
-        msg(err, errlen, "%s: offers [%s], none of which is %s", device, offered,
-            want ? drv_v4l2_fourcc_str(want, fc) : "YUYV, NV12, XBGR32/BGR32 or RGB24");
+        warp_err(err, errlen, "%s: offers [%s], none of which is %s", device, offered,
+                 want ? drv_v4l2_fourcc_str(want, fc) : "YUYV, NV12, XBGR32/BGR32 or RGB24");
         goto fail;
     }
     if (!drv_v4l2_set_format(o->ops, NULL, o->fd, device, V4L2_BUF_TYPE_VIDEO_OUTPUT, f, l.width, l.height, &o->g,
@@ -102,7 +92,7 @@ drv_v4l2_output *drv_v4l2_output_open(const char *device, const char *format, in
     } else {
         o->wbuf = malloc(o->g.size);
         if (!o->wbuf) {
-            msg(err, errlen, "%s: out of memory", device);
+            warp_err(err, errlen, "%s: out of memory", device);
             goto fail;
         }
     }

@@ -11,8 +11,10 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "drivers/drv_gpiod1.h"
 #include "drivers/drv_vsync_est.h"
 #include "platform/plat_clock.h"
+#include "warp/warp_err.h"
 
 #define BATCH 16          /* edges per wait (the v1 kernel FIFO's size) */
 #define FALLBACK_PERIODS 3.5
@@ -256,7 +258,7 @@ drv_vsync *drv_vsync_edges_create(drv_edge_source *src, double refresh_hz, const
 drv_vsync *drv_vsync_gpio_create(const drv_vsync_gpio_params *p, char *err, int errlen)
 {
     if (!(p->refresh_hz >= 10 && p->refresh_hz <= 1000)) {
-        snprintf(err, (size_t)errlen, "vsync gpio: refresh rate %g Hz out of range (10..1000)", p->refresh_hz);
+        warp_err(err, errlen, "vsync gpio: refresh rate %g Hz out of range (10..1000)", p->refresh_hz);
         return NULL;
     }
     char chip[sizeof p->chip + 1];
@@ -265,6 +267,6 @@ drv_vsync *drv_vsync_gpio_create(const drv_vsync_gpio_params *p, char *err, int 
     drv_edge_source *src = drv_gpiod1_edges_open(chip, p->line, p->falling_edge, err, errlen);
     if (!src) return NULL;
     drv_vsync *v = drv_vsync_edges_create(src, p->refresh_hz, "gpio");
-    if (!v) snprintf(err, (size_t)errlen, "vsync gpio: cannot start the edge thread (out of memory or threads)");
+    if (!v) warp_err(err, errlen, "vsync gpio: cannot start the edge thread (out of memory or threads)");
     return v;
 }

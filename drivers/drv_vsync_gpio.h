@@ -1,6 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /* drv_vsync_gpio: vsync sources for the real board: the panel's TE line on a GPIO (edges through libgpiod, a robust
- * estimator, a timer fallback when the edges stop) and a free-running timer. Its mock: drv_vsync_gpio_mock.h. */
+ * estimator, a timer fallback when the edges stop). The free-running timer: drv_vsync_timer.h; the libgpiod 1.6 edge
+ * source: drv_gpiod1.h; the mock: drv_vsync_gpio_mock.h. */
 #ifndef DRV_VSYNC_GPIO_H
 #define DRV_VSYNC_GPIO_H
 
@@ -22,9 +23,6 @@ typedef struct {
  * and by whom, permission) when it cannot. */
 drv_vsync *drv_vsync_gpio_create(const drv_vsync_gpio_params *p, char *err, int errlen);
 
-/* Free-running CLOCK_MONOTONIC timer, vsync 0 at creation. */
-drv_vsync *drv_vsync_timer_create(double refresh_hz);
-
 /* ---- edge sources (what the GPIO backend reads; libgpiod v1 in drv_gpiod1.c, a v2 one may sit beside it) ---- */
 
 typedef struct drv_edge_source drv_edge_source;
@@ -35,9 +33,6 @@ struct drv_edge_source {
     int (*wait)(drv_edge_source *s, int64_t *t_ns, int max, int timeout_ms, char *err, int errlen);
     void (*close)(drv_edge_source *s);
 };
-
-/* libgpiod 1.6: the line's edge events as requested by consumer "hmdwarp-vsync". */
-drv_edge_source *drv_gpiod1_edges_open(const char *chip, int line, bool falling_edge, char *err, int errlen);
 
 /* The GPIO vsync backend on any edge source (takes ownership of src, closing it on failure too). */
 drv_vsync *drv_vsync_edges_create(drv_edge_source *src, double refresh_hz, const char *name);

@@ -6,6 +6,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 
+#include "warp/warp_err.h"
+
 typedef struct {
     drv_edge_source base;
     plat_kms *k;
@@ -27,12 +29,12 @@ static void kms_close(drv_edge_source *s)
 drv_edge_source *drv_kms_vblank_edges_open(plat_kms *k, char *err, int errlen)
 {
     if (!k) {
-        snprintf(err, (size_t)errlen, "no KMS output to take vblanks from (needs [display] output = kms)");
+        warp_err(err, errlen, "no KMS output to take vblanks from (needs [display] output = kms)");
         return NULL;
     }
     kms_edges *e = calloc(1, sizeof *e);
     if (!e) {
-        snprintf(err, (size_t)errlen, "out of memory");
+        warp_err(err, errlen, "out of memory");
         return NULL;
     }
     e->k = k;
@@ -48,6 +50,6 @@ drv_vsync *drv_vsync_kms_create(plat_kms *k, double refresh_hz, char *err, int e
     drv_edge_source *src = drv_kms_vblank_edges_open(k, err, errlen);
     if (!src) return NULL;
     drv_vsync *v = drv_vsync_edges_create(src, refresh_hz, "kms");
-    if (!v) snprintf(err, (size_t)errlen, "cannot start the vsync thread");
+    if (!v) warp_err(err, errlen, "cannot start the vsync thread");
     return v;
 }

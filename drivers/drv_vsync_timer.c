@@ -1,11 +1,12 @@
 /* SPDX-License-Identifier: MIT */
 /* drv_vsync_timer: a free-running CLOCK_MONOTONIC vsync source at the configured rate, vsync 0 at creation: for a
  * board whose panel has no TE line wired (the compositor then drifts against the panel's own timing). */
+#include "drivers/drv_vsync_timer.h"
+
 #include <math.h>
 #include <stdlib.h>
 
 #include "drivers/drv_vsync_est.h"
-#include "drivers/drv_vsync_gpio.h"
 #include "platform/plat_clock.h"
 
 typedef struct {

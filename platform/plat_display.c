@@ -13,8 +13,9 @@
 #include <time.h>
 
 #include "platform/plat_png.h"
+#include "warp/warp_err.h"
 
-bool plat_swapchain_init(plat_swapchain *sc, int count, int w, int h)
+bool plat_swapchain_alloc(plat_swapchain *sc, int count, int w, int h)
 {
     memset(sc, 0, sizeof *sc);
     if (count < 2 || count > PLAT_SWAPCHAIN_MAX) return false;
@@ -72,7 +73,7 @@ static void null_describe(plat_display *d, char *buf, int len)
 }
 static void null_destroy(plat_display *d) { free(d); }
 
-plat_display *plat_display_null(void)
+plat_display *plat_display_null_create(void)
 {
     plat_display *d = calloc(1, sizeof *d);
     if (!d) return NULL;
@@ -191,24 +192,24 @@ static void files_destroy(plat_display *d)
     free(f);
 }
 
-plat_display *plat_display_files(const char *kind, const char *dir, int every, char *err, int errlen)
+plat_display *plat_display_files_create(const char *kind, const char *dir, int every, char *err, int errlen)
 {
     bool raw = strcmp(kind, "raw") == 0;
     if (!raw && strcmp(kind, "png") != 0) {
-        snprintf(err, (size_t)errlen, "unknown file sink '%s' (expected png or raw)", kind);
+        warp_err(err, errlen, "unknown file sink '%s' (expected png or raw)", kind);
         return NULL;
     }
     if (every < 1) {
-        snprintf(err, (size_t)errlen, "sink_every must be at least 1 (got %d)", every);
+        warp_err(err, errlen, "sink_every must be at least 1 (got %d)", every);
         return NULL;
     }
     if (mkdir(dir, 0755) != 0 && errno != EEXIST) {
-        snprintf(err, (size_t)errlen, "cannot create sink directory %s: %s", dir, strerror(errno));
+        warp_err(err, errlen, "cannot create sink directory %s: %s", dir, strerror(errno));
         return NULL;
     }
     files_display *f = calloc(1, sizeof *f);
     if (!f) {
-        snprintf(err, (size_t)errlen, "out of memory");
+        warp_err(err, errlen, "out of memory");
         return NULL;
     }
     f->raw = raw;
@@ -219,14 +220,14 @@ plat_display *plat_display_files(const char *kind, const char *dir, int every, c
         snprintf(path, sizeof path, "%s/frames.rgba", dir);
         f->raw_file = fopen(path, "wb");
         if (!f->raw_file) {
-            snprintf(err, (size_t)errlen, "cannot create %s: %s", path, strerror(errno));
+            warp_err(err, errlen, "cannot create %s: %s", path, strerror(errno));
             free(f);
             return NULL;
         }
     }
     sem_init(&f->go, 0, 0);
     if (pthread_create(&f->th, NULL, files_writer, f) != 0) {
-        snprintf(err, (size_t)errlen, "cannot start the sink writer thread");
+        warp_err(err, errlen, "cannot start the sink writer thread");
         sem_destroy(&f->go);
         if (f->raw_file) fclose(f->raw_file);
         free(f);

@@ -25,7 +25,7 @@ typedef struct {
     int64_t prev_until_ns;
 } plat_swapchain;
 
-bool plat_swapchain_init(plat_swapchain *sc, int count, int w, int h);
+bool plat_swapchain_alloc(plat_swapchain *sc, int count, int w, int h);
 /* An image that is neither on screen, nor still shown at now_ns, nor held, or -1 when every image is busy (the
  * compositor then skips). */
 int plat_swapchain_next(plat_swapchain *sc, int64_t now_ns);
@@ -61,10 +61,10 @@ static inline void plat_display_destroy(plat_display *d)
 }
 
 /* Discards frames (the default on the simulated board: the summary reports what would have been shown). */
-plat_display *plat_display_null(void);
+plat_display *plat_display_null_create(void);
 /* Writes every `every`-th presented image from a writer thread into dir: kind "png" -> dir/frame_NNNNNN.png,
  * kind "raw" -> one growing dir/frames.rgba stream (RGBA8, size printed in the summary). A snapshot due while the
  * writer is still busy is skipped and counted, never waited for. NULL with a message in err on failure. */
-plat_display *plat_display_files(const char *kind, const char *dir, int every, char *err, int errlen);
+plat_display *plat_display_files_create(const char *kind, const char *dir, int every, char *err, int errlen);
 
 #endif

@@ -20,6 +20,8 @@
 #include <xf86drm.h>
 #include <xf86drmMode.h>
 
+#include "warp/warp_err.h"
+
 struct plat_egl {
     EGLDisplay dpy;
     EGLContext ctx;
@@ -42,7 +44,7 @@ static void *fail(char *err, int errlen, const char *fmt, ...)
 {
     va_list ap;
     va_start(ap, fmt);
-    vsnprintf(err, (size_t)errlen, fmt, ap);
+    warp_verr(err, errlen, fmt, ap);
     va_end(ap);
     return NULL;
 }
@@ -289,7 +291,7 @@ bool plat_egl_present(plat_egl *e, char *err, int errlen)
      * one it replaced can be drawn into again. */
     if (e->pending_bo) {
         if (!plat_kms_wait_flip(e->k, 100)) {
-            snprintf(err, (size_t)errlen, "KMS %s: previous page flip never completed", plat_kms_chosen(e->k)->conn_name);
+            warp_err(err, errlen, "KMS %s: previous page flip never completed", plat_kms_chosen(e->k)->conn_name);
             gbm_surface_release_buffer(e->gs, e->pending_bo);
             e->pending_bo = NULL;
             return false;
@@ -300,14 +302,14 @@ bool plat_egl_present(plat_egl *e, char *err, int errlen)
     }
     const char *conn = plat_kms_chosen(e->k)->conn_name;
     if (!eglSwapBuffers(e->dpy, e->surf)) {
-        snprintf(err, (size_t)errlen, "KMS %s: eglSwapBuffers failed (%s)", conn, egl_err_str(eglGetError()));
+        warp_err(err, errlen, "KMS %s: eglSwapBuffers failed (%s)", conn, egl_err_str(eglGetError()));
         return false;
     }
     struct gbm_bo *bo = gbm_surface_lock_front_buffer(e->gs);
     uint32_t fb = bo ? bo_fb(e, bo) : 0;
     if (!fb) {
         if (bo) gbm_surface_release_buffer(e->gs, bo);
-        snprintf(err, (size_t)errlen, "KMS %s: cannot make a framebuffer of the rendered buffer", conn);
+        warp_err(err, errlen, "KMS %s: cannot make a framebuffer of the rendered buffer", conn);
         return false;
     }
     uint64_t before = plat_kms_flips_completed(e->k);

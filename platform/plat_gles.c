@@ -6,12 +6,12 @@
 #include <EGL/egl.h>
 #include <GLES3/gl3.h>
 #include <GLES2/gl2ext.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "platform/plat_clock.h"
+#include "warp/warp_err.h"
 
 /* ---- shaders (GLSL ES 3.00: nothing beyond what V3D and Mali-class GPUs run) ---- */
 
@@ -310,18 +310,6 @@ const char *plat_gles_pass_name(plat_gles_pass p)
     return p >= 0 && p < PLAT_GLES_PASSES ? n[p] : "?";
 }
 
-#if defined(__GNUC__)
-__attribute__((format(printf, 3, 4)))
-#endif
-static bool failf(char *err, int errlen, const char *fmt, ...)
-{
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(err, (size_t)errlen, fmt, ap);
-    va_end(ap);
-    return false;
-}
-
 /* ---- pyramid geometry and CPU reference ---- */
 
 int plat_gles_pyramid_levels(int w, int h)
@@ -395,7 +383,7 @@ static GLuint compile(GLenum type, const char *src, const char *name, char *err,
     if (!ok) {
         char log[600] = "";
         glGetShaderInfoLog(s, sizeof log, NULL, log);
-        failf(err, errlen, "GLES: shader %s does not compile: %s", name, log);
+        warp_err(err, errlen, "GLES: shader %s does not compile: %s", name, log);
         glDeleteShader(s);
         return 0;
     }
@@ -421,7 +409,7 @@ static bool link(program *pr, const char *fs, const char *name, const char *cons
     if (!ok) {
         char log[600] = "";
         glGetProgramInfoLog(pr->prog, sizeof log, NULL, log);
-        return failf(err, errlen, "GLES: program %s does not link: %s", name, log);
+        return warp_err(err, errlen, "GLES: program %s does not link: %s", name, log);
     }
     for (int i = 0; uniforms[i]; i++) pr->loc[i] = glGetUniformLocation(pr->prog, uniforms[i]);
     return true;
@@ -580,20 +568,20 @@ plat_gles *plat_gles_create(plat_egl *egl, const plat_gles_params *p, char *err,
 {
     if (p->panel_w <= 0 || p->panel_h <= 0 || p->src_w <= 0 || p->src_h <= 0 || p->mesh_cols < 2 ||
         p->mesh_rows < 2) {
-        failf(err, errlen, "GLES: bad sizes (panel %dx%d, source %dx%d, mesh %dx%d)", p->panel_w, p->panel_h,
-              p->src_w, p->src_h, p->mesh_cols, p->mesh_rows);
+        warp_err(err, errlen, "GLES: bad sizes (panel %dx%d, source %dx%d, mesh %dx%d)", p->panel_w, p->panel_h,
+                 p->src_w, p->src_h, p->mesh_cols, p->mesh_rows);
         return NULL;
     }
     GLint max_tex = 0;
     glGetIntegerv(GL_MAX_TEXTURE_SIZE, &max_tex);
     if (p->mesh_cols * 3 > max_tex || p->panel_w > max_tex || p->panel_h > max_tex || 2 * p->src_w > max_tex) {
-        failf(err, errlen, "GLES: textures up to %d pixels on a side; the panel is %dx%d, the mesh %d wide", max_tex,
-              p->panel_w, p->panel_h, p->mesh_cols * 3);
+        warp_err(err, errlen, "GLES: textures up to %d pixels on a side; the panel is %dx%d, the mesh %d wide", max_tex,
+                 p->panel_w, p->panel_h, p->mesh_cols * 3);
         return NULL;
     }
     plat_gles *g = calloc(1, sizeof *g);
     if (!g) {
-        failf(err, errlen, "GLES: out of memory");
+        warp_err(err, errlen, "GLES: out of memory");
         return NULL;
     }
     g->egl = egl;
@@ -610,7 +598,7 @@ plat_gles *plat_gles_create(plat_egl *egl, const plat_gles_params *p, char *err,
     if (!p->to_window) {
         g->panel = texture(GL_RGBA8, p->panel_w, p->panel_h, GL_NEAREST);
         if (!fbo_for(g->panel, &g->panel_fbo)) {
-            failf(err, errlen, "GLES: the %dx%d RGBA8 panel framebuffer is incomplete", p->panel_w, p->panel_h);
+            warp_err(err, errlen, "GLES: the %dx%d RGBA8 panel framebuffer is incomplete", p->panel_w, p->panel_h);
             goto fail;
         }
     }
@@ -635,7 +623,7 @@ plat_gles *plat_gles_create(plat_egl *egl, const plat_gles_params *p, char *err,
             g->cpu_scratch = malloc(sizeof(float) * (size_t)p->src_w * (size_t)p->src_h);
             g->cpu_level = malloc(sizeof(float) * (size_t)p->src_w * (size_t)p->src_h);
             if (!g->cpu_scratch || !g->cpu_level) {
-                failf(err, errlen, "GLES: out of memory");
+                warp_err(err, errlen, "GLES: out of memory");
                 goto fail;
             }
         }
@@ -648,19 +636,19 @@ plat_gles *plat_gles_create(plat_egl *egl, const plat_gles_params *p, char *err,
         r->depth = texture(GL_R32F, p->src_w, p->src_h, GL_NEAREST);
         r->inter = texture(GL_RGBA8, p->src_w, p->src_h, GL_LINEAR);
         if (!fbo_for(r->inter, &r->inter_fbo)) {
-            failf(err, errlen, "GLES: the raytrace framebuffer is incomplete");
+            warp_err(err, errlen, "GLES: the raytrace framebuffer is incomplete");
             goto fail;
         }
         r->atlas = texture(GL_R32F, g->atlas_w, g->atlas_h, GL_NEAREST);
         if (g->gpu_pyramid) {
             if (!fbo_for(r->atlas, &r->atlas_fbo)) {
-                failf(err, errlen, "GLES: R32F is not renderable here although EXT_color_buffer_float is offered");
+                warp_err(err, errlen, "GLES: R32F is not renderable here although EXT_color_buffer_float is offered");
                 goto fail;
             }
             for (int l = 0; l < g->levels; l++) {
                 r->lvl[l] = texture(GL_R32F, g->lvl_w[l], g->lvl_h[l], GL_NEAREST);
                 if (!fbo_for(r->lvl[l], &r->lvl_fbo[l])) {
-                    failf(err, errlen, "GLES: pyramid level %d framebuffer is incomplete", l);
+                    warp_err(err, errlen, "GLES: pyramid level %d framebuffer is incomplete", l);
                     goto fail;
                 }
             }
@@ -678,7 +666,7 @@ plat_gles *plat_gles_create(plat_egl *egl, const plat_gles_params *p, char *err,
     glBindFramebuffer(GL_FRAMEBUFFER, 0);
     GLenum ge = glGetError();
     if (ge != GL_NO_ERROR) {
-        failf(err, errlen, "GLES: setting up the renderer failed (%s)", gl_err_str(ge));
+        warp_err(err, errlen, "GLES: setting up the renderer failed (%s)", gl_err_str(ge));
         goto fail;
     }
     return g;
@@ -866,10 +854,10 @@ void plat_gles_clear(plat_gles *g)
 
 bool plat_gles_read(plat_gles *g, warp_image_rgba8 *dst, char *err, int errlen)
 {
-    if (g->p.to_window) return failf(err, errlen, "GLES: the panel is on a window surface, nothing to read back");
+    if (g->p.to_window) return warp_err(err, errlen, "GLES: the panel is on a window surface, nothing to read back");
     if (dst->w != g->p.panel_w || dst->h != g->p.panel_h)
-        return failf(err, errlen, "GLES: readback into %dx%d, panel is %dx%d", dst->w, dst->h, g->p.panel_w,
-                     g->p.panel_h);
+        return warp_err(err, errlen, "GLES: readback into %dx%d, panel is %dx%d", dst->w, dst->h, g->p.panel_w,
+                        g->p.panel_h);
     pass_begin(g, PLAT_GLES_READBACK);
     glBindFramebuffer(GL_READ_FRAMEBUFFER, g->panel_fbo);
     glPixelStorei(GL_PACK_ALIGNMENT, 4);
@@ -878,7 +866,7 @@ bool plat_gles_read(plat_gles *g, warp_image_rgba8 *dst, char *err, int errlen)
     glPixelStorei(GL_PACK_ROW_LENGTH, 0);
     pass_end(g);
     GLenum e = glGetError();
-    if (e != GL_NO_ERROR) return failf(err, errlen, "GLES: rendering or readback failed (%s)", gl_err_str(e));
+    if (e != GL_NO_ERROR) return warp_err(err, errlen, "GLES: rendering or readback failed (%s)", gl_err_str(e));
     return true;
 }
 

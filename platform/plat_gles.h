@@ -76,7 +76,7 @@ bool plat_gles_gpu_pyramid(const plat_gles *g);
  * too), raytracing both eyes with rt[e] when rt is not NULL (else the rotation mesh as it is), the lens pass of
  * both eyes through mesh[e], and the readback. Writes the mean GPU milliseconds per pass and vsync to mean
  * (valid: the pass ran and was timed). Needs params.timing. Allocates (not for the vsync path). A bench tool
- * calls plat_egl_open_offscreen, plat_gles_create, warp_mesh_init/update, warp_raytrace_prepare, then this, and
+ * calls plat_egl_open_offscreen, plat_gles_create, warp_mesh_alloc/update, warp_raytrace_prepare, then this, and
  * prints mean.ms[p] under plat_gles_pass_name(p) next to the CPU path's times. */
 bool plat_gles_bench(plat_gles *g, const warp_image_rgba8 *color, const warp_image_f32 *inv,
                      const warp_raytrace_setup *const rt[2], const warp_mesh *const mesh[2], int reps,

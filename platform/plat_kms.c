@@ -14,7 +14,6 @@
 #include <poll.h>
 #include <pthread.h>
 #include <semaphore.h>
-#include <stdarg.h>
 #include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -25,22 +24,13 @@
 #include <xf86drm.h>
 
 #include "platform/plat_clock.h"
+#include "warp/warp_err.h"
 
 #define EVENT_POLL_MS 20        /* the event thread checks for close() and re-arms vblank requests this often */
 #define VBLANK_QUEUE 64         /* vblank times waiting for the vsync source (a second at 60 Hz) */
 #define VBLANK_REARM_NS (200 * PLAT_NS_PER_MS) /* no vblank event for this long: the request was lost, ask again */
 #define CLOSE_FLIP_WAIT_MS 100
 #define AUTO_CARDS 16           /* kms_device = auto looks at /dev/dri/card0 to card15 */  /* at close, how long a queued flip may take to complete */
-
-static void set_err(char *err, int errlen, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
-static void set_err(char *err, int errlen, const char *fmt, ...)
-{
-    if (!err || errlen <= 0) return;
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(err, (size_t)errlen, fmt, ap);
-    va_end(ap);
-}
 
 /* ---- connector, mode, CRTC ---- */
 
@@ -108,8 +98,8 @@ bool plat_kms_pick(int fd, const plat_kms_params *p, plat_kms_choice *out, char 
     const char *dev = p->device ? p->device : "?";
     drmModeRes *res = drmModeGetResources(fd);
     if (!res) {
-        set_err(err, errlen, "DRM device %s: no KMS resources (%s): not a display controller (a render node?)", dev,
-                strerror(errno));
+        warp_err(err, errlen, "DRM device %s: no KMS resources (%s): not a display controller (a render node?)", dev,
+                 strerror(errno));
         return false;
     }
     const bool any = !p->connector || !*p->connector || strcmp(p->connector, "auto") == 0;
@@ -128,15 +118,15 @@ bool plat_kms_pick(int fd, const plat_kms_params *p, plat_kms_choice *out, char 
         if (wanted) {
             failed = true;
             if (c->connection != DRM_MODE_CONNECTED) {
-                set_err(err, errlen, "DRM device %s: connector %s is not connected", dev, name);
+                warp_err(err, errlen, "DRM device %s: connector %s is not connected", dev, name);
             } else if (!pick_mode(c, p, &out->mode)) {
                 if (p->mode_w > 0)
-                    set_err(err, errlen, "DRM device %s: connector %s has no mode %dx%d%s", dev, name, p->mode_w,
-                            p->mode_h, p->mode_hz > 0 ? " at that refresh" : "");
+                    warp_err(err, errlen, "DRM device %s: connector %s has no mode %dx%d%s", dev, name, p->mode_w,
+                             p->mode_h, p->mode_hz > 0 ? " at that refresh" : "");
                 else
-                    set_err(err, errlen, "DRM device %s: connector %s reports no modes", dev, name);
+                    warp_err(err, errlen, "DRM device %s: connector %s reports no modes", dev, name);
             } else if (!(out->crtc_id = pick_crtc(fd, res, c, &out->crtc_index))) {
-                set_err(err, errlen, "DRM device %s: no CRTC can drive connector %s", dev, name);
+                warp_err(err, errlen, "DRM device %s: no CRTC can drive connector %s", dev, name);
             } else {
                 out->conn_id = c->connector_id;
                 snprintf(out->conn_name, sizeof out->conn_name, "%s", name);
@@ -149,10 +139,10 @@ bool plat_kms_pick(int fd, const plat_kms_params *p, plat_kms_choice *out, char 
     drmModeFreeResources(res);
     if (!ok && !failed) {
         if (any)
-            set_err(err, errlen, "DRM device %s: no connected connector (connectors: %s)", dev, *seen ? seen : "none");
+            warp_err(err, errlen, "DRM device %s: no connected connector (connectors: %s)", dev, *seen ? seen : "none");
         else
-            set_err(err, errlen, "DRM device %s: no connector named %s (connectors: %s)", dev, p->connector,
-                    *seen ? seen : "none");
+            warp_err(err, errlen, "DRM device %s: no connector named %s (connectors: %s)", dev, p->connector,
+                     *seen ? seen : "none");
     }
     return ok;
 }
@@ -407,8 +397,8 @@ static bool find_card(const plat_kms_params *p, char *dev, size_t len, char *err
         /* cut where it does not fit: the first cards tried are named */
         if (snprintf(tried + used, sizeof tried - used, "%s%s", used ? "; " : "", e) < 0) break;
     }
-    set_err(err, errlen, "kms_device = auto: no /dev/dri/cardN with a connected connector%s%s%s",
-            *tried ? " (" : " (no card at all)", tried, *tried ? ")" : "");
+    warp_err(err, errlen, "kms_device = auto: no /dev/dri/cardN with a connected connector%s%s%s",
+             *tried ? " (" : " (no card at all)", tried, *tried ? ")" : "");
     return false;
 }
 
@@ -425,7 +415,7 @@ plat_kms *plat_kms_open(const plat_kms_params *p, char *err, int errlen)
     pp.device = dev;
     plat_kms *k = calloc(1, sizeof *k);
     if (!k) {
-        set_err(err, errlen, "KMS: out of memory");
+        warp_err(err, errlen, "KMS: out of memory");
         return NULL;
     }
     k->fd = -1;
@@ -441,7 +431,7 @@ plat_kms *plat_kms_open(const plat_kms_params *p, char *err, int errlen)
     pthread_condattr_destroy(&ca);
     k->fd = open(dev, O_RDWR | O_CLOEXEC);
     if (k->fd < 0) {
-        set_err(err, errlen, "no DRM device: %s: %s", dev, strerror(errno));
+        warp_err(err, errlen, "no DRM device: %s: %s", dev, strerror(errno));
         plat_kms_close(k);
         return NULL;
     }
@@ -456,7 +446,7 @@ plat_kms *plat_kms_open(const plat_kms_params *p, char *err, int errlen)
     if (k->atomic) {
         k->req = drmModeAtomicAlloc();
         if (!k->req || drmModeCreatePropertyBlob(k->fd, &k->ch.mode, sizeof k->ch.mode, &k->mode_blob) != 0) {
-            set_err(err, errlen, "DRM device %s: cannot create the mode's property blob: %s", dev, strerror(errno));
+            warp_err(err, errlen, "DRM device %s: cannot create the mode's property blob: %s", dev, strerror(errno));
             plat_kms_close(k);
             return NULL;
         }
@@ -466,7 +456,7 @@ plat_kms *plat_kms_open(const plat_kms_params *p, char *err, int errlen)
         snprintf(k->last_error, sizeof k->last_error,
                  "%.60s: not DRM master (another process holds the display): commits will fail", dev);
     if (pthread_create(&k->th, NULL, event_thread, k) != 0) {
-        set_err(err, errlen, "DRM device %s: cannot start the KMS event thread", dev);
+        warp_err(err, errlen, "DRM device %s: cannot start the KMS event thread", dev);
         plat_kms_close(k);
         return NULL;
     }
@@ -482,7 +472,7 @@ static void commit_failed(plat_kms *k, const char *what, int code, char *err, in
                                                         : strerror(code);
     atomic_fetch_add(&k->failed, 1);
     snprintf(k->last_error, sizeof k->last_error, "KMS %s: %s failed: %s", k->ch.conn_name, what, why);
-    set_err(err, errlen, "%s", k->last_error);
+    warp_err(err, errlen, "%s", k->last_error);
 }
 
 static void add_plane(plat_kms *k, uint32_t fb)
@@ -591,7 +581,7 @@ int plat_kms_wait_vblanks(plat_kms *k, int64_t *t_ns, int max, int timeout_ms, c
         k->vq_head = (k->vq_head + 1) % VBLANK_QUEUE;
     }
     if (!n && k->vbl_error[0]) {
-        set_err(err, errlen, "%s", k->vbl_error);
+        warp_err(err, errlen, "%s", k->vbl_error);
         k->vbl_error[0] = 0;
         pthread_mutex_unlock(&k->mu);
         return -EIO;
@@ -674,7 +664,7 @@ static bool dumb_create(int fd, int w, int h, dumb_buf *b, char *err, int errlen
 {
     struct drm_mode_create_dumb cd = {.height = (uint32_t)h, .width = (uint32_t)w, .bpp = 32};
     if (drmIoctl(fd, DRM_IOCTL_MODE_CREATE_DUMB, &cd) != 0) {
-        set_err(err, errlen, "cannot create a %dx%d dumb buffer: %s", w, h, strerror(errno));
+        warp_err(err, errlen, "cannot create a %dx%d dumb buffer: %s", w, h, strerror(errno));
         return false;
     }
     b->handle = cd.handle;
@@ -682,12 +672,12 @@ static bool dumb_create(int fd, int w, int h, dumb_buf *b, char *err, int errlen
     b->size = cd.size;
     struct drm_mode_map_dumb md = {.handle = cd.handle};
     if (drmIoctl(fd, DRM_IOCTL_MODE_MAP_DUMB, &md) != 0) {
-        set_err(err, errlen, "cannot map a dumb buffer: %s", strerror(errno));
+        warp_err(err, errlen, "cannot map a dumb buffer: %s", strerror(errno));
         return false;
     }
     void *m = mmap(NULL, b->size, PROT_READ | PROT_WRITE, MAP_SHARED, fd, (off_t)md.offset);
     if (m == MAP_FAILED) {
-        set_err(err, errlen, "cannot mmap a dumb buffer: %s", strerror(errno));
+        warp_err(err, errlen, "cannot mmap a dumb buffer: %s", strerror(errno));
         return false;
     }
     b->map = m;
@@ -698,7 +688,7 @@ static bool dumb_fb(int fd, int w, int h, uint32_t fourcc, dumb_buf *b, char *er
 {
     uint32_t handles[4] = {b->handle}, pitches[4] = {b->pitch}, offsets[4] = {0};
     if (drmModeAddFB2(fd, (uint32_t)w, (uint32_t)h, fourcc, handles, pitches, offsets, &b->fb, 0) != 0) {
-        set_err(err, errlen, "drmModeAddFB2 %dx%d %s: %s", w, h, plat_kms_format_name(fourcc), strerror(errno));
+        warp_err(err, errlen, "drmModeAddFB2 %dx%d %s: %s", w, h, plat_kms_format_name(fourcc), strerror(errno));
         return false;
     }
     return true;
@@ -829,12 +819,12 @@ static void kms_destroy(plat_display *base)
     free(d);
 }
 
-plat_display *plat_display_kms(plat_kms *k, plat_swapchain *sc, char *err, int errlen)
+plat_display *plat_display_kms_create(plat_kms *k, plat_swapchain *sc, char *err, int errlen)
 {
     kms_display *d = calloc(1, sizeof *d);
     if (!d) {
         plat_kms_close(k);
-        set_err(err, errlen, "KMS: out of memory");
+        warp_err(err, errlen, "KMS: out of memory");
         return NULL;
     }
     d->k = k;
@@ -876,7 +866,7 @@ plat_display *plat_display_kms(plat_kms *k, plat_swapchain *sc, char *err, int e
         for (int i = 0; i < d->nbuf; i++) dumb_free(fd, &d->buf[i]);
         plat_kms_close(k);
         free(d);
-        set_err(err, errlen, "KMS dumb buffers: %s", e);
+        warp_err(err, errlen, "KMS dumb buffers: %s", e);
         return NULL;
     }
     plat_kms_set_format(k, fourcc);

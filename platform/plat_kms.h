@@ -115,6 +115,6 @@ void plat_kms_copy_to_xbgr(uint8_t *dst, int pitch, const warp_image_rgba8 *src)
  * buffers (sc's pixels are swapped in, and back at destroy) and are flipped to without a copy; else XRGB8888,
  * converted into buffers of the display's own by its thread. present() only hands the index to that thread
  * (held[] set until the image is no longer read). Takes ownership of k (closed on failure too). NULL with err. */
-plat_display *plat_display_kms(plat_kms *k, plat_swapchain *sc, char *err, int errlen);
+plat_display *plat_display_kms_create(plat_kms *k, plat_swapchain *sc, char *err, int errlen);
 
 #endif

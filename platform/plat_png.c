@@ -10,27 +10,23 @@
 #include <string.h>
 #include <sys/stat.h>
 
-static bool fail(char *err, int errlen, const char *fmt, const char *path, const char *why)
-{
-    if (err && errlen > 0) snprintf(err, (size_t)errlen, fmt, path, why);
-    return false;
-}
+#include "warp/warp_err.h"
 
 static bool write_png(const char *path, int w, int h, int color_type, png_bytep *rows, char *err, int errlen)
 {
     FILE *f = fopen(path, "wb");
-    if (!f) return fail(err, errlen, "cannot write %s: %s", path, strerror(errno));
+    if (!f) return warp_err(err, errlen, "cannot write %s: %s", path, strerror(errno));
     png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, NULL, NULL, NULL);
     png_infop info = png ? png_create_info_struct(png) : NULL;
     if (!png || !info) {
         png_destroy_write_struct(&png, &info);
         fclose(f);
-        return fail(err, errlen, "cannot write %s: %s", path, "out of memory");
+        return warp_err(err, errlen, "cannot write %s: %s", path, "out of memory");
     }
     if (setjmp(png_jmpbuf(png))) {
         png_destroy_write_struct(&png, &info);
         fclose(f);
-        return fail(err, errlen, "cannot write %s: %s", path, "libpng error");
+        return warp_err(err, errlen, "cannot write %s: %s", path, "libpng error");
     }
     png_init_io(png, f);
     /* Fast compression: snapshots are for looking at, and the writer thread should keep up. */
@@ -41,7 +37,7 @@ static bool write_png(const char *path, int w, int h, int color_type, png_bytep 
     png_write_image(png, rows);
     png_write_end(png, NULL);
     png_destroy_write_struct(&png, &info);
-    if (fclose(f) != 0) return fail(err, errlen, "cannot write %s: %s", path, strerror(errno));
+    if (fclose(f) != 0) return warp_err(err, errlen, "cannot write %s: %s", path, strerror(errno));
     return true;
 }
 
@@ -49,12 +45,12 @@ bool plat_png_write(const char *path, const warp_image_rgba8 *img, bool rgb_only
 {
     png_bytep *rows = malloc(sizeof(png_bytep) * (size_t)img->h);
     unsigned char *rgb = NULL;
-    if (!rows) return fail(err, errlen, "cannot write %s: %s", path, "out of memory");
+    if (!rows) return warp_err(err, errlen, "cannot write %s: %s", path, "out of memory");
     if (rgb_only) {
         rgb = malloc((size_t)img->w * (size_t)img->h * 3);
         if (!rgb) {
             free(rows);
-            return fail(err, errlen, "cannot write %s: %s", path, "out of memory");
+            return warp_err(err, errlen, "cannot write %s: %s", path, "out of memory");
         }
         for (int y = 0; y < img->h; y++) {
             unsigned char *d = rgb + (size_t)y * (size_t)img->w * 3;
@@ -78,7 +74,7 @@ bool plat_png_write(const char *path, const warp_image_rgba8 *img, bool rgb_only
 bool plat_png_write_u8(const char *path, const warp_image_u8 *img, char *err, int errlen)
 {
     png_bytep *rows = malloc(sizeof(png_bytep) * (size_t)img->h);
-    if (!rows) return fail(err, errlen, "cannot write %s: %s", path, "out of memory");
+    if (!rows) return warp_err(err, errlen, "cannot write %s: %s", path, "out of memory");
     for (int y = 0; y < img->h; y++) rows[y] = (png_bytep)&WARP_AT(img, 0, y);
     bool ok = write_png(path, img->w, img->h, PNG_COLOR_TYPE_GRAY, rows, err, errlen);
     free(rows);
@@ -94,15 +90,15 @@ static bool begin_read(const char *path, png_image *pi, FILE **fp, size_t max_pi
     memset(pi, 0, sizeof *pi);
     pi->version = PNG_IMAGE_VERSION;
     FILE *f = fopen(path, "rb");
-    if (!f) return fail(err, errlen, "cannot read %s: %s", path, strerror(errno));
+    if (!f) return warp_err(err, errlen, "cannot read %s: %s", path, strerror(errno));
     struct stat st;
     if (fstat(fileno(f), &st) != 0 || !S_ISREG(st.st_mode)) {
         fclose(f);
-        return fail(err, errlen, "cannot read %s: %s", path, "not a regular file");
+        return warp_err(err, errlen, "cannot read %s: %s", path, "not a regular file");
     }
     if (!png_image_begin_read_from_stdio(pi, f)) {
         fclose(f);
-        return fail(err, errlen, "cannot read %s: %s", path, pi->message);
+        return warp_err(err, errlen, "cannot read %s: %s", path, pi->message);
     }
     size_t w = pi->width, h = pi->height;
     unsigned long long raw_min = (unsigned long long)h * (1 + (w + 7) / 8);
@@ -120,7 +116,7 @@ static bool begin_read(const char *path, png_image *pi, FILE **fp, size_t max_pi
     }
     png_image_free(pi);
     fclose(f);
-    return fail(err, errlen, "cannot read %s: %s", path, why);
+    return warp_err(err, errlen, "cannot read %s: %s", path, why);
 }
 
 bool plat_png_read_max(const char *path, warp_image_rgba8 *img, size_t max_pixels, char *err, int errlen)
@@ -134,13 +130,13 @@ bool plat_png_read_max(const char *path, warp_image_rgba8 *img, size_t max_pixel
     if (!warp_image_rgba8_alloc(img, (int)pi.width, (int)pi.height)) {
         png_image_free(&pi);
         fclose(f);
-        return fail(err, errlen, "cannot read %s: %s", path, "out of memory");
+        return warp_err(err, errlen, "cannot read %s: %s", path, "out of memory");
     }
     bool ok = png_image_finish_read(&pi, NULL, img->px, (png_int_32)(img->stride * 4), NULL);
     fclose(f);
     if (!ok) {
         warp_image_free(img);
-        return fail(err, errlen, "cannot read %s: %s", path, pi.message);
+        return warp_err(err, errlen, "cannot read %s: %s", path, pi.message);
     }
     return true;
 }
@@ -162,21 +158,21 @@ bool plat_png_read_u16_max(const char *path, uint16_t **px, int *w, int *h, size
     if (!(pi.format & PNG_FORMAT_FLAG_LINEAR)) {
         png_image_free(&pi);
         fclose(f);
-        return fail(err, errlen, "cannot read %s: %s", path, "expected a 16-bit PNG (depth or id plane)");
+        return warp_err(err, errlen, "cannot read %s: %s", path, "expected a 16-bit PNG (depth or id plane)");
     }
     pi.format = PNG_FORMAT_LINEAR_Y;
     *px = malloc(sizeof(uint16_t) * (size_t)pi.width * (size_t)pi.height); /* bounded by begin_read */
     if (!*px) {
         png_image_free(&pi);
         fclose(f);
-        return fail(err, errlen, "cannot read %s: %s", path, "out of memory");
+        return warp_err(err, errlen, "cannot read %s: %s", path, "out of memory");
     }
     bool ok = png_image_finish_read(&pi, NULL, *px, 0, NULL);
     fclose(f);
     if (!ok) {
         free(*px);
         *px = NULL;
-        return fail(err, errlen, "cannot read %s: %s", path, pi.message);
+        return warp_err(err, errlen, "cannot read %s: %s", path, pi.message);
     }
     *w = (int)pi.width;
     *h = (int)pi.height;
@@ -197,6 +193,6 @@ bool plat_png_write_u16(const char *path, const uint16_t *px, int w, int h, char
     pi.height = (png_uint_32)h;
     pi.format = PNG_FORMAT_LINEAR_Y;
     if (!png_image_write_to_file(&pi, path, 0, px, 0, NULL))
-        return fail(err, errlen, "cannot write %s: %s", path, pi.message);
+        return warp_err(err, errlen, "cannot write %s: %s", path, pi.message);
     return true;
 }

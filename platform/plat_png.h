@@ -17,8 +17,8 @@ bool plat_png_write(const char *path, const warp_image_rgba8 *img, bool rgb_only
 bool plat_png_write_u8(const char *path, const warp_image_u8 *img, char *err, int errlen);
 /* What the readers take: at most PLAT_PNG_MAX_SIDE per side and PLAT_PNG_MAX_PIXELS in all (a 16384 x 16384 frame),
  * and never more pixels than the file's bytes can decompress to; checked before anything is allocated. */
-#define PLAT_PNG_MAX_SIDE 16384
-#define PLAT_PNG_MAX_PIXELS ((size_t)16384 * 16384)
+#define PLAT_PNG_MAX_SIDE WARP_MAX_SIDE
+#define PLAT_PNG_MAX_PIXELS ((size_t)WARP_MAX_SIDE * WARP_MAX_SIDE)
 
 /* Reads any PNG (grey, RGB, palette, 16-bit, with or without alpha) into a newly allocated RGBA8 image. */
 bool plat_png_read(const char *path, warp_image_rgba8 *img, char *err, int errlen);

@@ -146,19 +146,19 @@ int main(int argc, char **argv)
             shorthand(&cfg, "telemetry.stats", v, &err);
             i++;
         } else {
-            fprintf(stderr, "hmdwarpd: unknown or incomplete option '%s' (see --help)\n", a);
+            plat_log(PLAT_LOG_ERR, "unknown or incomplete option '%s' (see --help)", a);
             return 2;
         }
     }
     if (!err.count) rt_config_validate(&cfg, &err);
     if (err.count) {
-        for (int i = 0; i < err.count && i < 16; i++) fprintf(stderr, "hmdwarpd: config error: %s\n", err.msg[i]);
-        if (err.count > 16) fprintf(stderr, "hmdwarpd: ... and %d more\n", err.count - 16);
+        for (int i = 0; i < err.count && i < 16; i++) plat_log(PLAT_LOG_ERR, "config error: %s", err.msg[i]);
+        if (err.count > 16) plat_log(PLAT_LOG_ERR, "... and %d more", err.count - 16);
         return 2;
     }
     rt_config_errors warn = {0};
     rt_config_warnings(&cfg, &warn);
-    for (int i = 0; i < warn.count && i < 16; i++) fprintf(stderr, "hmdwarpd: warning: %s\n", warn.msg[i]);
+    for (int i = 0; i < warn.count && i < 16; i++) plat_log(PLAT_LOG_WARNING, "warning: %s", warn.msg[i]);
     if (check) {
         printf("; %s: valid\n", config ? config : "built-in defaults");
         printf("; allocates about %.0f MiB at start ([render] max_memory_mb = %g)\n",
@@ -201,7 +201,8 @@ int main(int argc, char **argv)
         bool waiting = stopped_by_signal && rt_telemetry_waiting_for_host(app.tel);
         printf("result                       %s, nothing shown: %s\n", waiting ? "stopped" : "FAILED", why);
         fflush(stdout);
-        fprintf(stderr, "hmdwarpd: nothing shown: %s%s\n", why, waiting ? " (stopped while waiting for a host)" : "");
+        plat_log(waiting ? PLAT_LOG_NOTICE : PLAT_LOG_ERR, "nothing shown: %s%s", why,
+                 waiting ? " (stopped while waiting for a host)" : "");
         rc = waiting ? 0 : 1;
     }
     if (cfg.stats[0]) {

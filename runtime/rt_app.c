@@ -69,7 +69,7 @@ static bool cpu_kms_init(rt_app *a, const plat_kms_params *kp, char *err, int er
         plat_kms_close(k);
         return fail(err, errlen, "[display] output = kms: the mode is %s%s", e, "");
     }
-    a->dev.display = plat_display_kms(k, &a->sc, e, sizeof e);
+    a->dev.display = plat_display_kms_create(k, &a->sc, e, sizeof e);
     if (!a->dev.display) return fail(err, errlen, "[display] output = kms: %s%s", e, "");
     a->dev.kms = k;
     return true;
@@ -180,7 +180,7 @@ bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen)
     for (int e = 0; e < 2; e++) a->eye_cam[e] = rt_config_eye_camera(c, e);
     /* one shown, one waiting for its vsync, one being drawn; a fourth while a file sink still reads one, or while
      * a pass started by [render] stall_reserve_ms more than a period ahead keeps two out of reach */
-    if (!plat_swapchain_init(&a->sc, c->stall_reserve_ms > 0 ? 4 : 3, c->panel_w, c->panel_h))
+    if (!plat_swapchain_alloc(&a->sc, c->stall_reserve_ms > 0 ? 4 : 3, c->panel_w, c->panel_h))
         return fail(err, errlen, "cannot allocate the swapchain (%s%s)", "[display] width/height", "");
     a->workers = plat_workers_create(c->threads - 1, c->rt_priority);
     if (!a->workers) return fail(err, errlen, "cannot start %s%s", "compositor worker threads", "");
@@ -224,16 +224,16 @@ bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen)
                        (a->can_transparency ? DRV_PLANE_LAYERS : 0);
     if (!rt_devices_open(&a->dev, c, &a->trace, &sp, err, errlen) || !rt_devices_mount(&a->dev, c, err, errlen))
         return false;
-    if (!rt_frameq_init(&a->fq, c->eye_w, c->eye_h, drv_frames_planes(a->dev.frames), 4))
+    if (!rt_frameq_alloc(&a->fq, c->eye_w, c->eye_h, drv_frames_planes(a->dev.frames), 4))
         return fail(err, errlen, "cannot allocate %s%s", "the frame slots", "");
 
     if (a->dev.display) {
         /* the CPU path's KMS output, opened with the renderer */
     } else if (strcmp(c->sink, "null") == 0) {
-        a->dev.display = plat_display_null();
+        a->dev.display = plat_display_null_create();
     } else {
         char e2[300];
-        a->dev.display = plat_display_files(c->sink, c->sink_path, c->sink_every, e2, sizeof e2);
+        a->dev.display = plat_display_files_create(c->sink, c->sink_path, c->sink_every, e2, sizeof e2);
         if (!a->dev.display) return fail(err, errlen, "[display] sink = %s: %s", c->sink, e2);
     }
     if (!a->dev.display) return fail(err, errlen, "%s%s", "out of memory", "");

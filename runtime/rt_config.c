@@ -61,8 +61,9 @@ static const keydef keys[] = {
     {"board", "name", K_STR, F(board_name), S(board_name), 0, 0, NULL, "board name shown in the summary"},
     {"board", "arch", K_CHOICE, F(board_arch), S(board_arch), 0, 0, arch_names,
      "the board's CPU architecture (any, aarch64, x86_64, arm): board/flash.sh refuses a tree built for another"},
-    {"display", "width", K_INT, F(panel_w), 0, 16, 16384, NULL, "panel width in pixels (both eyes side by side)"},
-    {"display", "height", K_INT, F(panel_h), 0, 16, 16384, NULL, "panel height in pixels"},
+    {"display", "width", K_INT, F(panel_w), 0, 16, WARP_MAX_SIDE, NULL,
+     "panel width in pixels (both eyes side by side)"},
+    {"display", "height", K_INT, F(panel_h), 0, 16, WARP_MAX_SIDE, NULL, "panel height in pixels"},
     {"display", "refresh_hz", K_DOUBLE, F(refresh_hz), 0, 10, 500, NULL, "panel refresh rate"},
     {"display", "photon_offset_ms", K_DOUBLE, F(photon_offset_ms), 0, 0, 100, NULL,
      "time from the vsync edge to when the photons are seen (prediction target)"},
@@ -720,7 +721,7 @@ static const char *keys_at(const rt_config *c, const char *list, char *buf, size
  * choose any of them. */
 static bool method_needs(const rt_config *c, unsigned plane)
 {
-    return c->method == RT_METHOD_AUTO || (warp_method_get((warp_method)c->method)->needs & plane);
+    return c->method == RT_METHOD_AUTO || (warp_method_get(rt_method_warp(c->method))->needs & plane);
 }
 static bool wants_ids(const rt_config *c) { return method_needs(c, WARP_NEEDS_IDS); }
 static bool wants_layers(const rt_config *c) { return method_needs(c, WARP_NEEDS_LAYERS); }
@@ -735,7 +736,7 @@ uint64_t rt_config_frame_bytes(const rt_config *c)
 
 uint64_t rt_config_memory_bytes(const rt_config *c)
 {
-    /* Bytes per eye-buffer pixel and eye of each allocation (rt_app_init, rt_frameq_init, drv_frame_alloc). */
+    /* Bytes per eye-buffer pixel and eye of each allocation (rt_app_init, rt_frameq_alloc, drv_frame_alloc). */
     enum { COLOR = 4, DEPTH = 4, IDS = 2, LAYERS = 1 + 4 * 12, PLANAR = 6, INV_DEPTH = 4, OPAQUE = 4 };
     const bool ids = wants_ids(c), layers = wants_layers(c);
     const uint64_t eye_px = (uint64_t)c->eye_w * (uint64_t)c->eye_h, eyes = 2;

@@ -10,6 +10,7 @@
 
 #include "warp/warp_camera.h"
 #include "warp/warp_lens.h"
+#include "warp/warp_registry.h"
 
 /* The warps the compositor runs; AUTO is not a warp but [warp] method = auto: rt_select picks one per vsync. */
 typedef enum {
@@ -24,6 +25,13 @@ typedef enum {
     RT_METHOD_AUTO = RT_METHOD_COUNT
 } rt_method;
 const char *rt_method_name(rt_method m);
+/* The registry's entry for a warp the compositor runs: use this, never a cast. RT_METHOD_AUTO is no warp, and its
+ * value is the registry's first reference warp (iterative, which no pass runs): it reads as rotation here, what a
+ * vsync shows when nothing was chosen. */
+static inline warp_method rt_method_warp(rt_method m)
+{
+    return m >= 0 && m < RT_METHOD_COUNT ? (warp_method)m : WARP_METHOD_ROTATION;
+}
 /* [render] kernel's value names, in warp_resample_kernel_id order ("auto", "scalar", ...). */
 const char *rt_kernel_name(int k);
 

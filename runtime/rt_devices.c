@@ -11,6 +11,7 @@
 #include "drivers/drv_sim.h"
 #include "drivers/drv_vsync_gpio_mock.h"
 #include "drivers/drv_vsync_kms.h"
+#include "drivers/drv_vsync_timer.h"
 #include "platform/plat_clock.h"
 #include "platform/plat_log.h"
 #include "runtime/rt_devices.h"

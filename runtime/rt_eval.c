@@ -55,7 +55,7 @@ void *rt_eval_thread(void *arg)
     bool ok = sim_buffers_alloc(&src, cam->width, cam->height, SIM_PLANE_COLOR | SIM_PLANE_DEPTH, 1) &&
               sim_buffers_alloc(&truth, cam->width, cam->height, SIM_PLANE_COLOR, 1) &&
               warp_image_rgba8_alloc(&out, cam->width, cam->height) &&
-              warp_image_f32_alloc(&inv, cam->width, cam->height) && warp_mesh_init_eye(&mesh, a->cfg.mesh_n, cam) &&
+              warp_image_f32_alloc(&inv, cam->width, cam->height) && warp_mesh_alloc_eye(&mesh, a->cfg.mesh_n, cam) &&
               warp_planar3_alloc(&planar, cam->width, cam->height);
     /* The display methods are scored here with the warp part of the CPU pass alone, on the left eye, in eye space
      * before the lens: the truth is an eye-space render, and scoring after the lens would measure the mesh's

@@ -80,7 +80,7 @@ void rt_frame_free(rt_frame *s)
     }
 }
 
-bool rt_frameq_init(rt_frameq *q, int w, int h, unsigned planes, int max_layers)
+bool rt_frameq_alloc(rt_frameq *q, int w, int h, unsigned planes, int max_layers)
 {
     memset(q, 0, sizeof *q);
     for (int i = 0; i < 3; i++)
@@ -115,9 +115,10 @@ const rt_frame *rt_frameq_latest(rt_frameq *q, bool *is_new)
     if (atomic_load_explicit(&q->middle, memory_order_relaxed) & NEW_BIT) {
         int old = atomic_exchange_explicit(&q->middle, q->front, memory_order_acq_rel);
         q->front = old & 3;
+        q->have_front = true;
         fresh = true;
     }
     if (is_new) *is_new = fresh;
     /* Until the first publish the consumer's slot holds nothing. */
-    return q->slot[q->front].f.seq ? &q->slot[q->front] : NULL;
+    return q->have_front ? &q->slot[q->front] : NULL;
 }

@@ -25,7 +25,7 @@ typedef struct {
 
 #define RT_BLOCK 8
 
-/* One frame slot's planes for two eyes of w x h (what rt_frameq_init allocates three of). */
+/* One frame slot's planes for two eyes of w x h (what rt_frameq_alloc allocates three of). */
 bool rt_frame_alloc(rt_frame *s, int w, int h, unsigned planes, int max_layers);
 void rt_frame_free(rt_frame *s);
 /* Validates a received frame and derives what the warps read from it (inverse depth and its range, the raytrace's
@@ -41,10 +41,12 @@ typedef struct {
      * taken. Producer and consumer each own one more slot; ownership moves only by atomic exchange. */
     _Atomic int middle;
     int back;  /* producer-owned */
-    int front; /* consumer-owned; -1 until the first frame */
+    int front; /* consumer-owned */
+    /* consumer-owned: whether front holds a frame yet. Not the frame's seq: a host may start counting at 0. */
+    bool have_front;
 } rt_frameq;
 
-bool rt_frameq_init(rt_frameq *q, int w, int h, unsigned planes, int max_layers);
+bool rt_frameq_alloc(rt_frameq *q, int w, int h, unsigned planes, int max_layers);
 void rt_frameq_free(rt_frameq *q);
 
 /* Producer: the slot to fill, and publishing it (the previous unconsumed frame, if any, is replaced: the

@@ -107,7 +107,7 @@ rt_render_cpu *rt_render_cpu_create(const rt_render_cpu_params *p, plat_workers 
     r->j.r = r;
     int vw = p->panel_w / 2;
     for (int e = 0; e < 2; e++)
-        if (!warp_mesh_init(&r->mesh[e], p->mesh_n, &r->p.lens[e], e * vw, 0, vw, p->panel_h))
+        if (!warp_mesh_alloc(&r->mesh[e], p->mesh_n, &r->p.lens[e], e * vw, 0, vw, p->panel_h))
             return fail(r, err, errlen, "[lens] mesh: cannot allocate the distortion mesh");
     for (int e = 0; e < 2 && p->depth_warps; e++) {
         bool ok = warp_image_rgba8_alloc(&r->inter[e], p->eye_w, p->eye_h) &&
@@ -120,7 +120,7 @@ rt_render_cpu *rt_render_cpu_create(const rt_render_cpu_params *p, plat_workers 
         if (ok && p->objects) {
             r->objs[e] = calloc(1, sizeof *r->objs[e]);
             ok = r->objs[e] && warp_fwd_scratch_alloc(&r->fwd[e], p->eye_w, p->eye_h, p->eye_w, p->eye_h) &&
-                 warp_holes_init(&r->holes[e], p->eye_w, p->eye_h, 12);
+                 warp_holes_alloc(&r->holes[e], p->eye_w, p->eye_h, 12);
         }
         if (!ok) return fail(r, err, errlen, "cannot allocate the depth warps' buffers");
     }

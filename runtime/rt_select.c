@@ -53,10 +53,10 @@ double rt_select_parallax_px(const warp_camera *cam, double translation_m, doubl
 }
 
 /* A method "escalates" over another when the registry ranks it dearer (and more capable). */
-static int rank(rt_method m) { return warp_method_get((warp_method)m)->cost_rank; }
+static int rank(rt_method m) { return warp_method_get(rt_method_warp(m))->cost_rank; }
 
 /* One rung down the registry's fallback ladder, towards rotation. */
-static rt_method cheaper(rt_method m) { return (rt_method)warp_method_get((warp_method)m)->fallback; }
+static rt_method cheaper(rt_method m) { return (rt_method)warp_method_get(rt_method_warp(m))->fallback; }
 
 rt_method rt_select_choose(rt_select *s, rt_method configured, const rt_select_input *in, rt_select_why *why)
 {

@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "sim/sim_internal.h"
+#include "warp/warp_rand.h"
 
 #define NELEM(a) ((int)(sizeof(a) / sizeof((a)[0])))
 
@@ -119,17 +120,9 @@ static const sim_object outdoor_objs[] = {
 /* Hairball strands: generated from a hash of the strand index (no tables to keep in sync, no mutable state). */
 enum { HAIRBALL_N = 300 };
 
-static uint64_t mix64(uint64_t z)
-{
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-}
-
 static double hash_uniform(uint64_t key, int k) /* [0, 1) */
 {
-    return (double)(mix64(key * 0x9E3779B97F4A7C15ull + (uint64_t)k * 0xD1B54A32D192ED03ull + 0x632BE59BD9B4E019ull) >>
-                    11) * (1.0 / 9007199254740992.0);
+    return warp_unit53(warp_mix64(key * WARP_GOLDEN64 + (uint64_t)k * 0xD1B54A32D192ED03ull + 0x632BE59BD9B4E019ull));
 }
 
 static void hairball_strand(int k, sim_object *o)

@@ -6,6 +6,8 @@
 #include <math.h>
 #include <string.h>
 
+#include "warp/warp_rand.h"
+
 static const char *const trace_names[] = {"still", "slow", "fast", "translate", "jitter", NULL};
 
 #define DEG (WARP_PI / 180.0)
@@ -36,15 +38,10 @@ const char *sim_trace_name(const sim_trace *tr)
 
 /* ---- counter-based randomness: any value from (seed, counter) alone, so evaluation order never matters ---- */
 
-static uint64_t mix64(uint64_t z)
+static uint64_t key3(uint64_t seed, uint64_t a, uint64_t b)
 {
-    z += 0x9E3779B97F4A7C15ull;
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
+    return warp_splitmix64(warp_splitmix64(warp_splitmix64(seed) ^ a) ^ (b * 0xD6E8FEB86659FD93ull));
 }
-
-static uint64_t key3(uint64_t seed, uint64_t a, uint64_t b) { return mix64(mix64(mix64(seed) ^ a) ^ (b * 0xD6E8FEB86659FD93ull)); }
 
 static double unit_open(uint64_t k) /* (0, 1] */ { return ((double)(k >> 11) + 1.0) * (1.0 / 9007199254740992.0); }
 
@@ -118,12 +115,13 @@ static void trace_ypr(const sim_trace *tr, double t, ypr *s)
             for (int i = 0; i < 2; i++) {
                 uint64_t k = key3(tr->seed, 0xD21F7, (uint64_t)(axis * 8 + i));
                 double f = (i == 0 ? 0.07 : 0.23) * (0.8 + 0.4 * unit_open(k));
-                add_sine(s, axis, scale * (i == 0 ? 1.0 : 0.5) * DEG, f, 2 * WARP_PI * unit_open(mix64(k)), t);
+                add_sine(s, axis, scale * (i == 0 ? 1.0 : 0.5) * DEG, f, 2 * WARP_PI * unit_open(warp_splitmix64(k)),
+                         t);
             }
             for (int i = 0; i < 3; i++) {
                 uint64_t k = key3(tr->seed, 0x77E40, (uint64_t)(axis * 8 + i));
                 double f = 8.0 + 4.0 * unit_open(k);
-                add_sine(s, axis, scale * 0.07 * DEG, f, 2 * WARP_PI * unit_open(mix64(k)), t);
+                add_sine(s, axis, scale * 0.07 * DEG, f, 2 * WARP_PI * unit_open(warp_splitmix64(k)), t);
             }
         }
         break;
@@ -193,7 +191,7 @@ sim_imu_params sim_imu_default_params(void)
 static double gauss(uint64_t seed, uint64_t index, int axis)
 {
     uint64_t k = key3(seed, index, (uint64_t)axis + 1);
-    double u1 = unit_open(k), u2 = unit_open(mix64(k ^ 0x5851F42D4C957F2Dull));
+    double u1 = unit_open(k), u2 = unit_open(warp_splitmix64(k ^ 0x5851F42D4C957F2Dull));
     return sqrt(-2.0 * log(u1)) * cos(2 * WARP_PI * u2);
 }
 

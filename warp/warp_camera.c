@@ -6,6 +6,8 @@
 #include <math.h>
 #include <string.h>
 
+#include "warp/warp_image.h"
+
 warp_camera warp_camera_symmetric(int width, int height, double hfov_deg, double vfov_deg, double near_z, double far_z)
 {
     warp_camera c;
@@ -20,7 +22,8 @@ warp_camera warp_camera_symmetric(int width, int height, double hfov_deg, double
 
 const char *warp_camera_check(const warp_camera *c)
 {
-    if (c->width <= 0 || c->height <= 0 || c->width > 16384 || c->height > 16384) return "image size out of range";
+    if (c->width <= 0 || c->height <= 0 || c->width > WARP_MAX_SIDE || c->height > WARP_MAX_SIDE)
+        return "image size out of range";
     if (!isfinite(c->tan_left) || !isfinite(c->tan_right) || !isfinite(c->tan_up) || !isfinite(c->tan_down))
         return "FOV tangent not finite";
     if (!(c->tan_left + c->tan_right > 1e-6) || !(c->tan_up + c->tan_down > 1e-6)) return "FOV is empty";

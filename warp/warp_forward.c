@@ -108,8 +108,8 @@ void warp_fwd_scratch_free(warp_fwd_scratch *s)
 bool warp_fwd_scratch_alloc(warp_fwd_scratch *s, int src_w, int src_h, int dst_w, int dst_h)
 {
     memset(s, 0, sizeof *s);
-    if (src_w <= 0 || src_h <= 0 || dst_w <= 0 || dst_h <= 0 || src_w > 16384 || src_h > 16384 || dst_w > 16384 ||
-        dst_h > 16384)
+    if (src_w <= 0 || src_h <= 0 || dst_w <= 0 || dst_h <= 0 || src_w > WARP_MAX_SIDE || src_h > WARP_MAX_SIDE ||
+        dst_w > WARP_MAX_SIDE || dst_h > WARP_MAX_SIDE)
         return false;
     size_t ns = (size_t)src_w * (size_t)src_h, nd = (size_t)dst_w * (size_t)dst_h;
     s->src_w = src_w;

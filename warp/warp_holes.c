@@ -104,7 +104,7 @@ void warp_holes_free(warp_holes_ctx *c)
     memset(c, 0, sizeof *c);
 }
 
-bool warp_holes_init(warp_holes_ctx *c, int w, int h, int max_levels)
+bool warp_holes_alloc(warp_holes_ctx *c, int w, int h, int max_levels)
 {
     memset(c, 0, sizeof *c);
     if (w <= 0 || h <= 0 || w > 32767 || h > 32767 || max_levels < 1 || max_levels > MAX_LEVELS) return false;

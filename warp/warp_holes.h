@@ -76,7 +76,7 @@ typedef struct {
 /* One pyramid cell: colour (0..255, straight alpha), coverage weight, inverse depth. */
 typedef struct { float c[4]; float wt, inv; } warp_holes_cell;
 
-/* Scratch for one image size, allocated once (warp_holes_init), reused every frame. */
+/* Scratch for one image size, allocated once (warp_holes_alloc), reused every frame. */
 typedef struct {
     int w, h, max_levels;
     int levels;                  /* built by the last prepare */
@@ -92,7 +92,7 @@ typedef struct {
 
 /* Allocates scratch for w x h images (at most 32767 each way) with up to max_levels pyramid levels (1..16).
  * False on bad size / no memory (the ctx is then zeroed; warp_holes_free is safe on it). */
-bool warp_holes_init(warp_holes_ctx *c, int w, int h, int max_levels);
+bool warp_holes_alloc(warp_holes_ctx *c, int w, int h, int max_levels);
 void warp_holes_free(warp_holes_ctx *c);
 
 /* Takes a snapshot of the valid pixels (mask without WARP_MASK_HOLE) of dst, their warped inverse depth

@@ -27,6 +27,10 @@ typedef struct {
     warp_fragment *frag;  /* [(y*w + x) * max_layers + k] */
 } warp_image_layers;
 
+/* The largest image side any part accepts (eye buffers, panels, host frames, files read): far above any headset
+ * panel, small enough that w * h * 16 bytes and every pixel index stay within size_t and int arithmetic. */
+#define WARP_MAX_SIDE 16384
+
 #define WARP_AT(img, x, y) ((img)->px[(size_t)(y) * (size_t)(img)->stride + (size_t)(x)])
 
 /* Allocation: rows padded to 64 bytes; returns false on bad size or out of memory (the image is then zeroed). */

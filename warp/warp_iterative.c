@@ -7,6 +7,8 @@
 #include <stdint.h>
 #include <string.h>
 
+#include "warp/warp_rand.h"
+
 /* Scratch bits per target pixel for the dilation. */
 enum { ST_HOLE = 1, ST_APPROX = 2, ST_NEW = 4 };
 
@@ -216,11 +218,7 @@ static warp_rgba8 sample_layer(const warp_iter_ctx *c, int layer, double qx, dou
 static inline double jitter(uint32_t x, uint32_t y, uint32_t l, uint32_t k, uint32_t axis)
 {
     uint64_t z = ((uint64_t)x << 40) ^ ((uint64_t)y << 20) ^ ((uint64_t)l << 12) ^ ((uint64_t)k << 1) ^ axis;
-    z += 0x9E3779B97F4A7C15ull;
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    z ^= z >> 31;
-    return (double)(z >> 11) * (1.0 / 9007199254740992.0);
+    return warp_unit53(warp_splitmix64(z));
 }
 
 /* Image-space bounding rectangle of the search region: the box [P - hi, P - lo] in rotated coordinates, where

@@ -7,6 +7,8 @@
 #include <stdarg.h>
 #include <stdio.h>
 
+#include "warp/warp_err.h"
+
 static const char *const channel_name[3] = {"red", "green", "blue"};
 
 /* s(r^2) by Horner's rule. */
@@ -186,7 +188,7 @@ static const char *fail(char *buf, int buflen, const char *fmt, ...)
     if (!buf || buflen <= 0) return "lens unusable"; /* no room for details, but still report failure */
     va_list ap;
     va_start(ap, fmt);
-    vsnprintf(buf, (size_t)buflen, fmt, ap);
+    warp_verr(buf, buflen, fmt, ap);
     va_end(ap);
     return buf;
 }

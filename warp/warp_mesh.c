@@ -10,7 +10,7 @@
 static bool mesh_alloc(warp_mesh *m, int n, int vp_x, int vp_y, int vp_w, int vp_h)
 {
     memset(m, 0, sizeof *m);
-    if (n < 2 || n > 1024 || vp_w <= 0 || vp_h <= 0 || vp_w > 16384 || vp_h > 16384) return false;
+    if (n < 2 || n > 1024 || vp_w <= 0 || vp_h <= 0 || vp_w > WARP_MAX_SIDE || vp_h > WARP_MAX_SIDE) return false;
     /* Columns a multiple of 8 pixels apart (see warp_mesh.h): the nearest such spacing to n evenly spread. */
     int cell_w = 8 * (int)((double)vp_w / (n - 1) / 8.0 + 0.5);
     if (cell_w < 8) cell_w = 8;
@@ -45,7 +45,7 @@ static void vertex_xy(const warp_mesh *m, int i, int j, double *x, double *y)
     *y = (double)j * m->vp_h / (m->rows - 1);
 }
 
-bool warp_mesh_init(warp_mesh *m, int n, const warp_lens *lens, int vp_x, int vp_y, int vp_w, int vp_h)
+bool warp_mesh_alloc(warp_mesh *m, int n, const warp_lens *lens, int vp_x, int vp_y, int vp_w, int vp_h)
 {
     if (!mesh_alloc(m, n, vp_x, vp_y, vp_w, vp_h)) return false;
     for (int j = 0; j < m->rows; j++)
@@ -61,7 +61,7 @@ bool warp_mesh_init(warp_mesh *m, int n, const warp_lens *lens, int vp_x, int vp
     return true;
 }
 
-bool warp_mesh_init_eye(warp_mesh *m, int n, const warp_camera *cam)
+bool warp_mesh_alloc_eye(warp_mesh *m, int n, const warp_camera *cam)
 {
     if (!mesh_alloc(m, n, 0, 0, cam->width, cam->height)) return false;
     for (int j = 0; j < m->rows; j++)

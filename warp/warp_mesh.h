@@ -52,12 +52,12 @@ typedef struct {
 } warp_mesh;
 
 /* Allocates the mesh and evaluates the lens at every vertex (start-up only). n must be in [2, 1024], the viewport
- * at most 16384 pixels on a side. Returns false on bad arguments or out of memory. */
-bool warp_mesh_init(warp_mesh *m, int n, const warp_lens *lens, int vp_x, int vp_y, int vp_w, int vp_h);
+ * at most WARP_MAX_SIDE pixels on a side. Returns false on bad arguments or out of memory. */
+bool warp_mesh_alloc(warp_mesh *m, int n, const warp_lens *lens, int vp_x, int vp_y, int vp_w, int vp_h);
 /* A mesh over an eye camera's own image, without a lens: vertex (x, y) sees the direction of cam's continuous
  * pixel position (x, y), viewport (0, 0, width, height). Resampled through it, a warp gives the eye-buffer image
  * a depth warp would (tests and benchmarks compare it with them and with ground truth). Start-up only. */
-bool warp_mesh_init_eye(warp_mesh *m, int n, const warp_camera *cam);
+bool warp_mesh_alloc_eye(warp_mesh *m, int n, const warp_camera *cam);
 void warp_mesh_free(warp_mesh *m);
 
 /* Rebuilds the source positions for a rotation warp: a vertex seeing tangent direction t of the target eye

@@ -11,7 +11,7 @@
 bool warp_motion_alloc(warp_motion_buffer *m, int w, int h)
 {
     memset(m, 0, sizeof *m);
-    if (w <= 0 || h <= 0 || w > 16384 || h > 16384) return false;
+    if (w <= 0 || h <= 0 || w > WARP_MAX_SIDE || h > WARP_MAX_SIDE) return false;
     m->px = calloc((size_t)w * (size_t)h, sizeof *m->px);
     if (!m->px) return false;
     m->w = w;
@@ -125,7 +125,7 @@ double warp_motion_pca(const warp_motion_buffer *m, int samples)
 bool warp_motion_mip_alloc(warp_motion_mip *mip, int w, int h)
 {
     memset(mip, 0, sizeof *mip);
-    if (w <= 0 || h <= 0 || w > 16384 || h > 16384) return false;
+    if (w <= 0 || h <= 0 || w > WARP_MAX_SIDE || h > WARP_MAX_SIDE) return false;
     size_t total = 0;
     int lw = w, lh = h, n = 0;
     for (;;) {

@@ -28,7 +28,7 @@
 bool warp_planar3_alloc(warp_planar3 *p, int w, int h)
 {
     memset(p, 0, sizeof *p);
-    if (w <= 0 || h <= 0 || w > 16384 || h > 16384) return false;
+    if (w <= 0 || h <= 0 || w > WARP_MAX_SIDE || h > WARP_MAX_SIDE) return false;
     /* +2 elements so a 4-byte load at the last column stays in the row; rows padded to 64 bytes; one row more
      * (the kernels read the row-pair below the last, never using it) and 32 elements more so a 64-byte window
      * starting at any column of that row stays in the plane. */

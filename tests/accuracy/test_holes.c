@@ -53,7 +53,7 @@ static int setup(void **state)
         !warp_image_rgba8_alloc(&F.out, W, H) || !warp_image_u8_alloc(&F.out_mask, W, H) ||
         !warp_image_u8_alloc(&F.score, W, H))
         return -1;
-    if (!warp_holes_init(&F.ctx, W, H, 9)) return -1;
+    if (!warp_holes_alloc(&F.ctx, W, H, 9)) return -1;
     return 0;
 }
 

@@ -463,7 +463,7 @@ static void test_extreme_lens_rejected_clearly(void **state)
     assert_false(rt_config_set(&c, "lens.k_red=nan 0 0 0", &e2));
     /* a mesh built on such a lens stays finite (vertices beyond the fold go to the border) */
     warp_mesh m;
-    assert_true(warp_mesh_init(&m, 9, &l, 0, 0, 200, 200));
+    assert_true(warp_mesh_alloc(&m, 9, &l, 0, 0, 200, 200));
     warp_camera cc = cam();
     warp_mesh_update(&m, &cc, warp_quat_identity());
     for (int i = 0; i < m.rows * m.cols * 3; i++) assert_true(isfinite(m.src[i].x) && isfinite(m.src[i].y));

@@ -16,6 +16,7 @@
 
 #include "warp/warp_lens.h"
 #include "warp/warp_math.h"
+#include "warp/warp_rand.h"
 
 /* Prefix for the programs a test starts: the runner the test itself runs under (TEST_RUNNER, e.g.
  * qemu-aarch64-static in make check-cross) plus a space, or "". A cross-built test cannot exec a cross-built
@@ -124,20 +125,17 @@ typedef struct { uint64_t s; } test_rng;
 
 static inline test_rng test_rng_make(uint64_t seed)
 {
-    test_rng r = {seed * 0x9E3779B97F4A7C15ull + 1};
+    test_rng r = {seed * WARP_GOLDEN64 + 1};
     return r;
 }
 /* splitmix64: tiny, fixed-seed reproducible across platforms */
 static inline uint64_t test_rng_next(test_rng *r)
 {
-    uint64_t z = (r->s += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
+    return warp_mix64(r->s += WARP_GOLDEN64);
 }
 static inline double test_rng_uniform(test_rng *r, double lo, double hi)
 {
-    return lo + (hi - lo) * ((double)(test_rng_next(r) >> 11) * (1.0 / 9007199254740992.0));
+    return lo + (hi - lo) * warp_unit53(test_rng_next(r));
 }
 static inline warp_quat test_random_quat(test_rng *r)
 {

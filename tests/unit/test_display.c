@@ -25,8 +25,8 @@ static void test_swapchain_next(void **state)
 {
     (void)state;
     plat_swapchain sc;
-    assert_false(plat_swapchain_init(&sc, 1, 8, 8)); /* one image cannot be drawn while shown */
-    assert_true(plat_swapchain_init(&sc, 3, 8, 8));
+    assert_false(plat_swapchain_alloc(&sc, 1, 8, 8)); /* one image cannot be drawn while shown */
+    assert_true(plat_swapchain_alloc(&sc, 3, 8, 8));
     sc.on_screen = 0;
     assert_int_equal(plat_swapchain_next(&sc, 0), 1);
     atomic_store(&sc.held[1], 1);
@@ -72,10 +72,10 @@ static void test_png_sink_writes_and_skips(void **state)
     (void)state;
     char err[256];
     mkdir("build", 0755);
-    plat_display *d = plat_display_files("png", "build/test_display_png", 2, err, sizeof err);
+    plat_display *d = plat_display_files_create("png", "build/test_display_png", 2, err, sizeof err);
     assert_non_null(d);
     plat_swapchain sc;
-    assert_true(plat_swapchain_init(&sc, 3, 320, 200));
+    assert_true(plat_swapchain_alloc(&sc, 3, 320, 200));
     pattern(&sc.img[0], 1);
     int64_t t0 = plat_now_ns();
     plat_display_present(d, &sc, 0, 0, 4);  /* due: handed to the writer, image held */
@@ -101,10 +101,10 @@ static void test_raw_sink(void **state)
 {
     (void)state;
     char err[256];
-    plat_display *d = plat_display_files("raw", "build/test_display_raw", 1, err, sizeof err);
+    plat_display *d = plat_display_files_create("raw", "build/test_display_raw", 1, err, sizeof err);
     assert_non_null(d);
     plat_swapchain sc;
-    assert_true(plat_swapchain_init(&sc, 2, 64, 32));
+    assert_true(plat_swapchain_alloc(&sc, 2, 64, 32));
     for (int i = 0; i < 3; i++) {
         pattern(&sc.img[0], i);
         plat_display_present(d, &sc, 0, 0, (uint64_t)i);
@@ -115,9 +115,9 @@ static void test_raw_sink(void **state)
     assert_int_equal(stat("build/test_display_raw/frames.rgba", &st), 0);
     assert_int_equal(st.st_size, 3 * 64 * 32 * 4);
     /* bad sink settings are reported, not crashed on */
-    assert_null(plat_display_files("jpeg", "build/x", 1, err, sizeof err));
+    assert_null(plat_display_files_create("jpeg", "build/x", 1, err, sizeof err));
     assert_non_null(strstr(err, "jpeg"));
-    assert_null(plat_display_files("png", "/proc/forbidden/dir", 1, err, sizeof err));
+    assert_null(plat_display_files_create("png", "/proc/forbidden/dir", 1, err, sizeof err));
     plat_swapchain_free(&sc);
 }
 

@@ -60,7 +60,7 @@ static int setup(void **state)
     char buf[200];
     if (warp_lens_check(&F.lens, W, H, buf, sizeof buf)) return -1;
     for (int e = 0; e < 2; e++)
-        if (!warp_mesh_init(&F.mesh[e], MESH_N, &F.lens, e * W, 0, W, H)) return -1;
+        if (!warp_mesh_alloc(&F.mesh[e], MESH_N, &F.lens, e * W, 0, W, H)) return -1;
     plat_gles_params p = {2 * W, H, W, H, F.mesh[0].cols, F.mesh[0].rows, true, false, true, false};
     F.g = plat_gles_create(F.egl, &p, err, sizeof err);
     if (!F.g) {

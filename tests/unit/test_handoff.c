@@ -45,7 +45,7 @@ static void *producer(void *arg)
 static void test_frameq_concurrent(void **state)
 {
     (void)state;
-    assert_true(rt_frameq_init(&q, W, H, DRV_PLANE_COLOR, 1));
+    assert_true(rt_frameq_alloc(&q, W, H, DRV_PLANE_COLOR, 1));
     bool is_new;
     assert_null(rt_frameq_latest(&q, &is_new));
     pthread_t th;
@@ -82,7 +82,7 @@ static void test_frameq_concurrent(void **state)
 static void test_frameq_replaces_unconsumed(void **state)
 {
     (void)state;
-    assert_true(rt_frameq_init(&q, 8, 8, DRV_PLANE_COLOR, 1));
+    assert_true(rt_frameq_alloc(&q, 8, 8, DRV_PLANE_COLOR, 1));
     rt_frameq_back(&q)->f.seq = 1;
     assert_false(rt_frameq_publish(&q));
     rt_frameq_back(&q)->f.seq = 2;
@@ -94,6 +94,35 @@ static void test_frameq_replaces_unconsumed(void **state)
     f = rt_frameq_latest(&q, &is_new);
     assert_false(is_new);
     assert_int_equal(f->f.seq, 2);
+    rt_frameq_free(&q);
+}
+
+/* A host may count its frames from 0: that frame is shown like any other (the queue once took seq 0 for "no frame
+ * yet" and showed nothing until frame 1). */
+static void test_frameq_seq_zero_shown(void **state)
+{
+    (void)state;
+    assert_true(rt_frameq_alloc(&q, 8, 8, DRV_PLANE_COLOR, 1));
+    bool is_new = true;
+    assert_null(rt_frameq_latest(&q, &is_new)); /* nothing published yet */
+    assert_false(is_new);
+    rt_frameq_back(&q)->f.seq = 0;
+    WARP_AT(&rt_frameq_back(&q)->f.color[0], 3, 2) = (warp_rgba8){7, 8, 9, 255};
+    assert_false(rt_frameq_publish(&q));
+    const rt_frame *f = rt_frameq_latest(&q, &is_new);
+    assert_non_null(f);
+    assert_true(is_new);
+    assert_int_equal(f->f.seq, 0);
+    assert_int_equal(WARP_AT(&f->f.color[0], 3, 2).r, 7);
+    f = rt_frameq_latest(&q, &is_new); /* still the current frame when nothing new came */
+    assert_non_null(f);
+    assert_false(is_new);
+    assert_int_equal(f->f.seq, 0);
+    rt_frameq_back(&q)->f.seq = 1;
+    rt_frameq_publish(&q);
+    f = rt_frameq_latest(&q, &is_new);
+    assert_true(is_new);
+    assert_int_equal(f->f.seq, 1);
     rt_frameq_free(&q);
 }
 
@@ -201,6 +230,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_frameq_concurrent),
         cmocka_unit_test(test_frameq_replaces_unconsumed),
+        cmocka_unit_test(test_frameq_seq_zero_shown),
         cmocka_unit_test(test_ring),
         cmocka_unit_test(test_workers_every_task_once),
         cmocka_unit_test(test_workers_stalled_worker_counted),

@@ -110,8 +110,8 @@ static void test_zero_translation_is_rotation_mesh(void **state)
     warp_lens lens = lens_for_synth();
     lens.scale = 200; /* the panel's corners see beyond the eye buffer too */
     warp_mesh rot, ray;
-    assert_true(warp_mesh_init(&rot, 24, &lens, 0, 0, SW, SH));
-    assert_true(warp_mesh_init(&ray, 24, &lens, 0, 0, SW, SH));
+    assert_true(warp_mesh_alloc(&rot, 24, &lens, 0, 0, SW, SH));
+    assert_true(warp_mesh_alloc(&ray, 24, &lens, 0, 0, SW, SH));
     const double yaws[] = {0, 3, -25};
     for (int t = 0; t < 3; t++) {
         warp_pose b = moved(s.v.pose, yaws[t], 2, 0, 0, 0);
@@ -153,7 +153,7 @@ static void test_smooth_plane_matches_two_pass(void **state)
     synth_make(&s, false);
     warp_lens lens = lens_for_synth();
     warp_mesh m;
-    assert_true(warp_mesh_init(&m, 16, &lens, 0, 0, SW, SH)); /* cells of 24 x 21 px, as at the default 64 */
+    assert_true(warp_mesh_alloc(&m, 16, &lens, 0, 0, SW, SH)); /* cells of 24 x 21 px, as at the default 64 */
     warp_image_rgba8 inter, ref, out;
     warp_planar3 inter_p, src_p;
     assert_true(warp_image_rgba8_alloc(&inter, SW, SH) && warp_image_rgba8_alloc(&ref, SW, SH) &&
@@ -280,7 +280,7 @@ static void test_eye_mesh_identity(void **state)
     synth s;
     synth_make(&s, true);
     warp_mesh m;
-    assert_true(warp_mesh_init_eye(&m, 16, &s.cam));
+    assert_true(warp_mesh_alloc_eye(&m, 16, &s.cam));
     assert_int_equal(m.vp_w, SW);
     assert_int_equal(m.vp_h, SH);
     warp_planar3 p;
@@ -340,7 +340,7 @@ static void test_depth_edges_favour_per_pixel(void **state)
     assert_null(warp_raytrace_prepare(&s, &f.v, &f.cam, b, &p));
     warp_raytrace_rows(&s, &f.out, &f.mask, 0, H, NULL);
     warp_mesh m;
-    assert_true(warp_mesh_init_eye(&m, 21, &f.cam)); /* 24 px cells, as the default mesh on the panel */
+    assert_true(warp_mesh_alloc_eye(&m, 21, &f.cam)); /* 24 px cells, as the default mesh on the panel */
     warp_planar3 src_p;
     assert_true(warp_planar3_alloc(&src_p, W, H));
     warp_planar3_from_rgba_rows(&src_p, f.v.color, 0, H);

@@ -111,6 +111,9 @@ static void config_lists_registry(void **state)
     memset(&e, 0, sizeof e);
     assert_true(rt_config_set(&c, "warp.method=auto", &e));
     assert_int_equal(c.method, RT_METHOD_AUTO);
+    /* auto's value is a reference warp's in the registry (iterative): the one conversion never hands it on */
+    assert_int_equal(rt_method_warp(RT_METHOD_AUTO), WARP_METHOD_ROTATION);
+    for (int m = 0; m < RT_METHOD_COUNT; m++) assert_int_equal(rt_method_warp((rt_method)m), m);
 
     /* --help-config's method line names every runtime method, and no reference-only one */
     char *buf = NULL;

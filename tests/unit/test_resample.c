@@ -68,7 +68,7 @@ static void test_mesh_layout(void **state)
     const warp_lens lens = realistic_lens();
     for (size_t t = 0; t < sizeof cases / sizeof cases[0]; t++) {
         warp_mesh m;
-        assert_true(warp_mesh_init(&m, cases[t].n, &lens, 3, 5, cases[t].w, cases[t].h));
+        assert_true(warp_mesh_alloc(&m, cases[t].n, &lens, 3, 5, cases[t].w, cases[t].h));
         assert_int_equal(m.cell_w, cases[t].cell_w);
         assert_int_equal(m.rows, cases[t].n);
         assert_int_equal(m.cols, (cases[t].w + m.cell_w - 1) / m.cell_w + 1);
@@ -85,8 +85,8 @@ static void test_mesh_layout(void **state)
         warp_mesh_free(&m);
     }
     warp_mesh m;
-    assert_false(warp_mesh_init(&m, 1, &lens, 0, 0, 100, 100));
-    assert_false(warp_mesh_init(&m, 1025, &lens, 0, 0, 100, 100));
+    assert_false(warp_mesh_alloc(&m, 1, &lens, 0, 0, 100, 100));
+    assert_false(warp_mesh_alloc(&m, 1025, &lens, 0, 0, 100, 100));
 }
 
 /* Source 400x360 seen through the realistic lens on a 400x360 viewport, rotated a little. */
@@ -104,7 +104,7 @@ static void fixture_make(fixture *f, int n, bool identity, double noise)
     /* square pixels: the identity lens uses one pixel density for both axes */
     f->cam = (warp_camera){400, 360, 1.43, 1.43, 1.43 * 0.9, 1.43 * 0.9, 0.1, INFINITY};
     f->lens = identity ? warp_lens_identity(&f->cam) : realistic_lens();
-    assert_true(warp_mesh_init(&f->mesh, n, &f->lens, 0, 0, 400, 360));
+    assert_true(warp_mesh_alloc(&f->mesh, n, &f->lens, 0, 0, 400, 360));
     assert_true(warp_image_rgba8_alloc(&f->src, 400, 360));
     assert_true(warp_image_rgba8_alloc(&f->out, 400, 360));
     assert_true(warp_planar3_alloc(&f->planar, 400, 360));
@@ -161,7 +161,7 @@ static void test_kernels_bit_identical(void **state)
         warp_mesh m;
         warp_image_rgba8 src, ref, out;
         warp_planar3 planar;
-        assert_true(warp_mesh_init(&m, cases[t].n, &lens, vx, vy, cases[t].vw, cases[t].vh));
+        assert_true(warp_mesh_alloc(&m, cases[t].n, &lens, vx, vy, cases[t].vw, cases[t].vh));
         assert_true(warp_image_rgba8_alloc(&src, cases[t].sw, cases[t].sh));
         assert_true(warp_image_rgba8_alloc(&ref, pw, ph));
         assert_true(warp_image_rgba8_alloc(&out, pw, ph));
@@ -234,7 +234,7 @@ static void test_half_pixel_shift_averages(void **state)
         else
             f.lens.center_y += 0.5;
         warp_mesh_free(&f.mesh);
-        assert_true(warp_mesh_init(&f.mesh, 17, &f.lens, 0, 0, 400, 360));
+        assert_true(warp_mesh_alloc(&f.mesh, 17, &f.lens, 0, 0, 400, 360));
         warp_mesh_update(&f.mesh, &f.cam, warp_quat_identity());
         for (int k = 0; k < KERNELS; k++) {
             if (!warp_resample_force_kernel(all_kernels[k])) continue;

@@ -1,6 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /* rt_telemetry: the latency histograms' percentiles and the attribution of missed vsyncs to hmdwarpd's own work
  * or to the system (late wake-up, descheduled, no free image), which HIL and soak runs assert on. */
+#include <pthread.h>
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -108,6 +109,62 @@ static void test_waiting_for_host(void **state)
     rt_telemetry_destroy(t);
 }
 
+/* The counters the helper thread reads while the compositor writes them (watchdog: vsyncs; live stats and STATUS=:
+ * the rest) must be atomic: a plain uint64_t read there is a data race (it once was: tel->vsyncs). _Generic on a
+ * pointer, since lvalue conversion would drop the _Atomic of the field itself. */
+#define IS_ATOMIC_U64(field) _Generic(&(field), _Atomic uint64_t *: 1, default: 0)
+#define IS_ATOMIC_U32(field) _Generic(&(field), _Atomic uint32_t *: 1, default: 0)
+
+static void test_counters_atomic(void **state)
+{
+    (void)state;
+    rt_telemetry *t = rt_telemetry_create();
+    assert_non_null(t);
+    assert_true(IS_ATOMIC_U64(t->vsyncs));
+    assert_true(IS_ATOMIC_U64(t->missed));
+    assert_true(IS_ATOMIC_U64(t->missed_by[0]));
+    assert_true(IS_ATOMIC_U64(t->no_frame));
+    assert_true(IS_ATOMIC_U64(t->new_frames_shown));
+    assert_true(IS_ATOMIC_U64(t->frames_dropped));
+    assert_true(IS_ATOMIC_U64(t->frames_received));
+    assert_true(IS_ATOMIC_U64(t->frames_bytes));
+    assert_true(IS_ATOMIC_U64(t->imu_samples));
+    assert_true(IS_ATOMIC_U64(t->m2p_ms.count));
+    assert_true(IS_ATOMIC_U32(t->m2p_ms.bin[0]));
+    rt_telemetry_destroy(t);
+}
+
+#define WRITES 200000
+
+static void *vsync_writer(void *arg)
+{
+    rt_telemetry *t = arg;
+    for (int i = 0; i < WRITES; i++) t->vsyncs++;
+    return NULL;
+}
+
+/* The watchdog's read beside the compositor's writes, as aux_thread does it: every value it sees is one the writer
+ * wrote (never torn, never going back), and the last is the writer's count. (Under -fsanitize=thread a plain field
+ * is reported here.) */
+static void test_vsyncs_read_while_written(void **state)
+{
+    (void)state;
+    rt_telemetry *t = rt_telemetry_create();
+    assert_non_null(t);
+    pthread_t th;
+    assert_int_equal(pthread_create(&th, NULL, vsync_writer, t), 0);
+    uint64_t last = 0;
+    for (;;) {
+        uint64_t v = t->vsyncs;
+        assert_true(v >= last && v <= WRITES);
+        last = v;
+        if (v == WRITES) break;
+    }
+    pthread_join(th, NULL);
+    assert_int_equal(t->vsyncs, WRITES);
+    rt_telemetry_destroy(t);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -116,6 +173,8 @@ int main(void)
         cmocka_unit_test(test_miss_gles),
         cmocka_unit_test(test_miss_advice),
         cmocka_unit_test(test_waiting_for_host),
+        cmocka_unit_test(test_counters_atomic),
+        cmocka_unit_test(test_vsyncs_read_while_written),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -15,6 +15,7 @@
 #include "drivers/drv_vsync.h"
 #include "drivers/drv_vsync_est.h"
 #include "drivers/drv_vsync_gpio_mock.h"
+#include "drivers/drv_vsync_timer.h"
 #include "platform/plat_clock.h"
 #include "tests/support/test_util.h"
 

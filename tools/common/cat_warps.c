@@ -140,7 +140,7 @@ static const char *fill_holes(int fill, const warp_view *src, const warp_camera 
                                           WARP_HOLES_STRETCH_BACKGROUND, WARP_HOLES_RUBBER_SHEET};
     if (fill < 0 || fill > 5) return "fill must be 0..5 (none epifar lowpass stretch background rubber)";
     warp_holes_ctx hc;
-    if (!warp_holes_init(&hc, dst->w, dst->h, 12)) return "out of memory";
+    if (!warp_holes_alloc(&hc, dst->w, dst->h, 12)) return "out of memory";
     warp_holes_params hp = warp_holes_default_params();
     hp.method = m[fill];
     warp_epipole e = warp_epipole_from_poses(dst_cam, dst_pose, src->pose);
@@ -418,7 +418,7 @@ static const char *run_raytrace_mesh(const warp_view *src, const warp_camera *ds
     warp_image_f32 bmax = {0};
     memset(&m, 0, sizeof m);
     memset(&planar, 0, sizeof planar);
-    if (warp_mesh_init_eye(&m, n, dst_cam) && warp_planar3_alloc(&planar, src->color->w, src->color->h) &&
+    if (warp_mesh_alloc_eye(&m, n, dst_cam) && warp_planar3_alloc(&planar, src->color->w, src->color->h) &&
         warp_image_f32_alloc(&bmax, (src->inv_depth->w + 7) / 8, (src->inv_depth->h + 7) / 8)) {
         /* what the runtime does once per host frame: the planar source and the skipping grid */
         warp_planar3_from_rgba_rows(&planar, src->color, 0, src->color->h);

@@ -483,7 +483,7 @@ int main(int argc, char **argv)
     warp_planar3 planar0;
     memset(&eye_mesh, 0, sizeof eye_mesh);
     memset(&planar0, 0, sizeof planar0);
-    if (!warp_mesh_init_eye(&eye_mesh, cfg.mesh_n, &cam[0]) || !warp_planar3_alloc(&planar0, cfg.eye_w, cfg.eye_h)) {
+    if (!warp_mesh_alloc_eye(&eye_mesh, cfg.mesh_n, &cam[0]) || !warp_planar3_alloc(&planar0, cfg.eye_w, cfg.eye_h)) {
         fprintf(stderr, "hmdwarp-bench: out of memory\n");
         return 1;
     }

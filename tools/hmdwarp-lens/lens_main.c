@@ -104,7 +104,7 @@ int main(int argc, char **argv)
         warp_planar3 planar;
         warp_mesh mesh;
         if (!warp_image_rgba8_alloc(&src, c.eye_w, c.eye_h) || !warp_planar3_alloc(&planar, c.eye_w, c.eye_h) ||
-            !warp_mesh_init(&mesh, c.mesh_n, &lens, e * vw, 0, vw, c.panel_h))
+            !warp_mesh_alloc(&mesh, c.mesh_n, &lens, e * vw, 0, vw, c.panel_h))
             return fprintf(stderr, "out of memory\n"), 1;
         for (int y = 0; y < c.eye_h; y++)
             for (int x = 0; x < c.eye_w; x++) WARP_AT(&src, x, y) = pattern_at(kind, x, y, c.eye_w, c.eye_h, spacing);

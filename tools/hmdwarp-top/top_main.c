@@ -14,6 +14,7 @@
 #include <unistd.h>
 
 #include "platform/plat_version.h"
+#include "warp/warp_err.h"
 
 /* Where hmdwarpd writes it under systemd (RuntimeDirectory=hmdwarp), and under `make run`. */
 #define DEFAULT_FILE "/run/hmdwarp/stats"
@@ -51,8 +52,7 @@ static bool kv_read(const char *path, kv_set *s, char *err, size_t errlen)
     s->n = 0;
     FILE *f = fopen(path, "r");
     if (!f) {
-        snprintf(err, errlen, "%s: %s", path, strerror(errno));
-        return false;
+        return warp_err(err, (int)errlen, "%s: %s", path, strerror(errno));
     }
     struct stat st;
     s->mtime = fstat(fileno(f), &st) == 0 ? (double)st.st_mtim.tv_sec + st.st_mtim.tv_nsec * 1e-9 : 0;
@@ -76,8 +76,8 @@ static bool kv_read(const char *path, kv_set *s, char *err, size_t errlen)
     fclose(f);
     /* every hmdwarpd statistics file starts with version= */
     if (!s->n || strcmp(s->key[0], "version") != 0) {
-        snprintf(err, errlen, "%s: no hmdwarpd statistics in it (expected key=value lines from version=)", path);
-        return false;
+        return warp_err(err, (int)errlen, "%s: no hmdwarpd statistics in it (expected key=value lines from version=)",
+                        path);
     }
     return true;
 }

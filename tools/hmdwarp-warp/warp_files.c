@@ -10,6 +10,8 @@
 #include <string.h>
 #include <sys/stat.h>
 
+#include "warp/warp_err.h"
+
 /* Bytes left in f after its current position (-1 when unknown: not a regular file). */
 static long long bytes_left(FILE *f)
 {
@@ -37,7 +39,7 @@ static bool read_pose(const char *rest, warp_pose *p)
 bool warpfile_load_view(const char *path, warpfile_view *vf, char *err, int errlen)
 {
     FILE *f = fopen(path, "r");
-    if (!f) return snprintf(err, (size_t)errlen, "%s: %s", path, strerror(errno)), false;
+    if (!f) return warp_err(err, errlen, "%s: %s", path, strerror(errno));
     memset(vf, 0, sizeof *vf);
     vf->cam.near_z = 0.05;
     vf->cam.far_z = INFINITY;
@@ -51,8 +53,7 @@ bool warpfile_load_view(const char *path, warpfile_view *vf, char *err, int errl
         /* A longer line would come back in pieces, the rest read as lines of their own with shifted numbers. */
         if (!strchr(line, '\n') && !feof(f)) {
             fclose(f);
-            return snprintf(err, (size_t)errlen, "%s:%d: line longer than %zu characters", path, n,
-                            sizeof line - 2), false;
+            return warp_err(err, errlen, "%s:%d: line longer than %zu characters", path, n, sizeof line - 2);
         }
         char *s = line + strspn(line, " \t");
         if (*s == '#' || *s == '\n' || !*s) continue;
@@ -81,17 +82,17 @@ bool warpfile_load_view(const char *path, warpfile_view *vf, char *err, int errl
             ok = have_dst = read_pose(rest, &vf->dst);
         } else {
             fclose(f);
-            return snprintf(err, (size_t)errlen, "%s:%d: unknown key '%s' (size, tan, intrinsics, near, far, source, "
-                            "target)", path, n, key), false;
+            return warp_err(err, errlen, "%s:%d: unknown key '%s' (size, tan, intrinsics, near, far, source, "
+                            "target)", path, n, key);
         }
         if (!ok) {
             fclose(f);
-            return snprintf(err, (size_t)errlen, "%s:%d: cannot read the values of '%s'", path, n, key), false;
+            return warp_err(err, errlen, "%s:%d: cannot read the values of '%s'", path, n, key);
         }
     }
     fclose(f);
     if (!have_size || !have_proj || !have_src || !have_dst)
-        return snprintf(err, (size_t)errlen, "%s: needs size, tan or intrinsics, source and target", path), false;
+        return warp_err(err, errlen, "%s: needs size, tan or intrinsics, source and target", path);
     if (intr) {
         /* Pixel-space intrinsics (y down) to the frustum tangents the warps use. */
         vf->cam.tan_left = cx / fx;
@@ -100,7 +101,7 @@ bool warpfile_load_view(const char *path, warpfile_view *vf, char *err, int errl
         vf->cam.tan_down = (vf->cam.height - cy) / fy;
     }
     const char *why = warp_camera_check(&vf->cam);
-    if (why) return snprintf(err, (size_t)errlen, "%s: camera: %s", path, why), false;
+    if (why) return warp_err(err, errlen, "%s: camera: %s", path, why);
     return true;
 }
 
@@ -116,20 +117,20 @@ void warpfile_pose_line(FILE *f, const char *key, warp_pose p)
 float *warpfile_read_pfm(const char *path, int *w, int *h, int *channels, char *err, int errlen)
 {
     FILE *f = fopen(path, "rb");
-    if (!f) return snprintf(err, (size_t)errlen, "%s: %s", path, strerror(errno)), NULL;
+    if (!f) return warp_err(err, errlen, "%s: %s", path, strerror(errno)), NULL;
     char magic[3] = {0};
     double scale;
     if (fscanf(f, "%2s %6d %6d %lf", magic, w, h, &scale) != 4 || (strcmp(magic, "Pf") && strcmp(magic, "PF")) ||
-        *w <= 0 || *h <= 0 || *w > 16384 || *h > 16384 || fgetc(f) == EOF) {
+        *w <= 0 || *h <= 0 || *w > WARP_MAX_SIDE || *h > WARP_MAX_SIDE || fgetc(f) == EOF) {
         fclose(f);
-        return snprintf(err, (size_t)errlen, "%s: not a PFM file (expected Pf/PF, width, height, scale)", path), NULL;
+        return warp_err(err, errlen, "%s: not a PFM file (expected Pf/PF, width, height, scale)", path), NULL;
     }
     *channels = magic[1] == 'F' ? 3 : 1;
     size_t n = (size_t)*w * (size_t)*h * (size_t)*channels;
     long long left = bytes_left(f);
     if (left >= 0 && (unsigned long long)left < n * sizeof(float)) {
         fclose(f);
-        return snprintf(err, (size_t)errlen, "%s: declares %dx%dx%d floats (%zu bytes) but holds %lld", path, *w, *h,
+        return warp_err(err, errlen, "%s: declares %dx%dx%d floats (%zu bytes) but holds %lld", path, *w, *h,
                         *channels, n * sizeof(float), left), NULL;
     }
     float *px = malloc(n * sizeof *px), *rows = malloc(n * sizeof *px);
@@ -137,7 +138,7 @@ float *warpfile_read_pfm(const char *path, int *w, int *h, int *channels, char *
         free(px);
         free(rows);
         fclose(f);
-        return snprintf(err, (size_t)errlen, "%s: truncated PFM data", path), NULL;
+        return warp_err(err, errlen, "%s: truncated PFM data", path), NULL;
     }
     fclose(f);
     bool big = scale > 0;
@@ -193,37 +194,35 @@ bool warpfile_write_layers(const char *path, const warp_image_layers *l)
 bool warpfile_read_layers(const char *path, const warp_camera *cam, warp_image_layers *l, char *err, int errlen)
 {
     FILE *f = fopen(path, "rb");
-    if (!f) return snprintf(err, (size_t)errlen, "%s: %s", path, strerror(errno)), false;
+    if (!f) return warp_err(err, errlen, "%s: %s", path, strerror(errno));
     char magic[8];
     uint32_t hdr[3];
     if (fread(magic, 1, 8, f) != 8 || memcmp(magic, "HWLAYER1", 8) || fread(hdr, 4, 3, f) != 3) {
         fclose(f);
-        return snprintf(err, (size_t)errlen, "%s: not a layers file (expected HWLAYER1)", path), false;
+        return warp_err(err, errlen, "%s: not a layers file (expected HWLAYER1)", path);
     }
     if ((int)hdr[0] != cam->width || (int)hdr[1] != cam->height || hdr[2] < 1 || hdr[2] > 64) {
         fclose(f);
-        return snprintf(err, (size_t)errlen, "%s: %ux%u with %u layers; expected %dx%d and 1..64 layers", path, hdr[0],
-                        hdr[1], hdr[2], cam->width, cam->height), false;
+        return warp_err(err, errlen, "%s: %ux%u with %u layers; expected %dx%d and 1..64 layers", path, hdr[0],
+                        hdr[1], hdr[2], cam->width, cam->height);
     }
     /* Every pixel has at least its count byte: a file shorter than that is refused before the allocation (up to
      * 64 fragments a pixel of the declared size). */
     long long left = bytes_left(f);
     if (left >= 0 && (unsigned long long)left < (unsigned long long)hdr[0] * hdr[1]) {
         fclose(f);
-        return snprintf(err, (size_t)errlen, "%s: %ux%u pixels but only %lld bytes of data", path, hdr[0], hdr[1],
-                        left), false;
+        return warp_err(err, errlen, "%s: %ux%u pixels but only %lld bytes of data", path, hdr[0], hdr[1], left);
     }
     if (!warp_image_layers_alloc(l, (int)hdr[0], (int)hdr[1], (int)hdr[2])) {
         fclose(f);
-        return snprintf(err, (size_t)errlen, "out of memory"), false;
+        return warp_err(err, errlen, "out of memory");
     }
     for (int i = 0; i < l->w * l->h; i++) {
         uint8_t n;
         if (fread(&n, 1, 1, f) != 1 || n > l->max_layers) {
             fclose(f);
             warp_image_layers_free(l);
-            return snprintf(err, (size_t)errlen, "%s: pixel %d: truncated or more than %d fragments", path, i,
-                            l->max_layers), false;
+            return warp_err(err, errlen, "%s: pixel %d: truncated or more than %d fragments", path, i, l->max_layers);
         }
         l->count[i] = n;
         for (int k = 0; k < n; k++) {
@@ -231,7 +230,7 @@ bool warpfile_read_layers(const char *path, const warp_camera *cam, warp_image_l
             if (fread(&fr->z, 4, 1, f) != 1 || fread(&fr->rgba, 1, 4, f) != 4 || fread(&fr->id, 2, 1, f) != 1) {
                 fclose(f);
                 warp_image_layers_free(l);
-                return snprintf(err, (size_t)errlen, "%s: truncated at pixel %d", path, i), false;
+                return warp_err(err, errlen, "%s: truncated at pixel %d", path, i);
             }
         }
     }

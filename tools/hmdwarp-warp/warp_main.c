@@ -13,6 +13,7 @@
 #include "platform/plat_png.h"
 #include "platform/plat_version.h"
 #include "sim/sim_scene.h"
+#include "warp/warp_err.h"
 #include "warp/warp_metrics.h"
 #include "tools/common/cat_warps.h"
 #include "warp_files.h"
@@ -149,21 +150,20 @@ static bool load_depth(const opts *o, const warp_camera *cam, warp_image_f32 *de
         free(u);
     } else {
         FILE *f = fopen(o->depth, "rb");
-        if (!f) return snprintf(err, (size_t)errlen, "%s: %s", o->depth, strerror(errno)), false;
+        if (!f) return warp_err(err, errlen, "%s: %s", o->depth, strerror(errno));
         px = malloc(sizeof(float) * (size_t)w * (size_t)h);
         size_t got = px ? fread(px, sizeof(float), (size_t)w * (size_t)h, f) : 0;
         fclose(f);
         if (got != (size_t)w * (size_t)h) {
             free(px);
-            return snprintf(err, (size_t)errlen, "%s: expected %dx%d float32 values (the colour's size)", o->depth, w,
-                            h), false;
+            return warp_err(err, errlen, "%s: expected %dx%d float32 values (the colour's size)", o->depth, w, h);
         }
     }
-    if (!px) return snprintf(err, (size_t)errlen, "out of memory"), false;
+    if (!px) return warp_err(err, errlen, "out of memory");
     if (w != cam->width || h != cam->height || ch != 1) {
         free(px);
-        return snprintf(err, (size_t)errlen, "%s: %dx%d, %d channels; expected %dx%d, 1 channel", o->depth, w, h, ch,
-                        cam->width, cam->height), false;
+        return warp_err(err, errlen, "%s: %dx%d, %d channels; expected %dx%d, 1 channel", o->depth, w, h, ch,
+                        cam->width, cam->height);
     }
     if (strcmp(o->depth_encoding, "linear") == 0)
         *enc = WARP_DEPTH_LINEAR;
@@ -172,14 +172,13 @@ static bool load_depth(const opts *o, const warp_camera *cam, warp_image_f32 *de
     else if (strcmp(o->depth_encoding, "reversed") == 0)
         *enc = WARP_DEPTH_REVERSED;
     else
-        return free(px), snprintf(err, (size_t)errlen, "--depth-encoding %s: linear, standard or reversed",
-                                  o->depth_encoding), false;
+        return free(px), warp_err(err, errlen, "--depth-encoding %s: linear, standard or reversed", o->depth_encoding);
     bool ray = strcmp(o->depth_kind, "ray") == 0;
     if (!ray && strcmp(o->depth_kind, "planar") != 0)
-        return free(px), snprintf(err, (size_t)errlen, "--depth-kind %s: planar or ray", o->depth_kind), false;
+        return free(px), warp_err(err, errlen, "--depth-kind %s: planar or ray", o->depth_kind);
     if (ray && *enc != WARP_DEPTH_LINEAR)
-        return free(px), snprintf(err, (size_t)errlen, "--depth-kind ray needs --depth-encoding linear"), false;
-    if (!warp_image_f32_alloc(depth, w, h)) return free(px), snprintf(err, (size_t)errlen, "out of memory"), false;
+        return free(px), warp_err(err, errlen, "--depth-kind ray needs --depth-encoding linear");
+    if (!warp_image_f32_alloc(depth, w, h)) return free(px), warp_err(err, errlen, "out of memory");
     for (int y = 0; y < h; y++)
         for (int x = 0; x < w; x++) {
             double v = px[(size_t)y * w + x];

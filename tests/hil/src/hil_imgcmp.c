@@ -36,7 +36,8 @@ int main(int argc, char **argv)
         return 2;
     }
     int w = atoi(argv[3]), h = atoi(argv[4]);
-    if (w < 1 || h < 1 || w > 16384 || h > 16384) return fprintf(stderr, "hil_imgcmp: bad size %sx%s\n", argv[3], argv[4]), 2;
+    if (w < 1 || h < 1 || w > WARP_MAX_SIDE || h > WARP_MAX_SIDE)
+        return fprintf(stderr, "hil_imgcmp: bad size %sx%s\n", argv[3], argv[4]), 2;
     warp_image_rgba8 a, b;
     if (!warp_image_rgba8_alloc(&a, w, h) || !warp_image_rgba8_alloc(&b, w, h)) return 1;
     if (!last_image(argv[1], w, h, &a) || !last_image(argv[2], w, h, &b)) return 1;
