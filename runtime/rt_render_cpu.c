@@ -363,7 +363,7 @@ rt_method rt_render_cpu_usable(rt_render_cpu *r, const rt_frame *frame, rt_metho
     if (!r->p.transparency) have &= ~(unsigned)DRV_PLANE_LAYERS;
     if (!r->p.objects) have &= ~(unsigned)DRV_PLANE_IDS;
     unsigned missing = 0;
-    rt_method m = (rt_method)warp_method_usable((warp_method)method, have, &missing);
+    rt_method m = (rt_method)warp_method_usable(rt_method_warp(method), have, &missing);
     if (missing & ~(unsigned)DRV_PLANE_DEPTH) atomic_fetch_add_explicit(&r->plane_fallbacks, 1, memory_order_relaxed);
     if (missing & DRV_PLANE_DEPTH) atomic_fetch_add_explicit(&r->raytrace_fallbacks, 1, memory_order_relaxed);
     return m;
