@@ -83,9 +83,11 @@ done
 # GLES on the KMS output (05-kms): hmdwarpd links glvnd's libEGL, which finds Mesa through its vendor JSON; Mesa's
 # libEGL_mesa then loads the DRI driver (kms_swrast for GBM on vkms, swrast for the surfaceless offscreen
 # display: one file, hard links in Debian and here) and libLLVM for llvmpipe. ldd of both brings the rest.
-# Only when 05-kms runs GLES (HIL_KMS_RENDERERS names gles, or HIL_GLES=1): ~200 MB and ~4 s of boot otherwise spent.
+# Whenever 05-kms runs GLES (its default HIL_KMS_RENDERERS=cpu,gles, or one naming gles; HIL_GLES=1 forces it,
+# HIL_GLES=0 or HIL_KMS=0 leaves it out): ~200 MB and ~4 s of boot.
 mesa=""
-case ",${HIL_KMS_RENDERERS:-}," in *,gles,*) HIL_GLES=${HIL_GLES:-1} ;; esac
+[ "${HIL_KMS:-1}" = 0 ] && HIL_GLES=${HIL_GLES:-0}
+case ",${HIL_KMS_RENDERERS:-cpu,gles}," in *,gles,*) HIL_GLES=${HIL_GLES:-1} ;; esac
 if [ "${HIL_GLES:-0}" = 1 ]; then
     egl_mesa=$(ldconfig -p | awk '/libEGL_mesa.so.0 .*x86-64/{print $NF; exit}')
     dri=$(pkg-config --variable=dridriverdir dri 2>/dev/null) || dri=/usr/lib/x86_64-linux-gnu/dri   # dri.pc: mesa-common-dev

@@ -13,6 +13,7 @@
 #        HIL_STRICT=1 (missed timing targets fail), HIL_OWN_FAIL, HIL_SCHED_QUIET: scenario knobs
 #        passed to the VM (see tests/hil/README.md)
 #        HIL_KERNEL=vmlinuz  boot the compressed image instead of the extracted vmlinux
+#        HIL_MONITOR=1       qemu's monitor on $BUILD/hil/monitor.sock (a hung VM's registers and stacks)
 #        BUILD=build         build tree (programs from `make all`)
 # Needs board/deps-hil.sh to have run (qemu, busybox, the kernel cache) and `make all`.
 set -eu
@@ -35,7 +36,7 @@ if [ "${HIL_KERNEL:-vmlinux}" = vmlinuz ]; then kernel=$CACHE/root/boot/vmlinuz-
 # Kernel parameters: NAME=VALUE words without dots become /init's environment.
 append="console=ttyS0 panic=-1 loglevel=4 mitigations=off nokaslr tsc=reliable"
 append="$append HIL_SHELL=${HIL_SHELL:-0} HIL_VERBOSE=${HIL_VERBOSE:-0}"
-for v in HIL_SOAK_S HIL_NOMINAL_S HIL_HMD_ARGS HIL_PANEL HIL_MISSED_MAX HIL_OWN_MAX HIL_IMU_RATE_MIN HIL_KMS HIL_KMS_RENDERERS HIL_STRICT HIL_OWN_FAIL HIL_SCHED_QUIET; do
+for v in HIL_SOAK_S HIL_NOMINAL_S HIL_HMD_ARGS HIL_PANEL HIL_MISSED_MAX HIL_OWN_MAX HIL_IMU_RATE_MIN HIL_KMS HIL_KMS_RENDERERS HIL_VKMS_STRESS HIL_STRICT HIL_OWN_FAIL HIL_SCHED_QUIET; do
     eval "val=\${$v:-}"
     [ -n "$val" ] && append="$append $v=$val"
 done
@@ -45,12 +46,18 @@ done
 # GTF mode at 90 Hz, as an EDID would), so 05-kms shows the same small panel as the other scenarios.
 if [ "${HIL_PANEL:-small}" = small ]; then append="$append video=Virtual-1:128x64@90"
 else append="$append video=Virtual-1:640x360@90"; fi
+[ "${HIL_MONITOR:-0}" = 1 ] && append="$append sysrq_always_enabled"
 names=$(echo $scen | tr ' ' ',')
 [ -n "$names" ] && append="$append HIL_SCENARIO=$names"
 
 set -- qemu-system-x86_64 -accel tcg,thread=multi -cpu max -smp "${HIL_SMP:-2}" -m "${HIL_MEM:-1024}" \
     -kernel "$kernel" -initrd "$out/initramfs.cpio" -append "$append" \
     -nographic -no-reboot -nic none
+# HIL_MONITOR=1: qemu's monitor on a socket ($out/monitor.sock), to look into a VM that stopped reporting from
+# outside: `info registers -a` (each vCPU's RIP, RSP and interrupt flag), `cpu N` + `x /64gx RSP` (return addresses;
+# symbols from /proc/kallsyms of a VM booted the same way: nokaslr, same module load order), `sendkey alt-sysrq-w`
+# while the guest still takes interrupts (sysrq_always_enabled is set).
+[ "${HIL_MONITOR:-0}" = 1 ] && set -- "$@" -monitor "unix:$out/monitor.sock,server,nowait"
 
 if [ "${HIL_SHELL:-0}" = 1 ]; then
     echo "hil: interactive VM (kernel $KABI); Ctrl-A x quits qemu"

@@ -278,6 +278,33 @@ hil_vkms_crc_off() {
     tr -d '\000' <"$HIL_WORK/crc.raw" | grep '^0x' >"$HIL_WORK/crc.txt"
 }
 
+# hil_vkms_vblank_stress N W H: N cycles of vkms's vblank turned on from one vCPU and off from the other, the
+# reproducer of the deadlock kmod/patch.sh fixes (tests/hil/README.md, "The hang"): with a pattern shown (the
+# CRTC on in its W x H mode, no client holding vblank references) and drm.vblankoffdelay=1, opening crc/data
+# takes a vblank reference (the timer starts on this vCPU), the reader moves to the other vCPU and closes it (the
+# reference dropped, vblank off a tick later there, from drm's vblank_disable_fn). Unpatched vkms hung the VM
+# within 250 cycles (2 runs of 2); patched, a disable that meets the callback is logged and counted
+# (vkms_vblank_disable_races). ~5 cycles a second.
+hil_vkms_vblank_stress() {
+    c=$HIL_DRI_DEBUG/crtc-0/crc
+    hil_kms_crc pattern "$2" "$3" >"$HIL_WORK/stress.rgba" || hil_fail "hil_kms_crc pattern failed"
+    hil_kms_crc show "$HIL_DRI_CARD" "$HIL_WORK/stress.rgba" "$2" "$3" 3600 >"$HIL_WORK/stress-show.log" 2>&1 &
+    spid=$!
+    hil_wait_until 10 grep -q '^shown=' "$HIL_WORK/stress-show.log" || hil_fail "vkms stress: no mode set"
+    od=$(cat /sys/module/drm/parameters/vblankoffdelay)
+    echo 1 >/sys/module/drm/parameters/vblankoffdelay
+    echo auto >"$c/control" || hil_fail "vkms: CRC source auto refused"
+    i=0
+    while [ "$i" -lt "$1" ]; do
+        # a varying hold, so the disable falls at every phase of the vblank period
+        taskset -c $((i % 2)) sh -c "exec 3<$c/data; taskset -p -c $(((i + 1) % 2)) \$\$ >/dev/null; sleep 0.0$((i % 10)); exec 3<&-" 2>/dev/null
+        i=$((i + 1))
+    done
+    echo "$od" >/sys/module/drm/parameters/vblankoffdelay
+    kill "$spid" 2>/dev/null; wait "$spid" 2>/dev/null
+    hil_note vkms_stress_cycles "$i"
+}
+
 # --- USB: dummy_hcd + FunctionFS gadget ------------------------------------------------------------------------
 
 # hil_usb_udc: load dummy_hcd (one UDC, dummy_udc.0) and usbfs-visible host side.
