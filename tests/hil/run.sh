@@ -67,6 +67,10 @@ fi
 log=$out/console.log
 echo "hil: booting $KABI under qemu (TCG), console log: $log"
 rc=0
+# the log exists before tail looks for it: qemu's redirection happens in the background job, and a tail -f that
+# starts first finds no file and quits, so the scenario lines (and the summary tests/run.sh reads) never showed
+# (a fresh clone's first make test: "the VM did not report" after all scenarios had passed)
+: >"$log"
 timeout "${HIL_TIMEOUT:-900}" "$@" </dev/null >"$log" 2>&1 &
 qpid=$!
 # Echo the per-scenario lines as they come (and a failing scenario's log tail).
