@@ -197,6 +197,9 @@ void rt_app_free(rt_app *a);
 bool rt_devices_open(rt_app *a, const drv_frames_sim_params *sp, char *err, int errlen);
 /* Whether the configuration has the simulator play a device (a sim backend or a mock device). */
 bool rt_devices_simulated(const rt_config *c);
+/* Whether every device follows plat_clock's virtual time (HMDWARP_TIME_SLOWDOWN); *real names the first that
+ * does not. */
+bool rt_devices_on_virtual_time(const rt_config *c, const char **real);
 
 /* Decides the renderer from [render] renderer (`setting`: auto, cpu, gles), the GL_RENDERER string of the context
  * EGL gave (NULL when it gave none; egl_err then says why) and whether the output is KMS. Returns true for GLES

@@ -11,6 +11,7 @@
 
 #include "runtime/rt_app.h"
 #include "tests/support/test_run.h"
+#include "tests/support/test_util.h"
 
 static void config(rt_config *c, const char *const *extra, size_t n_extra)
 {
@@ -221,6 +222,7 @@ static void test_missing_devices_named(void **state)
 
 int main(void)
 {
+    test_paced_by_sim();
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_hid_usb_gpio),
         cmocka_unit_test(test_i2c_v4l2_timer),

@@ -325,6 +325,7 @@ static void test_auto_moving_objects_use_object_warp(void **state)
 
 int main(void)
 {
+    test_paced_by_sim();
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_rotation_only_scene),
         cmocka_unit_test(test_misses_attributed),

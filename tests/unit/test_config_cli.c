@@ -120,6 +120,7 @@ static void test_v4l2_mock_corrupt_every(void **state)
 
 int main(int argc, char **argv)
 {
+    test_paced_by_sim();
     (void)argc;
     char t[512];
     snprintf(t, sizeof t, "%s", argv[0]);
