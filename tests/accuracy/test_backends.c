@@ -226,7 +226,7 @@ static void test_missing_devices_named(void **state)
 
 int main(void)
 {
-    test_paced_by_sim();
+    test_paced_by_sim(TEST_EMULATOR_SLOWDOWN);
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_hid_usb_gpio),
         cmocka_unit_test(test_i2c_v4l2_timer),

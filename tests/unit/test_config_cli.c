@@ -140,7 +140,7 @@ static void test_time_slowdown_refused_for_real_devices(void **state)
 
 int main(int argc, char **argv)
 {
-    test_paced_by_sim();
+    test_paced_by_sim(TEST_EMULATOR_SLOWDOWN);
     (void)argc;
     char t[512];
     snprintf(t, sizeof t, "%s", argv[0]);

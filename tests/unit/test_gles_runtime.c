@@ -265,7 +265,7 @@ static void test_auto_picks_cpu_on_llvmpipe(void **state)
 
 int main(void)
 {
-    test_paced_by_sim();
+    test_paced_by_sim(TEST_EMULATOR_SLOWDOWN);
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_choose),
         cmocka_unit_test(test_config_keys),
