@@ -36,7 +36,8 @@ typedef struct {
     int64_t period_ns;
 } rt_pacer_frame;
 
-/* The points of one pass the pacer is told about (Monado's mark_point). */
+/* The points of one pass the pacer is told about (Monado's mark_point). WOKE, SUBMITTED and DONE feed the
+ * estimates; FRAME_TAKEN and PRESENTED are kept for a present-to-display model a display with timing would add. */
 typedef enum {
     RT_PACER_WOKE,        /* the compositor thread is running again */
     RT_PACER_FRAME_TAKEN, /* the newest host frame taken */
