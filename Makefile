@@ -386,8 +386,8 @@ deb-check: deb
 # there on virtual time (test_paced_by_sim: HMDWARP_TIME_SLOWDOWN in platform/plat_clock.h), 20x slower than real
 # time, which the emulator can keep: test_config_cli, test_backends, test_imu_hid, test_board's sd_notify run. Left
 # out: test_sim_board, which runs and passes on virtual time but needs 60x (its CPU passes on 320x360 eyes took
-# 19 ms of virtual time at 20x on a loaded 2-core machine: the vector kernel on TCG), so its eleven runs take
-# about 45 minutes there (4 checked passing in the first 16; run it alone: TEST_RUNNER=qemu-aarch64-static
+# 19 ms of virtual time at 20x on a loaded 2-core machine: the vector kernel on TCG), so its eleven tests take
+# about 35 minutes there (all 11 passed; run it alone: TEST_RUNNER=qemu-aarch64-static
 # qemu-aarch64-static build/aarch64-linux-gnu/tests/accuracy/test_sim_board); test_gles_runtime, whose llvmpipe
 # misses check needs a software GPU's pass to overrun the period: llvmpipe's work is CPU time on the real clock,
 # which virtual time divides, so under qemu it overran 192 of 192 vsyncs in one run and 3 of 55 in another; and
