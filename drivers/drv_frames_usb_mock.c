@@ -44,7 +44,7 @@ static ssize_t sock_read(drv_usb_transport *bt, uint8_t *buf, size_t cap, int ti
 {
     struct mock_host *t = (struct mock_host *)bt;
     struct pollfd pfd = {t->board_out_fd, POLLIN, 0};
-    int r = poll(&pfd, 1, timeout_ms);
+    int r = poll(&pfd, 1, plat_timeout_ms(timeout_ms)); /* the mock host runs on virtual time (plat_clock.h) */
     if (r < 0) return errno == EINTR ? 0 : -errno;
     if (r == 0) return 0;
     ssize_t n = read(t->board_out_fd, buf, cap);
@@ -57,7 +57,7 @@ static ssize_t sock_write(drv_usb_transport *bt, const uint8_t *buf, size_t len,
 {
     struct mock_host *t = (struct mock_host *)bt;
     struct pollfd pfd = {t->board_in_fd, POLLOUT, 0};
-    int r = poll(&pfd, 1, timeout_ms);
+    int r = poll(&pfd, 1, plat_timeout_ms(timeout_ms));
     if (r <= 0) return r < 0 && errno != EINTR ? -errno : 0;
     ssize_t n = send(t->board_in_fd, buf, len, MSG_NOSIGNAL | MSG_DONTWAIT);
     if (n < 0) return errno == EAGAIN ? 0 : -errno;

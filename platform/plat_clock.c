@@ -4,21 +4,70 @@
 #include "platform/plat_clock.h"
 
 #include <errno.h>
+#include <limits.h>
 #include <pthread.h>
 #include <sched.h>
+#include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <sys/mman.h>
 #include <time.h>
 
-int64_t plat_now_ns(void)
+/* Set once before any thread runs (the constructor below, or a test's main): plain reads after that. An integer
+ * divisor keeps virtual time exact and monotonic, and N = 1 costs one compare on the vsync path. */
+static int slowdown = 1;
+
+#define SLOWDOWN_ENV "HMDWARP_TIME_SLOWDOWN"
+
+__attribute__((constructor)) static void slowdown_from_env(void)
+{
+    const char *v = getenv(SLOWDOWN_ENV);
+    if (!v || !*v) return;
+    char *end;
+    errno = 0;
+    long n = strtol(v, &end, 10);
+    if (errno || *end || n < 1 || n > PLAT_CLOCK_SLOWDOWN_MAX) {
+        fprintf(stderr, "%s=%s: not a whole number from 1 to %d; running in real time\n", SLOWDOWN_ENV, v,
+                PLAT_CLOCK_SLOWDOWN_MAX);
+        return;
+    }
+    slowdown = (int)n;
+}
+
+int plat_clock_slowdown(void) { return slowdown; }
+
+bool plat_clock_set_slowdown(int n)
+{
+    if (n < 1 || n > PLAT_CLOCK_SLOWDOWN_MAX) return false;
+    char v[16];
+    snprintf(v, sizeof v, "%d", n);
+    if (setenv(SLOWDOWN_ENV, v, 1) != 0) return false;
+    slowdown = n;
+    return true;
+}
+
+int64_t plat_real_now_ns(void)
 {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
     return (int64_t)ts.tv_sec * PLAT_NS_PER_S + ts.tv_nsec;
 }
 
+int64_t plat_now_ns(void)
+{
+    int64_t t = plat_real_now_ns();
+    return slowdown == 1 ? t : t / slowdown;
+}
+
+int plat_timeout_ms(int ms)
+{
+    if (ms <= 0 || slowdown == 1) return ms;
+    return ms > INT_MAX / slowdown ? INT_MAX : ms * slowdown;
+}
+
 void plat_sleep_until_ns(int64_t t_ns)
 {
+    if (slowdown != 1) t_ns = t_ns > INT64_MAX / slowdown ? INT64_MAX : t_ns * slowdown;
     struct timespec ts = {(time_t)(t_ns / PLAT_NS_PER_S), (long)(t_ns % PLAT_NS_PER_S)};
     while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, NULL) == EINTR) {
     }
@@ -33,7 +82,8 @@ int64_t plat_thread_cpu_ns(void)
 {
     struct timespec ts;
     clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-    return (int64_t)ts.tv_sec * PLAT_NS_PER_S + ts.tv_nsec;
+    int64_t t = (int64_t)ts.tv_sec * PLAT_NS_PER_S + ts.tv_nsec;
+    return slowdown == 1 ? t : t / slowdown;
 }
 
 bool plat_thread_set_realtime(int prio)

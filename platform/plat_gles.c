@@ -502,7 +502,7 @@ static bool collect(plat_gles *g, qslot *s)
         /* llvmpipe sometimes answers a raw timestamp (seconds since boot) for a query begun before any work:
          * nothing in one vsync takes a second, so such a frame is dropped like a disjoint one. */
         if (ns > 1000000000ull) disjoint = 1;
-        t.ms[s->pass[i]] += (double)ns * 1e-6;
+        t.ms[s->pass[i]] += (double)ns * 1e-6 / plat_clock_slowdown(); /* the GPU's ns are real: virtual, as all times */
         t.valid[s->pass[i]] = true;
     }
     s->pending = false;

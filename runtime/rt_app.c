@@ -161,6 +161,13 @@ bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen)
     /* The simulated board's scene and motion, for the devices it plays (a sim backend or a mock device; the
      * accuracy evaluation needs a simulated head and host, so it implies them). A board whose devices are all real
      * never loads the simulator. */
+    /* Virtual time (plat_clock.h) is the simulated board's: a kernel or a host stamps real devices' events in real
+     * time, and mixing the two would make every stamp wrong. */
+    const char *real = NULL;
+    if (plat_clock_slowdown() > 1 && !rt_devices_on_virtual_time(c, &real))
+        return fail(err, errlen, "HMDWARP_TIME_SLOWDOWN=%s: virtual time is for simulated and mock devices, but %s is "
+                                 "a real one", getenv("HMDWARP_TIME_SLOWDOWN") ? getenv("HMDWARP_TIME_SLOWDOWN") : "?",
+                    real);
     a->sim_loaded = rt_devices_simulated(c);
     if (a->sim_loaded) {
         a->scene = sim_scene_find(c->scene);

@@ -14,6 +14,7 @@
 #include "runtime/rt_app.h"
 #include "runtime/rt_render_cpu.h"
 #include "warp/warp_objects.h"
+#include "runtime/rt_pacer.h"
 #include "warp/warp_raytrace.h"
 
 /* The method the GLES renderer runs for each runtime method (no GLES pass for the A-buffer and object warps yet:
@@ -143,41 +144,11 @@ void rt_compositor_run(rt_app *a)
     rt_telemetry *tel = a->tel;
     const rt_config *c = &a->cfg;
     const int64_t photon_ns = (int64_t)(c->photon_offset_ms * 1e6);
-    const int64_t margin_ns = PLAT_NS_PER_MS / 2;
     const int64_t eval_every = (int64_t)(c->eval_every_ms * 1e6);
     int64_t next_eval = a->t0_ns + eval_every;
-    int64_t period = 0;
-    /* The display starts at scene time 0 (after the simulated headset's rest at boot), whatever the vsync source. */
-    int64_t first = plat_now_ns() + 2 * PLAT_NS_PER_MS;
-    if (first < a->t0_ns - 1) first = a->t0_ns - 1;
-    int64_t t_vs = drv_vsync_next(a->dev.vsync, first, &period);
-    /* When to wake: the vsync minus the longest warp and the latest wake-up among the last WINDOW vsyncs, plus a
-     * margin. A running maximum rather than an average: a miss costs a whole repeated frame, waking a little
-     * early costs only that much latency (Monado's pacing likewise backs off at once and creeps back). */
-    enum { WINDOW = 128 };
-    int64_t durs[WINDOW], lates[WINDOW];
-    /* The first WINDOW vsyncs plan for a whole period: the first warps run with cold caches and TLBs and on pages
-     * touched for the first time, and a half-period guess missed them (a 60 s soak lost its first vsyncs so).
-     * Waking early costs a few ms of latency for the first second or so, nothing else. */
-    for (int i = 0; i < WINDOW; i++) {
-        durs[i] = period - margin_ns;
-        lates[i] = 0;
-    }
-    int64_t warp_est = period - margin_ns, late_est = 0;
-    /* The stall reserve lets a pass start up to a period before the previous vsync: the warp for vsync N may run
-     * while N-1's image waits and N-2's is still shown (the swapchain keeps both out of reach). A KMS page flip
-     * cannot be queued behind one still pending, so the GLES path plans within one period. */
-    int64_t reserve_ns = (int64_t)(c->stall_reserve_ms * 1e6);
-    if (reserve_ns > period - margin_ns) reserve_ns = period - margin_ns;
-    if (reserve_ns < 0) reserve_ns = 0;
-    int64_t prev_done = 0;
-    /* auto: what each method has been costing (rises at once, decays slowly; an estimate not refreshed decays
-     * too, by 1/512 per vsync, so a warp once a little too slow is tried again after some seconds; one that took
-     * more than two periods is not retried: every retry would cost its length in missed vsyncs) */
     rt_method prev_used = RT_METHOD_COUNT;
-    double cost_ns[RT_METHOD_COUNT] = {0};
     bool objects_moving = false;
-    uint64_t vsync_no = 0, last_seq = 0;
+    uint64_t last_seq = 0;
     bool gles = a->gl.use;
     if (gles && !plat_egl_make_current(a->gl.egl)) {
         plat_log(PLAT_LOG_WARNING, "cannot make the EGL context current on the compositor thread: using the CPU "
@@ -186,18 +157,34 @@ void rt_compositor_run(rt_app *a)
                  "; the EGL context could not be made current: fell back to cpu");
         a->gl.use = gles = false;
     }
+    /* The display starts at scene time 0 (after the simulated headset's rest at boot), whatever the vsync source. */
+    int64_t first = plat_now_ns() + 2 * PLAT_NS_PER_MS;
+    if (first < a->t0_ns - 1) first = a->t0_ns - 1;
+    int64_t period = 0;
+    int64_t t_first = drv_vsync_next(a->dev.vsync, first, &period);
+    /* Wake-up, lead, stall reserve, the cost estimator and overrun skipping: rt_pacer. */
+    rt_pacer_params pp = {RT_PACER_MARGIN_NS, (int64_t)(c->stall_reserve_ms * 1e6), gles};
+    rt_pacer *pacer = rt_pacer_new(&pp, t_first, period);
+    if (!pacer) {
+        plat_log(PLAT_LOG_ERR, "compositor: out of memory for the pacer");
+        if (gles) plat_egl_release(a->gl.egl);
+        return;
+    }
 
     while (!atomic_load_explicit(&a->stop, memory_order_relaxed)) {
+        rt_pacer_frame pf;
+        rt_pacer_predict(pacer, &pf);
+        const int64_t t_vs = pf.vsync_ns;
+        const uint64_t vsync_no = pf.vsync_no;
         if (a->t_end_ns && t_vs > a->t_end_ns) break;
-        int64_t lead = warp_est + late_est + margin_ns + reserve_ns;
-        if (gles && lead > period) lead = period;
-        int64_t wake = t_vs - lead;
-        plat_sleep_until_ns(wake);
+        plat_sleep_until_ns(pf.wake_ns);
         int64_t t_start = plat_now_ns();
+        rt_pacer_mark_point(pacer, RT_PACER_WOKE, t_start);
         int64_t cpu_start = plat_thread_cpu_ns(), stalled_start = plat_workers_stalled_ns(a->workers);
 
         bool is_new = false;
         const rt_frame *frame = rt_frameq_latest(&a->fq, &is_new);
+        rt_pacer_mark_point(pacer, RT_PACER_FRAME_TAKEN, plat_now_ns());
         if (is_new) {
             if (last_seq && frame->f.seq > last_seq + 1) tel->frames_dropped += frame->f.seq - last_seq - 1;
             last_seq = frame->f.seq;
@@ -232,10 +219,8 @@ void rt_compositor_run(rt_app *a)
                     if (t > in.translation_m) in.translation_m = t;
                 }
             }
-            /* What a warp may take is a frame, not what is left now: the wake-up time follows the warps actually
-             * run (warp_est), so after choosing a dearer warp the compositor wakes earlier from the next vsync on. */
-            in.time_left_ns = (double)(period - margin_ns - late_est);
-            memcpy(in.cost_ns, cost_ns, sizeof cost_ns);
+            in.time_left_ns = (double)pf.time_left_ns; /* a frame's worth, not what is left now (rt_pacer.h) */
+            memcpy(in.cost_ns, rt_pacer_costs(pacer), sizeof in.cost_ns);
             rt_select_why why;
             want = rt_select_choose(&a->sel, RT_METHOD_AUTO, &in, &why);
             tel->select_why[why]++;
@@ -263,15 +248,15 @@ void rt_compositor_run(rt_app *a)
         }
         if (used == RT_METHOD_AUTO) used = RT_METHOD_ROTATION; /* no frame: nothing was warped */
         int64_t t_done = plat_now_ns();
-        int64_t dur = t_done - t_start;
+        rt_pacer_mark_point(pacer, RT_PACER_DONE, t_done);
+        rt_pacer_work pw = {0, -1, idx >= 0, frame && idx >= 0, used};
         if (gles) {
-            /* The GPU may still be drawing when the CPU is done (KMS: no readback waits for it): the estimate
-             * takes submission plus the GPU time the timer queries measured, whichever is longer. */
             gles_times(a);
-            int64_t gpu = (int64_t)(a->gl.gpu_ms * 1e6);
-            if (frame && idx >= 0 && a->gl.submit_ns - t_start + gpu > dur) dur = a->gl.submit_ns - t_start + gpu;
+            if (frame && idx >= 0) {
+                rt_pacer_mark_point(pacer, RT_PACER_SUBMITTED, a->gl.submit_ns);
+                pw.gpu_ns = (int64_t)(a->gl.gpu_ms * 1e6);
+            }
         }
-        bool missed = t_done > t_vs || idx < 0;
         /* the compositor spins while it waits for a worker's last task: CPU time, but not its own work when the
          * worker was off its CPU meanwhile */
         int64_t work = plat_thread_cpu_ns() - cpu_start - (plat_workers_stalled_ns(a->workers) - stalled_start);
@@ -283,10 +268,16 @@ void rt_compositor_run(rt_app *a)
             int64_t gpu = a->gl.gpu_ms > 0 ? (int64_t)(a->gl.gpu_ms * 1e6) : t_done - a->gl.submit_ns;
             work = rt_miss_gles_work(work, gpu, a->gl.software);
         }
-        rt_miss cause = missed ? rt_miss_classify(wake, t_start, t_vs, work, idx >= 0) : RT_MISS_OWN;
+        pw.work_ns = work;
+        rt_pacer_info pi;
+        rt_pacer_info_vsync(pacer, &pw, &pi);
+        const bool missed = pi.missed;
+        const rt_miss cause = pi.cause;
+        const int64_t dur = pi.dur_ns;
         if (idx >= 0) {
             plat_display_present(a->dev.display, &a->sc, idx, t_vs, vsync_no);
             plat_swapchain_presented(&a->sc, idx, t_vs);
+            rt_pacer_mark_point(pacer, RT_PACER_PRESENTED, plat_now_ns());
         }
 
         tel->vsyncs++;
@@ -317,56 +308,20 @@ void rt_compositor_run(rt_app *a)
         if (frame && idx >= 0) {
             if (prev_used != RT_METHOD_COUNT && used != prev_used) tel->method_switches++;
             prev_used = used;
-            double d = (double)dur;
-            for (int m = 0; m < RT_METHOD_COUNT; m++)
-                if (m == (int)used)
-                    cost_ns[m] = d > cost_ns[m] ? d : cost_ns[m] + (d - cost_ns[m]) / 8;
-                else if (cost_ns[m] < 2 * period)
-                    cost_ns[m] -= cost_ns[m] / 512;
         }
-        durs[vsync_no % WINDOW] = dur;
-        /* woken late; not a start delayed by the previous pass, which a lead beyond a period can make */
-        int64_t planned_start = wake > prev_done ? wake : prev_done;
-        lates[vsync_no % WINDOW] = t_start > planned_start ? t_start - planned_start : 0;
-        prev_done = t_done;
-        warp_est = late_est = 0;
-        for (int i = 0; i < WINDOW; i++) {
-            if (durs[i] > warp_est) warp_est = durs[i];
-            if (lates[i] > late_est) late_est = lates[i];
-        }
-        /* The longest of 128 warps is no bound on the next: keep a quarter of it in hand (the misses left in 60 s
-         * soaks were passes 10-25 % over the window's maximum; a quarter costs about a millisecond of latency). */
-        warp_est += warp_est / 4;
-        /* Plan within one period. A scheduler that wakes us later than a quarter period (a loaded VM) is noise no
-         * wake-up time can absorb; and neither estimate may go negative, or the loop below would pick a vsync
-         * that has already passed and serve it again. */
-        if (late_est > period / 4) late_est = period / 4;
-        if (warp_est + late_est > period - margin_ns) warp_est = period - margin_ns - late_est;
-        if (warp_est < 0) warp_est = 0;
 
-        vsync_no++;
-        /* Half a period on: an estimated phase (GPIO TE line) may move the vsync just served a few µs later, and
-         * asking for "after t_vs" would then return the same vsync again. */
-        int64_t next = drv_vsync_next(a->dev.vsync, t_vs + period / 2, &period);
-        /* Overran a whole period: the vsyncs in between were not served. (The test leaves the reserve out: it is
-         * there to be used up.) */
-        int64_t now = plat_now_ns();
-        if (next - warp_est - late_est - margin_ns < now) {
-            /* the first vsync we can still make, and never one at or before the vsync just served */
-            int64_t after = now + warp_est + margin_ns;
-            if (after < t_vs + period / 2) after = t_vs + period / 2;
-            int64_t later = drv_vsync_next(a->dev.vsync, after, &period);
-            if (later < next) later = next;
-            uint64_t skipped = period > 0 ? (uint64_t)((later - next + period / 2) / period) : 0;
+        int64_t ask_after, period_ns = pf.period_ns;
+        int64_t next = drv_vsync_next(a->dev.vsync, rt_pacer_next_after(pacer), &period_ns);
+        if (rt_pacer_advance(pacer, next, period_ns, plat_now_ns(), &ask_after)) {
+            int64_t later = drv_vsync_next(a->dev.vsync, ask_after, &period_ns);
+            uint64_t skipped = rt_pacer_skip_to(pacer, later, period_ns);
             tel->vsyncs += skipped;
             tel->missed += skipped;
             /* skipped vsyncs take the overrunning pass's cause; a pass that made its vsync yet leaves no time for the
              * next one has cause OWN: the plan's doing */
             tel->missed_by[cause] += skipped;
-            vsync_no += skipped;
-            next = later;
         }
-        t_vs = next;
     }
+    rt_pacer_free(&pacer);
     if (gles) plat_egl_release(a->gl.egl);
 }

@@ -60,7 +60,7 @@ typedef struct {
     int kernel;                 /* CPU resampling kernel, a warp_resample_kernel_id (auto, scalar, vector, ...) */
     int rt_priority;            /* SCHED_FIFO priority of the compositor when permitted; 0 = normal */
     double max_memory_mb;       /* budget for what the configuration allocates (rt_config_memory_bytes) */
-    double stall_reserve_ms;    /* extra lead before each vsync for the scheduler's stalls (rt_compositor.c) */
+    double stall_reserve_ms;    /* extra lead before each vsync for the scheduler's stalls (rt_pacer.c) */
     /* [eye]: the host's eye buffers (left eye; the right eye is its mirror image) */
     int eye_w, eye_h;
     double fov_deg[4];          /* left, right, up, down half-angles in degrees */

@@ -181,6 +181,18 @@ bool rt_devices_simulated(const rt_config *c)
            (strcmp(c->vsync_backend, "gpio") == 0 && is_mock(c->vsync_chip));
 }
 
+bool rt_devices_on_virtual_time(const rt_config *c, const char **real)
+{
+    /* the timer vsync reads plat_clock; the rest stamp in the kernel or on a host, in real time (a KMS display
+     * only shows: its vblank stamps matter as [vsync] kms) */
+    *real = !(strcmp(c->imu_backend, "sim") == 0 || is_mock(c->imu_device))           ? "[imu]"
+            : !(strcmp(c->frames_backend, "sim") == 0 || is_mock(c->frames_device))   ? "[frames]"
+            : strcmp(c->vsync_backend, "kms") == 0 ||
+                      (strcmp(c->vsync_backend, "gpio") == 0 && !is_mock(c->vsync_chip)) ? "[vsync]"
+                                                                                      : NULL;
+    return *real == NULL;
+}
+
 bool rt_devices_open(rt_devices *d, const rt_config *c, const sim_trace *trace, const drv_frames_sim_params *sp,
                      char *err, int errlen)
 {

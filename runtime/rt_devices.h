@@ -41,6 +41,9 @@ bool rt_devices_open(rt_devices *d, const rt_config *c, const sim_trace *trace, 
 bool rt_devices_mount(rt_devices *d, const rt_config *c, char *err, int errlen);
 /* Whether the configuration has the simulator play a device (a sim backend or a mock device). */
 bool rt_devices_simulated(const rt_config *c);
+/* Whether every device follows plat_clock's virtual time (HMDWARP_TIME_SLOWDOWN); *real names the first that
+ * does not. */
+bool rt_devices_on_virtual_time(const rt_config *c, const char **real);
 /* Board mounting: one sample's axes into the head frame the tracker works in (when d->imu_remap). */
 void rt_devices_remap(const rt_devices *d, drv_imu_sample *s);
 /* What the devices' reading threads feed, and how (rt_devices_imu_thread, rt_devices_frames_thread). */

@@ -11,6 +11,7 @@
 
 #include "runtime/rt_app.h"
 #include "tests/support/test_run.h"
+#include "tests/support/test_util.h"
 
 static void config(rt_config *c, const char *const *extra, size_t n_extra)
 {
@@ -207,6 +208,9 @@ static void expect_open_error(const char *const *sets, size_t n, const char *key
 static void test_missing_devices_named(void **state)
 {
     (void)state;
+    /* real devices only open here, paced by nothing: real time (a slow-down would be refused before they open) */
+    int slowdown = plat_clock_slowdown();
+    assert_true(plat_clock_set_slowdown(1));
     const char *hid[] = {"imu.backend=hid", "imu.device=/dev/hidraw97"};
     expect_open_error(hid, 2, "[imu]", "/dev/hidraw97");
     const char *i2c[] = {"imu.backend=i2c", "imu.device=/dev/i2c-97"};
@@ -217,10 +221,12 @@ static void test_missing_devices_named(void **state)
     expect_open_error(usb, 2, "[frames]", "/nonexistent/ffs");
     const char *v4l2[] = {"frames.backend=v4l2", "frames.device=/dev/video97"};
     expect_open_error(v4l2, 2, "[frames]", "/dev/video97");
+    assert_true(plat_clock_set_slowdown(slowdown));
 }
 
 int main(void)
 {
+    test_paced_by_sim(TEST_EMULATOR_SLOWDOWN);
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_hid_usb_gpio),
         cmocka_unit_test(test_i2c_v4l2_timer),

@@ -14,6 +14,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "platform/plat_clock.h"
 #include "warp/warp_lens.h"
 #include "warp/warp_math.h"
 #include "warp/warp_rand.h"
@@ -46,6 +47,18 @@ static inline bool test_build_dirs(const char *argv0, char *build, size_t buildl
     char cmd[600];
     snprintf(cmd, sizeof cmd, "mkdir -p '%s'", tmp);
     return system(cmd) == 0;
+}
+
+/* A test paced by the simulated board (its vsync, IMU, host and mocks keep real time) calls this first. Under an
+ * emulator (TEST_RUNNER set: make check-cross), which runs far slower than the machine, it and the programs it
+ * starts then run on virtual time `slowdown` times slower than real time (plat_clock.h), so the simulated devices
+ * and the compositor keep the pace the test's logic assumes and it asserts the same things. HMDWARP_TIME_SLOWDOWN
+ * in the environment chooses another factor (1: real time). */
+#define TEST_EMULATOR_SLOWDOWN 20
+static inline void test_paced_by_sim(int slowdown)
+{
+    const char *r = getenv("TEST_RUNNER");
+    if (r && *r && !getenv("HMDWARP_TIME_SLOWDOWN")) plat_clock_set_slowdown(slowdown);
 }
 
 /* The reference headset's lens shape (barrel k1 0.22, k2 0.24, lateral CA red 0.996 / blue 1.008) centred at

@@ -158,7 +158,8 @@ static void test_systemd_notify_and_watchdog(void **state)
     assert_non_null(child);
     int ready = 0, pings = 0, stopping = 0, order_ok = 1;
     char msg[256];
-    for (int waited = 0; !stopping && waited < 20000; waited += 5) {
+    /* 20 s of real time, more on virtual time (test_paced_by_sim: the run lasts that much longer) */
+    for (int waited = 0; !stopping && waited < 20000 * plat_clock_slowdown(); waited += 5) {
         ssize_t n = recv(fd, msg, sizeof msg - 1, 0);
         if (n <= 0) {
             usleep(5000);
@@ -184,6 +185,7 @@ static void test_systemd_notify_and_watchdog(void **state)
 
 int main(int argc, char **argv)
 {
+    test_paced_by_sim(TEST_EMULATOR_SLOWDOWN); /* the notify run is paced by the simulated board */
     (void)argc;
     if (!test_build_dirs(argv[0], build, sizeof build, tmp, sizeof tmp, "board")) return 1;
     const struct CMUnitTest tests[] = {

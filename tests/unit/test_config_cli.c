@@ -118,8 +118,29 @@ static void test_v4l2_mock_corrupt_every(void **state)
         fail_msg("rejected as bad CRC %ld, as bad magic %ld, shown %ld; want all > 0:\n%s", crc, magic, shown, out);
 }
 
+/* Virtual time (HMDWARP_TIME_SLOWDOWN, plat_clock.h) is for the simulated board: a device that stamps its events in
+ * real time is refused by name, and a value that is no slow-down is said to be one and ignored. */
+static void test_time_slowdown_refused_for_real_devices(void **state)
+{
+    (void)state;
+    const char *was = getenv("HMDWARP_TIME_SLOWDOWN");
+    char keep[32];
+    snprintf(keep, sizeof keep, "%s", was ? was : "");
+    setenv("HMDWARP_TIME_SLOWDOWN", "5", 1);
+    expect("--config tests/hil/boards/sim-v4l2-sim.ini --duration 1 --set imu.backend=hid "
+           "--set imu.device=/dev/hidraw-missing-test",
+           1, "HMDWARP_TIME_SLOWDOWN=5: virtual time is for simulated and mock devices, but [imu] is a real one");
+    setenv("HMDWARP_TIME_SLOWDOWN", "fast", 1);
+    expect("--check-config", 0, "HMDWARP_TIME_SLOWDOWN=fast: not a whole number from 1 to 1000; running in real time");
+    if (was)
+        setenv("HMDWARP_TIME_SLOWDOWN", keep, 1);
+    else
+        unsetenv("HMDWARP_TIME_SLOWDOWN");
+}
+
 int main(int argc, char **argv)
 {
+    test_paced_by_sim(TEST_EMULATOR_SLOWDOWN);
     (void)argc;
     if (!test_build_dirs(argv[0], build, sizeof build, tmp, sizeof tmp, "config_cli")) return 1;
     const struct CMUnitTest tests[] = {
@@ -127,6 +148,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_check_config_refuses_what_cannot_show),
         cmocka_unit_test(test_run_that_shows_nothing_fails),
         cmocka_unit_test(test_v4l2_mock_corrupt_every),
+        cmocka_unit_test(test_time_slowdown_refused_for_real_devices),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

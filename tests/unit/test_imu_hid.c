@@ -735,6 +735,7 @@ static void test_create_errors(void **state)
 
 int main(void)
 {
+    test_paced_by_sim(TEST_EMULATOR_SLOWDOWN);
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_vendor_roundtrip),   cmocka_unit_test(test_vendor_rejections),
         cmocka_unit_test(test_rift_decode),        cmocka_unit_test(test_unwrap),
