@@ -149,6 +149,7 @@ void rt_compositor_run(rt_app *a)
     rt_method prev_used = RT_METHOD_COUNT;
     bool objects_moving = false;
     uint64_t last_seq = 0;
+    bool have_seq = false; /* a host may count from 0: seq 0 is a frame, not "none yet" */
     bool gles = a->gl.use;
     if (gles && !plat_egl_make_current(a->gl.egl)) {
         plat_log(PLAT_LOG_WARNING, "cannot make the EGL context current on the compositor thread: using the CPU "
@@ -186,8 +187,9 @@ void rt_compositor_run(rt_app *a)
         const rt_frame *frame = rt_frameq_latest(&a->fq, &is_new);
         rt_pacer_mark_point(pacer, RT_PACER_FRAME_TAKEN, plat_now_ns());
         if (is_new) {
-            if (last_seq && frame->f.seq > last_seq + 1) tel->frames_dropped += frame->f.seq - last_seq - 1;
+            if (have_seq && frame->f.seq > last_seq + 1) tel->frames_dropped += frame->f.seq - last_seq - 1;
             last_seq = frame->f.seq;
+            have_seq = true;
             tel->new_frames_shown++;
             if (a->can_objects) objects_moving = track_objects(a, frame);
         }
