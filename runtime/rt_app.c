@@ -245,10 +245,10 @@ bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen)
     }
     if (!a->dev.display) return fail(err, errlen, "%s%s", "out of memory", "");
 
-    if (!rt_ring_init(&a->eval.ring, sizeof(rt_eval_record), 64))
+    if (!rt_ring_alloc(&a->eval.ring, sizeof(rt_eval_record), 64))
         return fail(err, errlen, "%s%s", "out of memory", "");
     return rt_csv_open(&a->csv, c->csv, c->csv_max_mb, err, errlen) &&
-           rt_live_init(&a->live, c->live_stats, err, errlen);
+           rt_live_alloc(&a->live, c->live_stats, err, errlen);
 }
 
 /* The live view's text: the key=value set of --stats (rt_live.h). */

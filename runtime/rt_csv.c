@@ -8,6 +8,7 @@
 
 #include "platform/plat_log.h"
 #include "runtime/rt_config.h"
+#include "warp/warp_err.h"
 
 #define CSV_HEADER "vsync,vsync_ns,frame_seq,method,warp_ms,missed,m2p_ms,frame_age_ms\n"
 
@@ -18,15 +19,9 @@ bool rt_csv_open(rt_csv *w, const char *path, double max_mb, char *err, int errl
     snprintf(w->path, sizeof w->path, "%s", path);
     w->max_bytes = (uint64_t)(max_mb * 1024 * 1024);
     w->f = fopen(path, "w");
-    if (!w->f) {
-        snprintf(err, (size_t)errlen, "[telemetry] csv = %s: %s", path, strerror(errno));
-        return false;
-    }
+    if (!w->f) return warp_err(err, errlen, "[telemetry] csv = %s: %s", path, strerror(errno));
     w->bytes = (uint64_t)fprintf(w->f, "%s", CSV_HEADER);
-    if (!rt_ring_init(&w->ring, sizeof(rt_csv_row), 8192)) {
-        snprintf(err, (size_t)errlen, "out of memory");
-        return false;
-    }
+    if (!rt_ring_alloc(&w->ring, sizeof(rt_csv_row), 8192)) return warp_err(err, errlen, "out of memory");
     return true;
 }
 

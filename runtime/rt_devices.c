@@ -15,6 +15,7 @@
 #include "platform/plat_clock.h"
 #include "platform/plat_log.h"
 #include "runtime/rt_devices.h"
+#include "warp/warp_err.h"
 
 static bool is_mock(const char *dev) { return strcmp(dev, "mock") == 0; }
 
@@ -79,9 +80,8 @@ static bool open_imu(rt_devices *d, const rt_config *c, const sim_trace *trace, 
         }
     }
     if (!d->imu) {
-        snprintf(err, (size_t)errlen, "[imu] backend = %s, device = %s: %s", c->imu_backend,
-                 c->imu_device[0] ? c->imu_device : "(none)", e[0] ? e : "cannot open");
-        return false;
+        return warp_err(err, errlen, "[imu] backend = %s, device = %s: %s", c->imu_backend,
+                        c->imu_device[0] ? c->imu_device : "(none)", e[0] ? e : "cannot open");
     }
     return true;
 }
@@ -96,10 +96,7 @@ static bool open_vsync(rt_devices *d, const rt_config *c, const drv_frames_sim_p
     } else if (strcmp(c->vsync_backend, "kms") == 0) {
         /* the KMS output is open by now (rt_app's render_init); its event thread hands over the vblank times */
         d->vsync = drv_vsync_kms_create(d->kms, c->refresh_hz, e, sizeof e);
-        if (!d->vsync) {
-            snprintf(err, (size_t)errlen, "[vsync] backend = kms: %s", e[0] ? e : "cannot start");
-            return false;
-        }
+        if (!d->vsync) return warp_err(err, errlen, "[vsync] backend = kms: %s", e[0] ? e : "cannot start");
     } else if (is_mock(c->vsync_chip)) {
         drv_vsync_mock_params mp;
         memset(&mp, 0, sizeof mp);
@@ -118,9 +115,8 @@ static bool open_vsync(rt_devices *d, const rt_config *c, const drv_frames_sim_p
         d->vsync = drv_vsync_gpio_create(&p, e, sizeof e);
     }
     if (!d->vsync) {
-        snprintf(err, (size_t)errlen, "[vsync] backend = %s, chip = %s, line = %d: %s", c->vsync_backend,
-                 c->vsync_chip, c->vsync_line, e[0] ? e : "cannot open");
-        return false;
+        return warp_err(err, errlen, "[vsync] backend = %s, chip = %s, line = %d: %s", c->vsync_backend,
+                        c->vsync_chip, c->vsync_line, e[0] ? e : "cannot open");
     }
     return true;
 }
@@ -167,9 +163,8 @@ static bool open_frames(rt_devices *d, const rt_config *c, const drv_frames_sim_
         if (d->frames && mock) drv_frames_v4l2_mock_corrupt_every(d->frames, c->mock_corrupt_every);
     }
     if (!d->frames) {
-        snprintf(err, (size_t)errlen, "[frames] backend = %s, device = %s: %s", c->frames_backend,
-                 c->frames_device[0] ? c->frames_device : "(none)", e[0] ? e : "cannot open");
-        return false;
+        return warp_err(err, errlen, "[frames] backend = %s, device = %s: %s", c->frames_backend,
+                        c->frames_device[0] ? c->frames_device : "(none)", e[0] ? e : "cannot open");
     }
     return true;
 }
@@ -206,10 +201,8 @@ bool rt_devices_open(rt_devices *d, const rt_config *c, const sim_trace *trace, 
 
 bool rt_devices_mount(rt_devices *d, const rt_config *c, char *err, int errlen)
 {
-    if (!rt_config_parse_axes(c->imu_axes, d->imu_map, d->imu_sign)) {
-        snprintf(err, (size_t)errlen, "[imu] axes = '%s': expected e.g. '-y +x +z'", c->imu_axes);
-        return false;
-    }
+    if (!rt_config_parse_axes(c->imu_axes, d->imu_map, d->imu_sign))
+        return warp_err(err, errlen, "[imu] axes = '%s': expected e.g. '-y +x +z'", c->imu_axes);
     d->imu_remap = strcmp(c->imu_backend, "sim") != 0 &&
                    !(d->imu_map[0] == 0 && d->imu_map[1] == 1 && d->imu_map[2] == 2 && d->imu_sign[0] > 0 &&
                      d->imu_sign[1] > 0 && d->imu_sign[2] > 0);

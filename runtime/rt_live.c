@@ -13,6 +13,7 @@
 
 #include "platform/plat_clock.h"
 #include "platform/plat_log.h"
+#include "warp/warp_err.h"
 
 /* The key=value text of one live update: the --stats set is about 3 KB. */
 #define LIVE_BUF_BYTES (32 * 1024)
@@ -24,7 +25,7 @@ void rt_live_reset(rt_live *l)
     atomic_store(&l->pub, -1);
 }
 
-bool rt_live_init(rt_live *l, const char *setting, char *err, int errlen)
+bool rt_live_alloc(rt_live *l, const char *setting, char *err, int errlen)
 {
     const char *want = setting;
     if (strcmp(want, "auto") == 0)
@@ -34,10 +35,7 @@ bool rt_live_init(rt_live *l, const char *setting, char *err, int errlen)
         char tmp[300];
         snprintf(tmp, sizeof tmp, "%s.tmp", want);
         int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-        if (fd < 0) {
-            snprintf(err, (size_t)errlen, "[telemetry] live_stats = %s: %s", want, strerror(errno));
-            return false;
-        }
+        if (fd < 0) return warp_err(err, errlen, "[telemetry] live_stats = %s: %s", want, strerror(errno));
         close(fd);
         unlink(tmp);
         snprintf(l->path, sizeof l->path, "%s", want);
@@ -45,10 +43,7 @@ bool rt_live_init(rt_live *l, const char *setting, char *err, int errlen)
     for (int i = 0; i < 2; i++) l->buf[i] = malloc(LIVE_BUF_BYTES);
     l->m2p = calloc(1, sizeof *l->m2p);
     l->age = calloc(1, sizeof *l->age);
-    if (!l->buf[0] || !l->buf[1] || !l->m2p || !l->age) {
-        snprintf(err, (size_t)errlen, "out of memory");
-        return false;
-    }
+    if (!l->buf[0] || !l->buf[1] || !l->m2p || !l->age) return warp_err(err, errlen, "out of memory");
     return true;
 }
 

@@ -31,7 +31,7 @@ typedef struct {
 void rt_live_reset(rt_live *l);
 /* [telemetry] live_stats: auto means the runtime directory systemd makes (RuntimeDirectory=hmdwarp) when it is
  * there; a path named outright must be writable now. False with "[telemetry] live_stats = PATH: why". */
-bool rt_live_init(rt_live *l, const char *setting, char *err, int errlen);
+bool rt_live_alloc(rt_live *l, const char *setting, char *err, int errlen);
 /* Once a second: the text (file and abort handler) and, with notify, systemd's STATUS line. The STATUS percentiles
  * are over the last second; the file's, like --stats, over the whole run. */
 void rt_live_update(rt_live *l, const rt_telemetry *t, rt_live_text text, void *ctx, bool notify);

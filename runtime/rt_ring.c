@@ -6,7 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-bool rt_ring_init(rt_ring *r, size_t rec_size, size_t cap_pow2)
+bool rt_ring_alloc(rt_ring *r, size_t rec_size, size_t cap_pow2)
 {
     memset(r, 0, sizeof *r);
     if (!rec_size || !cap_pow2 || (cap_pow2 & (cap_pow2 - 1))) return false;

@@ -16,7 +16,7 @@ typedef struct {
     _Atomic uint64_t dropped;
 } rt_ring;
 
-bool rt_ring_init(rt_ring *r, size_t rec_size, size_t cap_pow2);
+bool rt_ring_alloc(rt_ring *r, size_t rec_size, size_t cap_pow2);
 void rt_ring_free(rt_ring *r);
 /* Producer: copies rec in; false (and counts a drop) when full. */
 bool rt_ring_push(rt_ring *r, const void *rec);

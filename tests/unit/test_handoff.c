@@ -130,8 +130,8 @@ static void test_ring(void **state)
 {
     (void)state;
     rt_ring r;
-    assert_false(rt_ring_init(&r, 8, 3)); /* not a power of two */
-    assert_true(rt_ring_init(&r, sizeof(uint64_t), 4));
+    assert_false(rt_ring_alloc(&r, 8, 3)); /* not a power of two */
+    assert_true(rt_ring_alloc(&r, sizeof(uint64_t), 4));
     uint64_t v;
     assert_false(rt_ring_pop(&r, &v));
     for (uint64_t i = 0; i < 4; i++) assert_true(rt_ring_push(&r, &i));
