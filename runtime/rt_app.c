@@ -11,7 +11,6 @@
 
 #include <systemd/sd-daemon.h>
 
-#include "drivers/drv_sim.h"
 #include "platform/plat_clock.h"
 #include "platform/plat_egl.h"
 #include "platform/plat_gles.h"
@@ -22,8 +21,9 @@
 #include "runtime/rt_csv.h"
 #include "runtime/rt_gles.h"
 #include "runtime/rt_live.h"
+#include "runtime/rt_simboard.h"
 #include "runtime/rt_summary.h"
-#include "sim/sim_scene.h"
+#include "warp/warp_err.h"
 #include "warp/warp_resample.h"
 
 static bool predict_for_host(void *ctx, int64_t t_ns, warp_pose *head)
@@ -41,36 +41,21 @@ static bool predict_for_host(void *ctx, int64_t t_ns, warp_pose *head)
     return true;
 }
 
-static bool fail(char *err, int errlen, const char *fmt, const char *a1, const char *a2)
-{
-    snprintf(err, (size_t)errlen, fmt, a1, a2);
-    return false;
-}
-
-static void names_list(const char *const *names, char *buf, size_t len)
-{
-    buf[0] = 0;
-    for (int i = 0; names[i]; i++) {
-        strncat(buf, i ? ", " : "", len - strlen(buf) - 1);
-        strncat(buf, names[i], len - strlen(buf) - 1);
-    }
-}
-
 /* The CPU path's KMS output: dumb buffers on the panel's connector (a->dev.display; a->dev.kms borrowed from it). */
 static bool cpu_kms_init(rt_app *a, const plat_kms_params *kp, char *err, int errlen)
 {
     char e[300];
     plat_kms *k = plat_kms_open(kp, e, sizeof e);
-    if (!k) return fail(err, errlen, "[display] output = kms: %s%s", e, "");
+    if (!k) return warp_err(err, errlen, "[display] output = kms: %s", e);
     const plat_kms_choice *ch = plat_kms_chosen(k);
     if (ch->mode.hdisplay != a->cfg.panel_w || ch->mode.vdisplay != a->cfg.panel_h) {
         snprintf(e, sizeof e, "%dx%d, the panel is %dx%d", ch->mode.hdisplay, ch->mode.vdisplay, a->cfg.panel_w,
                  a->cfg.panel_h);
         plat_kms_close(k);
-        return fail(err, errlen, "[display] output = kms: the mode is %s%s", e, "");
+        return warp_err(err, errlen, "[display] output = kms: the mode is %s", e);
     }
     a->dev.display = plat_display_kms_create(k, &a->sc, e, sizeof e);
-    if (!a->dev.display) return fail(err, errlen, "[display] output = kms: %s%s", e, "");
+    if (!a->dev.display) return warp_err(err, errlen, "[display] output = kms: %s", e);
     a->dev.kms = k;
     return true;
 }
@@ -83,12 +68,11 @@ static bool render_init(rt_app *a, char *err, int errlen)
     const bool forced = strcmp(c->renderer, "gles") == 0;
     char eerr[300] = "";
     if (!warp_resample_force_kernel((warp_resample_kernel_id)c->kernel))
-        return fail(err, errlen, "[render] kernel = %s: this build or CPU cannot run it%s", rt_kernel_name(c->kernel),
-                    "");
+        return warp_err(err, errlen, "[render] kernel = %s: this build or CPU cannot run it", rt_kernel_name(c->kernel));
     plat_kms_params kp = {c->kms_device, c->kms_connector, 0, 0, 0, c->rt_priority};
     if (kms) {
         if (!rt_config_parse_mode(c->kms_mode, &kp.mode_w, &kp.mode_h, &kp.mode_hz))
-            return fail(err, errlen, "[display] kms_mode = '%s': %s", c->kms_mode, "expected auto, WxH or WxH@Hz");
+            return warp_err(err, errlen, "[display] kms_mode = '%s': expected auto, WxH or WxH@Hz", c->kms_mode);
         if (kp.mode_w == 0) {
             kp.mode_w = c->panel_w;
             kp.mode_h = c->panel_h;
@@ -100,14 +84,14 @@ static bool render_init(rt_app *a, char *err, int errlen)
             /* a missing device fails the same way on the CPU path: say so now, in the KMS terms */
             if (!a->gl.egl &&
                 (forced || strncmp(eerr, "no DRM device", 13) == 0 || strncmp(eerr, "kms_device", 10) == 0))
-                return fail(err, errlen, "[display] output = kms: %s%s", eerr, "");
+                return warp_err(err, errlen, "[display] output = kms: %s", eerr);
             if (a->gl.egl) {
                 int mw, mh;
                 plat_egl_kms_mode(a->gl.egl, &mw, &mh, NULL, NULL);
                 if (mw != c->panel_w || mh != c->panel_h) {
                     char m[64];
                     snprintf(m, sizeof m, "%dx%d, the panel is %dx%d", mw, mh, c->panel_w, c->panel_h);
-                    return fail(err, errlen, "[display] output = kms: the mode is %s%s", m, "");
+                    return warp_err(err, errlen, "[display] output = kms: the mode is %s", m);
                 }
             }
         } else {
@@ -116,7 +100,7 @@ static bool render_init(rt_app *a, char *err, int errlen)
     }
     a->gl.use = rt_render_choose(c->renderer, a->gl.egl ? plat_egl_renderer(a->gl.egl) : NULL, eerr, kms, a->render_why,
                                    sizeof a->render_why);
-    if (a->gl.use && !a->gl.egl) return fail(err, errlen, "[render] renderer = gles: %s%s", eerr, "");
+    if (a->gl.use && !a->gl.egl) return warp_err(err, errlen, "[render] renderer = gles: %s", eerr);
     a->gl.software = a->gl.egl && plat_egl_renderer_is_software(plat_egl_renderer(a->gl.egl));
     if (!a->gl.use) {
         /* closed before the CPU path opens the device: one master, one owner of the CRTC */
@@ -131,7 +115,7 @@ static bool render_init(rt_app *a, char *err, int errlen)
                            a->gl.depth, kms, true, false};
     a->gl.renderer = plat_gles_create(a->gl.egl, &gp, eerr, sizeof eerr);
     if (!a->gl.renderer) {
-        if (forced) return fail(err, errlen, "[render] renderer = %s: %s", c->renderer, eerr);
+        if (forced) return warp_err(err, errlen, "[render] renderer = %s: %s", c->renderer, eerr);
         /* auto on a GPU whose driver cannot run our shaders: the CPU path still works, on KMS too */
         snprintf(a->render_why, sizeof a->render_why, "auto: the GPU (%.60s) cannot run the GLES renderer: %.140s",
                  plat_egl_renderer(a->gl.egl), eerr);
@@ -142,7 +126,7 @@ static bool render_init(rt_app *a, char *err, int errlen)
     }
     if (kms) a->dev.kms = plat_egl_kms(a->gl.egl);
     a->gl.ms = calloc(PLAT_GLES_PASSES, sizeof *a->gl.ms);
-    if (!a->gl.ms) return fail(err, errlen, "%s%s", "out of memory", "");
+    if (!a->gl.ms) return warp_err(err, errlen, "out of memory");
     /* The compositor thread makes the context current for itself. */
     plat_egl_release(a->gl.egl);
     return true;
@@ -156,7 +140,6 @@ bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen)
     rt_live_reset(&a->live);
     a->cfg = *cfg;
     const rt_config *c = &a->cfg;
-    char list[512];
 
     /* The simulated board's scene and motion, for the devices it plays (a sim backend or a mock device; the
      * accuracy evaluation needs a simulated head and host, so it implies them). A board whose devices are all real
@@ -165,22 +148,10 @@ bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen)
      * time, and mixing the two would make every stamp wrong. */
     const char *real = NULL;
     if (plat_clock_slowdown() > 1 && !rt_devices_on_virtual_time(c, &real))
-        return fail(err, errlen, "HMDWARP_TIME_SLOWDOWN=%s: virtual time is for simulated and mock devices, but %s is "
+        return warp_err(err, errlen, "HMDWARP_TIME_SLOWDOWN=%s: virtual time is for simulated and mock devices, but %s is "
                                  "a real one", getenv("HMDWARP_TIME_SLOWDOWN") ? getenv("HMDWARP_TIME_SLOWDOWN") : "?",
                     real);
-    a->sim_loaded = rt_devices_simulated(c);
-    if (a->sim_loaded) {
-        a->scene = sim_scene_find(c->scene);
-        if (!a->scene) {
-            names_list(sim_scene_names(), list, sizeof list);
-            return fail(err, errlen, "[sim] scene = '%s': unknown scene (available: %s)", c->scene, list);
-        }
-        if (!sim_trace_init(&a->trace, c->trace, c->seed)) {
-            names_list(sim_trace_names(), list, sizeof list);
-            return fail(err, errlen, "[sim] trace = '%s': unknown trace (available: %s)", c->trace, list);
-        }
-        a->trace.head.ipd = c->ipd;
-    }
+    if (rt_devices_simulated(c) && !(a->sim = rt_simboard_create(c, err, errlen))) return false;
 
     a->head = warp_head_default();
     a->head.ipd = c->ipd;
@@ -188,9 +159,9 @@ bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen)
     /* one shown, one waiting for its vsync, one being drawn; a fourth while a file sink still reads one, or while
      * a pass started by [render] stall_reserve_ms more than a period ahead keeps two out of reach */
     if (!plat_swapchain_alloc(&a->sc, c->stall_reserve_ms > 0 ? 4 : 3, c->panel_w, c->panel_h))
-        return fail(err, errlen, "cannot allocate the swapchain (%s%s)", "[display] width/height", "");
+        return warp_err(err, errlen, "cannot allocate the swapchain ([display] width/height)");
     a->workers = plat_workers_create(c->threads - 1, c->rt_priority);
-    if (!a->workers) return fail(err, errlen, "cannot start %s%s", "compositor worker threads", "");
+    if (!a->workers) return warp_err(err, errlen, "cannot start compositor worker threads");
     /* the CPU pass before the renderer: its lens meshes are the GLES path's too */
     rt_render_cpu_params rp = rt_render_cpu_params_from_config(c);
     a->render = rt_render_cpu_create(&rp, a->workers, err, errlen);
@@ -204,7 +175,7 @@ bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen)
 
     a->fusion = calloc(1, sizeof *a->fusion);
     a->tel = rt_telemetry_create();
-    if (!a->fusion || !a->tel) return fail(err, errlen, "%s%s", "out of memory", "");
+    if (!a->fusion || !a->tel) return warp_err(err, errlen, "out of memory");
     rt_fusion_params fp = rt_fusion_default_params();
     fp.lever_arm = a->head.neck_to_eye; /* the IMU sits between the eyes, on the neck model's lever arm */
     rt_fusion_init(a->fusion, &fp);
@@ -214,9 +185,10 @@ bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen)
     bool imu_simulated = strcmp(c->imu_backend, "sim") == 0 || strcmp(c->imu_device, "mock") == 0;
     a->t0_ns = plat_now_ns() + 50 * PLAT_NS_PER_MS + (imu_simulated ? (int64_t)(c->imu_rest_s * 1e9) : 0);
     if (c->duration_s > 0) a->t_end_ns = a->t0_ns + (int64_t)(c->duration_s * 1e9);
+    if (a->sim) rt_simboard_set_origin(a->sim, a->t0_ns);
     drv_frames_sim_params sp;
     memset(&sp, 0, sizeof sp);
-    sp.scene = a->scene;
+    sp.scene = a->sim ? rt_simboard_scene(a->sim) : NULL;
     sp.cam[0] = a->eye_cam[0];
     sp.cam[1] = a->eye_cam[1];
     sp.head = a->head;
@@ -229,10 +201,10 @@ bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen)
     /* The warps of this build use colour and depth; ids, motion and layers would be rendered for nothing. */
     sp.planes_wanted = DRV_PLANE_COLOR | DRV_PLANE_DEPTH | (a->can_objects ? DRV_PLANE_IDS : 0) |
                        (a->can_transparency ? DRV_PLANE_LAYERS : 0);
-    if (!rt_devices_open(&a->dev, c, &a->trace, &sp, err, errlen) || !rt_devices_mount(&a->dev, c, err, errlen))
+    if (!rt_devices_open(&a->dev, c, a->sim ? rt_simboard_trace(a->sim) : NULL, &sp, err, errlen) || !rt_devices_mount(&a->dev, c, err, errlen))
         return false;
     if (!rt_frameq_alloc(&a->fq, c->eye_w, c->eye_h, drv_frames_planes(a->dev.frames), 4))
-        return fail(err, errlen, "cannot allocate %s%s", "the frame slots", "");
+        return warp_err(err, errlen, "cannot allocate the frame slots");
 
     if (a->dev.display) {
         /* the CPU path's KMS output, opened with the renderer */
@@ -241,12 +213,10 @@ bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen)
     } else {
         char e2[300];
         a->dev.display = plat_display_files_create(c->sink, c->sink_path, c->sink_every, e2, sizeof e2);
-        if (!a->dev.display) return fail(err, errlen, "[display] sink = %s: %s", c->sink, e2);
+        if (!a->dev.display) return warp_err(err, errlen, "[display] sink = %s: %s", c->sink, e2);
     }
-    if (!a->dev.display) return fail(err, errlen, "%s%s", "out of memory", "");
+    if (!a->dev.display) return warp_err(err, errlen, "out of memory");
 
-    if (!rt_ring_alloc(&a->eval.ring, sizeof(rt_eval_record), 64))
-        return fail(err, errlen, "%s%s", "out of memory", "");
     return rt_csv_open(&a->csv, c->csv, c->csv_max_mb, err, errlen) &&
            rt_live_alloc(&a->live, c->live_stats, err, errlen);
 }
@@ -293,9 +263,11 @@ void rt_app_request_stop(rt_app *a) { atomic_store(&a->stop, 1); }
 
 void rt_app_run(rt_app *a)
 {
-    pthread_t eval_th;
-    bool eval_up =
-        a->dev.has_truth && a->cfg.eval_every_ms > 0 && pthread_create(&eval_th, NULL, rt_eval_thread, a) == 0;
+    if (a->sim && a->dev.has_truth && a->cfg.eval_every_ms > 0) {
+        rt_eval_inputs in = {.cam = a->eye_cam[0], .head = a->head, .mesh_n = a->cfg.mesh_n,
+                             .rp = *rt_render_cpu_raytrace_params(a->render), .stop = &a->stop};
+        rt_simboard_eval_start(a->sim, &in);
+    }
     a->run_start_ns = plat_now_ns();
     a->feed = (rt_devices_feed){&a->dev, a->fusion, &a->fq, a->tel, &a->stop, a->cfg.rt_priority, a->t0_ns,
                                 rt_frame_prepare};
@@ -312,15 +284,10 @@ void rt_app_run(rt_app *a)
     if (a->th_imu_up) pthread_join(a->th_imu, NULL);
     if (a->th_frames_up) pthread_join(a->th_frames, NULL);
     if (a->th_aux_up) pthread_join(a->th_aux, NULL);
-    if (eval_up) pthread_join(eval_th, NULL);
+    rt_simboard_eval_join(a->sim);
     a->run_end_ns = end;
     plat_display_flush(a->dev.display);
-    if (a->dev.sim_host) {
-        drv_frames_sim_stats st;
-        drv_frames_sim_stats_get(a->dev.frames, &st);
-        a->sim_frames = st.frames;
-        memcpy(a->sim_plane_renders, st.plane_renders, sizeof st.plane_renders);
-    }
+    if (a->sim) rt_simboard_collect_host(a->sim, &a->dev);
     /* the live file's last word once every thread has stopped: what --stats says, so hmdwarp-top shows the end */
     rt_live_final(&a->live, live_text, a);
 }
@@ -376,16 +343,17 @@ static void summary_src(rt_app *a, rt_summary_src *s, bool live, char *output, i
                       rt_fusion_rejected(a->fusion, RT_FUSION_TIME_JUMP);
     s->has_orientation = rt_fusion_latest(a->fusion, &s->orientation);
     s->has_truth = d->has_truth;
-    if (s->has_orientation && d->has_truth) {
-        warp_quat truth = sim_trace_orientation(&a->trace, (double)(s->orientation.t_ns - a->t0_ns) * 1e-9);
-        s->orientation_error_deg = warp_quat_angle_between(truth, s->orientation.q) * 180 / WARP_PI;
-    }
+    if (s->has_orientation && d->has_truth && a->sim)
+        s->orientation_error_deg = rt_simboard_orientation_error_deg(a->sim, s->orientation.t_ns, s->orientation.q);
+    /* a board without the simulated one prints the same keys, its evaluator's scores empty */
+    static const rt_eval no_eval;
+    const rt_eval *ev = a->sim ? rt_simboard_eval(a->sim) : &no_eval;
     s->sim_host = d->sim_host;
-    s->sim_plane_renders = a->sim_plane_renders;
-    s->scene_effects = d->sim_host && a->scene ? sim_effects_str(sim_scene_effects(a->scene), fx, fxlen) : "";
+    s->sim_plane_renders = a->sim ? rt_simboard_plane_renders(a->sim) : NULL;
+    s->scene_effects = d->sim_host && a->sim ? rt_simboard_scene_effects(a->sim, fx, fxlen) : "";
     s->accuracy = d->has_truth && c->eval_every_ms > 0;
-    s->eval = a->eval.acc;
-    s->eval_pose = &a->eval.pose;
+    s->eval = ev->acc;
+    s->eval_pose = &ev->pose;
     s->csv = a->csv.f ? c->csv : NULL;
 }
 
@@ -441,7 +409,7 @@ void rt_app_free(rt_app *a)
     if (a->workers) plat_workers_destroy(a->workers);
     plat_swapchain_free(&a->sc);
     rt_frameq_free(&a->fq);
-    rt_ring_free(&a->eval.ring);
+    rt_simboard_destroy(&a->sim);
     rt_csv_close(&a->csv);
     rt_live_free(&a->live);
     free(a->fusion);

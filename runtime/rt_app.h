@@ -15,7 +15,6 @@
 #include "runtime/rt_config.h"
 #include "runtime/rt_csv.h"
 #include "runtime/rt_devices.h"
-#include "runtime/rt_eval.h"
 #include "runtime/rt_frameq.h"
 #include "runtime/rt_fusion.h"
 #include "runtime/rt_gles.h"
@@ -23,20 +22,19 @@
 #include "runtime/rt_ring.h"
 #include "runtime/rt_select.h"
 #include "runtime/rt_telemetry.h"
-#include "sim/sim_trace.h"
 #include "runtime/rt_render_cpu.h"
 #include "warp/warp_head.h"
 
 /* Opaque parts held by pointer: their headers are for the files that call them. */
 typedef struct plat_workers plat_workers;
-typedef struct sim_scene sim_scene;
+typedef struct rt_simboard rt_simboard;
 
 /* Older than this, the newest IMU state is not extrapolated: the device is gone or stalled (prediction off). */
 #define RT_IMU_STALE_NS (150 * 1000000LL)
 
 typedef struct {
     rt_config cfg;
-    int64_t t0_ns;         /* scene time origin (simulated board) */
+    int64_t t0_ns;         /* when the display starts (the simulated board's scene time 0) */
     int64_t t_end_ns;      /* 0 = run until stopped */
     _Atomic int stop;
 
@@ -73,13 +71,9 @@ typedef struct {
     rt_live live;              /* the --stats text once a second: live_stats file, STATUS, abort handler */
     int64_t run_start_ns, run_end_ns; /* rt_app_run's start; the compositor's return (0 while running) */
 
-    /* simulated board */
-    bool sim_loaded;           /* scene and trace loaded: some device is simulated (rt_devices_simulated) */
-    const sim_scene *scene;    /* NULL unless sim_loaded */
-    sim_trace trace;
-    rt_eval eval;              /* the accuracy evaluator (has_truth and [sim] eval_every_ms) */
-    uint64_t sim_plane_renders[5];
-    uint64_t sim_frames;
+    /* the simulated board (rt_simboard.h): scene, true head motion, host counters, evaluator; NULL unless some
+     * device is simulated (rt_devices_simulated), so a real board never loads sim/ */
+    rt_simboard *sim;
 
     pthread_t th_imu, th_frames, th_aux;
     bool th_imu_up, th_frames_up, th_aux_up;

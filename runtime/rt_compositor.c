@@ -13,6 +13,7 @@
 #include "platform/plat_workers.h"
 #include "runtime/rt_app.h"
 #include "runtime/rt_render_cpu.h"
+#include "runtime/rt_simboard.h"
 #include "warp/warp_objects.h"
 #include "runtime/rt_pacer.h"
 #include "warp/warp_raytrace.h"
@@ -145,6 +146,8 @@ void rt_compositor_run(rt_app *a)
     const rt_config *c = &a->cfg;
     const int64_t photon_ns = (int64_t)(c->photon_offset_ms * 1e6);
     const int64_t eval_every = (int64_t)(c->eval_every_ms * 1e6);
+    /* the simulated board's evaluator, when it scores this run: the records go into its ring */
+    rt_eval *eval = a->sim && a->dev.has_truth && eval_every > 0 ? rt_simboard_eval(a->sim) : NULL;
     int64_t next_eval = a->t0_ns + eval_every;
     rt_method prev_used = RT_METHOD_COUNT;
     bool objects_moving = false;
@@ -300,10 +303,10 @@ void rt_compositor_run(rt_app *a)
                               (int)used, missed};
             rt_ring_push(&a->csv.ring, &row);
         }
-        if (a->dev.has_truth && eval_every > 0 && frame && t_vs >= next_eval) {
+        if (eval && frame && t_vs >= next_eval) {
             rt_eval_record r = {vsync_no, frame->f.seq, frame->f.scene_time,
                                 (double)(t_photon - a->t0_ns) * 1e-9, frame->f.eye_pose[0], eyes[0], (int)used};
-            rt_ring_push(&a->eval.ring, &r);
+            rt_ring_push(&eval->ring, &r);
             next_eval += eval_every;
         }
 

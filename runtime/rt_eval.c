@@ -6,7 +6,6 @@
 #include <string.h>
 
 #include "platform/plat_clock.h"
-#include "runtime/rt_app.h"
 #include "runtime/rt_eval.h"
 #include "sim/sim_scene.h"
 #include "warp/warp_mesh.h"
@@ -39,10 +38,11 @@ static void score(rt_eval_acc *acc, const warp_image_rgba8 *img, const warp_imag
 
 void *rt_eval_thread(void *arg)
 {
-    rt_app *a = arg;
+    rt_eval *ev = arg;
+    const rt_eval_inputs *in = &ev->in;
     plat_thread_set_name("hmdwarp-eval");
     plat_thread_set_idle();
-    const warp_camera *cam = &a->eye_cam[0];
+    const warp_camera *cam = &in->cam;
     sim_buffers src, truth;
     warp_image_rgba8 out;
     warp_image_f32 inv;
@@ -55,7 +55,7 @@ void *rt_eval_thread(void *arg)
     bool ok = sim_buffers_alloc(&src, cam->width, cam->height, SIM_PLANE_COLOR | SIM_PLANE_DEPTH, 1) &&
               sim_buffers_alloc(&truth, cam->width, cam->height, SIM_PLANE_COLOR, 1) &&
               warp_image_rgba8_alloc(&out, cam->width, cam->height) &&
-              warp_image_f32_alloc(&inv, cam->width, cam->height) && warp_mesh_alloc_eye(&mesh, a->cfg.mesh_n, cam) &&
+              warp_image_f32_alloc(&inv, cam->width, cam->height) && warp_mesh_alloc_eye(&mesh, in->mesh_n, cam) &&
               warp_planar3_alloc(&planar, cam->width, cam->height);
     /* The display methods are scored here with the warp part of the CPU pass alone, on the left eye, in eye space
      * before the lens: the truth is an eye-space render, and scoring after the lens would measure the mesh's
@@ -64,21 +64,21 @@ void *rt_eval_thread(void *arg)
      * rt_render_cpu's raytrace and raytrace_mesh), and for raytrace_mesh the mesh's vertex tracing and resampling
      * (through a lens-free mesh as dense as the lens mesh). The pass's rotation is the homography warp_reproject
      * applies here per pixel, there sampled at the lens mesh's vertices. */
-    warp_raytrace_params rp = *rt_render_cpu_raytrace_params(a->render);
+    const warp_raytrace_params rp = in->rp;
     for (;;) {
         rt_eval_record r;
-        if (!rt_ring_pop(&a->eval.ring, &r)) {
-            if (atomic_load(&a->stop)) break;
+        if (!rt_ring_pop(&ev->ring, &r)) {
+            if (atomic_load(in->stop)) break;
             plat_sleep_ns(5 * PLAT_NS_PER_MS);
             continue;
         }
         if (!ok) continue;
         /* The frame as the host rendered it, and what the eye really saw at photon time. */
-        sim_render(a->scene, r.src_scene_time, r.src_eye, cam, SIM_PLANE_COLOR | SIM_PLANE_DEPTH, &src);
-        warp_pose true_head = sim_trace_head_pose(&a->trace, r.photon_scene_time);
-        warp_pose true_eye = warp_head_eye_pose(&a->head, true_head, 0);
-        sim_render(a->scene, r.photon_scene_time, true_eye, cam, SIM_PLANE_COLOR, &truth);
-        rt_eval_pose *pe = &a->eval.pose;
+        sim_render(in->scene, r.src_scene_time, r.src_eye, cam, SIM_PLANE_COLOR | SIM_PLANE_DEPTH, &src);
+        warp_pose true_head = sim_trace_head_pose(in->trace, r.photon_scene_time);
+        warp_pose true_eye = warp_head_eye_pose(&in->head, true_head, 0);
+        sim_render(in->scene, r.photon_scene_time, true_eye, cam, SIM_PLANE_COLOR, &truth);
+        rt_eval_pose *pe = &ev->pose;
         double ang = warp_quat_angle_between(true_eye.q, r.shown_eye.q) * 180 / WARP_PI;
         double mm = warp_v3_norm(warp_v3_sub(true_eye.p, r.shown_eye.p)) * 1000;
         pe->n++;
@@ -90,20 +90,20 @@ void *rt_eval_thread(void *arg)
         warp_view v = {.cam = *cam, .pose = r.src_eye, .color = &src.color, .inv_depth = &inv};
         warp_inverse_depth_from(cam, WARP_DEPTH_LINEAR, &src.depth, &inv, &v.inv_depth_min, &v.inv_depth_max);
 
-        score(&a->eval.acc[RT_EVAL_NONE], &src.color, &truth.color);
+        score(&ev->acc[RT_EVAL_NONE], &src.color, &truth.color);
         warp_mat3 h = warp_reproject_homography(&v, cam, r.shown_eye.q);
         warp_reproject_rows(&v, &h, &out, NULL, 0, out.h);
-        score(&a->eval.acc[RT_EVAL_ROTATION], &out, &truth.color);
+        score(&ev->acc[RT_EVAL_ROTATION], &out, &truth.color);
         warp_raytrace_setup s;
         if (!warp_raytrace_prepare(&s, &v, cam, r.shown_eye, &rp)) {
             warp_raytrace_rows(&s, &out, NULL, 0, out.h, NULL);
-            score(&a->eval.acc[RT_EVAL_RAYTRACE], &out, &truth.color);
+            score(&ev->acc[RT_EVAL_RAYTRACE], &out, &truth.color);
             warp_planar3_from_rgba_rows(&planar, &src.color, 0, src.color.h);
             warp_mesh_update_raytrace(&mesh, cam, &s);
             warp_mesh_resample(&mesh, &planar, &out, 0, 0, out.w, out.h);
-            score(&a->eval.acc[RT_EVAL_RAYTRACE_MESH], &out, &truth.color);
+            score(&ev->acc[RT_EVAL_RAYTRACE_MESH], &out, &truth.color);
         }
-        a->eval.done++;
+        ev->done++;
     }
     sim_buffers_free(&src);
     sim_buffers_free(&truth);

@@ -4,11 +4,18 @@
 #ifndef RT_EVAL_H
 #define RT_EVAL_H
 
+#include <stdatomic.h>
 #include <stdint.h>
 
 #include "runtime/rt_config.h"
 #include "runtime/rt_ring.h"
+#include "sim/sim_trace.h"
+#include "warp/warp_camera.h"
+#include "warp/warp_head.h"
 #include "warp/warp_math.h"
+#include "warp/warp_raytrace.h"
+
+typedef struct sim_scene sim_scene;
 
 /* What the compositor hands the accuracy evaluator about one displayed frame (simulated board only). */
 typedef struct {
@@ -38,16 +45,28 @@ enum { RT_EVAL_NONE, RT_EVAL_ROTATION, RT_EVAL_RAYTRACE, RT_EVAL_RAYTRACE_MESH, 
 /* The registry methods the evaluator scores, by RT_EVAL_* (their --stats keys are psnr_NAME, ssim_NAME). */
 extern const rt_method rt_eval_methods[RT_EVAL_METHODS];
 
+/* What the evaluator re-renders and how it warps, set before its thread starts and only read by it. */
+typedef struct {
+    const sim_scene *scene;
+    const sim_trace *trace;     /* the true head motion */
+    warp_camera cam;            /* the left eye's */
+    warp_head head;
+    int mesh_n;                 /* [lens] mesh: raytrace_mesh's vertex grid */
+    warp_raytrace_params rp;    /* the CPU pass's raytrace knobs (rt_render_cpu_raytrace_params) */
+    _Atomic int *stop;          /* the run's: the thread returns once it is set and the ring is empty */
+} rt_eval_inputs;
+
 /* The evaluator's state: the compositor pushes records into ring (never blocking: a full ring drops the sample);
  * the thread alone writes the scores, read once it has stopped (the summary) or by tests. */
 typedef struct {
     rt_ring ring;
+    rt_eval_inputs in;
     rt_eval_acc acc[RT_EVAL_METHODS];
     rt_eval_pose pose;
     int done; /* records scored */
 } rt_eval;
 
-/* The accuracy evaluator: processes records until the app's stop is set and the ring is empty. arg: the rt_app. */
+/* The accuracy evaluator: processes records until in.stop is set and the ring is empty. arg: the rt_eval. */
 void *rt_eval_thread(void *arg);
 
 #endif

@@ -10,6 +10,7 @@
 #include <cmocka.h>
 
 #include "runtime/rt_app.h"
+#include "runtime/rt_simboard.h"
 #include "tests/support/test_run.h"
 #include "tests/support/test_util.h"
 
@@ -80,7 +81,7 @@ static void assert_nominal(void)
     assert_true(drv_frames_planes(app.dev.frames) & DRV_PLANE_DEPTH); /* the translation scene's depth crosses the link */
     rt_fusion_state st;
     assert_true(rt_fusion_latest(app.fusion, &st));
-    warp_quat truth = sim_trace_orientation(&app.trace, (double)(st.t_ns - app.t0_ns) * 1e-9);
+    warp_quat truth = sim_trace_orientation(rt_simboard_trace(app.sim), (double)(st.t_ns - app.t0_ns) * 1e-9);
     assert_true(warp_quat_angle_between(truth, st.q) < 2.0 * WARP_PI / 180);
 }
 

@@ -12,6 +12,7 @@
 #include <cmocka.h>
 
 #include "runtime/rt_app.h"
+#include "runtime/rt_simboard.h"
 #include "tests/support/test_run.h"
 #include "tests/support/test_util.h"
 #include "warp/warp_resample.h"
@@ -59,24 +60,24 @@ static void test_rotation_only_scene(void **state)
     rt_telemetry *t = app.tel;
     print_message("vsyncs %llu missed %llu frames %llu imu %llu eval %d\n", (unsigned long long)t->vsyncs,
                   (unsigned long long)t->missed, (unsigned long long)t->frames_received,
-                  (unsigned long long)t->imu_samples, app.eval.acc[RT_EVAL_NONE].n);
+                  (unsigned long long)t->imu_samples, rt_simboard_eval(app.sim)->acc[RT_EVAL_NONE].n);
     assert_true(t->vsyncs >= 120 && t->vsyncs <= test_run_max_vsyncs(&app, 90)); /* 1.5 s at 90 Hz, skipped ones too */
     assert_true(t->frames_received >= 2);                                          /* 10 quiet */
     assert_true(t->imu_samples >= 100);                                            /* 1300 quiet */
     assert_true(t->method_count[RT_METHOD_ROTATION] >= 10);                        /* 100 quiet */
     /* a rotation-only scene never pays for depth */
-    assert_int_equal(app.sim_plane_renders[1], 0);
-    assert_true(app.sim_plane_renders[0] == app.sim_frames);
+    assert_int_equal(rt_simboard_plane_renders(app.sim)[1], 0);
+    assert_true(rt_simboard_plane_renders(app.sim)[0] == rt_simboard_host_frames(app.sim));
     /* the tracker follows the true head (biased, noisy gyro) */
     rt_fusion_state st;
     assert_true(rt_fusion_latest(app.fusion, &st));
-    warp_quat truth = sim_trace_orientation(&app.trace, (double)(st.t_ns - app.t0_ns) * 1e-9);
+    warp_quat truth = sim_trace_orientation(rt_simboard_trace(app.sim), (double)(st.t_ns - app.t0_ns) * 1e-9);
     assert_true(warp_quat_angle_between(truth, st.q) < 2.0 * WARP_PI / 180);
     /* latencies are measured and plausible: IMU sample to photon within a frame or so (on a busy machine within a
      * second: a pass kept off its CPU shows an older sample) */
     print_message("m2p p50 %.2f ms, other processes used %.0f %% of the CPUs\n", rt_hist_pct(&t->m2p_ms, 50), others * 100);
     assert_true(rt_hist_pct(&t->m2p_ms, 50) > 0 && rt_hist_pct(&t->m2p_ms, 50) < (others < QUIET_OTHERS ? 30 : 1000));
-    assert_true(app.eval.acc[RT_EVAL_NONE].n >= 1);
+    assert_true(rt_simboard_eval(app.sim)->acc[RT_EVAL_NONE].n >= 1);
     rt_app_free(&app);
 }
 
@@ -169,10 +170,10 @@ static void test_depth_scene_raytrace(void **state)
     small_config(&c, "near", "raytrace");
     run(&c);
     rt_telemetry *t = app.tel;
-    assert_true(app.sim_plane_renders[1] > 0); /* translation scene: the host sends depth */
+    assert_true(rt_simboard_plane_renders(app.sim)[1] > 0); /* translation scene: the host sends depth */
     assert_true(t->method_count[RT_METHOD_RAYTRACE] > 0);
     assert_int_equal(rt_render_cpu_stats_get(app.render).raytrace_fallbacks, 0);
-    assert_int_equal(app.sim_plane_renders[2] + app.sim_plane_renders[3] + app.sim_plane_renders[4], 0);
+    assert_int_equal(rt_simboard_plane_renders(app.sim)[2] + rt_simboard_plane_renders(app.sim)[3] + rt_simboard_plane_renders(app.sim)[4], 0);
     rt_app_free(&app);
 }
 
@@ -188,7 +189,7 @@ static void test_depth_scene_raytrace_mesh(void **state)
     assert_int_equal(c.method, RT_METHOD_RAYTRACE_MESH);
     run(&c);
     rt_telemetry *t = app.tel;
-    assert_true(app.sim_plane_renders[1] > 0);
+    assert_true(rt_simboard_plane_renders(app.sim)[1] > 0);
     assert_true(t->method_count[RT_METHOD_RAYTRACE_MESH] > 0);
     assert_int_equal(t->method_count[RT_METHOD_ROTATION] + t->method_count[RT_METHOD_RAYTRACE], 0);
     assert_int_equal(rt_render_cpu_stats_get(app.render).raytrace_fallbacks, 0);
@@ -206,8 +207,8 @@ static void test_depth_scene_raytrace_mesh(void **state)
     /* Against ground truth the mesh raytrace is scored on the same frames as the others: it corrects what the
      * unwarped frame gets wrong about as well as the per-pixel raytrace does (the latency's few millimetres of
      * translation separate the warps by tenths of a dB here, too little to rank them). */
-    const rt_eval_acc *none = &app.eval.acc[RT_EVAL_NONE], *rot = &app.eval.acc[RT_EVAL_ROTATION],
-                      *ray = &app.eval.acc[RT_EVAL_RAYTRACE], *mesh = &app.eval.acc[RT_EVAL_RAYTRACE_MESH];
+    const rt_eval_acc *none = &rt_simboard_eval(app.sim)->acc[RT_EVAL_NONE], *rot = &rt_simboard_eval(app.sim)->acc[RT_EVAL_ROTATION],
+                      *ray = &rt_simboard_eval(app.sim)->acc[RT_EVAL_RAYTRACE], *mesh = &rt_simboard_eval(app.sim)->acc[RT_EVAL_RAYTRACE_MESH];
     assert_true(mesh->n >= 2 && mesh->n == none->n && mesh->n == ray->n);
     const double p_none = none->psnr_sum / none->n, p_rot = rot->psnr_sum / rot->n, p_ray = ray->psnr_sum / ray->n,
                  p_mesh = mesh->psnr_sum / mesh->n;
@@ -268,7 +269,7 @@ static void test_auto_rotation_only_scene_never_pays_for_depth(void **state)
     run(&c);
     rt_telemetry *t = app.tel;
     for (int m = RT_METHOD_RAYTRACE; m < RT_METHOD_COUNT; m++) assert_int_equal(t->method_count[m], 0);
-    assert_int_equal(app.sim_plane_renders[1] + app.sim_plane_renders[2] + app.sim_plane_renders[4], 0);
+    assert_int_equal(rt_simboard_plane_renders(app.sim)[1] + rt_simboard_plane_renders(app.sim)[2] + rt_simboard_plane_renders(app.sim)[4], 0);
     assert_true(t->select_why[RT_WHY_ROTATION_ONLY] > 0);
     assert_int_equal(t->select_why[RT_WHY_PARALLAX], 0);
     rt_app_free(&app);
@@ -306,7 +307,7 @@ static void test_auto_transparency_scene_uses_its_warp(void **state)
     auto_config(&c, "glass");
     run(&c);
     rt_telemetry *t = app.tel;
-    assert_true(app.sim_plane_renders[4] > 0); /* the host sends layers for this scene */
+    assert_true(rt_simboard_plane_renders(app.sim)[4] > 0); /* the host sends layers for this scene */
     assert_true(t->select_why[RT_WHY_TRANSPARENCY] > 0);
     assert_true(t->method_count[RT_METHOD_TRANSPARENCY] > 0);
     rt_app_free(&app);
@@ -319,7 +320,7 @@ static void test_auto_moving_objects_use_object_warp(void **state)
     auto_config(&c, "movers");
     run(&c);
     rt_telemetry *t = app.tel;
-    assert_true(app.sim_plane_renders[2] > 0); /* ids */
+    assert_true(rt_simboard_plane_renders(app.sim)[2] > 0); /* ids */
     assert_true(t->select_why[RT_WHY_OBJECT_MOTION] > 0);
     assert_true(t->method_count[RT_METHOD_OBJECTS] > 0);
     rt_app_free(&app);

@@ -1,7 +1,8 @@
 /* SPDX-License-Identifier: MIT */
 /* A board whose devices are all real never loads the simulator: the rpi5 board's configuration (its panel made
- * offscreen and its devices pointed at paths that do not exist) starts without looking up a scene or a trace, and
- * fails on its first device; the same board with one mock device does load them. */
+ * offscreen and its devices pointed at paths that do not exist) starts without looking up a scene or a trace and
+ * without the simulated board's part (rt_simboard), and fails on its first device; the same board with one mock
+ * device does load them. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -10,6 +11,7 @@
 #include <cmocka.h>
 
 #include "runtime/rt_app.h"
+#include "runtime/rt_simboard.h"
 
 static rt_app app;
 
@@ -65,8 +67,7 @@ static void test_real_board_skips_the_simulator(void **state)
     assert_non_null(strstr(err, "[imu]"));
     assert_non_null(strstr(err, "/nonexistent/i2c-1"));
     assert_null(strstr(err, "[sim]"));
-    assert_false(app.sim_loaded);
-    assert_null(app.scene);
+    assert_null(app.sim);
     rt_app_free(&app);
 }
 
@@ -79,8 +80,28 @@ static void test_mock_device_loads_the_simulator(void **state)
     assert_false(rt_app_init(&app, &c, err, sizeof err));
     print_message("%s\n", err);
     assert_non_null(strstr(err, "[sim] scene = 'no-such-scene'"));
-    assert_true(app.sim_loaded);
+    assert_null(app.sim); /* its creation failed */
     rt_app_free(&app);
+}
+
+/* With a scene and trace the simulator knows, the mock IMU's board holds the simulated part, and the run stops at
+ * the first real device (the GPIO chip that does not exist), past the IMU the simulator plays. */
+static void test_mock_device_holds_the_simulated_board(void **state)
+{
+    (void)state;
+    rt_config c;
+    rpi5_config(&c, "mock");
+    snprintf(c.scene, sizeof c.scene, "room");
+    snprintf(c.trace, sizeof c.trace, "slow");
+    char err[400] = "";
+    assert_false(rt_app_init(&app, &c, err, sizeof err));
+    print_message("%s\n", err);
+    assert_non_null(strstr(err, "[vsync]"));
+    assert_non_null(strstr(err, "/nonexistent/gpiochip9"));
+    assert_non_null(app.sim);
+    assert_non_null(rt_simboard_scene(app.sim));
+    rt_app_free(&app);
+    assert_null(app.sim);
 }
 
 int main(void)
@@ -89,6 +110,7 @@ int main(void)
         cmocka_unit_test(test_which_configs_simulate),
         cmocka_unit_test(test_real_board_skips_the_simulator),
         cmocka_unit_test(test_mock_device_loads_the_simulator),
+        cmocka_unit_test(test_mock_device_holds_the_simulated_board),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
