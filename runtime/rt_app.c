@@ -275,9 +275,11 @@ void rt_app_run(rt_app *a)
     a->th_frames_up = pthread_create(&a->th_frames, NULL, rt_devices_frames_thread, &a->feed) == 0;
     a->th_aux_up = pthread_create(&a->th_aux, NULL, aux_thread, a) == 0;
     plat_thread_set_name("hmdwarp-vsync");
-    a->realtime = a->cfg.rt_priority > 0 && plat_thread_set_realtime(a->cfg.rt_priority);
+    /* relaxed: the helper thread reads them only to print them */
+    bool rt = a->cfg.rt_priority > 0 && plat_thread_set_realtime(a->cfg.rt_priority);
+    atomic_store_explicit(&a->realtime, rt, memory_order_relaxed);
     /* Everything is allocated by now; keep it resident so no page fault lands on the vsync path. */
-    if (a->realtime) a->memory_locked = plat_lock_memory();
+    if (rt) atomic_store_explicit(&a->memory_locked, plat_lock_memory(), memory_order_relaxed);
     rt_compositor_run(a);
     int64_t end = plat_now_ns(); /* stored once the helper thread, which reads it, has stopped */
     atomic_store(&a->stop, 1);
@@ -294,7 +296,14 @@ void rt_app_run(rt_app *a)
 
 /* The run's parts as the summary table reads them (rt_summary.h). live: while the run goes on (the helper thread),
  * leaving out what another thread accumulates unpublished until the end (the accuracy evaluator's sums). */
-static void summary_src(rt_app *a, rt_summary_src *s, bool live, char *output, int outlen, char *fx, int fxlen)
+/* The texts summary_src composes, held by its caller for as long as the table prints from it. */
+typedef struct {
+    char output[400]; /* the display's description (the summary's alone) */
+    char fx[160];     /* the scene's effects */
+    char why[320];    /* why this renderer, with the compositor's fallback if it fell back */
+} summary_text;
+
+static void summary_src(rt_app *a, rt_summary_src *s, bool live, bool with_output, summary_text *t)
 {
     const rt_config *c = &a->cfg;
     memset(s, 0, sizeof *s);
@@ -305,16 +314,22 @@ static void summary_src(rt_app *a, rt_summary_src *s, bool live, char *output, i
      * catching up afterwards): the span the vsync counts cover */
     int64_t since = a->run_start_ns ? (a->run_end_ns ? a->run_end_ns : plat_now_ns()) - a->t0_ns : 0;
     s->run_s = since > 0 ? (double)since * 1e-9 : 0.0;
-    s->gles = a->gl.use;
+    s->gles = atomic_load_explicit(&a->gl.use, memory_order_relaxed);
     s->gles_software = a->gl.software;
     s->gles_depth = a->gl.depth;
-    s->realtime = a->realtime;
-    s->memory_locked = a->memory_locked;
-    s->gl_renderer = a->gl.use ? plat_egl_renderer(a->gl.egl) : "";
-    s->gl_version = a->gl.use ? plat_egl_version(a->gl.egl) : "";
+    s->realtime = atomic_load_explicit(&a->realtime, memory_order_relaxed);
+    s->memory_locked = atomic_load_explicit(&a->memory_locked, memory_order_relaxed);
+    s->gl_renderer = s->gles ? plat_egl_renderer(a->gl.egl) : "";
+    s->gl_version = s->gles ? plat_egl_version(a->gl.egl) : "";
     s->gles_timing = a->gl.renderer ? plat_gles_timing_method(a->gl.renderer) : "";
     s->gles_gpu_pyramid = a->gl.renderer && plat_gles_gpu_pyramid(a->gl.renderer);
-    s->render_why = a->render_why;
+    /* render_why is rt_app_init's; the compositor's fallback is a flag, not an append the helper could read
+     * half-written */
+    snprintf(t->why, sizeof t->why, "%s%s", a->render_why,
+             atomic_load_explicit(&a->gl.fell_back, memory_order_relaxed)
+                 ? "; the EGL context could not be made current: fell back to cpu"
+                 : "");
+    s->render_why = t->why;
     s->cpu_kernel = warp_resample_kernel();
     s->threads = a->workers ? plat_workers_threads(a->workers) : 0;
     s->gles_ms = a->gl.ms;
@@ -333,11 +348,11 @@ static void summary_src(rt_app *a, rt_summary_src *s, bool live, char *output, i
     s->kms_stats.api = "";
     s->kms_stats.format = "";
     if (d->kms) plat_kms_stats_get(d->kms, &s->kms_stats);
-    if (output) { /* the summary's alone: --stats names the output in display_output */
-        output[0] = 0;
-        if (d->display) d->display->describe(d->display, output, outlen);
+    if (with_output) { /* the summary's alone: --stats names the output in display_output */
+        t->output[0] = 0;
+        if (d->display) d->display->describe(d->display, t->output, (int)sizeof t->output);
     }
-    s->output = output;
+    s->output = with_output ? t->output : NULL;
     s->imu_rejected = rt_fusion_rejected(a->fusion, RT_FUSION_BAD_VALUE) +
                       rt_fusion_rejected(a->fusion, RT_FUSION_TIME_REPEAT) +
                       rt_fusion_rejected(a->fusion, RT_FUSION_TIME_JUMP);
@@ -350,7 +365,7 @@ static void summary_src(rt_app *a, rt_summary_src *s, bool live, char *output, i
     const rt_eval *ev = a->sim ? rt_simboard_eval(a->sim) : &no_eval;
     s->sim_host = d->sim_host;
     s->sim_plane_renders = a->sim ? rt_simboard_plane_renders(a->sim) : NULL;
-    s->scene_effects = d->sim_host && a->sim ? rt_simboard_scene_effects(a->sim, fx, fxlen) : "";
+    s->scene_effects = d->sim_host && a->sim ? rt_simboard_scene_effects(a->sim, t->fx, (int)sizeof t->fx) : "";
     s->accuracy = d->has_truth && c->eval_every_ms > 0;
     s->eval = ev->acc;
     s->eval_pose = &ev->pose;
@@ -360,16 +375,16 @@ static void summary_src(rt_app *a, rt_summary_src *s, bool live, char *output, i
 static void stats_kv(rt_app *a, FILE *out, bool live)
 {
     rt_summary_src s;
-    char fx[160];
-    summary_src(a, &s, live, NULL, 0, fx, sizeof fx);
+    summary_text t;
+    summary_src(a, &s, live, false, &t);
     rt_summary_kv(&s, out);
 }
 
 void rt_app_summary(rt_app *a, FILE *out)
 {
     rt_summary_src s;
-    char output[400], fx[160];
-    summary_src(a, &s, false, output, sizeof output, fx, sizeof fx);
+    summary_text t;
+    summary_src(a, &s, false, true, &t);
     rt_summary_print(&s, out);
 }
 

@@ -51,8 +51,9 @@ typedef struct {
     plat_swapchain sc;
     plat_workers *workers;
     rt_render_cpu *render;      /* the CPU pass: lens meshes (GLES draws through them too), scratch, fallbacks */
-    bool realtime;              /* compositor got SCHED_FIFO */
-    bool memory_locked;         /* mlockall succeeded */
+    /* set by rt_app_run once the helper thread, which reads them for the live stats, may be running */
+    _Atomic bool realtime;      /* compositor got SCHED_FIFO */
+    _Atomic bool memory_locked; /* mlockall succeeded */
     /* auto selection (rt_select) and the further depth warps, allocated when the method may use them */
     rt_select sel;
     bool can_transparency, can_objects;

@@ -153,13 +153,14 @@ void rt_compositor_run(rt_app *a)
     bool objects_moving = false;
     uint64_t last_seq = 0;
     bool have_seq = false; /* a host may count from 0: seq 0 is a frame, not "none yet" */
-    bool gles = a->gl.use;
+    bool gles = atomic_load_explicit(&a->gl.use, memory_order_relaxed);
     if (gles && !plat_egl_make_current(a->gl.egl)) {
         plat_log(PLAT_LOG_WARNING, "cannot make the EGL context current on the compositor thread: using the CPU "
                                    "path");
-        snprintf(a->render_why + strlen(a->render_why), sizeof a->render_why - strlen(a->render_why),
-                 "; the EGL context could not be made current: fell back to cpu");
-        a->gl.use = gles = false;
+        /* flags, not an append to render_why: the helper thread may be formatting it for the live stats */
+        atomic_store_explicit(&a->gl.fell_back, true, memory_order_relaxed);
+        atomic_store_explicit(&a->gl.use, false, memory_order_relaxed);
+        gles = false;
     }
     /* The display starts at scene time 0 (after the simulated headset's rest at boot), whatever the vsync source. */
     int64_t first = plat_now_ns() + 2 * PLAT_NS_PER_MS;

@@ -14,9 +14,11 @@
 typedef struct plat_egl plat_egl;
 typedef struct plat_gles plat_gles;
 
-/* Written by rt_app_init and the compositor thread; errors also read live (atomic). */
+/* Written by rt_app_init and the compositor thread; use and errors also read live by the helper thread (atomic;
+ * last_error only by the summary once the compositor has returned). */
 typedef struct {
-    bool use;                  /* the GLES path runs (else the CPU path) */
+    _Atomic bool use;          /* the GLES path runs (else the CPU path); the compositor may fall back once */
+    _Atomic bool fell_back;    /* the compositor could not make the context current: the CPU path runs instead */
     bool software;             /* a software rasterizer: its GPU time is CPU time after the submit */
     plat_egl *egl;             /* EGL display + context (GLES only); made current by the compositor thread */
     plat_gles *renderer;
