@@ -18,6 +18,7 @@
 #include "platform/plat_log.h"
 #include "platform/plat_version.h"
 #include "platform/plat_workers.h"
+#include "runtime/rt_compositor.h"
 #include "runtime/rt_csv.h"
 #include "runtime/rt_gles.h"
 #include "runtime/rt_live.h"

@@ -99,7 +99,4 @@ bool rt_app_showed_frames(const rt_app *a, char *why, int whylen);
 bool rt_app_write_last_stats(rt_app *a, int fd);
 void rt_app_free(rt_app *a);
 
-/* The compositor loop (rt_compositor.c). */
-void rt_compositor_run(rt_app *a);
-
 #endif

@@ -2,6 +2,8 @@
 /* rt_compositor: the vsync-paced loop: just before each vsync it predicts the head pose at photon time, takes the
  * newest host frame, warps and distorts it into a free swapchain image and presents it. No allocation, no I/O, no
  * locks on this path. */
+#include "runtime/rt_compositor.h"
+
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -11,7 +13,6 @@
 #include "platform/plat_gles.h"
 #include "platform/plat_log.h"
 #include "platform/plat_workers.h"
-#include "runtime/rt_app.h"
 #include "runtime/rt_render_cpu.h"
 #include "runtime/rt_simboard.h"
 #include "warp/warp_objects.h"
