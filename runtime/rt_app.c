@@ -69,7 +69,8 @@ static bool render_init(rt_app *a, char *err, int errlen)
     const bool forced = strcmp(c->renderer, "gles") == 0;
     char eerr[300] = "";
     if (!warp_resample_force_kernel((warp_resample_kernel_id)c->kernel))
-        return warp_err(err, errlen, "[render] kernel = %s: this build or CPU cannot run it", rt_kernel_name(c->kernel));
+        return warp_err(err, errlen, "[render] kernel = %s: this build or CPU cannot run it",
+                        rt_kernel_name(c->kernel));
     plat_kms_params kp = {c->kms_device, c->kms_connector, 0, 0, 0, c->rt_priority};
     if (kms) {
         if (!rt_config_parse_mode(c->kms_mode, &kp.mode_w, &kp.mode_h, &kp.mode_hz))
@@ -149,9 +150,9 @@ bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen)
      * time, and mixing the two would make every stamp wrong. */
     const char *real = NULL;
     if (plat_clock_slowdown() > 1 && !rt_devices_on_virtual_time(c, &real))
-        return warp_err(err, errlen, "HMDWARP_TIME_SLOWDOWN=%s: virtual time is for simulated and mock devices, but %s is "
-                                 "a real one", getenv("HMDWARP_TIME_SLOWDOWN") ? getenv("HMDWARP_TIME_SLOWDOWN") : "?",
-                    real);
+        return warp_err(err, errlen,
+                        "HMDWARP_TIME_SLOWDOWN=%s: virtual time is for simulated and mock devices, but %s is a real one",
+                        getenv("HMDWARP_TIME_SLOWDOWN") ? getenv("HMDWARP_TIME_SLOWDOWN") : "?", real);
     if (rt_devices_simulated(c) && !(a->sim = rt_simboard_create(c, err, errlen))) return false;
 
     a->head = warp_head_default();
@@ -202,7 +203,8 @@ bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen)
     /* The warps of this build use colour and depth; ids, motion and layers would be rendered for nothing. */
     sp.planes_wanted = DRV_PLANE_COLOR | DRV_PLANE_DEPTH | (a->can_objects ? DRV_PLANE_IDS : 0) |
                        (a->can_transparency ? DRV_PLANE_LAYERS : 0);
-    if (!rt_devices_open(&a->dev, c, a->sim ? rt_simboard_trace(a->sim) : NULL, &sp, err, errlen) || !rt_devices_mount(&a->dev, c, err, errlen))
+    const sim_trace *trace = a->sim ? rt_simboard_trace(a->sim) : NULL; /* read only for simulated devices */
+    if (!rt_devices_open(&a->dev, c, trace, &sp, err, errlen) || !rt_devices_mount(&a->dev, c, err, errlen))
         return false;
     if (!rt_frameq_alloc(&a->fq, c->eye_w, c->eye_h, drv_frames_planes(a->dev.frames), 4))
         return warp_err(err, errlen, "cannot allocate the frame slots");

@@ -4,7 +4,6 @@
 #ifndef RT_SIMBOARD_H
 #define RT_SIMBOARD_H
 
-#include <stdatomic.h>
 #include <stdbool.h>
 #include <stdint.h>
 

@@ -173,7 +173,8 @@ static void test_depth_scene_raytrace(void **state)
     assert_true(rt_simboard_plane_renders(app.sim)[1] > 0); /* translation scene: the host sends depth */
     assert_true(t->method_count[RT_METHOD_RAYTRACE] > 0);
     assert_int_equal(rt_render_cpu_stats_get(app.render).raytrace_fallbacks, 0);
-    assert_int_equal(rt_simboard_plane_renders(app.sim)[2] + rt_simboard_plane_renders(app.sim)[3] + rt_simboard_plane_renders(app.sim)[4], 0);
+    const uint64_t *planes = rt_simboard_plane_renders(app.sim);
+    assert_int_equal(planes[2] + planes[3] + planes[4], 0);
     rt_app_free(&app);
 }
 
@@ -207,8 +208,9 @@ static void test_depth_scene_raytrace_mesh(void **state)
     /* Against ground truth the mesh raytrace is scored on the same frames as the others: it corrects what the
      * unwarped frame gets wrong about as well as the per-pixel raytrace does (the latency's few millimetres of
      * translation separate the warps by tenths of a dB here, too little to rank them). */
-    const rt_eval_acc *none = &rt_simboard_eval(app.sim)->acc[RT_EVAL_NONE], *rot = &rt_simboard_eval(app.sim)->acc[RT_EVAL_ROTATION],
-                      *ray = &rt_simboard_eval(app.sim)->acc[RT_EVAL_RAYTRACE], *mesh = &rt_simboard_eval(app.sim)->acc[RT_EVAL_RAYTRACE_MESH];
+    const rt_eval_acc *acc = rt_simboard_eval(app.sim)->acc;
+    const rt_eval_acc *none = &acc[RT_EVAL_NONE], *rot = &acc[RT_EVAL_ROTATION], *ray = &acc[RT_EVAL_RAYTRACE],
+                      *mesh = &acc[RT_EVAL_RAYTRACE_MESH];
     assert_true(mesh->n >= 2 && mesh->n == none->n && mesh->n == ray->n);
     const double p_none = none->psnr_sum / none->n, p_rot = rot->psnr_sum / rot->n, p_ray = ray->psnr_sum / ray->n,
                  p_mesh = mesh->psnr_sum / mesh->n;
@@ -269,7 +271,8 @@ static void test_auto_rotation_only_scene_never_pays_for_depth(void **state)
     run(&c);
     rt_telemetry *t = app.tel;
     for (int m = RT_METHOD_RAYTRACE; m < RT_METHOD_COUNT; m++) assert_int_equal(t->method_count[m], 0);
-    assert_int_equal(rt_simboard_plane_renders(app.sim)[1] + rt_simboard_plane_renders(app.sim)[2] + rt_simboard_plane_renders(app.sim)[4], 0);
+    const uint64_t *planes = rt_simboard_plane_renders(app.sim);
+    assert_int_equal(planes[1] + planes[2] + planes[4], 0);
     assert_true(t->select_why[RT_WHY_ROTATION_ONLY] > 0);
     assert_int_equal(t->select_why[RT_WHY_PARALLAX], 0);
     rt_app_free(&app);
