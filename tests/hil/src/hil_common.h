@@ -91,6 +91,24 @@ static inline bool hil_sleep_until_ns(int64_t t_ns)
 
 /* ---- option values ---- */
 
+/* The end of every HIL program's getopt switch (optstring ":hv..."): -h prints usage and exits 0, a missing value
+ * or an unknown option is a usage error naming it. */
+static inline __attribute__((noreturn)) void hil_opt_other(int c, char **argv, void (*usage)(FILE *f))
+{
+    if (c == 'h') {
+        usage(stdout);
+        exit(0);
+    }
+    if (c == ':') hil_die(HIL_EXIT_USAGE, "%s needs a value (see --help)", argv[optind - 1]);
+    hil_die(HIL_EXIT_USAGE, "unknown option '%s' (see --help)", argv[optind - 1]);
+}
+
+/* After the getopt loop: the HIL programs take no operands. */
+static inline void hil_opt_no_operands(int argc, char **argv)
+{
+    if (optind < argc) hil_die(HIL_EXIT_USAGE, "unexpected argument '%s' (see --help)", argv[optind]);
+}
+
 static inline double hil_parse_double(const char *opt, const char *arg, double lo, double hi)
 {
     char *end;

@@ -877,12 +877,10 @@ static void parse_args(int argc, char **argv, opts *o)
         case OPT_DRY_RUN: o->dry_run = optarg ? (int)hil_parse_int("--dry-run", optarg, 1, 100000) : 4; break;
         case OPT_SELF_TEST: o->self_test = true; break;
         case 'v': o->verbose = true; break;
-        case 'h': usage(stdout); exit(0);
-        case ':': hil_die(HIL_EXIT_USAGE, "%s needs a value (see --help)", argv[optind - 1]);
-        default: hil_die(HIL_EXIT_USAGE, "unknown option '%s' (see --help)", argv[optind - 1]);
+        default: hil_opt_other(c, argv, usage);
         }
     }
-    if (optind < argc) hil_die(HIL_EXIT_USAGE, "unexpected argument '%s' (see --help)", argv[optind]);
+    hil_opt_no_operands(argc, argv);
     if (!o->bus && !o->dry_run && !o->self_test)
         hil_die(HIL_EXIT_USAGE, "--bus is required (N, /dev/i2c-N or stub; see --help)");
     if (!o->watch_ns) o->watch_ns = default_watch_ns(o->kind);

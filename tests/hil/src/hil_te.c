@@ -235,12 +235,10 @@ static void parse_args(int argc, char **argv, opts *o)
         case OPT_JUMP_US: o->jump_us = hil_parse_double("--phase-jump-us", optarg, -1e6, 1e6); break;
         case OPT_DRY_RUN: o->dry_run = optarg ? (int)hil_parse_int("--dry-run", optarg, 1, 100000) : 10; break;
         case 'v': o->verbose = true; break;
-        case 'h': usage(stdout); exit(0);
-        case ':': hil_die(HIL_EXIT_USAGE, "%s needs a value (see --help)", argv[optind - 1]);
-        default: hil_die(HIL_EXIT_USAGE, "unknown option '%s' (see --help)", argv[optind - 1]);
+        default: hil_opt_other(c, argv, usage);
         }
     }
-    if (optind < argc) hil_die(HIL_EXIT_USAGE, "unexpected argument '%s' (see --help)", argv[optind]);
+    hil_opt_no_operands(argc, argv);
     double period_us = 1e6 / o->rate_hz;
     if (o->high_us >= period_us)
         hil_die(HIL_EXIT_USAGE, "--high-us %g: a pulse must be shorter than the period (%.1f us at %g Hz)",

@@ -501,12 +501,10 @@ static void parse_args(int argc, char **argv, opts *o)
         case OPT_CORRUPT_EVERY: o->corrupt_every = (int)hil_parse_int("--corrupt-every", optarg, 0, 1000000); break;
         case OPT_DRY_RUN: o->dry_run = optarg ? (int)hil_parse_int("--dry-run", optarg, 1, 100000) : 6; break;
         case 'v': o->verbose = true; break;
-        case 'h': usage(stdout); exit(0);
-        case ':': hil_die(HIL_EXIT_USAGE, "%s needs a value (see --help)", argv[optind - 1]);
-        default: hil_die(HIL_EXIT_USAGE, "unknown option '%s' (see --help)", argv[optind - 1]);
+        default: hil_opt_other(c, argv, usage);
         }
     }
-    if (optind < argc) hil_die(HIL_EXIT_USAGE, "unexpected argument '%s' (see --help)", argv[optind]);
+    hil_opt_no_operands(argc, argv);
 }
 
 int main(int argc, char **argv)
