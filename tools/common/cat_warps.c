@@ -63,33 +63,35 @@ static void count_mask(const warp_image_u8 *mask, cat_stats *st)
 
 /* ---- 003: rotation reprojection and the height-map raytrace ---- */
 
+/* none and rotation: the frame reprojected to the orientation q (none passes the source's own: the frame as
+ * rendered); samples as given (-1: not counted). */
+static const char *reproject(warp_method m, const warp_view *src, const warp_camera *dst_cam, warp_quat q,
+                             const char *params, warp_image_rgba8 *dst, warp_image_u8 *mask, cat_stats *st, long samples)
+{
+    const char *why = cat_check_params(m, params);
+    if (why) return why;
+    warp_mat3 h = warp_reproject_homography(src, dst_cam, q);
+    warp_reproject_rows(src, &h, dst, mask, 0, dst->h);
+    st->primitives = -1;
+    st->samples = samples;
+    count_mask(mask, st);
+    return NULL;
+}
+
 static const char *run_none(const warp_view *src, const warp_camera *dst_cam, warp_pose dst_pose, double dst_time, const char *params,
                             warp_image_rgba8 *dst, warp_image_u8 *mask, cat_stats *st)
 {
     (void)dst_pose;
     (void)dst_time;
-    const char *why = cat_check_params(WARP_METHOD_NONE, params);
-    if (why) return why;
     /* The frame as rendered: what the wearer sees without any warp. */
-    warp_mat3 h = warp_reproject_homography(src, dst_cam, src->pose.q);
-    warp_reproject_rows(src, &h, dst, mask, 0, dst->h);
-    st->primitives = st->samples = -1;
-    count_mask(mask, st);
-    return NULL;
+    return reproject(WARP_METHOD_NONE, src, dst_cam, src->pose.q, params, dst, mask, st, -1);
 }
 
 static const char *run_rotation(const warp_view *src, const warp_camera *dst_cam, warp_pose dst_pose, double dst_time,
                                 const char *params, warp_image_rgba8 *dst, warp_image_u8 *mask, cat_stats *st)
 {
     (void)dst_time;
-    const char *why = cat_check_params(WARP_METHOD_ROTATION, params);
-    if (why) return why;
-    warp_mat3 h = warp_reproject_homography(src, dst_cam, dst_pose.q);
-    warp_reproject_rows(src, &h, dst, mask, 0, dst->h);
-    st->primitives = -1;
-    st->samples = (long)dst->w * dst->h;
-    count_mask(mask, st);
-    return NULL;
+    return reproject(WARP_METHOD_ROTATION, src, dst_cam, dst_pose.q, params, dst, mask, st, (long)dst->w * dst->h);
 }
 
 static const char *run_raytrace(const warp_view *src, const warp_camera *dst_cam, warp_pose dst_pose, double dst_time,
