@@ -38,22 +38,24 @@ static double psnr_of(const char *out)
     return atof(p + 5);
 }
 
-static void write_view(const char *path)
+/* Writes the view file every test starts from (DIR/v.txt) and returns its path. */
+static const char *write_view(void)
 {
+    static char path[600];
+    snprintf(path, sizeof path, "%s/v.txt", dir);
     FILE *f = fopen(path, "w");
     assert_non_null(f);
     fprintf(f, "size 160 120\nintrinsics 80 75 80 60\nnear 0.05\nfar inf\n"
                "source 1 0 0 0  0 1.6 0\ntarget 0.99905 0 0.04362 0  0.04 1.6 0\n");
     fclose(f);
+    return path;
 }
 
 static void test_files_match_simulator(void **state)
 {
     (void)state;
     char out[4096], args[8192];
-    char view[300];
-    snprintf(view, sizeof view, "%s/v.txt", dir);
-    write_view(view);
+    const char *view = write_view();
     snprintf(args, sizeof args, "--sim near --view %s --warp raytrace --write-inputs %s/in", view, dir);
     assert_int_equal(run(args, out, sizeof out), 0);
     double sim_psnr = psnr_of(out);
@@ -76,9 +78,8 @@ static void test_layers_file_round_trip(void **state)
 {
     (void)state;
     /* the A-buffer through its file format warps exactly as from the simulator */
-    char out[4096], args[8192], view[300];
-    snprintf(view, sizeof view, "%s/v.txt", dir);
-    write_view(view);
+    char out[4096], args[8192];
+    const char *view = write_view();
     snprintf(args, sizeof args, "--sim glass --view %s --warp transparency --write-inputs %s/glass", view, dir);
     assert_int_equal(run(args, out, sizeof out), 0);
     double sim_psnr = psnr_of(out);
@@ -131,9 +132,8 @@ static void write_png_header(const char *path, uint32_t w, uint32_t h)
 static void test_declared_sizes_bounded(void **state)
 {
     (void)state;
-    char out[4096], args[8192], view[600], path[600];
-    snprintf(view, sizeof view, "%s/v.txt", dir);
-    write_view(view);
+    char out[4096], args[8192], path[600];
+    const char *view = write_view();
     snprintf(path, sizeof path, "%s/huge.png", dir);
     write_png_header(path, 32768, 32768);
     snprintf(args, sizeof args, "--color %s --view %s", path, view);
@@ -167,9 +167,8 @@ static void test_declared_sizes_bounded(void **state)
 static void test_bad_inputs_named(void **state)
 {
     (void)state;
-    char out[4096], args[8192], view[600];
-    snprintf(view, sizeof view, "%s/v.txt", dir);
-    write_view(view);
+    char out[4096], args[8192];
+    const char *view = write_view();
     snprintf(args, sizeof args, "--color %s/nope.png --view %s", dir, view);
     assert_int_equal(run(args, out, sizeof out), 1);
     assert_non_null(strstr(out, "nope.png"));
