@@ -27,14 +27,21 @@
 static const char *hil_prog = "hil";
 static volatile sig_atomic_t hil_stop_sig;
 
+/* One line on stderr, "PROG: message". */
+static inline void hil_vmsg(const char *fmt, va_list ap) __attribute__((format(printf, 1, 0)));
+static inline void hil_vmsg(const char *fmt, va_list ap)
+{
+    fprintf(stderr, "%s: ", hil_prog);
+    vfprintf(stderr, fmt, ap);
+    fputc('\n', stderr);
+}
+
 static inline void hil_msg(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 static inline void hil_msg(const char *fmt, ...)
 {
     va_list ap;
     va_start(ap, fmt);
-    fprintf(stderr, "%s: ", hil_prog);
-    vfprintf(stderr, fmt, ap);
-    fputc('\n', stderr);
+    hil_vmsg(fmt, ap);
     va_end(ap);
 }
 
@@ -43,9 +50,7 @@ static inline void hil_die(int code, const char *fmt, ...)
 {
     va_list ap;
     va_start(ap, fmt);
-    fprintf(stderr, "%s: ", hil_prog);
-    vfprintf(stderr, fmt, ap);
-    fputc('\n', stderr);
+    hil_vmsg(fmt, ap);
     va_end(ap);
     exit(code);
 }
