@@ -51,14 +51,22 @@ static const char *write_view(void)
     return path;
 }
 
+/* Runs warp on the simulator's scene from the view file, writing its inputs into DIR/sub; returns the PSNR the
+ * warp scored against the truth, for the same warp from those files to match. */
+static double sim_inputs(const char *scene, const char *warp, const char *sub)
+{
+    char out[4096], args[8192];
+    snprintf(args, sizeof args, "--sim %s --view %s --warp %s --write-inputs %s/%s", scene, write_view(), warp, dir,
+             sub);
+    assert_int_equal(run(args, out, sizeof out), 0);
+    return psnr_of(out);
+}
+
 static void test_files_match_simulator(void **state)
 {
     (void)state;
     char out[4096], args[8192];
-    const char *view = write_view();
-    snprintf(args, sizeof args, "--sim near --view %s --warp raytrace --write-inputs %s/in", view, dir);
-    assert_int_equal(run(args, out, sizeof out), 0);
-    double sim_psnr = psnr_of(out);
+    double sim_psnr = sim_inputs("near", "raytrace", "in");
     snprintf(args, sizeof args,
              "--color %s/in/color.png --depth %s/in/depth.pfm --ids %s/in/ids.png --view %s/in/view.txt "
              "--warp raytrace --ref %s/in/truth.png --out %s/o.png --mask %s/m.png",
@@ -79,10 +87,7 @@ static void test_layers_file_round_trip(void **state)
     (void)state;
     /* the A-buffer through its file format warps exactly as from the simulator */
     char out[4096], args[8192];
-    const char *view = write_view();
-    snprintf(args, sizeof args, "--sim glass --view %s --warp transparency --write-inputs %s/glass", view, dir);
-    assert_int_equal(run(args, out, sizeof out), 0);
-    double sim_psnr = psnr_of(out);
+    double sim_psnr = sim_inputs("glass", "transparency", "glass");
     snprintf(args, sizeof args,
              "--color %s/glass/color.png --depth %s/glass/depth.pfm --layers %s/glass/layers.bin --view "
              "%s/glass/view.txt --warp transparency --ref %s/glass/truth.png",
