@@ -96,8 +96,18 @@ static inline bool hil_sleep_until_ns(int64_t t_ns)
 
 /* ---- option values ---- */
 
-/* The end of every HIL program's getopt switch (optstring ":hv..."): -h prints usage and exits 0, a missing value
- * or an unknown option is a usage error naming it. */
+/* Every HIL program's command line: its own long options, then HIL_LONGOPTS_END (-v, -h and the terminator);
+ * hil_getopt reads it with getopt's errors left to hil_opt_other (optstring ":hv"). */
+#define HIL_LONGOPTS_END {"verbose", no_argument, NULL, 'v'}, {"help", no_argument, NULL, 'h'}, {NULL, 0, NULL, 0}
+
+static inline int hil_getopt(int argc, char **argv, const struct option *lo)
+{
+    opterr = 0;
+    return getopt_long(argc, argv, ":hv", lo, NULL);
+}
+
+/* The end of every HIL program's getopt switch: -h prints usage and exits 0, a missing value or an unknown option
+ * is a usage error naming it. */
 static inline __attribute__((noreturn)) void hil_opt_other(int c, char **argv, void (*usage)(FILE *f))
 {
     if (c == 'h') {

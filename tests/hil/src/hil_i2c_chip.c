@@ -844,10 +844,8 @@ static void parse_args(int argc, char **argv, opts *o)
         {"freeze-for", required_argument, NULL, OPT_FREEZE_FOR},
         {"dry-run", optional_argument, NULL, OPT_DRY_RUN},
         {"self-test", no_argument, NULL, OPT_SELF_TEST},
-        {"verbose", no_argument, NULL, 'v'},
-        {"help", no_argument, NULL, 'h'},
         HIL_TRACE_LONGOPTS,
-        {NULL, 0, NULL, 0},
+        HIL_LONGOPTS_END,
     };
     memset(o, 0, sizeof *o);
     o->addr = 0x68;
@@ -857,8 +855,7 @@ static void parse_args(int argc, char **argv, opts *o)
     o->freeze_for_s = 1;
     o->trace = hil_trace_defaults();
     int c;
-    opterr = 0;
-    while ((c = getopt_long(argc, argv, ":hv", lo, NULL)) != -1) {
+    while ((c = hil_getopt(argc, argv, lo)) != -1) {
         if (hil_trace_option(c, optarg, &o->trace)) continue;
         switch (c) {
         case OPT_BUS: o->bus = optarg; break;

@@ -202,9 +202,7 @@ static void parse_args(int argc, char **argv, opts *o)
         {"phase-jump-at", required_argument, NULL, OPT_JUMP_AT},
         {"phase-jump-us", required_argument, NULL, OPT_JUMP_US},
         {"dry-run", optional_argument, NULL, OPT_DRY_RUN},
-        {"verbose", no_argument, NULL, 'v'},
-        {"help", no_argument, NULL, 'h'},
-        {NULL, 0, NULL, 0},
+        HIL_LONGOPTS_END,
     };
     memset(o, 0, sizeof *o);
     o->rate_hz = 90;
@@ -216,8 +214,7 @@ static void parse_args(int argc, char **argv, opts *o)
     const char *chip = NULL;
     int line = 0;
     int c;
-    opterr = 0;
-    while ((c = getopt_long(argc, argv, ":hv", lo, NULL)) != -1) {
+    while ((c = hil_getopt(argc, argv, lo)) != -1) {
         switch (c) {
         case OPT_PULL: o->pull = optarg; break;
         case OPT_CHIP: chip = optarg; break;
