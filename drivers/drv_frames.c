@@ -56,6 +56,13 @@ drv_frame_err drv_frame_fail(char *why, int whylen, drv_frame_err e, const char 
     return e;
 }
 
+void drv_frames_vnote(pthread_mutex_t *lock, char *last_error, int len, const char *fmt, va_list ap)
+{
+    pthread_mutex_lock(lock);
+    warp_verr(last_error, len, fmt, ap);
+    pthread_mutex_unlock(lock);
+}
+
 drv_frame_err drv_frame_validate(const drv_frame *f)
 {
     if (!(f->planes & DRV_PLANE_COLOR)) return DRV_FRAME_ERR_BAD_SIZE;

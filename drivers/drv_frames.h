@@ -4,6 +4,8 @@
 #ifndef DRV_FRAMES_H
 #define DRV_FRAMES_H
 
+#include <pthread.h>
+#include <stdarg.h>
 #include <stdbool.h>
 #include <stdint.h>
 
@@ -73,6 +75,10 @@ const char *drv_frame_err_str(drv_frame_err e);
  * returned, so a rejection reads `return drv_frame_fail(why, whylen, DRV_FRAME_ERR_BAD_CRC, "...", ...);`. */
 drv_frame_err drv_frame_fail(char *why, int whylen, drv_frame_err e, const char *fmt, ...)
     __attribute__((format(printf, 4, 5)));
+/* A backend's last_error (the text its last_error member returns), written by its helper threads under the lock
+ * that guards its stats: formatted with warp_verr (printf-checked, cut to fit) so every backend notes it one way. */
+void drv_frames_vnote(pthread_mutex_t *lock, char *last_error, int len, const char *fmt, va_list ap)
+    __attribute__((format(printf, 4, 0)));
 
 typedef struct drv_frames drv_frames;
 struct drv_frames {

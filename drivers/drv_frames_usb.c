@@ -57,12 +57,10 @@ typedef struct {
 static void note(usb_frames *u, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 static void note(usb_frames *u, const char *fmt, ...)
 {
-    pthread_mutex_lock(&u->lock);
     va_list ap;
     va_start(ap, fmt);
-    vsnprintf(u->st.last_error, sizeof u->st.last_error, fmt, ap);
+    drv_frames_vnote(&u->lock, u->st.last_error, (int)sizeof u->st.last_error, fmt, ap);
     va_end(ap);
-    pthread_mutex_unlock(&u->lock);
 }
 
 static void drop(usb_frames *u, size_t n)

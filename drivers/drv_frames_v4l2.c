@@ -46,12 +46,10 @@ typedef struct {
 
 static void cap_error(v4l2_cap *c, const char *fmt, ...)
 {
-    pthread_mutex_lock(&c->lock);
     va_list ap;
     va_start(ap, fmt);
-    vsnprintf(c->st.last_error, sizeof c->st.last_error, fmt, ap);
+    drv_frames_vnote(&c->lock, c->st.last_error, (int)sizeof c->st.last_error, fmt, ap);
     va_end(ap);
-    pthread_mutex_unlock(&c->lock);
 }
 
 static void cap_stop(v4l2_cap *c)

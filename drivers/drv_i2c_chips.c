@@ -182,24 +182,25 @@ static int icm42688_plan(const drv_i2c_request *rq, drv_i2c_setup *s, char *err,
 
 /* ---- the chip table ---- */
 
+/* The MPU-9250 keeps the MPU-6050's registers for the data-ready flag and the 14-byte burst (accel, temp, gyro):
+ * one definition, so the two entries cannot drift apart. */
+#define MPU_DATA_REGISTERS                                                                                         \
+    .status_reg = MPU_REG_INT_STATUS, .ready_mask = MPU_INT_STATUS_DATA_RDY, .data_reg = MPU_REG_ACCEL_XOUT_H,      \
+    .data_len = MPU_REG_GYRO_ZOUT_L - MPU_REG_ACCEL_XOUT_H + 1, .accel_off = 0,                                    \
+    .temp_off = MPU_REG_TEMP_OUT_H - MPU_REG_ACCEL_XOUT_H, .gyro_off = MPU_REG_GYRO_XOUT_H - MPU_REG_ACCEL_XOUT_H
+
 static const drv_i2c_chip chips[DRV_I2C_CHIP_COUNT] = {
     [DRV_I2C_CHIP_MPU6050] = {
         .kind = DRV_I2C_CHIP_MPU6050, .name = "mpu6050", .model = "MPU-6050",
         .who_am_i_reg = MPU_REG_WHO_AM_I, .who_am_i = {MPU6050_WHO_AM_I}, .n_who_am_i = 1,
-        .status_reg = MPU_REG_INT_STATUS, .ready_mask = MPU_INT_STATUS_DATA_RDY,
-        .data_reg = MPU_REG_ACCEL_XOUT_H, .data_len = MPU_REG_GYRO_ZOUT_L - MPU_REG_ACCEL_XOUT_H + 1,
-        .accel_off = 0, .temp_off = MPU_REG_TEMP_OUT_H - MPU_REG_ACCEL_XOUT_H,
-        .gyro_off = MPU_REG_GYRO_XOUT_H - MPU_REG_ACCEL_XOUT_H,
+        MPU_DATA_REGISTERS,
         .temp_lsb_per_c = 340.0, .temp_offset_c = 36.53,
         .plan = mpu6050_plan,
     },
     [DRV_I2C_CHIP_MPU9250] = {
         .kind = DRV_I2C_CHIP_MPU9250, .name = "mpu9250", .model = "MPU-9250",
         .who_am_i_reg = MPU_REG_WHO_AM_I, .who_am_i = {MPU9250_WHO_AM_I, MPU9255_WHO_AM_I}, .n_who_am_i = 2,
-        .status_reg = MPU_REG_INT_STATUS, .ready_mask = MPU_INT_STATUS_DATA_RDY,
-        .data_reg = MPU_REG_ACCEL_XOUT_H, .data_len = MPU_REG_GYRO_ZOUT_L - MPU_REG_ACCEL_XOUT_H + 1,
-        .accel_off = 0, .temp_off = MPU_REG_TEMP_OUT_H - MPU_REG_ACCEL_XOUT_H,
-        .gyro_off = MPU_REG_GYRO_XOUT_H - MPU_REG_ACCEL_XOUT_H,
+        MPU_DATA_REGISTERS,
         .temp_lsb_per_c = 333.87, .temp_offset_c = 21.0,
         .plan = mpu9250_plan,
     },

@@ -500,6 +500,17 @@ void warp_forward_finish_rows(const warp_fwd_setup *s, const warp_fwd_scratch *s
     }
 }
 
+const char *warp_fwd_check_sizes(const warp_view *src, const warp_camera *dst_cam, const warp_fwd_scratch *sc,
+                                 const warp_image_rgba8 *dst, const warp_image_u8 *mask)
+{
+    if (sc->src_w != src->color->w || sc->src_h != src->color->h || sc->dst_w != dst_cam->width ||
+        sc->dst_h != dst_cam->height)
+        return "scratch was allocated for other image sizes";
+    if (dst->w != dst_cam->width || dst->h != dst_cam->height) return "target image differs from target camera";
+    if (mask && (mask->w != dst->w || mask->h != dst->h)) return "mask differs from target image";
+    return NULL;
+}
+
 const char *warp_forward_run(const warp_view *src, const warp_camera *dst_cam, warp_pose dst_pose,
                              const warp_forward_params *p, warp_fwd_scratch *sc, warp_image_rgba8 *dst,
                              warp_image_u8 *mask, warp_forward_stats *st)
@@ -507,11 +518,8 @@ const char *warp_forward_run(const warp_view *src, const warp_camera *dst_cam, w
     warp_fwd_setup s;
     const char *err = warp_forward_prepare(&s, src, dst_cam, dst_pose, p);
     if (err) return err;
-    if (sc->src_w != src->color->w || sc->src_h != src->color->h || sc->dst_w != dst_cam->width ||
-        sc->dst_h != dst_cam->height)
-        return "scratch was allocated for other image sizes";
-    if (dst->w != dst_cam->width || dst->h != dst_cam->height) return "target image differs from target camera";
-    if (mask && (mask->w != dst->w || mask->h != dst->h)) return "mask differs from target image";
+    err = warp_fwd_check_sizes(src, dst_cam, sc, dst, mask);
+    if (err) return err;
     warp_forward_stats local;
     memset(&local, 0, sizeof local);
     warp_forward_map_rows(&s, sc, false, 0, src->color->h, &local);

@@ -106,6 +106,10 @@ typedef struct {
 
 bool warp_fwd_scratch_alloc(warp_fwd_scratch *s, int src_w, int src_h, int dst_w, int dst_h);
 void warp_fwd_scratch_free(warp_fwd_scratch *s);
+/* NULL when sc was allocated for src and dst_cam's sizes and dst (and mask, may be NULL) are dst_cam's size, else
+ * what differs: the checks every forward-family entry point (points, splats, objects) makes before drawing. */
+const char *warp_fwd_check_sizes(const warp_view *src, const warp_camera *dst_cam, const warp_fwd_scratch *sc,
+                                 const warp_image_rgba8 *dst, const warp_image_u8 *mask);
 
 /* Everything constant over one warp of one eye. */
 typedef struct {

@@ -147,38 +147,39 @@ static void pull_level(warp_holes_ctx *c, int l, const warp_holes_params *p)
     int n = p->kernel == 2 ? 2 : 4, o = p->kernel == 2 ? 0 : -1;
     for (int j = 0; j < dh; j++)
         for (int i = 0; i < dw; i++) {
-            /* Mean inverse depth of the valid children first; then average only those not nearer than it, so a
-             * foreground object in the kernel dissolves instead of smearing over the background. */
-            float sk = 0, sw_ = 0, sz = 0;
+            const warp_holes_cell *tap[16]; /* the children under the kernel, inside the level, and their weights */
+            float tk[16];
+            int nt = 0;
             for (int b = 0; b < n; b++) {
                 int y = 2 * j + o + b;
                 if (y < 0 || y >= sh) continue;
                 for (int a = 0; a < n; a++) {
                     int x = 2 * i + o + a;
                     if (x < 0 || x >= sw) continue;
-                    const warp_holes_cell *s = &src[(size_t)y * (size_t)sw + (size_t)x];
-                    float kk = k[a] * k[b];
-                    sk += kk;
-                    sw_ += kk * s->wt;
-                    sz += kk * s->wt * s->inv;
+                    tap[nt] = &src[(size_t)y * (size_t)sw + (size_t)x];
+                    tk[nt++] = k[a] * k[b];
                 }
+            }
+            /* Mean inverse depth of the valid children first; then average only those not nearer than it, so a
+             * foreground object in the kernel dissolves instead of smearing over the background. */
+            float sk = 0, sw_ = 0, sz = 0;
+            for (int t = 0; t < nt; t++) {
+                const warp_holes_cell *s = tap[t];
+                float kk = tk[t];
+                sk += kk;
+                sw_ += kk * s->wt;
+                sz += kk * s->wt * s->inv;
             }
             float limit = INFINITY;
             if (p->depth_aware && sw_ > 0) limit = sz / sw_ * (1 + p->depth_tolerance) + 1e-6f;
             float acc[4] = {0, 0, 0, 0}, aw = 0, az = 0;
-            for (int b = 0; b < n; b++) {
-                int y = 2 * j + o + b;
-                if (y < 0 || y >= sh) continue;
-                for (int a = 0; a < n; a++) {
-                    int x = 2 * i + o + a;
-                    if (x < 0 || x >= sw) continue;
-                    const warp_holes_cell *s = &src[(size_t)y * (size_t)sw + (size_t)x];
-                    if (!(s->wt > 0) || s->inv > limit) continue;
-                    float wk = k[a] * k[b] * s->wt;
-                    for (int ch = 0; ch < 4; ch++) acc[ch] += wk * s->c[ch];
-                    aw += wk;
-                    az += wk * s->inv;
-                }
+            for (int t = 0; t < nt; t++) {
+                const warp_holes_cell *s = tap[t];
+                if (!(s->wt > 0) || s->inv > limit) continue;
+                float wk = tk[t] * s->wt;
+                for (int ch = 0; ch < 4; ch++) acc[ch] += wk * s->c[ch];
+                aw += wk;
+                az += wk * s->inv;
             }
             warp_holes_cell *d = &dst[(size_t)j * (size_t)dw + (size_t)i];
             if (aw > 0) {

@@ -88,16 +88,35 @@ void warp_image_rgba8_copy(warp_image_rgba8 *dst, const warp_image_rgba8 *src)
 
 static inline float clampf(float v, float lo, float hi) { return v < lo ? lo : (v > hi ? hi : v); }
 
-warp_rgba8 warp_sample_bilinear(const warp_image_rgba8 *img, float x, float y)
+/* The four texels around pixel-centre coordinates (x, y) of a w x h image, clamped at the border, and the
+ * weights' fractions: shared by both samplers so colour and depth sample the same texels. */
+typedef struct {
+    int x0, y0, x1, y1;
+    float ax, ay;
+} bilinear_taps;
+
+static inline bilinear_taps bilinear_at(int w, int h, float x, float y)
 {
     /* NaN coordinates would make the index undefined: send them to the origin (callers flag such pixels). */
     if (!(x == x)) x = 0.5f;
     if (!(y == y)) y = 0.5f;
-    float fx = clampf(x - 0.5f, 0.0f, (float)(img->w - 1));
-    float fy = clampf(y - 0.5f, 0.0f, (float)(img->h - 1));
-    int x0 = (int)fx, y0 = (int)fy;
-    int x1 = x0 + 1 < img->w ? x0 + 1 : x0, y1 = y0 + 1 < img->h ? y0 + 1 : y0;
-    float ax = fx - (float)x0, ay = fy - (float)y0;
+    float fx = clampf(x - 0.5f, 0.0f, (float)(w - 1));
+    float fy = clampf(y - 0.5f, 0.0f, (float)(h - 1));
+    bilinear_taps t;
+    t.x0 = (int)fx;
+    t.y0 = (int)fy;
+    t.x1 = t.x0 + 1 < w ? t.x0 + 1 : t.x0;
+    t.y1 = t.y0 + 1 < h ? t.y0 + 1 : t.y0;
+    t.ax = fx - (float)t.x0;
+    t.ay = fy - (float)t.y0;
+    return t;
+}
+
+warp_rgba8 warp_sample_bilinear(const warp_image_rgba8 *img, float x, float y)
+{
+    const bilinear_taps t = bilinear_at(img->w, img->h, x, y);
+    const int x0 = t.x0, y0 = t.y0, x1 = t.x1, y1 = t.y1;
+    const float ax = t.ax, ay = t.ay;
     const warp_rgba8 p00 = WARP_AT(img, x0, y0), p10 = WARP_AT(img, x1, y0);
     const warp_rgba8 p01 = WARP_AT(img, x0, y1), p11 = WARP_AT(img, x1, y1);
     float w00 = (1 - ax) * (1 - ay), w10 = ax * (1 - ay), w01 = (1 - ax) * ay, w11 = ax * ay;
@@ -111,13 +130,9 @@ warp_rgba8 warp_sample_bilinear(const warp_image_rgba8 *img, float x, float y)
 
 float warp_sample_f32(const warp_image_f32 *img, float x, float y)
 {
-    if (!(x == x)) x = 0.5f;
-    if (!(y == y)) y = 0.5f;
-    float fx = clampf(x - 0.5f, 0.0f, (float)(img->w - 1));
-    float fy = clampf(y - 0.5f, 0.0f, (float)(img->h - 1));
-    int x0 = (int)fx, y0 = (int)fy;
-    int x1 = x0 + 1 < img->w ? x0 + 1 : x0, y1 = y0 + 1 < img->h ? y0 + 1 : y0;
-    float ax = fx - (float)x0, ay = fy - (float)y0;
+    const bilinear_taps t = bilinear_at(img->w, img->h, x, y);
+    const int x0 = t.x0, y0 = t.y0, x1 = t.x1, y1 = t.y1;
+    const float ax = t.ax, ay = t.ay;
     float top = WARP_AT(img, x0, y0) + (WARP_AT(img, x1, y0) - WARP_AT(img, x0, y0)) * ax;
     float bot = WARP_AT(img, x0, y1) + (WARP_AT(img, x1, y1) - WARP_AT(img, x0, y1)) * ax;
     return top + (bot - top) * ay;

@@ -57,17 +57,12 @@ const char *warp_objects_run(warp_objects_setup *s, const warp_view *src, const 
                              warp_fwd_scratch *sc, warp_image_rgba8 *dst, warp_image_u8 *mask,
                              warp_objects_stats *st)
 {
-    if (p->kind != WARP_SPLAT_POINT && p->kind != WARP_SPLAT_QUAD && p->kind != WARP_SPLAT_MESH)
-        return "unknown splat kind";
-    if (p->min_size < 1 || p->max_size < p->min_size) return "point splat sizes must satisfy 1 <= min <= max";
-    if (!(p->max_extent >= 1)) return "splat extent must be at least 1 pixel";
-    const char *err = warp_objects_prepare(s, src, dst_cam, dst_pose, dst_object_pose);
+    const char *err = warp_splat_check_params(p);
     if (err) return err;
-    if (sc->src_w != src->color->w || sc->src_h != src->color->h || sc->dst_w != dst_cam->width ||
-        sc->dst_h != dst_cam->height)
-        return "scratch was allocated for other image sizes";
-    if (dst->w != dst_cam->width || dst->h != dst_cam->height) return "target image differs from target camera";
-    if (mask && (mask->w != dst->w || mask->h != dst->h)) return "mask differs from target image";
+    err = warp_objects_prepare(s, src, dst_cam, dst_pose, dst_object_pose);
+    if (err) return err;
+    err = warp_fwd_check_sizes(src, dst_cam, sc, dst, mask);
+    if (err) return err;
     s->fwd.p.edge_jump = p->edge_jump;
     warp_splat_params zp = *p;
     zp.vis = WARP_FWD_ZBUFFER;

@@ -166,6 +166,22 @@ static vtx vertex(const draw_ctx *c, int32_t k)
     return v;
 }
 
+/* One triangle (k0, k1, k2) of a mesh cell: drawn when its samples are connected and it passes triangle()'s tests,
+ * else counted as culled. always_inline: the cell loop is the mesh's hot path and calls this twice a pixel. */
+static inline __attribute__((always_inline)) void mesh_triangle(draw_ctx *c, const warp_splat_params *p, int32_t k0,
+                                                                int32_t k1, int32_t k2, long *prims, long *culled)
+{
+    if (connected(c, p, k0, k1, k2)) {
+        vtx a = vertex(c, k0), b = vertex(c, k1), t = vertex(c, k2);
+        if (triangle(c, p, &a, &b, &t))
+            (*prims)++;
+        else
+            (*culled)++;
+    } else {
+        (*culled)++;
+    }
+}
+
 void warp_splat_draw(const warp_fwd_setup *s, warp_fwd_scratch *sc, const warp_splat_params *p,
                      warp_image_rgba8 *dst, warp_splat_stats *st)
 {
@@ -179,24 +195,8 @@ void warp_splat_draw(const warp_fwd_setup *s, warp_fwd_scratch *sc, const warp_s
             int x = k % w, y = k / w;
             if (x + 1 >= w || y + 1 >= h) continue;
             int32_t k10 = k + 1, k01 = k + w, k11 = k + w + 1;
-            if (connected(&c, p, k, k10, k01)) {
-                vtx a = vertex(&c, k), b = vertex(&c, k10), t = vertex(&c, k01);
-                if (triangle(&c, p, &a, &b, &t))
-                    prims++;
-                else
-                    culled++;
-            } else {
-                culled++;
-            }
-            if (connected(&c, p, k10, k11, k01)) {
-                vtx a = vertex(&c, k10), b = vertex(&c, k11), t = vertex(&c, k01);
-                if (triangle(&c, p, &a, &b, &t))
-                    prims++;
-                else
-                    culled++;
-            } else {
-                culled++;
-            }
+            mesh_triangle(&c, p, k, k10, k01, &prims, &culled);
+            mesh_triangle(&c, p, k10, k11, k01, &prims, &culled);
             continue;
         }
         if (!(sc->x2[k] == sc->x2[k])) continue; /* behind the target eye */
@@ -232,25 +232,29 @@ void warp_splat_draw(const warp_fwd_setup *s, warp_fwd_scratch *sc, const warp_s
     }
 }
 
-const char *warp_splat_run(const warp_view *src, const warp_camera *dst_cam, warp_pose dst_pose,
-                           const warp_splat_params *p, warp_fwd_scratch *sc, warp_image_rgba8 *dst,
-                           warp_image_u8 *mask, warp_splat_stats *st)
+const char *warp_splat_check_params(const warp_splat_params *p)
 {
     if (p->kind != WARP_SPLAT_POINT && p->kind != WARP_SPLAT_QUAD && p->kind != WARP_SPLAT_MESH)
         return "unknown splat kind";
     if (p->min_size < 1 || p->max_size < p->min_size) return "point splat sizes must satisfy 1 <= min <= max";
     if (!(p->max_extent >= 1)) return "splat extent must be at least 1 pixel";
+    return NULL;
+}
+
+const char *warp_splat_run(const warp_view *src, const warp_camera *dst_cam, warp_pose dst_pose,
+                           const warp_splat_params *p, warp_fwd_scratch *sc, warp_image_rgba8 *dst,
+                           warp_image_u8 *mask, warp_splat_stats *st)
+{
+    const char *err = warp_splat_check_params(p);
+    if (err) return err;
     warp_forward_params fp = warp_forward_default_params();
     fp.vis = p->vis;
     fp.edge_jump = p->edge_jump;
     warp_fwd_setup s;
-    const char *err = warp_forward_prepare(&s, src, dst_cam, dst_pose, &fp);
+    err = warp_forward_prepare(&s, src, dst_cam, dst_pose, &fp);
     if (err) return err;
-    if (sc->src_w != src->color->w || sc->src_h != src->color->h || sc->dst_w != dst_cam->width ||
-        sc->dst_h != dst_cam->height)
-        return "scratch was allocated for other image sizes";
-    if (dst->w != dst_cam->width || dst->h != dst_cam->height) return "target image differs from target camera";
-    if (mask && (mask->w != dst->w || mask->h != dst->h)) return "mask differs from target image";
+    err = warp_fwd_check_sizes(src, dst_cam, sc, dst, mask);
+    if (err) return err;
     warp_splat_stats local;
     memset(&local, 0, sizeof local);
     warp_forward_map_rows(&s, sc, p->kind != WARP_SPLAT_MESH, 0, src->color->h, &local.fwd);

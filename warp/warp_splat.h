@@ -24,6 +24,8 @@ typedef struct {
 
 /* kind as given, z-buffer, sizes 1..4, extent 8, edge_jump 0.1. */
 warp_splat_params warp_splat_default_params(warp_splat_kind kind);
+/* NULL when p is usable (a known kind, 1 <= min_size <= max_size, max_extent >= 1), else what is wrong. */
+const char *warp_splat_check_params(const warp_splat_params *p);
 
 typedef struct {
     warp_forward_stats fwd;  /* samples, holes, depth rejects, ... (writes = fragments written) */

@@ -12,20 +12,18 @@
 #include "runtime/rt_app.h"
 #include "runtime/rt_simboard.h"
 #include "tests/support/test_run.h"
+#include "tests/support/test_settings.h"
 #include "tests/support/test_util.h"
 
 static void config(rt_config *c, const char *const *extra, size_t n_extra)
 {
     rt_config_defaults(c);
-    rt_config_errors e = {0};
     const char *sets[] = {"display.width=640", "display.height=360", "eye.width=320", "eye.height=360",
                           "lens.scale=180", "lens.center=170 180", "sim.duration_s=0", "sim.eval_every_ms=0",
                           "render.rt_priority=0", "sim.trace=slow", "sim.scene=near", "warp.method=rotation"};
-    for (size_t i = 0; i < sizeof sets / sizeof sets[0]; i++) assert_true(rt_config_set(c, sets[i], &e));
-    for (size_t i = 0; i < n_extra; i++) {
-        if (!rt_config_set(c, extra[i], &e)) fail_msg("%s: %s", extra[i], e.msg[0]);
-    }
-    if (!rt_config_validate(c, &e)) fail_msg("validate: %s", e.msg[0]);
+    test_set_all(c, sets, sizeof sets / sizeof sets[0]);
+    test_set_all(c, extra, n_extra);
+    test_validate(c);
 }
 
 static rt_app app;

@@ -14,6 +14,7 @@
 #include "runtime/rt_app.h"
 #include "runtime/rt_simboard.h"
 #include "tests/support/test_run.h"
+#include "tests/support/test_settings.h"
 #include "tests/support/test_util.h"
 #include "warp/warp_resample.h"
 
@@ -24,17 +25,13 @@
 static void small_config(rt_config *c, const char *scene, const char *method)
 {
     rt_config_defaults(c);
-    rt_config_errors e = {0};
     const char *sets[] = {"display.width=640", "display.height=360", "eye.width=320", "eye.height=360",
                           "lens.scale=180", "lens.center=170 180", "sim.duration_s=1.5", "sim.eval_every_ms=300",
                           "render.rt_priority=0", "sim.trace=fast"};
-    for (size_t i = 0; i < sizeof sets / sizeof sets[0]; i++) assert_true(rt_config_set(c, sets[i], &e));
-    char buf[64];
-    snprintf(buf, sizeof buf, "sim.scene=%s", scene);
-    assert_true(rt_config_set(c, buf, &e));
-    snprintf(buf, sizeof buf, "warp.method=%s", method);
-    assert_true(rt_config_set(c, buf, &e));
-    assert_true(rt_config_validate(c, &e));
+    test_set_all(c, sets, sizeof sets / sizeof sets[0]);
+    test_setf(c, "sim.scene=%s", scene);
+    test_setf(c, "warp.method=%s", method);
+    test_validate(c);
 }
 
 static rt_app app;
@@ -88,11 +85,10 @@ static void test_misses_attributed(void **state)
     (void)state;
     rt_config c;
     rt_config_defaults(&c);
-    rt_config_errors e = {0};
     const char *sets[] = {"display.refresh_hz=500", "render.threads=1", "render.rt_priority=0", "sim.duration_s=0.5",
                           "sim.scene=room", "warp.method=rotation"};
-    for (size_t i = 0; i < sizeof sets / sizeof sets[0]; i++) assert_true(rt_config_set(&c, sets[i], &e));
-    assert_true(rt_config_validate(&c, &e));
+    test_set_all(&c, sets, sizeof sets / sizeof sets[0]);
+    test_validate(&c);
     test_others others0 = test_others_mark();
     run(&c);
     rt_telemetry *t = app.tel;
@@ -254,13 +250,12 @@ static void test_raytrace_without_depth_falls_back(void **state)
 static void auto_config(rt_config *c, const char *scene)
 {
     small_config(c, scene, "auto");
-    rt_config_errors e = {0};
     /* a slower panel, so the depth warps fit the frame time on this 2-core machine: the choice is what is tested */
     const char *sets[] = {"display.refresh_hz=30", "sim.host_rate_hz=15", "sim.trace=translate",
                           "sim.eval_every_ms=0", "display.width=320", "display.height=180", "eye.width=160",
                           "eye.height=180", "lens.scale=90", "lens.center=85 90"};
-    for (size_t i = 0; i < sizeof sets / sizeof sets[0]; i++) assert_true(rt_config_set(c, sets[i], &e));
-    assert_true(rt_config_validate(c, &e));
+    test_set_all(c, sets, sizeof sets / sizeof sets[0]);
+    test_validate(c);
 }
 
 static void test_auto_rotation_only_scene_never_pays_for_depth(void **state)

@@ -18,10 +18,8 @@ root=$(cd "$dir" && pwd)/root
 fake=""
 [ "$(id -u)" -eq 0 ] || fake=fakeroot
 version=$(dpkg-parsechangelog -S Version)
-n=0
-fails=0
-ok() { n=$((n + 1)); echo "ok $n - $1"; }
-not_ok() { n=$((n + 1)); fails=$((fails + 1)); echo "not ok $n - $1"; shift; for l in "$@"; do echo "#   $l"; done; }
+# shellcheck source=tests/support/tap.sh
+. "$(dirname "$0")/../support/tap.sh"
 check() { d=$1; shift; if "$@" >"$dir/check.out" 2>&1; then ok "$d"; else not_ok "$d" "$(head -n 3 "$dir/check.out")"; fi; }
 dpkg_root() { $fake dpkg --root="$root" --force-script-chrootless --force-depends "$@"; }
 echo "1..17"

@@ -7,10 +7,8 @@ set -u
 TAG='SPDX-License-Identifier: MIT'
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-n=0
-fails=0
-ok() { n=$((n + 1)); echo "ok $n - $1"; }
-not_ok() { n=$((n + 1)); fails=$((fails + 1)); echo "not ok $n - $1"; shift; for l in "$@"; do echo "#   $l"; done; }
+# shellcheck source=tests/support/tap.sh
+. "$(dirname "$0")/../support/tap.sh"
 expect() { # expect DESCRIPTION FILE EXPECTED-CONTENT
     if [ "$(cat "$2")" = "$3" ]; then ok "$1"; else not_ok "$1" "got: $(head -n 3 "$2" | tr '\n' '|')"; fi
 }

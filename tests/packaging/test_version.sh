@@ -8,10 +8,8 @@ BUILD=${BUILD:-build}
 PROGS="hmdwarpd hmdwarp-feed hmdwarp-warp hmdwarp-lens hmdwarp-bench hmdwarp-top"
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-n=0
-fails=0
-ok() { n=$((n + 1)); echo "ok $n - $1"; }
-not_ok() { n=$((n + 1)); fails=$((fails + 1)); echo "not ok $n - $1"; shift; for l in "$@"; do echo "#   $l"; done; }
+# shellcheck source=tests/support/tap.sh
+. "$(dirname "$0")/../support/tap.sh"
 check() { # check DESCRIPTION COMMAND...: ok when the command succeeds
     d=$1; shift
     if "$@" >"$tmp/out" 2>&1; then ok "$d"; else not_ok "$d" "$(head -n 5 "$tmp/out")"; fi

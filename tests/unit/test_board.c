@@ -11,9 +11,8 @@
 #include <string.h>
 #include <cmocka.h>
 
+#include "tests/support/test_notify.h"
 #include "tests/support/test_util.h"
-#include <sys/socket.h>
-#include <sys/un.h>
 #include <unistd.h>
 
 static char build[256], tmp[300];
@@ -141,52 +140,46 @@ static void test_unit_and_rules_verify(void **state)
     }
 }
 
+typedef struct {
+    int ready, pings, stopping, order_ok;
+} notify_counts;
+
+static bool count_notify(const char *msg, void *ctx)
+{
+    notify_counts *c = ctx;
+    if (strstr(msg, "READY=1")) c->ready++;
+    if (strstr(msg, "WATCHDOG=1")) {
+        c->pings++;
+        if (!c->ready) c->order_ok = 0;
+    }
+    if (strstr(msg, "STOPPING=1")) c->stopping++;
+    return c->stopping != 0;
+}
+
 static void test_systemd_notify_and_watchdog(void **state)
 {
     (void)state;
     /* hmdwarpd under a stand-in for systemd: READY=1 once started, WATCHDOG=1 while the vsync loop runs (every
      * half WatchdogSec), STOPPING=1 at the end */
-    /* a socket path must fit sun_path (108 bytes): keep it short and unique */
-    char path[100];
-    snprintf(path, sizeof path, "/tmp/hmdwarp-notify-%d.sock", (int)getpid());
-    unlink(path);
-    int fd = socket(AF_UNIX, SOCK_DGRAM | SOCK_NONBLOCK, 0);
-    assert_true(fd >= 0);
-    struct sockaddr_un sa = {.sun_family = AF_UNIX};
-    memcpy(sa.sun_path, path, strlen(path) + 1);
-    assert_int_equal(bind(fd, (struct sockaddr *)&sa, sizeof sa), 0);
+    test_notify ns;
+    assert_true(test_notify_open(&ns, "notify"));
     char cmd[1200];
     snprintf(cmd, sizeof cmd, "NOTIFY_SOCKET=%s WATCHDOG_USEC=200000 %s%s/hmdwarpd --duration 1.5 --set sim.imu_rest_s=0.2 "
-             "--set sim.eval_every_ms=0 --set render.rt_priority=0 >/dev/null 2>&1 </dev/null", path, test_runner(),
+             "--set sim.eval_every_ms=0 --set render.rt_priority=0 >/dev/null 2>&1 </dev/null", ns.path, test_runner(),
              build);
     /* read while it runs, as systemd does (a datagram queue that nobody reads blocks the sender) */
     FILE *child = popen(cmd, "r");
     assert_non_null(child);
-    int ready = 0, pings = 0, stopping = 0, order_ok = 1;
-    char msg[256];
+    notify_counts nc = {0, 0, 0, 1};
     /* 20 s of real time, more on virtual time (test_paced_by_sim: the run lasts that much longer) */
-    for (int waited = 0; !stopping && waited < 20000 * plat_clock_slowdown(); waited += 5) {
-        ssize_t n = recv(fd, msg, sizeof msg - 1, 0);
-        if (n <= 0) {
-            usleep(5000);
-            continue;
-        }
-        msg[n] = 0;
-        if (strstr(msg, "READY=1")) ready++;
-        if (strstr(msg, "WATCHDOG=1")) {
-            pings++;
-            if (!ready) order_ok = 0;
-        }
-        if (strstr(msg, "STOPPING=1")) stopping++;
-    }
+    test_notify_read(&ns, 20000.0 * plat_clock_slowdown(), count_notify, &nc);
     assert_int_equal(pclose(child), 0);
-    close(fd);
-    unlink(path);
-    print_message("notify: READY %d, WATCHDOG %d, STOPPING %d\n", ready, pings, stopping);
-    assert_int_equal(ready, 1);
-    assert_int_equal(stopping, 1);
-    assert_true(order_ok);
-    assert_true(pings >= 5 && pings <= 20); /* ~1.5 s / 0.1 s while presenting */
+    test_notify_close(&ns);
+    print_message("notify: READY %d, WATCHDOG %d, STOPPING %d\n", nc.ready, nc.pings, nc.stopping);
+    assert_int_equal(nc.ready, 1);
+    assert_int_equal(nc.stopping, 1);
+    assert_true(nc.order_ok);
+    assert_true(nc.pings >= 5 && nc.pings <= 20); /* ~1.5 s / 0.1 s while presenting */
 }
 
 int main(int argc, char **argv)

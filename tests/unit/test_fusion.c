@@ -148,6 +148,15 @@ static void feed_first(rt_fusion *f, sim *s, int64_t t_ns)
     assert_int_equal(rt_fusion_update(f, &smp), RT_FUSION_OK);
 }
 
+/* A filter with parameters p (NULL: the defaults) that has taken s's first sample at T0; *t is that time. */
+static rt_fusion *fusion_started(const rt_fusion_params *p, sim *s, int64_t *t)
+{
+    rt_fusion *f = fusion_new(p);
+    *t = T0;
+    feed_first(f, s, *t);
+    return f;
+}
+
 static rt_fusion_state latest(const rt_fusion *f)
 {
     rt_fusion_state st;
@@ -206,9 +215,8 @@ static void test_static_bias_and_yaw(void **state)
     (void)state;
     warp_quat q0 = warp_quat_from_ypr(0, 10 * DEG, 20 * DEG);
     sim s = sim_make(q0, warp_v3(0, 0, 0), k_bias, 0.005, 0.02, 100);
-    rt_fusion *f = fusion_new(NULL);
-    int64_t t = T0;
-    feed_first(f, &s, t);
+    int64_t t;
+    rt_fusion *f = fusion_started(NULL, &s, &t);
     feed(f, &s, &t, T0 + 30000 * MS, MS);
     rt_fusion_state st = latest(f);
     warp_quat truth = sim_truth(&s, st.t_ns);
@@ -249,9 +257,8 @@ static void test_integral_term_converges(void **state)
     p.still_gyro = 0;
     p.bias_gain = 0.1; /* well damped (poles at -0.25 +- 0.2i per s): settled after 60 s */
     sim s = sim_make(q0, warp_v3(0, 0, 0), k_bias, 0.005, 0.02, 200);
-    rt_fusion *f = fusion_new(&p);
-    int64_t t = T0;
-    feed_first(f, &s, t);
+    int64_t t;
+    rt_fusion *f = fusion_started(&p, &s, &t);
     feed(f, &s, &t, T0 + 60000 * MS, MS);
     rt_fusion_state st = latest(f);
     warp_quat truth = sim_truth(&s, st.t_ns);
@@ -279,9 +286,8 @@ static void test_rotation_tracking(void **state)
     sim s = sim_make(q0, warp_v3(0, 0, 0), warp_v3(0.01, 0.005, -0.008), 0.003, 0.02, 300);
     sim_add(&s, 5.0, sim_vertical_rate(&s, 5.0, 1.0));
     rt_fusion_params p = rt_fusion_default_params();
-    rt_fusion *f = fusion_new(&p);
-    int64_t t = T0;
-    feed_first(f, &s, t);
+    int64_t t;
+    rt_fusion *f = fusion_started(&p, &s, &t);
     /* the filter starts at yaw 0 while the truth has yaw 0.3: compare from the truth's own yaw frame */
     warp_quat yaw_fix = warp_quat_from_ypr(0.3, 0, 0);
     double worst = 0;
@@ -303,9 +309,8 @@ static void test_prediction(void **state)
     (void)state;
     warp_vec3 w = warp_v3(0.4, -1.1, 0.7);
     sim s = sim_make(warp_quat_from_ypr(0, 25 * DEG, -30 * DEG), w, warp_v3(0, 0, 0), 0, 0, 1);
-    rt_fusion *f = fusion_new(NULL);
-    int64_t t = T0;
-    feed_first(f, &s, t);
+    int64_t t;
+    rt_fusion *f = fusion_started(NULL, &s, &t);
     for (int i = 0; i < 20; i++) {
         feed(f, &s, &t, t + 100 * MS, MS);
         rt_fusion_state st = latest(f);
@@ -476,9 +481,8 @@ static void test_hours(void **state)
     (void)state;
     warp_quat q0 = warp_quat_from_ypr(0, 10 * DEG, 20 * DEG);
     sim s = sim_make(q0, warp_v3(0, 0, 0), k_bias, 0.005, 0.02, 600);
-    rt_fusion *f = fusion_new(NULL);
-    int64_t t = T0;
-    feed_first(f, &s, t);
+    int64_t t;
+    rt_fusion *f = fusion_started(NULL, &s, &t);
     double worst_norm = 0, worst_err = 0;
     const int64_t period = 10 * MS;
     for (int64_t n = 0; n < 2 * 3600 * 100; n++) {

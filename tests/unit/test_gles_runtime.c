@@ -13,6 +13,7 @@
 #include "platform/plat_gles.h"
 #include "runtime/rt_app.h"
 #include "tests/support/test_run.h"
+#include "tests/support/test_settings.h"
 #include "tests/support/test_util.h"
 
 static void test_choose(void **state)
@@ -87,17 +88,13 @@ static void test_config_keys(void **state)
 static void small_config(rt_config *c, const char *renderer, const char *method)
 {
     rt_config_defaults(c);
-    rt_config_errors e = {0};
     const char *sets[] = {"display.width=192", "display.height=96", "eye.width=96", "eye.height=96",
                           "lens.scale=54", "lens.center=51 48", "sim.duration_s=0.4", "sim.eval_every_ms=0",
                           "render.rt_priority=0", "sim.scene=near", "sim.host_threads=1", "lens.mesh=16"};
-    for (size_t i = 0; i < sizeof sets / sizeof sets[0]; i++) assert_true(rt_config_set(c, sets[i], &e));
-    char buf[64];
-    snprintf(buf, sizeof buf, "render.renderer=%s", renderer);
-    assert_true(rt_config_set(c, buf, &e));
-    snprintf(buf, sizeof buf, "warp.method=%s", method);
-    assert_true(rt_config_set(c, buf, &e));
-    if (!rt_config_validate(c, &e)) fail_msg("config: %s", e.msg[0]);
+    test_set_all(c, sets, sizeof sets / sizeof sets[0]);
+    test_setf(c, "render.renderer=%s", renderer);
+    test_setf(c, "warp.method=%s", method);
+    test_validate(c);
 }
 
 static rt_app app;
@@ -205,11 +202,10 @@ static void test_gles_misses_are_the_warps(void **state)
     (void)state;
     rt_config c;
     rt_config_defaults(&c);
-    rt_config_errors e = {0};
     const char *sets[] = {"render.renderer=gles", "warp.method=rotation", "sim.duration_s=0.6", "sim.eval_every_ms=0",
                           "render.rt_priority=0", "sim.scene=room", "sim.host_threads=1"};
-    for (size_t i = 0; i < sizeof sets / sizeof sets[0]; i++) assert_true(rt_config_set(&c, sets[i], &e));
-    if (!rt_config_validate(&c, &e)) fail_msg("config: %s", e.msg[0]);
+    test_set_all(&c, sets, sizeof sets / sizeof sets[0]);
+    test_validate(&c);
     char err[300];
     if (!rt_app_init(&app, &c, err, sizeof err)) fail_msg("init: %s", err);
     assert_true(app.gl.use && app.gl.software);

@@ -13,14 +13,13 @@
 #include <string.h>
 #include <cmocka.h>
 #include <sys/resource.h>
-#include <sys/socket.h>
 #include <sys/stat.h>
-#include <sys/un.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include "platform/plat_log.h"
 #include "runtime/rt_telemetry.h"
+#include "tests/support/test_notify.h"
 #include "tests/support/test_util.h"
 
 static char build[256], tmp[300];
@@ -69,7 +68,7 @@ static double kv(const char *text, const char *key)
 /* Starts hmdwarpd (exec'd by sh, so the pid is hmdwarpd's) with stdout and stderr into out_path. */
 static pid_t spawn(const char *args, const char *out_path)
 {
-    char cmd[1500];
+    char cmd[2048]; /* runner, build, args and out_path at their largest */
     snprintf(cmd, sizeof cmd, "exec %s%s/hmdwarpd " RUN_ARGS " %s >%s 2>&1 </dev/null", test_runner(), build, args,
              out_path);
     pid_t pid = fork();
@@ -93,58 +92,85 @@ static bool wait_live(const char *path, char *text, size_t cap)
     return false;
 }
 
+typedef struct {
+    int ready, status, stopping, order_ok, content_ok;
+    char last_status[1024];
+} status_counts;
+
+static bool count_status(const char *msg, void *ctx)
+{
+    status_counts *c = ctx;
+    if (strstr(msg, "READY=1")) c->ready++;
+    if (strncmp(msg, "STATUS=", 7) == 0) {
+        c->status++;
+        if (!c->ready) c->order_ok = 0;
+        /* vsyncs, missed and why, m2p p99, frame age, link */
+        const char *need[] = {"vsyncs/s", "missed", "own", "woken late", "descheduled", "m2p p99", "frame age",
+                              "MB/s", "frames/s"};
+        for (size_t i = 0; i < sizeof need / sizeof need[0]; i++)
+            if (!strstr(msg, need[i])) c->content_ok = 0;
+        snprintf(c->last_status, sizeof c->last_status, "%s", msg);
+    }
+    if (strstr(msg, "STOPPING=1")) c->stopping++;
+    return c->stopping != 0;
+}
+
+/* hmdwarpd running until stopped with a live file (TMP/NAME.live, its output in TMP/NAME.out), and whether that
+ * file came to say it runs (up; r->text holds what it said). */
+typedef struct {
+    char live[400], out[400], text[16384];
+    pid_t pid;
+    bool up;
+} live_run;
+
+static void live_start(live_run *r, const char *name)
+{
+    snprintf(r->live, sizeof r->live, "%s/%s.live", tmp, name);
+    snprintf(r->out, sizeof r->out, "%s/%s.out", tmp, name);
+    unlink(r->live);
+    char args[600];
+    snprintf(args, sizeof args, "--duration 0 --set telemetry.live_stats=%s", r->live);
+    r->pid = spawn(args, r->out);
+    assert_true(r->pid > 0);
+    r->up = wait_live(r->live, r->text, sizeof r->text);
+}
+
+/* Sends sig and reaps the daemon; returns its wait status. */
+static int live_stop(live_run *r, int sig)
+{
+    kill(r->pid, sig);
+    int st = 0;
+    assert_int_equal(waitpid(r->pid, &st, 0), r->pid);
+    return st;
+}
+
 static void test_status_line_and_live_file(void **state)
 {
     (void)state;
     /* hmdwarpd under a stand-in for systemd: STATUS= once a second, after READY=1, naming what `systemctl
      * status hmdwarpd` should show; the live file ends as the --stats file does */
-    char path[100];
-    snprintf(path, sizeof path, "/tmp/hmdwarp-live-%d.sock", (int)getpid());
-    unlink(path);
-    int fd = socket(AF_UNIX, SOCK_DGRAM | SOCK_NONBLOCK, 0);
-    assert_true(fd >= 0);
-    struct sockaddr_un sa = {.sun_family = AF_UNIX};
-    memcpy(sa.sun_path, path, strlen(path) + 1);
-    assert_int_equal(bind(fd, (struct sockaddr *)&sa, sizeof sa), 0);
+    test_notify ns;
+    assert_true(test_notify_open(&ns, "live"));
     char live[400], stats[400], cmd[2000];
     snprintf(live, sizeof live, "%s/status.live", tmp);
     snprintf(stats, sizeof stats, "%s/status.stats", tmp);
     unlink(live);
     snprintf(cmd, sizeof cmd, "NOTIFY_SOCKET=%s %s%s/hmdwarpd " RUN_ARGS " --duration 3 --set telemetry.live_stats=%s "
-             "--stats %s >/dev/null 2>&1 </dev/null", path, test_runner(), build, live, stats);
+             "--stats %s >/dev/null 2>&1 </dev/null", ns.path, test_runner(), build, live, stats);
     FILE *child = popen(cmd, "r");
     assert_non_null(child);
-    int ready = 0, status = 0, stopping = 0, order_ok = 1, content_ok = 1;
-    char msg[1024], last_status[1024] = "";
-    for (int waited = 0; !stopping && waited < 60000; waited += 5) {
-        ssize_t n = recv(fd, msg, sizeof msg - 1, 0);
-        if (n <= 0) {
-            usleep(5000);
-            continue;
-        }
-        msg[n] = 0;
-        if (strstr(msg, "READY=1")) ready++;
-        if (strncmp(msg, "STATUS=", 7) == 0) {
-            status++;
-            if (!ready) order_ok = 0;
-            /* vsyncs, missed and why, m2p p99, frame age, link */
-            const char *need[] = {"vsyncs/s", "missed", "own", "woken late", "descheduled", "m2p p99", "frame age",
-                                  "MB/s", "frames/s"};
-            for (size_t i = 0; i < sizeof need / sizeof need[0]; i++)
-                if (!strstr(msg, need[i])) content_ok = 0;
-            snprintf(last_status, sizeof last_status, "%s", msg);
-        }
-        if (strstr(msg, "STOPPING=1")) stopping++;
-    }
+    status_counts sc = {0, 0, 0, 1, 1, ""};
+    test_notify_read(&ns, 60000, count_status, &sc);
     assert_int_equal(pclose(child), 0);
-    close(fd);
-    unlink(path);
-    print_message("notify: READY %d, STATUS %d, STOPPING %d; last: %s\n", ready, status, stopping, last_status);
-    assert_int_equal(ready, 1);
-    assert_int_equal(stopping, 1);
-    assert_true(status >= 1);
-    assert_true(order_ok);
-    assert_true(content_ok);
+    test_notify_close(&ns);
+    const char *last_status = sc.last_status;
+    print_message("notify: READY %d, STATUS %d, STOPPING %d; last: %s\n", sc.ready, sc.status, sc.stopping,
+                  last_status);
+    assert_int_equal(sc.ready, 1);
+    assert_int_equal(sc.stopping, 1);
+    assert_true(sc.status >= 1);
+    assert_true(sc.order_ok);
+    assert_true(sc.content_ok);
     /* the status says how many vsyncs: a number, not a placeholder */
     unsigned long long v = 0;
     const char *p = strstr(last_status, "vsyncs/s, ");
@@ -173,22 +199,13 @@ static void test_top_shows_running_daemon_and_sigterm_summary(void **state)
 {
     (void)state;
     /* a run until stopped: hmdwarp-top --once shows it while it runs; SIGTERM stops it with the summary, exit 0 */
-    char live[400], out[400], text[16384];
-    snprintf(live, sizeof live, "%s/term.live", tmp);
-    snprintf(out, sizeof out, "%s/term.out", tmp);
-    unlink(live);
-    char args[600];
-    snprintf(args, sizeof args, "--duration 0 --set telemetry.live_stats=%s", live);
-    pid_t pid = spawn(args, out);
-    assert_true(pid > 0);
-    bool up = wait_live(live, text, sizeof text);
+    static live_run r;
+    live_start(&r, "term");
     char cmd[1200], top[8192];
-    snprintf(cmd, sizeof cmd, "%s%s/hmdwarp-top --once --file %s 2>&1", test_runner(), build, live);
-    int top_rc = up ? sh(cmd, top, sizeof top) : -1;
-    kill(pid, SIGTERM);
-    int st = 0;
-    assert_int_equal(waitpid(pid, &st, 0), pid);
-    assert_true(up);
+    snprintf(cmd, sizeof cmd, "%s%s/hmdwarp-top --once --file %s 2>&1", test_runner(), build, r.live);
+    int top_rc = r.up ? sh(cmd, top, sizeof top) : -1;
+    int st = live_stop(&r, SIGTERM);
+    assert_true(r.up);
     print_message("hmdwarp-top --once:\n%s", top);
     assert_int_equal(top_rc, 0);
     const char *need[] = {"board sim", ", running ", "vsyncs/s", "missed   own", "motion-to-photon p50",
@@ -204,33 +221,24 @@ static void test_top_shows_running_daemon_and_sigterm_summary(void **state)
     assert_true(v > 0);
 
     char o[65536];
-    slurp(out, o, sizeof o);
+    slurp(r.out, o, sizeof o);
     if (!WIFEXITED(st) || WEXITSTATUS(st) != 0) fail_msg("SIGTERM: status %d; output:\n%s", st, o);
     assert_non_null(strstr(o, "summary —"));
     assert_non_null(strstr(o, "  vsyncs  "));
-    slurp(live, text, sizeof text);
-    assert_true(kv(text, "running") == 0); /* the final word, as --stats */
+    slurp(r.live, r.text, sizeof r.text);
+    assert_true(kv(r.text, "running") == 0); /* the final word, as --stats */
 }
 
 static void test_sigabrt_prints_last_stats(void **state)
 {
     (void)state;
     /* systemd's watchdog sends SIGABRT: the process still dies of it, but says first what it saw */
-    char live[400], out[400], text[16384];
-    snprintf(live, sizeof live, "%s/abrt.live", tmp);
-    snprintf(out, sizeof out, "%s/abrt.out", tmp);
-    unlink(live);
-    char args[600];
-    snprintf(args, sizeof args, "--duration 0 --set telemetry.live_stats=%s", live);
-    pid_t pid = spawn(args, out);
-    assert_true(pid > 0);
-    bool up = wait_live(live, text, sizeof text);
-    kill(pid, SIGABRT);
-    int st = 0;
-    assert_int_equal(waitpid(pid, &st, 0), pid);
-    assert_true(up);
+    static live_run r;
+    live_start(&r, "abrt");
+    int st = live_stop(&r, SIGABRT);
+    assert_true(r.up);
     char o[65536];
-    slurp(out, o, sizeof o);
+    slurp(r.out, o, sizeof o);
     if (!WIFSIGNALED(st) || WTERMSIG(st) != SIGABRT) fail_msg("SIGABRT: status %d; output:\n%s", st, o);
     const char *s = strstr(o, "hmdwarpd: aborted (SIGABRT");
     if (!s) fail_msg("no abort report; output:\n%s", o);

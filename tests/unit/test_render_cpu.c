@@ -11,6 +11,7 @@
 
 #include "runtime/rt_app.h"
 #include "sim/sim_scene.h"
+#include "tests/support/test_settings.h"
 #include "tools/hmdwarp-bench/bench_display.h"
 
 static rt_app app;
@@ -20,11 +21,9 @@ static rt_app app;
 static void config(rt_config *c)
 {
     bench_config(c, false, 96, 96);
-    rt_config_errors e = {0};
     const char *sets[] = {"render.renderer=cpu", "render.rt_priority=0", "render.threads=2",
                           "display.output=offscreen"};
-    for (size_t i = 0; i < sizeof sets / sizeof sets[0]; i++)
-        if (!rt_config_set(c, sets[i], &e)) fail_msg("%s: %s", sets[i], e.msg[0]);
+    test_set_all(c, sets, sizeof sets / sizeof sets[0]);
 }
 
 /* The host frame: scene `near` from a head pose, both eyes, colour and depth; eyes: where the display warps to (3

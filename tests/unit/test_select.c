@@ -24,6 +24,29 @@ static rt_select_input frame(double t_m, double nearest_m)
     return in;
 }
 
+/* A selector with the default parameters over cam(): where every choice test starts. */
+typedef struct {
+    rt_select s;
+    rt_select_params p;
+    warp_camera c;
+} selector;
+
+static void selector_init(selector *x)
+{
+    x->p = rt_select_default_params();
+    x->c = cam();
+    rt_select_init(&x->s, &x->p, &x->c);
+}
+
+/* One choice with configured on in: asserts the method chosen and the reason given. */
+static void expect_choice(rt_select *s, rt_method configured, const rt_select_input *in, rt_method want,
+                          rt_select_why want_why)
+{
+    rt_select_why why;
+    assert_int_equal(rt_select_choose(s, configured, in, &why), want);
+    assert_int_equal(why, want_why);
+}
+
 static void test_bound_matches_004(void **state)
 {
     (void)state;
@@ -44,47 +67,38 @@ static void test_bound_matches_004(void **state)
 static void test_rotation_only_never_depth(void **state)
 {
     (void)state;
-    rt_select s;
-    rt_select_params p = rt_select_default_params();
-    warp_camera c = cam();
-    rt_select_init(&s, &p, &c);
-    rt_select_why why;
+    selector x;
+    selector_init(&x);
     for (int i = 0; i < 500; i++) {
         rt_select_input in = frame(0.1 * (i % 7), 0.3); /* big translations ... */
         in.has_depth = false;                           /* ... but the frame has no depth */
-        assert_int_equal(rt_select_choose(&s, RT_METHOD_AUTO, &in, &why), RT_METHOD_ROTATION);
-        assert_int_equal(why, RT_WHY_ROTATION_ONLY);
+        expect_choice(&x.s, RT_METHOD_AUTO, &in, RT_METHOD_ROTATION, RT_WHY_ROTATION_ONLY);
     }
     /* a configured method is used as is */
     rt_select_input in = frame(0.05, 0.3);
-    assert_int_equal(rt_select_choose(&s, RT_METHOD_NONE, &in, &why), RT_METHOD_NONE);
-    assert_int_equal(why, RT_WHY_CONFIGURED);
+    expect_choice(&x.s, RT_METHOD_NONE, &in, RT_METHOD_NONE, RT_WHY_CONFIGURED);
 }
 
 static void test_translation_near_object_escalates(void **state)
 {
     (void)state;
-    rt_select s;
-    rt_select_params p = rt_select_default_params();
-    warp_camera c = cam();
-    rt_select_init(&s, &p, &c);
+    selector x;
+    selector_init(&x);
     rt_select_why why;
     /* far scene, 1 cm: under budget */
     rt_select_input in = frame(0.001, 50);
-    assert_int_equal(rt_select_choose(&s, RT_METHOD_AUTO, &in, &why), RT_METHOD_ROTATION);
-    assert_int_equal(why, RT_WHY_PARALLAX_SMALL);
+    expect_choice(&x.s, RT_METHOD_AUTO, &in, RT_METHOD_ROTATION, RT_WHY_PARALLAX_SMALL);
     /* 1 cm with something 40 cm away: several pixels of parallax -> raytrace */
     in = frame(0.01, 0.4);
-    assert_int_equal(rt_select_choose(&s, RT_METHOD_AUTO, &in, &why), RT_METHOD_RAYTRACE);
-    assert_int_equal(why, RT_WHY_PARALLAX);
-    assert_true(s.last_px > 5);
+    expect_choice(&x.s, RT_METHOD_AUTO, &in, RT_METHOD_RAYTRACE, RT_WHY_PARALLAX);
+    assert_true(x.s.last_px > 5);
     /* transparency and object motion are named */
     in.has_layers = true;
-    rt_select_choose(&s, RT_METHOD_AUTO, &in, &why);
+    rt_select_choose(&x.s, RT_METHOD_AUTO, &in, &why);
     assert_int_equal(why, RT_WHY_TRANSPARENCY);
     in.has_layers = false;
     in.objects_moving = true;
-    rt_select_choose(&s, RT_METHOD_AUTO, &in, &why);
+    rt_select_choose(&x.s, RT_METHOD_AUTO, &in, &why);
     assert_int_equal(why, RT_WHY_OBJECT_MOTION);
 }
 
@@ -92,13 +106,11 @@ static void test_stable_near_threshold(void **state)
 {
     (void)state;
     /* steady motion whose prediction wobbles around the budget: at most one switch up, none back */
-    rt_select s;
-    rt_select_params p = rt_select_default_params();
-    warp_camera c = cam();
-    rt_select_init(&s, &p, &c);
+    selector x;
+    selector_init(&x);
     double t_at_budget = 0;
     for (double t = 0; t < 0.01; t += 1e-6)
-        if (rt_select_parallax_px(&c, t, 1 / 2.0) > p.pixel_budget) {
+        if (rt_select_parallax_px(&x.c, t, 1 / 2.0) > x.p.pixel_budget) {
             t_at_budget = t;
             break;
         }
@@ -108,15 +120,15 @@ static void test_stable_near_threshold(void **state)
     rt_select_why why;
     for (int i = 0; i < 2000; i++) {
         rt_select_input in = frame(t_at_budget * (1 + 0.05 * sin(i * 0.7)), 2.0);
-        rt_method m = rt_select_choose(&s, RT_METHOD_AUTO, &in, &why);
+        rt_method m = rt_select_choose(&x.s, RT_METHOD_AUTO, &in, &why);
         switches += m != prev;
         prev = m;
     }
     assert_true(switches <= 1);
     /* once the head is still for long enough, it comes back down */
-    for (int i = 0; i < p.hold_vsyncs + 1; i++) {
+    for (int i = 0; i < x.p.hold_vsyncs + 1; i++) {
         rt_select_input in = frame(0, 2.0);
-        prev = rt_select_choose(&s, RT_METHOD_AUTO, &in, &why);
+        prev = rt_select_choose(&x.s, RT_METHOD_AUTO, &in, &why);
     }
     assert_int_equal(prev, RT_METHOD_ROTATION);
 }
@@ -124,29 +136,25 @@ static void test_stable_near_threshold(void **state)
 static void test_time_budget_degrades(void **state)
 {
     (void)state;
-    rt_select s;
-    rt_select_params p = rt_select_default_params();
-    warp_camera c = cam();
-    rt_select_init(&s, &p, &c);
+    selector x;
+    selector_init(&x);
     rt_select_why why;
     rt_select_input in = frame(0.02, 0.4);
     in.cost_ns[RT_METHOD_ROTATION] = 2e6;
     in.cost_ns[RT_METHOD_RAYTRACE] = 20e6; /* does not fit in 8 ms: the mesh raytrace next (cost not known yet) */
-    assert_int_equal(rt_select_choose(&s, RT_METHOD_AUTO, &in, &why), RT_METHOD_RAYTRACE_MESH);
-    assert_int_equal(why, RT_WHY_TIME_BUDGET);
+    expect_choice(&x.s, RT_METHOD_AUTO, &in, RT_METHOD_RAYTRACE_MESH, RT_WHY_TIME_BUDGET);
     in.cost_ns[RT_METHOD_RAYTRACE_MESH] = 3e6; /* fits */
-    assert_int_equal(rt_select_choose(&s, RT_METHOD_AUTO, &in, &why), RT_METHOD_RAYTRACE_MESH);
+    assert_int_equal(rt_select_choose(&x.s, RT_METHOD_AUTO, &in, &why), RT_METHOD_RAYTRACE_MESH);
     in.cost_ns[RT_METHOD_RAYTRACE_MESH] = 9e6; /* neither fits: rotation */
-    assert_int_equal(rt_select_choose(&s, RT_METHOD_AUTO, &in, &why), RT_METHOD_ROTATION);
-    assert_int_equal(why, RT_WHY_TIME_BUDGET);
+    expect_choice(&x.s, RT_METHOD_AUTO, &in, RT_METHOD_ROTATION, RT_WHY_TIME_BUDGET);
     /* the objects warp steps down through the same ladder */
     in.objects_moving = true;
     in.cost_ns[RT_METHOD_OBJECTS] = 30e6;
     in.cost_ns[RT_METHOD_RAYTRACE_MESH] = 3e6;
-    assert_int_equal(rt_select_choose(&s, RT_METHOD_AUTO, &in, &why), RT_METHOD_RAYTRACE_MESH);
+    assert_int_equal(rt_select_choose(&x.s, RT_METHOD_AUTO, &in, &why), RT_METHOD_RAYTRACE_MESH);
     in.objects_moving = false;
     in.cost_ns[RT_METHOD_RAYTRACE] = 5e6; /* fits again: back to the preferred warp at once */
-    assert_int_equal(rt_select_choose(&s, RT_METHOD_AUTO, &in, &why), RT_METHOD_RAYTRACE);
+    assert_int_equal(rt_select_choose(&x.s, RT_METHOD_AUTO, &in, &why), RT_METHOD_RAYTRACE);
 }
 
 /* The reasons' --stats keys (select_KEY) are an interface: exactly these, one per reason, and a summary text each. */

@@ -238,6 +238,15 @@ static double psnr_eyes(const drv_frame *a, const drv_frame *b)
     return p0 < p1 ? p0 : p1;
 }
 
+/* A random frame f with planes, an output frame for the same planes, and the video mode (w, h) their band and
+ * rows need (with depth rows when planes has depth): what every pack/unpack round trip starts from. */
+static void pack_fixture(drv_frame *f, drv_frame *out, unsigned planes, uint64_t seed, int *w, int *h)
+{
+    frame_random(f, planes, seed);
+    assert_true(drv_frame_alloc(out, EW, EH, planes, 1));
+    assert_true(drv_v4l2_layout(EW, EH, (planes & DRV_PLANE_DEPTH) != 0, w, h));
+}
+
 static void test_layout(void **state)
 {
     (void)state;
@@ -263,10 +272,8 @@ static void test_band_survives_formats(void **state)
 {
     (void)state;
     drv_frame f, out;
-    frame_random(&f, DRV_PLANE_COLOR, 1);
-    assert_true(drv_frame_alloc(&out, EW, EH, DRV_PLANE_COLOR, 1));
     int w, h;
-    assert_true(drv_v4l2_layout(EW, EH, false, &w, &h));
+    pack_fixture(&f, &out, DRV_PLANE_COLOR, 1, &w, &h);
     for (int fi = 0; fi < NFORMATS; fi++) {
         drv_v4l2_geom g;
         /* a video mode larger than the layout: the layout sits top-left */
@@ -295,10 +302,8 @@ static void test_meta_values_checked(void **state)
 {
     (void)state;
     drv_frame f, out;
-    frame_random(&f, DRV_PLANE_COLOR, 3);
-    assert_true(drv_frame_alloc(&out, EW, EH, DRV_PLANE_COLOR, 1));
     int w, h;
-    assert_true(drv_v4l2_layout(EW, EH, false, &w, &h));
+    pack_fixture(&f, &out, DRV_PLANE_COLOR, 3, &w, &h);
     drv_v4l2_geom g;
     uint8_t *img = image_new(&g, DRV_V4L2_YUYV, w, h, 0);
     drv_v4l2_colorspace cs = DRV_V4L2_CS_DEFAULT;
@@ -351,10 +356,8 @@ static void test_band_survives_rgb_yuv_rgb(void **state)
 {
     (void)state;
     drv_frame f, out;
-    frame_random(&f, DRV_PLANE_COLOR, 2);
-    assert_true(drv_frame_alloc(&out, EW, EH, DRV_PLANE_COLOR, 1));
     int w, h;
-    assert_true(drv_v4l2_layout(EW, EH, false, &w, &h));
+    pack_fixture(&f, &out, DRV_PLANE_COLOR, 2, &w, &h);
     drv_v4l2_colorspace lim601 = DRV_V4L2_CS_DEFAULT, full709 = {DRV_V4L2_BT709, true};
     drv_v4l2_geom g0, g1, g2;
     /* host writes BGR32, the link carries BT.709 full-range 4:2:0, the board captures RGB24 */
@@ -386,10 +389,8 @@ static void test_depth_packing(void **state)
 {
     (void)state;
     drv_frame f, out;
-    frame_random(&f, DRV_PLANE_COLOR | DRV_PLANE_DEPTH, 3);
-    assert_true(drv_frame_alloc(&out, EW, EH, DRV_PLANE_COLOR | DRV_PLANE_DEPTH, 1));
     int w, h;
-    assert_true(drv_v4l2_layout(EW, EH, true, &w, &h));
+    pack_fixture(&f, &out, DRV_PLANE_COLOR | DRV_PLANE_DEPTH, 3, &w, &h);
     for (int enc = 0; enc < 2; enc++)
         for (int fi = 0; fi < NFORMATS; fi++) {
             drv_frame *src = &f;
@@ -461,10 +462,8 @@ static void test_garbled_band(void **state)
 {
     (void)state;
     drv_frame f, out;
-    frame_random(&f, DRV_PLANE_COLOR, 5);
-    assert_true(drv_frame_alloc(&out, EW, EH, DRV_PLANE_COLOR, 1));
     int w, h;
-    assert_true(drv_v4l2_layout(EW, EH, false, &w, &h));
+    pack_fixture(&f, &out, DRV_PLANE_COLOR, 5, &w, &h);
     drv_v4l2_colorspace cs = DRV_V4L2_CS_DEFAULT;
     drv_v4l2_geom g;
     uint8_t *img = image_new(&g, DRV_V4L2_YUYV, w, h, 0);
@@ -590,21 +589,36 @@ static void check_against_render(const drv_frame *f, const sim_scene *scene, dou
     }
 }
 
+/* The backend over the mock device, its host the simulator (host_params into *sp), and a frame allocated for the
+ * planes the backend reports; mock_close frees both. */
+static drv_frames *mock_open(drv_frames_sim_params *sp, const drv_frames_v4l2_params *p, drv_frame *f)
+{
+    *sp = host_params();
+    char err[256] = "";
+    drv_frames *fr = drv_frames_v4l2_create_mock(sp, p, err, sizeof err);
+    if (!fr) fail_msg("%s", err);
+    assert_true(drv_frame_alloc(f, EW, EH, drv_frames_planes(fr), 1));
+    return fr;
+}
+
+static void mock_close(drv_frames *fr, drv_frame *f)
+{
+    drv_frame_free(f);
+    drv_frames_destroy(fr);
+}
+
 static void test_mock_end_to_end_yuyv(void **state)
 {
     (void)state;
-    drv_frames_sim_params sp = host_params();
+    drv_frames_sim_params sp;
     drv_frames_v4l2_params p = cap_params("auto", false);
-    char err[256] = "";
-    drv_frames *fr = drv_frames_v4l2_create_mock(&sp, &p, err, sizeof err);
-    if (!fr) fail_msg("%s", err);
+    drv_frame f;
+    drv_frames *fr = mock_open(&sp, &p, &f);
     assert_int_equal(drv_frames_planes(fr), DRV_PLANE_COLOR);
     drv_frames_v4l2_stats st;
     drv_frames_v4l2_stats_get(fr, &st);
     assert_true(st.connected);
     assert_non_null(strstr(st.format, "YUYV")); /* auto prefers YUYV among RGB24, XBGR32, NV12, YUYV */
-    drv_frame f;
-    assert_true(drv_frame_alloc(&f, EW, EH, drv_frames_planes(fr), 1));
     uint64_t last_seq = 0;
     for (int i = 0; i < 3; i++) {
         int64_t before = plat_now_ns();
@@ -620,8 +634,7 @@ static void test_mock_end_to_end_yuyv(void **state)
     }
     drv_frames_v4l2_stats_get(fr, &st);
     assert_int_equal(st.frames, 3);
-    drv_frame_free(&f);
-    drv_frames_destroy(fr);
+    mock_close(fr, &f);
 }
 
 static void test_mock_formats_with_depth(void **state)
@@ -630,37 +643,30 @@ static void test_mock_formats_with_depth(void **state)
     const char *fmts[] = {"nv12", "bgr32", "rgb24", "yuyv"};
     const char *want[] = {"NV12", "XR24", "RGB3", "YUYV"};
     for (int i = 0; i < 4; i++) {
-        drv_frames_sim_params sp = host_params();
+        drv_frames_sim_params sp;
         drv_frames_v4l2_params p = cap_params(fmts[i], true);
-        char err[256] = "";
-        drv_frames *fr = drv_frames_v4l2_create_mock(&sp, &p, err, sizeof err);
-        if (!fr) fail_msg("%s", err);
+        drv_frame f;
+        drv_frames *fr = mock_open(&sp, &p, &f);
         drv_frames_v4l2_stats st;
         drv_frames_v4l2_stats_get(fr, &st);
         assert_non_null(strstr(st.format, want[i]));
         assert_int_equal(drv_frames_planes(fr), DRV_PLANE_COLOR | DRV_PLANE_DEPTH);
-        drv_frame f;
-        assert_true(drv_frame_alloc(&f, EW, EH, drv_frames_planes(fr), 1));
         assert_int_equal(receive_one(fr, &f), 1);
         assert_int_equal(drv_frame_validate(&f), DRV_FRAME_OK);
         assert_int_equal(f.planes, DRV_PLANE_COLOR | DRV_PLANE_DEPTH);
         check_against_render(&f, sp.scene, i == 0 ? 30.0 : i == 3 ? 35.0 : 99.0, true);
-        drv_frame_free(&f);
-        drv_frames_destroy(fr);
+        mock_close(fr, &f);
     }
 }
 
 static void test_mock_faults_and_reconnect(void **state)
 {
     (void)state;
-    drv_frames_sim_params sp = host_params();
+    drv_frames_sim_params sp;
     drv_frames_v4l2_params p = cap_params("", false);
     snprintf(p.device, sizeof p.device, "/dev/video7");
-    char err[256] = "";
-    drv_frames *fr = drv_frames_v4l2_create_mock(&sp, &p, err, sizeof err);
-    if (!fr) fail_msg("%s", err);
     drv_frame f;
-    assert_true(drv_frame_alloc(&f, EW, EH, drv_frames_planes(fr), 1));
+    drv_frames *fr = mock_open(&sp, &p, &f);
     drv_frames_v4l2_stats st;
 
     drv_frames_v4l2_mock_fault(fr, DRV_V4L2_FAULT_GARBLE);
@@ -695,8 +701,7 @@ static void test_mock_faults_and_reconnect(void **state)
     assert_int_equal(st.io_errors, 2);
     assert_int_equal(st.rejected[DRV_FRAME_ERR_CRC], 1);
     assert_int_equal(st.rejected[DRV_FRAME_ERR_BAD_MAGIC], 1);
-    drv_frame_free(&f);
-    drv_frames_destroy(fr);
+    mock_close(fr, &f);
 }
 
 /* [mock] corrupt_every: every third frame damaged, a garbled band and a blank picture in turn, each rejected by its
@@ -704,14 +709,11 @@ static void test_mock_faults_and_reconnect(void **state)
 static void test_mock_corrupt_every(void **state)
 {
     (void)state;
-    drv_frames_sim_params sp = host_params();
+    drv_frames_sim_params sp;
     drv_frames_v4l2_params p = cap_params("auto", false);
-    char err[256] = "";
-    drv_frames *fr = drv_frames_v4l2_create_mock(&sp, &p, err, sizeof err);
-    if (!fr) fail_msg("%s", err);
-    drv_frames_v4l2_mock_corrupt_every(fr, 3);
     drv_frame f;
-    assert_true(drv_frame_alloc(&f, EW, EH, drv_frames_planes(fr), 1));
+    drv_frames *fr = mock_open(&sp, &p, &f);
+    drv_frames_v4l2_mock_corrupt_every(fr, 3);
     for (int i = 1; i <= 12; i++) {
         int want = i % 3 ? 1 : (i / 3) % 2 ? -DRV_FRAME_ERR_CRC : -DRV_FRAME_ERR_BAD_MAGIC;
         int got = receive_one(fr, &f);
@@ -726,8 +728,7 @@ static void test_mock_corrupt_every(void **state)
     /* 0 turns it off */
     drv_frames_v4l2_mock_corrupt_every(fr, 0);
     for (int i = 0; i < 4; i++) assert_int_equal(receive_one(fr, &f), 1);
-    drv_frame_free(&f);
-    drv_frames_destroy(fr);
+    mock_close(fr, &f);
 }
 
 static void test_missing_device_and_bad_params(void **state)

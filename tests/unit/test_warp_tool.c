@@ -38,25 +38,35 @@ static double psnr_of(const char *out)
     return atof(p + 5);
 }
 
-static void write_view(const char *path)
+/* Writes the view file every test starts from (DIR/v.txt) and returns its path. */
+static const char *write_view(void)
 {
+    static char path[600];
+    snprintf(path, sizeof path, "%s/v.txt", dir);
     FILE *f = fopen(path, "w");
     assert_non_null(f);
     fprintf(f, "size 160 120\nintrinsics 80 75 80 60\nnear 0.05\nfar inf\n"
                "source 1 0 0 0  0 1.6 0\ntarget 0.99905 0 0.04362 0  0.04 1.6 0\n");
     fclose(f);
+    return path;
+}
+
+/* Runs warp on the simulator's scene from the view file, writing its inputs into DIR/sub; returns the PSNR the
+ * warp scored against the truth, for the same warp from those files to match. */
+static double sim_inputs(const char *scene, const char *warp, const char *sub)
+{
+    char out[4096], args[8192];
+    snprintf(args, sizeof args, "--sim %s --view %s --warp %s --write-inputs %s/%s", scene, write_view(), warp, dir,
+             sub);
+    assert_int_equal(run(args, out, sizeof out), 0);
+    return psnr_of(out);
 }
 
 static void test_files_match_simulator(void **state)
 {
     (void)state;
     char out[4096], args[8192];
-    char view[300];
-    snprintf(view, sizeof view, "%s/v.txt", dir);
-    write_view(view);
-    snprintf(args, sizeof args, "--sim near --view %s --warp raytrace --write-inputs %s/in", view, dir);
-    assert_int_equal(run(args, out, sizeof out), 0);
-    double sim_psnr = psnr_of(out);
+    double sim_psnr = sim_inputs("near", "raytrace", "in");
     snprintf(args, sizeof args,
              "--color %s/in/color.png --depth %s/in/depth.pfm --ids %s/in/ids.png --view %s/in/view.txt "
              "--warp raytrace --ref %s/in/truth.png --out %s/o.png --mask %s/m.png",
@@ -76,12 +86,8 @@ static void test_layers_file_round_trip(void **state)
 {
     (void)state;
     /* the A-buffer through its file format warps exactly as from the simulator */
-    char out[4096], args[8192], view[300];
-    snprintf(view, sizeof view, "%s/v.txt", dir);
-    write_view(view);
-    snprintf(args, sizeof args, "--sim glass --view %s --warp transparency --write-inputs %s/glass", view, dir);
-    assert_int_equal(run(args, out, sizeof out), 0);
-    double sim_psnr = psnr_of(out);
+    char out[4096], args[8192];
+    double sim_psnr = sim_inputs("glass", "transparency", "glass");
     snprintf(args, sizeof args,
              "--color %s/glass/color.png --depth %s/glass/depth.pfm --layers %s/glass/layers.bin --view "
              "%s/glass/view.txt --warp transparency --ref %s/glass/truth.png",
@@ -131,9 +137,8 @@ static void write_png_header(const char *path, uint32_t w, uint32_t h)
 static void test_declared_sizes_bounded(void **state)
 {
     (void)state;
-    char out[4096], args[8192], view[600], path[600];
-    snprintf(view, sizeof view, "%s/v.txt", dir);
-    write_view(view);
+    char out[4096], args[8192], path[600];
+    const char *view = write_view();
     snprintf(path, sizeof path, "%s/huge.png", dir);
     write_png_header(path, 32768, 32768);
     snprintf(args, sizeof args, "--color %s --view %s", path, view);
@@ -167,9 +172,8 @@ static void test_declared_sizes_bounded(void **state)
 static void test_bad_inputs_named(void **state)
 {
     (void)state;
-    char out[4096], args[8192], view[600];
-    snprintf(view, sizeof view, "%s/v.txt", dir);
-    write_view(view);
+    char out[4096], args[8192];
+    const char *view = write_view();
     snprintf(args, sizeof args, "--color %s/nope.png --view %s", dir, view);
     assert_int_equal(run(args, out, sizeof out), 1);
     assert_non_null(strstr(out, "nope.png"));

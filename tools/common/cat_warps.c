@@ -63,33 +63,35 @@ static void count_mask(const warp_image_u8 *mask, cat_stats *st)
 
 /* ---- 003: rotation reprojection and the height-map raytrace ---- */
 
+/* none and rotation: the frame reprojected to the orientation q (none passes the source's own: the frame as
+ * rendered); samples as given (-1: not counted). */
+static const char *reproject(warp_method m, const warp_view *src, const warp_camera *dst_cam, warp_quat q,
+                             const char *params, warp_image_rgba8 *dst, warp_image_u8 *mask, cat_stats *st, long samples)
+{
+    const char *why = cat_check_params(m, params);
+    if (why) return why;
+    warp_mat3 h = warp_reproject_homography(src, dst_cam, q);
+    warp_reproject_rows(src, &h, dst, mask, 0, dst->h);
+    st->primitives = -1;
+    st->samples = samples;
+    count_mask(mask, st);
+    return NULL;
+}
+
 static const char *run_none(const warp_view *src, const warp_camera *dst_cam, warp_pose dst_pose, double dst_time, const char *params,
                             warp_image_rgba8 *dst, warp_image_u8 *mask, cat_stats *st)
 {
     (void)dst_pose;
     (void)dst_time;
-    const char *why = cat_check_params(WARP_METHOD_NONE, params);
-    if (why) return why;
     /* The frame as rendered: what the wearer sees without any warp. */
-    warp_mat3 h = warp_reproject_homography(src, dst_cam, src->pose.q);
-    warp_reproject_rows(src, &h, dst, mask, 0, dst->h);
-    st->primitives = st->samples = -1;
-    count_mask(mask, st);
-    return NULL;
+    return reproject(WARP_METHOD_NONE, src, dst_cam, src->pose.q, params, dst, mask, st, -1);
 }
 
 static const char *run_rotation(const warp_view *src, const warp_camera *dst_cam, warp_pose dst_pose, double dst_time,
                                 const char *params, warp_image_rgba8 *dst, warp_image_u8 *mask, cat_stats *st)
 {
     (void)dst_time;
-    const char *why = cat_check_params(WARP_METHOD_ROTATION, params);
-    if (why) return why;
-    warp_mat3 h = warp_reproject_homography(src, dst_cam, dst_pose.q);
-    warp_reproject_rows(src, &h, dst, mask, 0, dst->h);
-    st->primitives = -1;
-    st->samples = (long)dst->w * dst->h;
-    count_mask(mask, st);
-    return NULL;
+    return reproject(WARP_METHOD_ROTATION, src, dst_cam, dst_pose.q, params, dst, mask, st, (long)dst->w * dst->h);
 }
 
 static const char *run_raytrace(const warp_view *src, const warp_camera *dst_cam, warp_pose dst_pose, double dst_time,
@@ -302,34 +304,77 @@ static const char *fwd_fill(int fill, const warp_view *src, const warp_camera *d
     return fill_holes(fill, src, dst_cam, dst_pose, &zb, dst, mask, st);
 }
 
+/* What forward, splat and objects share once their knobs are read: one scratch, the warp, its counts, then the
+ * holes filled from the scratch's z-buffer. */
+typedef struct {
+    warp_method m;              /* WARP_METHOD_FORWARD, _SPLAT or _OBJECTS */
+    warp_forward_params fwd;    /* forward */
+    warp_splat_params splat;    /* splat, objects */
+    bool keep_static;           /* objects: where the source saw them */
+    int fill;
+} fwd_job;
+
+static const char *run_fwd_job(const fwd_job *j, const warp_view *src, const warp_camera *dst_cam, warp_pose dst_pose,
+                               warp_image_rgba8 *dst, warp_image_u8 *mask, cat_stats *st)
+{
+    warp_objects_setup *os = j->m == WARP_METHOD_OBJECTS ? calloc(1, sizeof *os) : NULL;
+    warp_fwd_scratch sc;
+    if ((j->m == WARP_METHOD_OBJECTS && !os) ||
+        !warp_fwd_scratch_alloc(&sc, src->color->w, src->color->h, dst->w, dst->h)) {
+        free(os);
+        return "out of memory";
+    }
+    const char *why;
+    if (j->m == WARP_METHOD_FORWARD) {
+        warp_forward_stats fs;
+        memset(&fs, 0, sizeof fs);
+        why = warp_forward_run(src, dst_cam, dst_pose, &j->fwd, &sc, dst, mask, &fs);
+        st->primitives = fs.samples;
+        st->samples = fs.writes;
+        snprintf(st->note, sizeof st->note, "%s%s, %d sheets", j->fwd.vis == WARP_FWD_ZBUFFER ? "z-buffer" : "painter",
+                 j->fwd.two_pass ? ", two-pass binned" : "", fs.sheets);
+    } else if (j->m == WARP_METHOD_SPLAT) {
+        warp_splat_stats ss;
+        memset(&ss, 0, sizeof ss);
+        why = warp_splat_run(src, dst_cam, dst_pose, &j->splat, &sc, dst, mask, &ss);
+        st->primitives = ss.primitives;
+        st->samples = ss.fragments;
+        int kind = (int)j->splat.kind;
+        snprintf(st->note, sizeof st->note, "%s splats", kind == 0 ? "point" : kind == 1 ? "quad" : "mesh");
+    } else {
+        warp_objects_stats ob;
+        memset(&ob, 0, sizeof ob);
+        /* the objects where they are at the target time (002 §3.2), or where the source saw them (static=1) */
+        why = warp_objects_run(os, src, dst_cam, dst_pose, j->keep_static ? NULL : g_dst_objects, &j->splat, &sc, dst,
+                               mask, &ob);
+        st->primitives = ob.splat.primitives;
+        st->samples = ob.splat.fragments;
+        snprintf(st->note, sizeof st->note, "%d objects, %d moved%s", ob.objects, ob.moved,
+                 g_dst_objects && !j->keep_static ? "" : " (no target poses: static)");
+    }
+    if (!why) {
+        why = fwd_fill(j->fill, src, dst_cam, dst_pose, &sc, dst, mask, st);
+        count_mask(mask, st);
+    }
+    warp_fwd_scratch_free(&sc);
+    free(os);
+    return why;
+}
+
 static const char *run_forward(const warp_view *src, const warp_camera *dst_cam, warp_pose dst_pose, double dst_time,
                                const char *params, warp_image_rgba8 *dst, warp_image_u8 *mask, cat_stats *st)
 {
     (void)dst_time;
     const char *why = cat_check_params(WARP_METHOD_FORWARD, params);
     if (why) return why;
-    warp_forward_params p = warp_forward_default_params();
+    fwd_job j = {.m = WARP_METHOD_FORWARD, .fwd = warp_forward_default_params()};
     bool bad = false;
-    p.vis = (warp_fwd_visibility)(int)cat_param(params, "vis", p.vis, &bad);
-    p.two_pass = cat_param(params, "twopass", p.two_pass, &bad) != 0;
-    int fill = (int)cat_param(params, "fill", 0, &bad);
-    if (bad || p.vis < WARP_FWD_ZBUFFER || p.vis > WARP_FWD_SHEETS8)
+    j.fwd.vis = (warp_fwd_visibility)(int)cat_param(params, "vis", j.fwd.vis, &bad);
+    j.fwd.two_pass = cat_param(params, "twopass", j.fwd.two_pass, &bad) != 0;
+    j.fill = (int)cat_param(params, "fill", 0, &bad);
+    if (bad || j.fwd.vis < WARP_FWD_ZBUFFER || j.fwd.vis > WARP_FWD_SHEETS8)
         return "forward: vis must be 0 (z-buffer), 1 (4 sheets) or 2 (8 sheets)";
-    warp_fwd_scratch sc;
-    if (!warp_fwd_scratch_alloc(&sc, src->color->w, src->color->h, dst->w, dst->h)) return "out of memory";
-    warp_forward_stats fs;
-    memset(&fs, 0, sizeof fs);
-    why = warp_forward_run(src, dst_cam, dst_pose, &p, &sc, dst, mask, &fs);
-    if (!why) {
-        st->primitives = fs.samples;
-        st->samples = fs.writes;
-        snprintf(st->note, sizeof st->note, "%s%s, %d sheets", p.vis == WARP_FWD_ZBUFFER ? "z-buffer" : "painter",
-                 p.two_pass ? ", two-pass binned" : "", fs.sheets);
-        why = fwd_fill(fill, src, dst_cam, dst_pose, &sc, dst, mask, st);
-        count_mask(mask, st);
-    }
-    warp_fwd_scratch_free(&sc);
-    return why;
+    return run_fwd_job(&j, src, dst_cam, dst_pose, dst, mask, st);
 }
 
 static const char *run_splat(const warp_view *src, const warp_camera *dst_cam, warp_pose dst_pose, double dst_time,
@@ -341,24 +386,11 @@ static const char *run_splat(const warp_view *src, const warp_camera *dst_cam, w
     bool bad = false;
     int kind = (int)cat_param(params, "kind", WARP_SPLAT_MESH, &bad);
     if (bad || kind < WARP_SPLAT_POINT || kind > WARP_SPLAT_MESH) return "splat: kind must be 0 (point), 1 (quad), 2 (mesh)";
-    warp_splat_params p = warp_splat_default_params((warp_splat_kind)kind);
-    p.vis = (warp_fwd_visibility)(int)cat_param(params, "vis", p.vis, &bad);
-    int fill = (int)cat_param(params, "fill", 0, &bad);
+    fwd_job j = {.m = WARP_METHOD_SPLAT, .splat = warp_splat_default_params((warp_splat_kind)kind)};
+    j.splat.vis = (warp_fwd_visibility)(int)cat_param(params, "vis", j.splat.vis, &bad);
+    j.fill = (int)cat_param(params, "fill", 0, &bad);
     if (bad) return "splat: a parameter value is not a number";
-    warp_fwd_scratch sc;
-    if (!warp_fwd_scratch_alloc(&sc, src->color->w, src->color->h, dst->w, dst->h)) return "out of memory";
-    warp_splat_stats ss;
-    memset(&ss, 0, sizeof ss);
-    why = warp_splat_run(src, dst_cam, dst_pose, &p, &sc, dst, mask, &ss);
-    if (!why) {
-        st->primitives = ss.primitives;
-        st->samples = ss.fragments;
-        snprintf(st->note, sizeof st->note, "%s splats", kind == 0 ? "point" : kind == 1 ? "quad" : "mesh");
-        why = fwd_fill(fill, src, dst_cam, dst_pose, &sc, dst, mask, st);
-        count_mask(mask, st);
-    }
-    warp_fwd_scratch_free(&sc);
-    return why;
+    return run_fwd_job(&j, src, dst_cam, dst_pose, dst, mask, st);
 }
 
 static const char *run_objects(const warp_view *src, const warp_camera *dst_cam, warp_pose dst_pose, double dst_time,
@@ -370,31 +402,12 @@ static const char *run_objects(const warp_view *src, const warp_camera *dst_cam,
     if (!src->ids) return "objects: the frame has no object ids";
     bool bad = false;
     int kind = (int)cat_param(params, "kind", WARP_SPLAT_MESH, &bad);
-    int fill = (int)cat_param(params, "fill", 2, &bad);
-    bool keep_static = cat_param(params, "static", 0, &bad) != 0;
+    fwd_job j = {.m = WARP_METHOD_OBJECTS};
+    j.fill = (int)cat_param(params, "fill", 2, &bad);
+    j.keep_static = cat_param(params, "static", 0, &bad) != 0;
     if (bad || kind < 0 || kind > 2) return "objects: kind must be 0..2, fill 0..5, static 0|1";
-    warp_splat_params p = warp_splat_default_params((warp_splat_kind)kind);
-    warp_objects_setup *os = calloc(1, sizeof *os);
-    warp_fwd_scratch sc;
-    if (!os || !warp_fwd_scratch_alloc(&sc, src->color->w, src->color->h, dst->w, dst->h)) {
-        free(os);
-        return "out of memory";
-    }
-    warp_objects_stats ob;
-    memset(&ob, 0, sizeof ob);
-    /* the objects where they are at the target time (002 §3.2), or where the source saw them (static=1) */
-    why = warp_objects_run(os, src, dst_cam, dst_pose, keep_static ? NULL : g_dst_objects, &p, &sc, dst, mask, &ob);
-    if (!why) {
-        st->primitives = ob.splat.primitives;
-        st->samples = ob.splat.fragments;
-        snprintf(st->note, sizeof st->note, "%d objects, %d moved%s", ob.objects, ob.moved,
-                 g_dst_objects && !keep_static ? "" : " (no target poses: static)");
-        why = fwd_fill(fill, src, dst_cam, dst_pose, &sc, dst, mask, st);
-        count_mask(mask, st);
-    }
-    warp_fwd_scratch_free(&sc);
-    free(os);
-    return why;
+    j.splat = warp_splat_default_params((warp_splat_kind)kind);
+    return run_fwd_job(&j, src, dst_cam, dst_pose, dst, mask, st);
 }
 
 /* ---- 003 §3.5 at the lens mesh's vertices: the display path's raytrace ---- */

@@ -27,14 +27,21 @@
 static const char *hil_prog = "hil";
 static volatile sig_atomic_t hil_stop_sig;
 
+/* One line on stderr, "PROG: message". */
+static inline void hil_vmsg(const char *fmt, va_list ap) __attribute__((format(printf, 1, 0)));
+static inline void hil_vmsg(const char *fmt, va_list ap)
+{
+    fprintf(stderr, "%s: ", hil_prog);
+    vfprintf(stderr, fmt, ap);
+    fputc('\n', stderr);
+}
+
 static inline void hil_msg(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 static inline void hil_msg(const char *fmt, ...)
 {
     va_list ap;
     va_start(ap, fmt);
-    fprintf(stderr, "%s: ", hil_prog);
-    vfprintf(stderr, fmt, ap);
-    fputc('\n', stderr);
+    hil_vmsg(fmt, ap);
     va_end(ap);
 }
 
@@ -43,9 +50,7 @@ static inline void hil_die(int code, const char *fmt, ...)
 {
     va_list ap;
     va_start(ap, fmt);
-    fprintf(stderr, "%s: ", hil_prog);
-    vfprintf(stderr, fmt, ap);
-    fputc('\n', stderr);
+    hil_vmsg(fmt, ap);
     va_end(ap);
     exit(code);
 }
@@ -90,6 +95,34 @@ static inline bool hil_sleep_until_ns(int64_t t_ns)
 }
 
 /* ---- option values ---- */
+
+/* Every HIL program's command line: its own long options, then HIL_LONGOPTS_END (-v, -h and the terminator);
+ * hil_getopt reads it with getopt's errors left to hil_opt_other (optstring ":hv"). */
+#define HIL_LONGOPTS_END {"verbose", no_argument, NULL, 'v'}, {"help", no_argument, NULL, 'h'}, {NULL, 0, NULL, 0}
+
+static inline int hil_getopt(int argc, char **argv, const struct option *lo)
+{
+    opterr = 0;
+    return getopt_long(argc, argv, ":hv", lo, NULL);
+}
+
+/* The end of every HIL program's getopt switch: -h prints usage and exits 0, a missing value or an unknown option
+ * is a usage error naming it. */
+static inline __attribute__((noreturn)) void hil_opt_other(int c, char **argv, void (*usage)(FILE *f))
+{
+    if (c == 'h') {
+        usage(stdout);
+        exit(0);
+    }
+    if (c == ':') hil_die(HIL_EXIT_USAGE, "%s needs a value (see --help)", argv[optind - 1]);
+    hil_die(HIL_EXIT_USAGE, "unknown option '%s' (see --help)", argv[optind - 1]);
+}
+
+/* After the getopt loop: the HIL programs take no operands. */
+static inline void hil_opt_no_operands(int argc, char **argv)
+{
+    if (optind < argc) hil_die(HIL_EXIT_USAGE, "unexpected argument '%s' (see --help)", argv[optind]);
+}
 
 static inline double hil_parse_double(const char *opt, const char *arg, double lo, double hi)
 {

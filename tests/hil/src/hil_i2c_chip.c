@@ -844,10 +844,8 @@ static void parse_args(int argc, char **argv, opts *o)
         {"freeze-for", required_argument, NULL, OPT_FREEZE_FOR},
         {"dry-run", optional_argument, NULL, OPT_DRY_RUN},
         {"self-test", no_argument, NULL, OPT_SELF_TEST},
-        {"verbose", no_argument, NULL, 'v'},
-        {"help", no_argument, NULL, 'h'},
         HIL_TRACE_LONGOPTS,
-        {NULL, 0, NULL, 0},
+        HIL_LONGOPTS_END,
     };
     memset(o, 0, sizeof *o);
     o->addr = 0x68;
@@ -857,8 +855,7 @@ static void parse_args(int argc, char **argv, opts *o)
     o->freeze_for_s = 1;
     o->trace = hil_trace_defaults();
     int c;
-    opterr = 0;
-    while ((c = getopt_long(argc, argv, ":hv", lo, NULL)) != -1) {
+    while ((c = hil_getopt(argc, argv, lo)) != -1) {
         if (hil_trace_option(c, optarg, &o->trace)) continue;
         switch (c) {
         case OPT_BUS: o->bus = optarg; break;
@@ -877,12 +874,10 @@ static void parse_args(int argc, char **argv, opts *o)
         case OPT_DRY_RUN: o->dry_run = optarg ? (int)hil_parse_int("--dry-run", optarg, 1, 100000) : 4; break;
         case OPT_SELF_TEST: o->self_test = true; break;
         case 'v': o->verbose = true; break;
-        case 'h': usage(stdout); exit(0);
-        case ':': hil_die(HIL_EXIT_USAGE, "%s needs a value (see --help)", argv[optind - 1]);
-        default: hil_die(HIL_EXIT_USAGE, "unknown option '%s' (see --help)", argv[optind - 1]);
+        default: hil_opt_other(c, argv, usage);
         }
     }
-    if (optind < argc) hil_die(HIL_EXIT_USAGE, "unexpected argument '%s' (see --help)", argv[optind]);
+    hil_opt_no_operands(argc, argv);
     if (!o->bus && !o->dry_run && !o->self_test)
         hil_die(HIL_EXIT_USAGE, "--bus is required (N, /dev/i2c-N or stub; see --help)");
     if (!o->watch_ns) o->watch_ns = default_watch_ns(o->kind);

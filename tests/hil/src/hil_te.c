@@ -202,9 +202,7 @@ static void parse_args(int argc, char **argv, opts *o)
         {"phase-jump-at", required_argument, NULL, OPT_JUMP_AT},
         {"phase-jump-us", required_argument, NULL, OPT_JUMP_US},
         {"dry-run", optional_argument, NULL, OPT_DRY_RUN},
-        {"verbose", no_argument, NULL, 'v'},
-        {"help", no_argument, NULL, 'h'},
-        {NULL, 0, NULL, 0},
+        HIL_LONGOPTS_END,
     };
     memset(o, 0, sizeof *o);
     o->rate_hz = 90;
@@ -216,8 +214,7 @@ static void parse_args(int argc, char **argv, opts *o)
     const char *chip = NULL;
     int line = 0;
     int c;
-    opterr = 0;
-    while ((c = getopt_long(argc, argv, ":hv", lo, NULL)) != -1) {
+    while ((c = hil_getopt(argc, argv, lo)) != -1) {
         switch (c) {
         case OPT_PULL: o->pull = optarg; break;
         case OPT_CHIP: chip = optarg; break;
@@ -235,12 +232,10 @@ static void parse_args(int argc, char **argv, opts *o)
         case OPT_JUMP_US: o->jump_us = hil_parse_double("--phase-jump-us", optarg, -1e6, 1e6); break;
         case OPT_DRY_RUN: o->dry_run = optarg ? (int)hil_parse_int("--dry-run", optarg, 1, 100000) : 10; break;
         case 'v': o->verbose = true; break;
-        case 'h': usage(stdout); exit(0);
-        case ':': hil_die(HIL_EXIT_USAGE, "%s needs a value (see --help)", argv[optind - 1]);
-        default: hil_die(HIL_EXIT_USAGE, "unknown option '%s' (see --help)", argv[optind - 1]);
+        default: hil_opt_other(c, argv, usage);
         }
     }
-    if (optind < argc) hil_die(HIL_EXIT_USAGE, "unexpected argument '%s' (see --help)", argv[optind]);
+    hil_opt_no_operands(argc, argv);
     double period_us = 1e6 / o->rate_hz;
     if (o->high_us >= period_us)
         hil_die(HIL_EXIT_USAGE, "--high-us %g: a pulse must be shorter than the period (%.1f us at %g Hz)",

@@ -439,10 +439,8 @@ static void parse_args(int argc, char **argv, opts *o)
         {"unplug-for", required_argument, NULL, OPT_UNPLUG_FOR},
         {"corrupt-every", required_argument, NULL, OPT_CORRUPT_EVERY},
         {"dry-run", optional_argument, NULL, OPT_DRY_RUN},
-        {"verbose", no_argument, NULL, 'v'},
-        {"help", no_argument, NULL, 'h'},
         HIL_TRACE_LONGOPTS,
-        {NULL, 0, NULL, 0},
+        HIL_LONGOPTS_END,
     };
     memset(o, 0, sizeof *o);
     o->uhid_path = "/dev/uhid";
@@ -460,8 +458,7 @@ static void parse_args(int argc, char **argv, opts *o)
     o->unplug_for_s = 1;
     o->trace = hil_trace_defaults();
     int c;
-    opterr = 0;
-    while ((c = getopt_long(argc, argv, ":hv", lo, NULL)) != -1) {
+    while ((c = hil_getopt(argc, argv, lo)) != -1) {
         if (hil_trace_option(c, optarg, &o->trace)) continue;
         switch (c) {
         case OPT_UHID: o->uhid_path = optarg; break;
@@ -501,12 +498,10 @@ static void parse_args(int argc, char **argv, opts *o)
         case OPT_CORRUPT_EVERY: o->corrupt_every = (int)hil_parse_int("--corrupt-every", optarg, 0, 1000000); break;
         case OPT_DRY_RUN: o->dry_run = optarg ? (int)hil_parse_int("--dry-run", optarg, 1, 100000) : 6; break;
         case 'v': o->verbose = true; break;
-        case 'h': usage(stdout); exit(0);
-        case ':': hil_die(HIL_EXIT_USAGE, "%s needs a value (see --help)", argv[optind - 1]);
-        default: hil_die(HIL_EXIT_USAGE, "unknown option '%s' (see --help)", argv[optind - 1]);
+        default: hil_opt_other(c, argv, usage);
         }
     }
-    if (optind < argc) hil_die(HIL_EXIT_USAGE, "unexpected argument '%s' (see --help)", argv[optind]);
+    hil_opt_no_operands(argc, argv);
 }
 
 int main(int argc, char **argv)
