@@ -263,16 +263,24 @@ static void test_csv_rotates_by_size(void **state)
     const double max_mb = 2048.0 / (1024 * 1024);
     snprintf(cmd, sizeof cmd, "%s%s/hmdwarpd " RUN_ARGS " --duration 2 --csv %s --set telemetry.csv_max_mb=%.9f "
              ">/dev/null 2>&1 </dev/null", test_runner(), build, csv, max_mb);
-    assert_int_equal(sh(cmd, NULL, 0), 0);
-    size_t na = slurp(old, a, sizeof a), nb = slurp(csv, b, sizeof b);
-    print_message("rot.csv.1 %zu bytes, rot.csv %zu bytes\n", na, nb);
     const char *header = "vsync,vsync_ns,frame_seq,method,warp_ms,missed,m2p_ms,frame_age_ms\n";
+    size_t na = 0, nb = 0;
+    /* a run that ended right after a rotation leaves the new file with its header alone, and nothing to check
+     * the continuation on (make test-busy once did): run again, three times at most */
+    for (int run = 0; run < 3 && nb <= strlen(header); run++) {
+        unlink(csv);
+        unlink(old);
+        assert_int_equal(sh(cmd, NULL, 0), 0);
+        na = slurp(old, a, sizeof a);
+        nb = slurp(csv, b, sizeof b);
+        print_message("rot.csv.1 %zu bytes, rot.csv %zu bytes\n", na, nb);
+    }
     assert_true(na > 0 && nb > 0);
     assert_int_equal(strncmp(a, header, strlen(header)), 0);
     assert_int_equal(strncmp(b, header, strlen(header)), 0);
     /* a file reaches the limit by at most one row (the row that crossed it) */
     assert_true(na >= 2048 && na < 2048 + 120);
-    assert_true(nb < 2048 + 120);
+    assert_true(nb > strlen(header) && nb < 2048 + 120);
     /* the current file continues where the rotated one ended: vsync numbers go on rising */
     const char *last = a + na - 1;
     while (last > a && last[-1] != '\n') last--;
