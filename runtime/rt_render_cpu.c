@@ -8,6 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "warp/warp_err.h"
 #include "warp/warp_forward.h"
 #include "warp/warp_grid.h"
 #include "warp/warp_holes.h"
@@ -79,7 +80,7 @@ rt_render_cpu_params rt_render_cpu_params_from_config(const rt_config *c)
 
 static rt_render_cpu *fail(rt_render_cpu *r, char *err, int errlen, const char *what)
 {
-    snprintf(err, (size_t)errlen, "%s", what);
+    warp_err(err, errlen, "%s", what);
     rt_render_cpu_destroy(&r);
     return NULL;
 }
@@ -88,16 +89,16 @@ rt_render_cpu *rt_render_cpu_create(const rt_render_cpu_params *p, plat_workers 
 {
     /* the ranges rt_config enforces for [lens] mesh and the sizes; a caller that built its own params gets told */
     if (p->mesh_n < 2 || p->mesh_n > 1024) {
-        snprintf(err, (size_t)errlen, "[lens] mesh = %d: the distortion mesh takes 2..1024 vertices per side", p->mesh_n);
+        warp_err(err, errlen, "[lens] mesh = %d: the distortion mesh takes 2..1024 vertices per side", p->mesh_n);
         return NULL;
     }
     if (p->panel_w < 2 || p->panel_h < 1 || p->eye_w < 1 || p->eye_h < 1) {
-        snprintf(err, (size_t)errlen, "a %dx%d panel with %dx%d eyes: no pixels to render", p->panel_w, p->panel_h,
-                 p->eye_w, p->eye_h);
+        warp_err(err, errlen, "a %dx%d panel with %dx%d eyes: no pixels to render", p->panel_w, p->panel_h, p->eye_w,
+                 p->eye_h);
         return NULL;
     }
     if (!workers) {
-        snprintf(err, (size_t)errlen, "the CPU pass needs the compositor's workers");
+        warp_err(err, errlen, "the CPU pass needs the compositor's workers");
         return NULL;
     }
     rt_render_cpu *r = calloc(1, sizeof *r);
