@@ -170,7 +170,7 @@ void rt_compositor_run(rt_app *a)
     int64_t t_first = drv_vsync_next(a->dev.vsync, first, &period);
     /* Wake-up, lead, stall reserve, the cost estimator and overrun skipping: rt_pacer. */
     rt_pacer_params pp = {RT_PACER_MARGIN_NS, (int64_t)(c->stall_reserve_ms * 1e6), gles};
-    rt_pacer *pacer = rt_pacer_new(&pp, t_first, period);
+    rt_pacer *pacer = rt_pacer_create(&pp, t_first, period);
     if (!pacer) {
         plat_log(PLAT_LOG_ERR, "compositor: out of memory for the pacer");
         if (gles) plat_egl_release(a->gl.egl);
@@ -329,6 +329,6 @@ void rt_compositor_run(rt_app *a)
             tel->missed_by[cause] += skipped;
         }
     }
-    rt_pacer_free(&pacer);
+    rt_pacer_destroy(&pacer);
     if (gles) plat_egl_release(a->gl.egl);
 }

@@ -25,7 +25,7 @@ struct rt_pacer {
     int64_t pending_next;
 };
 
-rt_pacer *rt_pacer_new(const rt_pacer_params *params, int64_t t_vs, int64_t period_ns)
+rt_pacer *rt_pacer_create(const rt_pacer_params *params, int64_t t_vs, int64_t period_ns)
 {
     rt_pacer *p = calloc(1, sizeof *p);
     if (!p) return NULL;
@@ -44,7 +44,7 @@ rt_pacer *rt_pacer_new(const rt_pacer_params *params, int64_t t_vs, int64_t peri
     return p;
 }
 
-void rt_pacer_free(rt_pacer **p)
+void rt_pacer_destroy(rt_pacer **p)
 {
     if (!p) return;
     free(*p);

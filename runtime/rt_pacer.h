@@ -65,9 +65,9 @@ typedef struct {
 } rt_pacer_info;
 
 /* The first vsync at t_vs, period_ns long. NULL when out of memory (called before the vsync loop). */
-rt_pacer *rt_pacer_new(const rt_pacer_params *p, int64_t t_vs, int64_t period_ns);
+rt_pacer *rt_pacer_create(const rt_pacer_params *p, int64_t t_vs, int64_t period_ns);
 /* Frees and clears *p (NULL is fine). */
-void rt_pacer_free(rt_pacer **p);
+void rt_pacer_destroy(rt_pacer **p);
 
 /* The plan for the vsync now targeted. */
 void rt_pacer_predict(const rt_pacer *p, rt_pacer_frame *out);

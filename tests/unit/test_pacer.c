@@ -60,7 +60,7 @@ static rt_pacer *new_pacer(fake_clock *c, int64_t reserve, bool one_period)
 {
     rt_pacer_params pp = {MARGIN, reserve, one_period};
     c->now = 100 * PERIOD - 20 * MS;
-    rt_pacer *p = rt_pacer_new(&pp, 100 * PERIOD, PERIOD);
+    rt_pacer *p = rt_pacer_create(&pp, 100 * PERIOD, PERIOD);
     assert_non_null(p);
     return p;
 }
@@ -99,9 +99,9 @@ static void test_steady_state_lead(void **state)
     assert_int_equal(f.time_left_ns, PERIOD - MARGIN);
     for (int i = 0; i < 50; i++) assert_false(run_pass(p, &c, steady(2 * MS), NULL).missed);
     assert_int_equal(lead(p), 3 * MS);
-    rt_pacer_free(&p);
+    rt_pacer_destroy(&p);
     assert_null(p);
-    rt_pacer_free(&p); /* a cleared pointer is fine */
+    rt_pacer_destroy(&p); /* a cleared pointer is fine */
 }
 
 static rt_pacer *converged(fake_clock *c, int64_t reserve, bool one_period)
@@ -130,7 +130,7 @@ static void test_spike_one_own_miss(void **state)
     misses += run_pass(p, &c, steady(2 * MS), NULL).missed;
     assert_int_equal(misses, 0);
     assert_int_equal(lead(p), 3 * MS);
-    rt_pacer_free(&p);
+    rt_pacer_destroy(&p);
 }
 
 /* The miss causes: woken too late for the work to fit; kept off the CPU though woken in time; no free image. */
@@ -148,7 +148,7 @@ static void test_miss_causes(void **state)
     rt_pacer_frame f;
     rt_pacer_predict(p, &f);
     assert_int_equal(f.time_left_ns, PERIOD - MARGIN - 2500 * US);
-    rt_pacer_free(&p);
+    rt_pacer_destroy(&p);
 
     /* woken in time, 1 ms of its own work in 3.5 ms: descheduled */
     p = converged(&c, 0, false);
@@ -163,14 +163,14 @@ static void test_miss_causes(void **state)
     assert_int_equal(in.late_ns, 9 * MS);
     rt_pacer_predict(p, &f);
     assert_int_equal(f.time_left_ns, PERIOD - MARGIN - PERIOD / 4);
-    rt_pacer_free(&p);
+    rt_pacer_destroy(&p);
 
     /* done in time, but every image still being read: a miss, and not the pass's */
     p = converged(&c, 0, false);
     in = run_pass(p, &c, (pass_spec){0, 1 * MS, 1 * MS, true, RT_METHOD_ROTATION}, NULL);
     assert_true(in.missed);
     assert_int_equal(in.cause, RT_MISS_NO_BUFFER);
-    rt_pacer_free(&p);
+    rt_pacer_destroy(&p);
 }
 
 /* The stall reserve: a fixed extra lead, at most a period less the margin, none when negative; the GLES path plans
@@ -183,24 +183,24 @@ static void test_stall_reserve(void **state)
     rt_pacer *p = converged(&c, 8 * MS, false);
     assert_int_equal(lead(p), 3 * MS + 8 * MS);
     assert_false(run_pass(p, &c, steady(2 * MS), NULL).missed);
-    rt_pacer_free(&p);
+    rt_pacer_destroy(&p);
 
     p = converged(&c, 20 * MS, false);
     assert_int_equal(lead(p), 3 * MS + PERIOD - MARGIN);
-    rt_pacer_free(&p);
+    rt_pacer_destroy(&p);
     p = converged(&c, -5 * MS, false);
     assert_int_equal(lead(p), 3 * MS);
-    rt_pacer_free(&p);
+    rt_pacer_destroy(&p);
     p = converged(&c, 0, false);
     assert_int_equal(lead(p), 3 * MS);
-    rt_pacer_free(&p);
+    rt_pacer_destroy(&p);
     /* GLES: 3 + 8 ms capped to the period; without a reserve the same as the CPU path */
     p = converged(&c, 8 * MS, true);
     assert_int_equal(lead(p), PERIOD);
-    rt_pacer_free(&p);
+    rt_pacer_destroy(&p);
     p = converged(&c, 0, true);
     assert_int_equal(lead(p), 3 * MS);
-    rt_pacer_free(&p);
+    rt_pacer_destroy(&p);
 
     /* a 10.5 ms pass that still made its vsync (woken 11 ms ahead): the lead becomes 9.5 + 0.5 + 8 = 18 ms, so the
      * next wake-up is due before this pass ended; starting when it ended is on plan, not late */
@@ -212,7 +212,7 @@ static void test_stall_reserve(void **state)
     assert_false(in.missed);
     assert_int_equal(in.late_ns, 0);
     assert_int_equal(lead(p), PERIOD - MARGIN + MARGIN + 8 * MS);
-    rt_pacer_free(&p);
+    rt_pacer_destroy(&p);
 }
 
 /* A 25 ms pass for a vsync at T, woken at T - 3 ms, ends at T + 22 ms: the vsyncs at T + 10 and T + 20 passed
@@ -239,20 +239,20 @@ static void test_overrun_skipping(void **state)
     in = run_pass(p, &c, steady(2 * MS), &sk);
     assert_false(in.missed);
     assert_int_equal(sk, 0);
-    rt_pacer_free(&p);
+    rt_pacer_destroy(&p);
 
     /* a pass that ends exactly at its vsync made it; a nanosecond later it did not */
     p = converged(&c, 0, false);
     in = run_pass(p, &c, steady(3 * MS), &sk);
     assert_false(in.missed);
     assert_int_equal(sk, 0);
-    rt_pacer_free(&p);
+    rt_pacer_destroy(&p);
     p = converged(&c, 0, false);
     in = run_pass(p, &c, steady(3 * MS + 1), &sk);
     assert_true(in.missed);
     assert_int_equal(in.cause, RT_MISS_OWN);
     assert_int_equal(sk, 0);
-    rt_pacer_free(&p);
+    rt_pacer_destroy(&p);
 }
 
 /* What each method costs: up at once, down by an eighth of the difference, decaying by 1/512 when not run, and
@@ -282,7 +282,7 @@ static void test_cost_estimator(void **state)
     double before = cost[RT_METHOD_ROTATION];
     run_pass(p, &c, (pass_spec){0, 9 * MS, 9 * MS, true, RT_METHOD_ROTATION}, NULL);
     assert_true(cost[RT_METHOD_ROTATION] == before);
-    rt_pacer_free(&p);
+    rt_pacer_destroy(&p);
 }
 
 /* GLES: the estimate takes submission plus the GPU's time when that ends later than the CPU side. */
@@ -305,7 +305,7 @@ static void test_gles_gpu_time(void **state)
     assert_int_equal(f.lead_ns, 3 * MS);
     assert_int_equal(lead(p), 5 * MS + MARGIN);
     assert_true(rt_pacer_costs(p)[RT_METHOD_NONE] == 4e6);
-    rt_pacer_free(&p);
+    rt_pacer_destroy(&p);
 }
 
 int main(void)
