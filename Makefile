@@ -207,6 +207,12 @@ $(BUILD)/tests/unit/test_registry: $(BUILD)/obj/tests/unit/test_registry.o $(TOO
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_ALL) $(TEST_LIBS)
 
+# test_host runs libhmdwarp-host itself (the .so, found through its rpath) against a fake board.
+$(BUILD)/tests/unit/test_host: $(BUILD)/obj/tests/unit/test_host.o $(TEST_SUPPORT_OBJ) $(LIBS) $(HOST_LIB)
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -Wl,-rpath,'$$ORIGIN/../..' -o $@ $^ $(LDLIBS_ALL) $(TEST_LIBS)
+
 # test_render_cpu checks hmdwarp-bench's display path (bench_display) against hmdwarpd's CPU pass.
 $(BUILD)/tests/unit/test_render_cpu: $(BUILD)/obj/tests/unit/test_render_cpu.o \
                                      $(BUILD)/obj/tools/hmdwarp-bench/bench_display.o $(TEST_SUPPORT_OBJ) $(LIBS)
