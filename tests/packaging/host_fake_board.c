@@ -50,7 +50,8 @@ int main(int argc, char **argv)
     uint32_t seq = 0;
     int got = 0;
     while (got < want) {
-        drv_framelink_pose p = {.seq = ++seq, .board_t_ns = 1000000000LL + seq * 5000000LL};
+        seq++;
+        drv_framelink_pose p = {.seq = seq, .board_t_ns = 1000000000LL + seq * 5000000LL};
         p.target_t_ns = p.board_t_ns + 20000000;
         p.head = p.eye[0] = p.eye[1] = (warp_pose){warp_quat_from_ypr(0.01 * seq, 0, 0), warp_v3(0, 1.6, 0)};
         drv_framelink_pose_encode(&p, msg, sizeof msg);
