@@ -13,7 +13,7 @@ CC=${CC:-cc}
 tmp=$(mktemp -d)
 trap 'kill "$board" 2>/dev/null; rm -rf "$tmp"' EXIT
 board=""
-echo "1..6"
+echo "1..7"
 
 if make --no-print-directory BUILD="$BUILD" install DESTDIR="$tmp/root" PREFIX=/usr >"$tmp/install.log" 2>&1; then
     ok "make install DESTDIR=$tmp/root PREFIX=/usr"
@@ -58,4 +58,17 @@ if [ -s "$tmp/host.rgba" ] && cmp -s "$tmp/host.rgba" "$tmp/board.rgba"; then
 else
     not_ok "rendered == received" "$(cmp "$tmp/host.rgba" "$tmp/board.rgba" 2>&1)"
 fi
-[ "$fails" -eq 0 ]
+# hmdwarp-feed on the same library: --socket to the same kind of board.
+"$BUILD/tests/packaging/host_fake_board" "$tmp/feed.sock" 64 48 3 "$tmp/feed.rgba" >"$tmp/board2.log" 2>&1 &
+board=$!
+for _ in $(seq 100); do grep -q listening "$tmp/board2.log" 2>/dev/null && break; sleep 0.05; done
+if timeout 60 "$BUILD/hmdwarp-feed" --socket "$tmp/feed.sock" --eye 64x48 --fov 45,45,45,45 --scene near \
+       --frames 3 --rate 100 >"$tmp/feed.log" 2>&1 && wait "$board" &&
+   grep -q '^received 3 frames, 64x48, planes 0x3' "$tmp/board2.log"; then
+    ok "hmdwarp-feed --socket: $(tail -n 1 "$tmp/board2.log")"
+else
+    not_ok "hmdwarp-feed --socket" "$(tail -n 2 "$tmp/feed.log")" "$(tail -n 2 "$tmp/board2.log")"
+fi
+board=""
+echo "$((n - fails)) passed, $fails failed"
+exit $((fails > 0))
