@@ -240,6 +240,7 @@ static warp_pose pose_from_host(const hmdwarp_host_pose *p)
 
 typedef struct {
     hmdwarp_host_frame fr;
+    hmdwarp_host_frame all; /* every plane the scene renders: fr starts from it each frame (drop_unaccepted) */
     hmdwarp_host_fragment *frags[2]; /* the layers plane packed (the library wants the fragments back to back) */
     uint8_t *counts[2];
     hmdwarp_host_pose objects[DRV_MAX_OBJECTS];
@@ -270,6 +271,7 @@ static bool host_frame_init(host_frame *hf, const drv_frame *f, unsigned planes)
         }
     }
     hf->fr.object_poses = hf->objects;
+    hf->all = hf->fr;
     return true;
 }
 
@@ -283,6 +285,7 @@ static void host_frame_update(host_frame *hf, const drv_frame *f, const hmdwarp_
                               int64_t start, int64_t end)
 {
     hmdwarp_host_frame *fr = &hf->fr;
+    *fr = hf->all;
     fr->pose_seq = echo ? pm->seq : 0;
     fr->pose_target_ns = echo ? 0 : pm->target_time_ns;
     fr->pose_board_ns = echo ? 0 : pm->board_time_ns;
@@ -310,6 +313,26 @@ static void host_frame_update(host_frame *hf, const drv_frame *f, const hmdwarp_
         }
         fr->eye[e].n_fragments = n;
     }
+}
+
+/* Leaves out the planes the board's camera message does not accept (it allocated none for them): the scene's other
+ * planes still help its warps, where the library would refuse the whole frame. */
+static void drop_unaccepted(hmdwarp_host *h, hmdwarp_host_frame *fr, bool *said)
+{
+    hmdwarp_host_cameras c;
+    if (hmdwarp_host_get_cameras(h, &c) != 1) return;
+    unsigned dropped = 0;
+    for (int e = 0; e < 2; e++) {
+        hmdwarp_host_eye *ey = &fr->eye[e];
+        if (ey->depth && !(c.planes & HMDWARP_HOST_PLANE_DEPTH)) ey->depth = NULL, dropped |= HMDWARP_HOST_PLANE_DEPTH;
+        if (ey->ids && !(c.planes & HMDWARP_HOST_PLANE_IDS)) ey->ids = NULL, dropped |= HMDWARP_HOST_PLANE_IDS;
+        if (ey->motion && !(c.planes & HMDWARP_HOST_PLANE_MOTION)) ey->motion = NULL, dropped |= HMDWARP_HOST_PLANE_MOTION;
+        if (ey->layer_count && !(c.planes & HMDWARP_HOST_PLANE_LAYERS))
+            ey->layer_count = NULL, ey->fragments = NULL, ey->n_fragments = 0, dropped |= HMDWARP_HOST_PLANE_LAYERS;
+    }
+    if (dropped & HMDWARP_HOST_PLANE_DEPTH) fr->depth_format = HMDWARP_HOST_DEPTH_NONE;
+    if (dropped && !*said)
+        fprintf(stderr, "hmdwarp-feed: the board accepts planes 0x%x: not sending 0x%x\n", c.planes, dropped), *said = true;
 }
 
 /* Opens the library's connection for the options: --file/--stdout, --socket, or the board over USB. */
@@ -432,7 +455,7 @@ int main(int argc, char **argv)
     uint64_t frames = 0, win_frames = 0, win_bytes = 0, damaged = 0, damaged_kind[3] = {0}, synth_poses = 0;
     static const char *const damage_names[3] = {"crc", "truncated", "version"};
     double win_latency_ms = 0, win_render_ms = 0;
-    bool said_gone = false;
+    bool said_gone = false, said_dropped = false;
     uint64_t bytes_before = 0;
     int rc = 0;
     while (!atomic_load(&g_stop)) {
@@ -498,6 +521,7 @@ int main(int argc, char **argv)
             if (err) fprintf(stderr, "hmdwarp-feed: writing a frame to the V4L2 output: %s\n", strerror(-err));
         } else {
             host_frame_update(&hf, &f, &pose, !synth, start, end);
+            drop_unaccepted(h, &hf.fr, &said_dropped);
             if (o.damage_every && (frames + 1) % (uint64_t)o.damage_every == 0) {
                 int64_t len = hmdwarp_host_encode(h, &hf.fr, buf, cap);
                 if (len > (int64_t)cap) {
