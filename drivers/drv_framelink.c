@@ -666,6 +666,21 @@ drv_frame_err drv_framelink_decode(const uint8_t *buf, size_t len, size_t max_fr
     return drv_framelink_decode_ex(buf, len, max_frame, out, NULL, NULL, 0);
 }
 
+/* ---- board -> host messages ---- */
+
+/* What every board message shares, checked in this order: magic, version, size, length, CRC (the last 4 bytes). */
+static drv_frame_err msg_envelope(const uint8_t *buf, size_t len, uint32_t magic, uint16_t bytes)
+{
+    if (len < 4) return DRV_FRAME_ERR_TRUNCATED;
+    if (get_u32(buf) != magic) return DRV_FRAME_ERR_BAD_MAGIC;
+    if (len < 8) return DRV_FRAME_ERR_TRUNCATED;
+    if (get_u16(buf + 4) != DRV_FRAMELINK_VERSION) return DRV_FRAME_ERR_BAD_VERSION;
+    if (get_u16(buf + 6) != bytes) return DRV_FRAME_ERR_BAD_SIZE;
+    if (len < bytes) return DRV_FRAME_ERR_TRUNCATED;
+    if (get_u32(buf + bytes - 4) != crc(buf, bytes - 4u)) return DRV_FRAME_ERR_CRC;
+    return DRV_FRAME_OK;
+}
+
 /* ---- pose messages ---- */
 
 size_t drv_framelink_pose_encode(const drv_framelink_pose *p, uint8_t *buf, size_t cap)
@@ -687,13 +702,8 @@ size_t drv_framelink_pose_encode(const drv_framelink_pose *p, uint8_t *buf, size
 
 drv_frame_err drv_framelink_pose_decode(const uint8_t *buf, size_t len, drv_framelink_pose *out)
 {
-    if (len < 4) return DRV_FRAME_ERR_TRUNCATED;
-    if (get_u32(buf) != DRV_FRAMELINK_POSE_MAGIC) return DRV_FRAME_ERR_BAD_MAGIC;
-    if (len < 8) return DRV_FRAME_ERR_TRUNCATED;
-    if (get_u16(buf + 4) != DRV_FRAMELINK_VERSION) return DRV_FRAME_ERR_BAD_VERSION;
-    if (get_u16(buf + 6) != DRV_FRAMELINK_POSE_BYTES) return DRV_FRAME_ERR_BAD_SIZE;
-    if (len < DRV_FRAMELINK_POSE_BYTES) return DRV_FRAME_ERR_TRUNCATED;
-    if (get_u32(buf + 200) != crc(buf, 200)) return DRV_FRAME_ERR_CRC;
+    drv_frame_err env = msg_envelope(buf, len, DRV_FRAMELINK_POSE_MAGIC, DRV_FRAMELINK_POSE_BYTES);
+    if (env != DRV_FRAME_OK) return env;
     drv_framelink_pose p;
     p.seq = get_u32(buf + 8);
     p.board_t_ns = (int64_t)get_u64(buf + 16);
@@ -730,13 +740,8 @@ size_t drv_framelink_cams_encode(const drv_framelink_cams *c, uint8_t *buf, size
 
 drv_frame_err drv_framelink_cams_decode(const uint8_t *buf, size_t len, drv_framelink_cams *out)
 {
-    if (len < 4) return DRV_FRAME_ERR_TRUNCATED;
-    if (get_u32(buf) != DRV_FRAMELINK_CAMS_MAGIC) return DRV_FRAME_ERR_BAD_MAGIC;
-    if (len < 8) return DRV_FRAME_ERR_TRUNCATED;
-    if (get_u16(buf + 4) != DRV_FRAMELINK_VERSION) return DRV_FRAME_ERR_BAD_VERSION;
-    if (get_u16(buf + 6) != DRV_FRAMELINK_CAMS_BYTES) return DRV_FRAME_ERR_BAD_SIZE;
-    if (len < DRV_FRAMELINK_CAMS_BYTES) return DRV_FRAME_ERR_TRUNCATED;
-    if (get_u32(buf + 164) != crc(buf, 164)) return DRV_FRAME_ERR_CRC;
+    drv_frame_err env = msg_envelope(buf, len, DRV_FRAMELINK_CAMS_MAGIC, DRV_FRAMELINK_CAMS_BYTES);
+    if (env != DRV_FRAME_OK) return env;
     drv_framelink_cams c;
     memset(&c, 0, sizeof c);
     c.seq = get_u32(buf + 8);

@@ -545,6 +545,39 @@ static void test_find_magic(void **state)
     fixture_free(&fx);
 }
 
+static drv_frame_err pose_decode(const uint8_t *b, size_t n)
+{
+    drv_framelink_pose p;
+    return drv_framelink_pose_decode(b, n, &p);
+}
+static drv_frame_err cams_decode(const uint8_t *b, size_t n)
+{
+    drv_framelink_cams c;
+    return drv_framelink_cams_decode(b, n, &c);
+}
+
+/* What every board -> host message of n bytes must refuse: any shorter length, another magic, version or size, and
+ * any single flipped bit after the size field (the CRC). */
+static void check_envelope(const uint8_t *buf, size_t n, drv_frame_err (*decode)(const uint8_t *, size_t))
+{
+    uint8_t b[256];
+    assert_true(n <= sizeof b);
+    assert_int_equal(decode(buf, n), DRV_FRAME_OK);
+    for (size_t len = 0; len < n; len++) assert_int_equal(decode(buf, len), DRV_FRAME_ERR_TRUNCATED);
+    const struct { int off, x; drv_frame_err want; } env[] = {
+        {1, 1, DRV_FRAME_ERR_BAD_MAGIC}, {4, 8, DRV_FRAME_ERR_BAD_VERSION}, {6, 100, DRV_FRAME_ERR_BAD_SIZE}};
+    for (size_t i = 0; i < 3; i++) {
+        memcpy(b, buf, n);
+        b[env[i].off] ^= (uint8_t)env[i].x;
+        assert_int_equal(decode(b, n), env[i].want);
+    }
+    for (size_t i = 8; i < n; i++) {
+        memcpy(b, buf, n);
+        b[i] ^= (uint8_t)(1u << (i % 8));
+        assert_int_equal(decode(b, n), DRV_FRAME_ERR_CRC);
+    }
+}
+
 static void test_pose_message(void **state)
 {
     (void)state;
@@ -565,22 +598,7 @@ static void test_pose_message(void **state)
     assert_same_pose(q.eye[0], p.eye[0]);
     assert_same_pose(q.eye[1], p.eye[1]);
 
-    for (size_t len = 0; len < sizeof buf; len++)
-        assert_int_equal(drv_framelink_pose_decode(buf, len, &q), DRV_FRAME_ERR_TRUNCATED);
-    memcpy(b, buf, sizeof b);
-    b[1] ^= 1;
-    assert_int_equal(drv_framelink_pose_decode(b, sizeof b, &q), DRV_FRAME_ERR_BAD_MAGIC);
-    memcpy(b, buf, sizeof b);
-    b[4] = 9;
-    assert_int_equal(drv_framelink_pose_decode(b, sizeof b, &q), DRV_FRAME_ERR_BAD_VERSION);
-    memcpy(b, buf, sizeof b);
-    b[6] = 100;
-    assert_int_equal(drv_framelink_pose_decode(b, sizeof b, &q), DRV_FRAME_ERR_BAD_SIZE);
-    for (int i = 8; i < DRV_FRAMELINK_POSE_BYTES; i++) { /* any single bit */
-        memcpy(b, buf, sizeof b);
-        b[i] ^= (uint8_t)(1u << (i % 8));
-        assert_int_equal(drv_framelink_pose_decode(b, sizeof b, &q), DRV_FRAME_ERR_CRC);
-    }
+    check_envelope(buf, sizeof buf, pose_decode);
     /* A sender's NaN or non-unit quaternion, with a correct CRC, is still refused. */
     p.head.q.w = NAN;
     drv_framelink_pose_encode(&p, b, sizeof b);
@@ -632,19 +650,7 @@ static void test_cams_message(void **state)
     b[2] ^= 1;
     assert_int_equal(drv_framelink_msg_peek(b, sizeof b, &size), 0);
 
-    for (size_t len = 0; len < sizeof buf; len++)
-        assert_int_equal(drv_framelink_cams_decode(buf, len, &q), DRV_FRAME_ERR_TRUNCATED);
-    memcpy(b, buf, sizeof b);
-    b[4] = 2;
-    assert_int_equal(drv_framelink_cams_decode(b, sizeof b, &q), DRV_FRAME_ERR_BAD_VERSION);
-    memcpy(b, buf, sizeof b);
-    b[6] = 100;
-    assert_int_equal(drv_framelink_cams_decode(b, sizeof b, &q), DRV_FRAME_ERR_BAD_SIZE);
-    for (int i = 8; i < DRV_FRAMELINK_CAMS_BYTES; i++) { /* any single bit */
-        memcpy(b, buf, sizeof b);
-        b[i] ^= (uint8_t)(1u << (i % 8));
-        assert_int_equal(drv_framelink_cams_decode(b, sizeof b, &q), DRV_FRAME_ERR_CRC);
-    }
+    check_envelope(buf, sizeof buf, cams_decode);
     /* Fields a board could get wrong, each behind a correct CRC. */
     const struct { int off, byte; drv_frame_err want; } bad[] = {
         {12, 1, DRV_FRAME_ERR_BAD_FORMAT},  /* flags reserved */
