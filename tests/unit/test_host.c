@@ -203,6 +203,42 @@ static void test_messages(void **state)
     assert_int_equal(st.connected, 1);
 }
 
+/* Garbage between messages, a message with a bad CRC and one with a size field beyond any message: each rejected
+ * and counted, the good messages around them all received, the reader never stuck. */
+static void test_garbage(void **state)
+{
+    board *b = *state;
+    test_rng r = test_rng_make(42);
+    uint8_t junk[4096];
+    int sent = 0;
+    for (int round = 0; round < 8; round++) {
+        for (size_t i = 0; i < sizeof junk; i++) junk[i] = (uint8_t)test_rng_next(&r); /* fixed seed: no magic in it */
+        board_send(b, junk, sizeof junk);
+        board_send_pose(b, (uint32_t)(100 + round));
+        sent++;
+        hmdwarp_host_pose_msg pm;
+        assert_int_equal(hmdwarp_host_wait_pose(b->h, 5000, &pm), 1);
+        assert_int_equal(pm.seq, 100 + round);
+    }
+    drv_framelink_pose p = test_pose(200);
+    uint8_t m[DRV_FRAMELINK_POSE_BYTES];
+    drv_framelink_pose_encode(&p, m, sizeof m);
+    m[40] ^= 1; /* the CRC no longer holds */
+    board_send(b, m, sizeof m);
+    drv_framelink_pose_encode(&p, m, sizeof m);
+    m[6] = 0xff, m[7] = 0x7f; /* declares 32 KiB: not a message */
+    board_send(b, m, sizeof m);
+    board_send_pose(b, 201);
+    hmdwarp_host_pose_msg pm;
+    assert_int_equal(hmdwarp_host_wait_pose(b->h, 5000, &pm), 1);
+    assert_int_equal(pm.seq, 201);
+    hmdwarp_host_stats st;
+    hmdwarp_host_get_stats(b->h, &st);
+    assert_int_equal(st.poses_received, sent + 1);
+    assert_true(st.messages_rejected >= 10); /* eight runs of junk, the CRC, the size */
+    assert_int_equal(st.connected, 1);
+}
+
 /* Every plane in every input format; what the board decodes is the expected bytes exactly. */
 static void test_conversions(void **state)
 {
@@ -512,6 +548,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup_teardown(test_messages, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_garbage, setup, teardown),
         cmocka_unit_test_setup_teardown(test_conversions, setup, teardown),
         cmocka_unit_test_setup_teardown(test_refusals, setup, teardown),
         cmocka_unit_test_setup_teardown(test_disconnect, setup, teardown),
