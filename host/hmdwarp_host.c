@@ -379,7 +379,10 @@ API int hmdwarp_host_wait_pose(hmdwarp_host *h, int timeout_ms, hmdwarp_host_pos
     return rc;
 }
 
-API int hmdwarp_host_poll_pose(hmdwarp_host *h, hmdwarp_host_pose_msg *out) { return hmdwarp_host_wait_pose(h, 0, out); }
+API int hmdwarp_host_poll_pose(hmdwarp_host *h, hmdwarp_host_pose_msg *out)
+{
+    return hmdwarp_host_wait_pose(h, 0, out);
+}
 
 API int hmdwarp_host_get_cameras(hmdwarp_host *h, hmdwarp_host_cameras *out)
 {

@@ -299,7 +299,8 @@ static int build_cameras(const hmdwarp_host_frame *in, const host_frame_ctx *ctx
 static int build_planes(const hmdwarp_host_frame *in, const host_frame_ctx *ctx, unsigned *planes)
 {
     for (int e = 0; e < 2; e++)
-        if (!in->eye[e].color) return host_fail(HMDWARP_HOST_ERR_ARG, "frame.eye[%d].color: NULL (colour is required)", e);
+        if (!in->eye[e].color)
+            return host_fail(HMDWARP_HOST_ERR_ARG, "frame.eye[%d].color: NULL (colour is required)", e);
     *planes = DRV_PLANE_COLOR;
     if (in->depth_format != HMDWARP_HOST_DEPTH_NONE) *planes |= DRV_PLANE_DEPTH;
     const void *p[2][4];
@@ -378,11 +379,13 @@ int host_frame_build(host_frame_scratch *s, const hmdwarp_host_frame *in, const 
     } else {
         tx->pose_sent_ns = in->pose_board_ns;
         tx->host_pose_rx_ns = in->pose_received_ns;
-        if ((rc = check_time(in->pose_target_ns, "pose_target_ns")) || (rc = check_time(in->pose_board_ns, "pose_board_ns")) ||
+        if ((rc = check_time(in->pose_target_ns, "pose_target_ns")) ||
+            (rc = check_time(in->pose_board_ns, "pose_board_ns")) ||
             (rc = check_time(in->pose_received_ns, "pose_received_ns")))
             return rc;
     }
-    if ((rc = check_time(in->render_start_ns, "render_start_ns")) || (rc = check_time(in->render_end_ns, "render_end_ns")))
+    if ((rc = check_time(in->render_start_ns, "render_start_ns")) ||
+        (rc = check_time(in->render_end_ns, "render_end_ns")))
         return rc;
     tx->host_render_start_ns = in->render_start_ns;
     tx->host_render_end_ns = in->render_end_ns ? in->render_end_ns : now;

@@ -162,7 +162,8 @@ host_link *host_link_open(const hmdwarp_host_options *o, double wait_s, const at
             if (!ok) host_fail(HMDWARP_HOST_ERR_IO, "file:%s: %s", o->path, strerror(errno));
         }
         break;
-    default: host_fail(HMDWARP_HOST_ERR_ARG, "options.transport: %d is not a hmdwarp_host_transport", (int)o->transport);
+    default:
+        host_fail(HMDWARP_HOST_ERR_ARG, "options.transport: %d is not a hmdwarp_host_transport", (int)o->transport);
     }
     if (!ok) {
         free(l);

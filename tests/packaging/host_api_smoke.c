@@ -24,7 +24,8 @@ int main(int argc, char **argv)
         for (unsigned y = 0; y < hh; y++)
             for (unsigned x = 0; x < w; x++) {
                 unsigned char *p = bgra + ((size_t)y * w + x) * 4;
-                p[0] = (unsigned char)(i * 40), p[1] = (unsigned char)(y * 255 / hh), p[2] = (unsigned char)(x * 255 / w);
+                p[0] = (unsigned char)(i * 40), p[1] = (unsigned char)(y * 255 / hh);
+                p[2] = (unsigned char)(x * 255 / w);
                 p[3] = 255;
                 depth[(size_t)y * w + x] = 1.0f + 0.01f * (float)x;
             }

@@ -24,7 +24,8 @@ lib=$tmp/root/usr/lib
 if [ -f "$lib/libhmdwarp-host.so.0" ] && [ "$(readlink "$lib/libhmdwarp-host.so")" = libhmdwarp-host.so.0 ] &&
    [ -f "$tmp/root/usr/include/hmdwarp-host.h" ] &&
    objdump -p "$lib/libhmdwarp-host.so.0" | grep -q 'SONAME *libhmdwarp-host.so.0' &&
-   ! nm -D --defined-only "$lib/libhmdwarp-host.so.0" | awk '$2 == "T" {print $3}' | grep -v '^hmdwarp_host_' | grep -q .; then
+   ! nm -D --defined-only "$lib/libhmdwarp-host.so.0" | awk '$2 == "T" {print $3}' | grep -v '^hmdwarp_host_' |
+     grep -q .; then
     ok "the library (soname libhmdwarp-host.so.0, only hmdwarp_host_* exported), the dev symlink and the header"
 else
     not_ok "library, symlink, header" "$(ls -l "$lib" "$tmp/root/usr/include" 2>&1 | head -n 5)"

@@ -384,7 +384,10 @@ static void test_refusals(void **state)
         case 7: f.pose_seq = 999, r = (refusal){"unknown pose_seq", -1, "frame.pose_seq"}; break;
         case 8: f.eye[1].depth = NULL, r = (refusal){"one eye's depth", -1, "frame.eye[1].depth"}; break;
         case 9: f.color_format = 9, r = (refusal){"colour format", -4, "frame.color_format"}; break;
-        case 10: f.n_objects = 1, f.object_poses = objs, r = (refusal){"NaN object", -3, "frame.object_poses[0]"}; break;
+        case 10:
+            f.n_objects = 1, f.object_poses = objs;
+            r = (refusal){"NaN object", -3, "frame.object_poses[0]"};
+            break;
         case 11: f.depth_format = HMDWARP_HOST_DEPTH_LINEAR_F32, r = (refusal){"negative?", -4, "frame.eye[0].depth"};
             depth[0][0][0] = -1;
             break;

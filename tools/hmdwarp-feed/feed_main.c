@@ -222,7 +222,8 @@ static hmdwarp_host_pose_msg synth_pose(int64_t t0, double rate_hz)
     m.target_time_ns = m.board_time_ns + 20 * PLAT_NS_PER_MS;
     m.received_ns = now;
     double t = (double)(m.target_time_ns - t0) * 1e-9;
-    warp_pose head_pose = warp_head_pose_from_orientation(h, warp_quat_from_ypr(0.5 * sin(0.5 * t), 0.1 * sin(0.3 * t), 0));
+    warp_pose head_pose =
+        warp_head_pose_from_orientation(h, warp_quat_from_ypr(0.5 * sin(0.5 * t), 0.1 * sin(0.3 * t), 0));
     for (int e = 0; e < 2; e++) {
         warp_pose p = warp_head_eye_pose(h, head_pose, e);
         m.eye[e] = (hmdwarp_host_pose){{p.q.w, p.q.x, p.q.y, p.q.z}, {p.p.x, p.p.y, p.p.z}};
@@ -326,13 +327,16 @@ static void drop_unaccepted(hmdwarp_host *h, hmdwarp_host_frame *fr, bool *said)
         hmdwarp_host_eye *ey = &fr->eye[e];
         if (ey->depth && !(c.planes & HMDWARP_HOST_PLANE_DEPTH)) ey->depth = NULL, dropped |= HMDWARP_HOST_PLANE_DEPTH;
         if (ey->ids && !(c.planes & HMDWARP_HOST_PLANE_IDS)) ey->ids = NULL, dropped |= HMDWARP_HOST_PLANE_IDS;
-        if (ey->motion && !(c.planes & HMDWARP_HOST_PLANE_MOTION)) ey->motion = NULL, dropped |= HMDWARP_HOST_PLANE_MOTION;
+        if (ey->motion && !(c.planes & HMDWARP_HOST_PLANE_MOTION))
+            ey->motion = NULL, dropped |= HMDWARP_HOST_PLANE_MOTION;
         if (ey->layer_count && !(c.planes & HMDWARP_HOST_PLANE_LAYERS))
             ey->layer_count = NULL, ey->fragments = NULL, ey->n_fragments = 0, dropped |= HMDWARP_HOST_PLANE_LAYERS;
     }
     if (dropped & HMDWARP_HOST_PLANE_DEPTH) fr->depth_format = HMDWARP_HOST_DEPTH_NONE;
-    if (dropped && !*said)
-        fprintf(stderr, "hmdwarp-feed: the board accepts planes 0x%x: not sending 0x%x\n", c.planes, dropped), *said = true;
+    if (dropped && !*said) {
+        fprintf(stderr, "hmdwarp-feed: the board accepts planes 0x%x: not sending 0x%x\n", c.planes, dropped);
+        *said = true;
+    }
 }
 
 /* Opens the library's connection for the options: --file/--stdout, --socket, or the board over USB. */
@@ -350,7 +354,8 @@ static hmdwarp_host *open_link(const feed_opts *o)
     }
     hmdwarp_host *h = hmdwarp_host_open_ex(&ho);
     if (!h) fprintf(stderr, "hmdwarp-feed: %s\n", hmdwarp_host_last_error());
-    else if (!o->out_path) fprintf(stderr, "hmdwarp-feed: connected to %s\n", o->socket_path ? o->socket_path : "the board");
+    else if (!o->out_path)
+        fprintf(stderr, "hmdwarp-feed: connected to %s\n", o->socket_path ? o->socket_path : "the board");
     return h;
 }
 
