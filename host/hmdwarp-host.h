@@ -108,9 +108,9 @@ typedef struct {
 } hmdwarp_host_pose_msg;
 
 /* Waits up to timeout_ms (< 0: forever) for a pose message newer than the last one this handle returned and
- * stores it in *out. Returns 1 (stored), 0 (timeout), NOT_CONNECTED (the board is gone: returned at once, and
- * again until it is back), UNSUPPORTED (FILE transport) or ARG. Any thread; with several waiters each new pose
- * goes to one of them. */
+ * stores it in *out. Returns 1 (stored), 0 (timeout), NOT_CONNECTED (the wait ended with the board away: it is
+ * waited for meanwhile, as the library reconnects, so a retry loop does not spin), UNSUPPORTED (FILE transport)
+ * or ARG. Any thread; with several waiters each new pose goes to one of them. */
 int hmdwarp_host_wait_pose(hmdwarp_host *h, int timeout_ms, hmdwarp_host_pose_msg *out);
 /* The same without waiting: 1 and *out when a newer pose is there, else 0 (or an error as above). */
 int hmdwarp_host_poll_pose(hmdwarp_host *h, hmdwarp_host_pose_msg *out);
@@ -153,8 +153,9 @@ typedef struct {
 
 /* The latest camera message: 1 and *out when one has arrived (or was set), 0 when none yet. Any thread. */
 int hmdwarp_host_get_cameras(hmdwarp_host *h, hmdwarp_host_cameras *out);
-/* Waits up to timeout_ms (< 0: forever) until a camera message has arrived: 1 and *out, 0 on timeout, or
- * NOT_CONNECTED / ARG. The board sends one when a host connects and then once a second. */
+/* Waits up to timeout_ms (< 0: forever) until a camera message has arrived: 1 and *out, 0 on timeout (at once
+ * on a FILE transport without set_cameras), NOT_CONNECTED (the wait ended with the board away) or ARG. The board
+ * sends one when a host connects and then once a second. */
 int hmdwarp_host_wait_cameras(hmdwarp_host *h, int timeout_ms, hmdwarp_host_cameras *out);
 /* Sets the cameras as if the board had sent them (a FILE transport, or a board that predates the camera message);
  * a later message from the board replaces them. ARG when a camera is unusable (named). */

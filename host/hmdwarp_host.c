@@ -364,16 +364,17 @@ API int hmdwarp_host_wait_pose(hmdwarp_host *h, int timeout_ms, hmdwarp_host_pos
             rc = 1;
             break;
         }
-        if (!h->connected) {
-            rc = host_fail(HMDWARP_HOST_ERR_NOT_CONNECTED, "wait_pose: not connected (the board went away; "
-                           "reconnecting)");
+        /* While the board is away the wait goes on (the reader reconnects and signals), so a caller's loop does
+         * not spin; it ends NOT_CONNECTED when the board stayed away for all of it. */
+        bool expired = timeout_ms == 0 ||
+                       (timeout_ms > 0 && pthread_cond_timedwait(&h->cond, &h->lock, &ts) == ETIMEDOUT);
+        if (timeout_ms < 0) pthread_cond_wait(&h->cond, &h->lock);
+        if (expired && !h->fresh) {
+            if (!h->connected)
+                rc = host_fail(HMDWARP_HOST_ERR_NOT_CONNECTED, "wait_pose: not connected (the board went away; "
+                               "reconnecting)");
             break;
         }
-        if (timeout_ms == 0) break;
-        if (timeout_ms < 0)
-            pthread_cond_wait(&h->cond, &h->lock);
-        else if (pthread_cond_timedwait(&h->cond, &h->lock, &ts) == ETIMEDOUT && !h->fresh)
-            break;
     }
     pthread_mutex_unlock(&h->lock);
     return rc;
@@ -408,16 +409,17 @@ API int hmdwarp_host_wait_cameras(hmdwarp_host *h, int timeout_ms, hmdwarp_host_
             break;
         }
         if (!h->messages) break; /* nothing will arrive: set_cameras is the way */
-        if (!h->connected) {
-            rc = host_fail(HMDWARP_HOST_ERR_NOT_CONNECTED, "wait_cameras: not connected (the board went away; "
-                           "reconnecting)");
+        /* While the board is away the wait goes on (the reader reconnects and signals), so a caller's loop does
+         * not spin; it ends NOT_CONNECTED when the board stayed away for all of it. */
+        bool expired = timeout_ms == 0 ||
+                       (timeout_ms > 0 && pthread_cond_timedwait(&h->cond, &h->lock, &ts) == ETIMEDOUT);
+        if (timeout_ms < 0) pthread_cond_wait(&h->cond, &h->lock);
+        if (expired && !h->have_cams) {
+            if (!h->connected)
+                rc = host_fail(HMDWARP_HOST_ERR_NOT_CONNECTED, "wait_cameras: not connected (the board went away; "
+                               "reconnecting)");
             break;
         }
-        if (timeout_ms == 0) break;
-        if (timeout_ms < 0)
-            pthread_cond_wait(&h->cond, &h->lock);
-        else if (pthread_cond_timedwait(&h->cond, &h->lock, &ts) == ETIMEDOUT && !h->have_cams)
-            break;
     }
     pthread_mutex_unlock(&h->lock);
     return rc;

@@ -109,17 +109,23 @@ static void assert_board_idle(board *b)
     assert_int_equal(poll(&p, 1, 50), 0);
 }
 
+/* The board's listening socket (hmdwarpd's socket backend: a connect succeeds once it listens). */
+static void board_listen(board *b)
+{
+    b->listen_fd = socket(AF_UNIX, SOCK_STREAM, 0);
+    struct sockaddr_un sa = {.sun_family = AF_UNIX};
+    snprintf(sa.sun_path, sizeof sa.sun_path, "%s", b->path);
+    assert_int_equal(bind(b->listen_fd, (struct sockaddr *)&sa, sizeof sa), 0);
+    assert_int_equal(listen(b->listen_fd, 4), 0);
+}
+
 static int setup(void **state)
 {
     board *b = calloc(1, sizeof *b);
     snprintf(b->dir, sizeof b->dir, "/tmp/test_host.XXXXXX");
     assert_non_null(mkdtemp(b->dir));
     snprintf(b->path, sizeof b->path, "%s/frames.sock", b->dir);
-    b->listen_fd = socket(AF_UNIX, SOCK_STREAM, 0);
-    struct sockaddr_un sa = {.sun_family = AF_UNIX};
-    snprintf(sa.sun_path, sizeof sa.sun_path, "%s", b->path);
-    assert_int_equal(bind(b->listen_fd, (struct sockaddr *)&sa, sizeof sa), 0);
-    assert_int_equal(listen(b->listen_fd, 4), 0);
+    board_listen(b);
     b->cams = (drv_framelink_cams){.seq = 1, .planes = 0x1f, .depth_encoding = WARP_DEPTH_REVERSED,
                                    .max_frame_bytes = 1u << 20, .refresh_hz = 90, .pose_rate_hz = 500};
     b->cams.cam[0] = warp_camera_symmetric(W, H, 100, 90, 0.05, INFINITY);
@@ -444,8 +450,24 @@ static void *board_cut(void *arg)
         if (n <= 0) break;
         got += (size_t)n;
     }
+    /* Gone altogether (hmdwarpd stopped): nothing to reconnect to until the test brings it back. */
     close(b->fd);
+    close(b->listen_fd);
+    unlink(b->path);
     b->fd = -1;
+    return NULL;
+}
+
+/* The board comes back a little later, while the host waits for a pose. */
+static void *board_return(void *arg)
+{
+    board *b = arg;
+    sleep_ms(50);
+    board_listen(b);
+    b->fd = accept(b->listen_fd, NULL, NULL);
+    assert_true(b->fd >= 0);
+    board_send_cams(b);
+    board_send_pose(b, 2);
     return NULL;
 }
 
@@ -471,14 +493,13 @@ static void test_disconnect(void **state)
     assert_int_equal(hmdwarp_host_submit(b->h, &fr), HMDWARP_HOST_ERR_NOT_CONNECTED);
     assert_int_equal(hmdwarp_host_wait_pose(b->h, 100, &pm), HMDWARP_HOST_ERR_NOT_CONNECTED);
     assert_int_equal(hmdwarp_host_connected(b->h), 0);
-    /* The board comes back: the reader reconnects on its own. */
-    b->fd = accept(b->listen_fd, NULL, NULL);
-    assert_true(b->fd >= 0);
-    for (int i = 0; i < 500 && !hmdwarp_host_connected(b->h); i++) sleep_ms(10);
+    /* The board comes back during a wait: the reader reconnects on its own and the wait gets the new pose. */
+    pthread_create(&th, NULL, board_return, b);
+    int got = hmdwarp_host_wait_pose(b->h, 20000, &pm);
+    pthread_join(th, NULL);
+    if (got != 1) fail_msg("wait across the reconnect: %d %s", got, hmdwarp_host_last_error());
+    assert_int_equal(pm.seq, 2);
     assert_int_equal(hmdwarp_host_connected(b->h), 1);
-    board_send_cams(b);
-    board_send_pose(b, 2);
-    assert_int_equal(hmdwarp_host_wait_pose(b->h, 5000, &pm), 1);
     fr.pose_seq = pm.seq;
     /* A small frame: the board reads it here after the submit returned. */
     b->cams.cam[0] = b->cams.cam[1] = warp_camera_symmetric(W, H, 100, 100, 0.05, INFINITY);
