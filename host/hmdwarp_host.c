@@ -216,6 +216,9 @@ static void *reader_main(void *arg)
             pthread_mutex_lock(&h->lock);
             h->connected = true;
             h->st.reconnects++;
+            /* A restarted board counts its poses from the start again: the old ones must not match a pose_seq. */
+            h->n_poses = 0;
+            h->fresh = false;
             pthread_cond_broadcast(&h->cond);
             pthread_mutex_unlock(&h->lock);
             have = 0;
@@ -461,19 +464,18 @@ static int64_t encode_locked(hmdwarp_host *h, const hmdwarp_host_frame *frame)
     }
     int rc = HMDWARP_HOST_OK;
     if (frame && frame->pose_seq) {
-        rc = host_fail(HMDWARP_HOST_ERR_ARG, "frame.pose_seq: %u is not among the last %d pose messages received",
-                       frame->pose_seq, POSE_RING);
         uint64_t n = h->n_poses < POSE_RING ? h->n_poses : POSE_RING;
-        for (uint64_t k = 0; k < n; k++) {
+        for (uint64_t k = 0; k < n && !ctx.echo; k++) {
             uint64_t i = (h->n_poses - 1 - k) % POSE_RING;
             if (h->ring[i].seq == frame->pose_seq) {
                 echo = h->ring[i];
                 ctx.echo = &echo;
                 ctx.echo_rx_ns = h->ring_rx[i];
-                rc = HMDWARP_HOST_OK;
-                break;
             }
         }
+        if (!ctx.echo)
+            rc = host_fail(HMDWARP_HOST_ERR_ARG, "frame.pose_seq: %u is not among the last %d pose messages received "
+                           "(since the last reconnect)", frame->pose_seq, POSE_RING);
     }
     ctx.seq = h->st.frames_sent + 1;
     pthread_mutex_unlock(&h->lock);
