@@ -45,7 +45,8 @@ typedef enum {
     HMDWARP_HOST_ERR_NO_CAMERAS = -5,    /* no camera for the frame: the board sent none and the frame gives none */
     HMDWARP_HOST_ERR_NOT_CONNECTED = -6, /* the board is gone and not back yet (the reader thread keeps trying) */
     HMDWARP_HOST_ERR_DISCONNECTED = -7,  /* the board went away during this call (a frame cut short is dropped by
-                                          * the board); the next call reconnects or reports NOT_CONNECTED */
+                                          * the board), or since the pose message frame.pose_seq names; the next
+                                          * call reconnects or reports NOT_CONNECTED */
     HMDWARP_HOST_ERR_IO = -8,            /* opening or writing the transport failed otherwise (errno/libusb text) */
     HMDWARP_HOST_ERR_NO_MEMORY = -9,
     HMDWARP_HOST_ERR_UNSUPPORTED = -10,  /* not possible on this transport (e.g. waiting for poses from a file) */

@@ -44,6 +44,8 @@ struct hmdwarp_host {
     bool connected;
     drv_framelink_pose ring[POSE_RING];
     int64_t ring_rx[POSE_RING];
+    uint64_t ring_gen[POSE_RING]; /* the connection each pose came over (gen, counted up at each reconnect) */
+    uint64_t gen;
     uint64_t n_poses; /* stored so far: the newest is ring[(n_poses - 1) % POSE_RING] */
     bool fresh;       /* the newest pose has not been returned by wait/poll yet */
     hmdwarp_host_cameras cams;
@@ -112,6 +114,7 @@ static void store_pose(hmdwarp_host *h, const drv_framelink_pose *p)
     pthread_mutex_lock(&h->lock);
     h->ring[h->n_poses % POSE_RING] = *p;
     h->ring_rx[h->n_poses % POSE_RING] = rx;
+    h->ring_gen[h->n_poses % POSE_RING] = h->gen;
     h->n_poses++;
     h->fresh = true;
     h->st.poses_received++;
@@ -216,8 +219,8 @@ static void *reader_main(void *arg)
             pthread_mutex_lock(&h->lock);
             h->connected = true;
             h->st.reconnects++;
-            /* A restarted board counts its poses from the start again: the old ones must not match a pose_seq. */
-            h->n_poses = 0;
+            /* A restarted board counts its poses from the start again: a pose_seq from before must not match. */
+            h->gen++;
             h->fresh = false;
             pthread_cond_broadcast(&h->cond);
             pthread_mutex_unlock(&h->lock);
@@ -465,17 +468,23 @@ static int64_t encode_locked(hmdwarp_host *h, const hmdwarp_host_frame *frame)
     int rc = HMDWARP_HOST_OK;
     if (frame && frame->pose_seq) {
         uint64_t n = h->n_poses < POSE_RING ? h->n_poses : POSE_RING;
-        for (uint64_t k = 0; k < n && !ctx.echo; k++) {
+        bool stale = false;
+        for (uint64_t k = 0; k < n && !ctx.echo && !stale; k++) {
             uint64_t i = (h->n_poses - 1 - k) % POSE_RING;
-            if (h->ring[i].seq == frame->pose_seq) {
+            if (h->ring[i].seq != frame->pose_seq) continue;
+            stale = h->ring_gen[i] != h->gen;
+            if (!stale) {
                 echo = h->ring[i];
                 ctx.echo = &echo;
                 ctx.echo_rx_ns = h->ring_rx[i];
             }
         }
-        if (!ctx.echo)
-            rc = host_fail(HMDWARP_HOST_ERR_ARG, "frame.pose_seq: %u is not among the last %d pose messages received "
-                           "(since the last reconnect)", frame->pose_seq, POSE_RING);
+        if (stale)
+            rc = host_fail(HMDWARP_HOST_ERR_DISCONNECTED, "frame.pose_seq: %u came before the board reconnected: "
+                           "render for a new pose", frame->pose_seq);
+        else if (!ctx.echo)
+            rc = host_fail(HMDWARP_HOST_ERR_ARG, "frame.pose_seq: %u is not among the last %d pose messages received",
+                           frame->pose_seq, POSE_RING);
     }
     ctx.seq = h->st.frames_sent + 1;
     pthread_mutex_unlock(&h->lock);

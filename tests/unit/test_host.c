@@ -500,6 +500,10 @@ static void test_disconnect(void **state)
     if (got != 1) fail_msg("wait across the reconnect: %d %s", got, hmdwarp_host_last_error());
     assert_int_equal(pm.seq, 2);
     assert_int_equal(hmdwarp_host_connected(b->h), 1);
+    /* A pose from before the reconnect is not echoed (a restarted board's seq numbers start again). */
+    fr.pose_seq = 1;
+    assert_int_equal(hmdwarp_host_submit(b->h, &fr), HMDWARP_HOST_ERR_DISCONNECTED);
+    assert_non_null(strstr(hmdwarp_host_last_error(), "frame.pose_seq: 1 came before the board reconnected"));
     fr.pose_seq = pm.seq;
     /* A small frame: the board reads it here after the submit returned. */
     b->cams.cam[0] = b->cams.cam[1] = warp_camera_symmetric(W, H, 100, 100, 0.05, INFINITY);
