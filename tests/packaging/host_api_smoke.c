@@ -14,6 +14,8 @@ int main(int argc, char **argv)
     hmdwarp_host_cameras cams;
     if (hmdwarp_host_wait_cameras(h, 10000, &cams) != 1) return fprintf(stderr, "no camera message\n"), 1;
     unsigned w = cams.cam[0].width, hh = cams.cam[0].height;
+    /* Depth only when the board takes it (its camera message says which planes it allocated). */
+    int with_depth = (cams.planes & HMDWARP_HOST_PLANE_DEPTH) != 0;
     unsigned char *bgra = malloc((size_t)w * hh * 4);
     float *depth = malloc((size_t)w * hh * sizeof(float));
     for (int i = 0; i < frames; i++) {
@@ -29,9 +31,10 @@ int main(int argc, char **argv)
                 p[3] = 255;
                 depth[(size_t)y * w + x] = 1.0f + 0.01f * (float)x;
             }
-        hmdwarp_host_frame f = {.color_format = HMDWARP_HOST_COLOR_BGRA8, .depth_format = HMDWARP_HOST_DEPTH_LINEAR_F32,
+        hmdwarp_host_frame f = {.color_format = HMDWARP_HOST_COLOR_BGRA8,
+                                .depth_format = with_depth ? HMDWARP_HOST_DEPTH_LINEAR_F32 : HMDWARP_HOST_DEPTH_NONE,
                                 .pose_seq = pose.seq, .render_start_ns = start};
-        for (int e = 0; e < 2; e++) f.eye[e].color = bgra, f.eye[e].depth = depth;
+        for (int e = 0; e < 2; e++) f.eye[e].color = bgra, f.eye[e].depth = with_depth ? depth : NULL;
         if (hmdwarp_host_submit(h, &f)) return fprintf(stderr, "submit: %s\n", hmdwarp_host_last_error()), 1;
     }
     /* What was rendered last, as RGBA: what the board must show. */

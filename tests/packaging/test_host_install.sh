@@ -13,7 +13,7 @@ CC=${CC:-cc}
 tmp=$(mktemp -d)
 trap 'kill "$board" 2>/dev/null; rm -rf "$tmp"' EXIT
 board=""
-echo "1..7"
+echo "1..8"
 
 if make --no-print-directory BUILD="$BUILD" install DESTDIR="$tmp/root" PREFIX=/usr >"$tmp/install.log" 2>&1; then
     ok "make install DESTDIR=$tmp/root PREFIX=/usr"
@@ -71,5 +71,28 @@ else
     not_ok "hmdwarp-feed --socket" "$(tail -n 2 "$tmp/feed.log")" "$(tail -n 2 "$tmp/board2.log")"
 fi
 board=""
+
+# hmdwarpd's own socket backend ([frames] backend = socket, #18 point 3) with the installed program as its host:
+# frames received and shown in --stats. Skipped while this build's hmdwarpd has no such backend.
+set -- --set frames.backend=socket --set "frames.device=$tmp/hmd.sock"
+if ! "$BUILD/hmdwarpd" --check-config "$@" >"$tmp/check.log" 2>&1; then
+    ok "hmdwarpd with the socket backend # SKIP this hmdwarpd has no socket backend: $(tail -n 1 "$tmp/check.log")"
+else
+    "$BUILD/hmdwarpd" "$@" --duration 0 --stats "$tmp/stats.txt" >"$tmp/hmd.log" 2>&1 &
+    board=$!
+    for _ in $(seq 300); do [ -S "$tmp/hmd.sock" ] && break; sleep 0.1; done
+    LD_LIBRARY_PATH="$lib" timeout 120 "$tmp/smoke" "socket:$tmp/hmd.sock" 20 "$tmp/hmd.rgba" >"$tmp/smoke2.log" 2>&1
+    rc=$?
+    kill -INT "$board" 2>/dev/null; wait "$board"
+    board=""
+    received=$(sed -n 's/^frames_received=//p' "$tmp/stats.txt" 2>/dev/null)
+    shown=$(sed -n 's/^frames_shown=//p' "$tmp/stats.txt" 2>/dev/null)
+    if [ "$rc" -eq 0 ] && [ "${received:-0}" -ge 20 ] && [ "${shown:-0}" -ge 1 ]; then
+        ok "hmdwarpd --set frames.backend=socket: the program's 20 frames received, $shown shown"
+    else
+        not_ok "hmdwarpd with the socket backend" "program: $(tail -n 1 "$tmp/smoke2.log")" \
+            "frames_received=${received:-none} frames_shown=${shown:-none}; $(tail -n 2 "$tmp/hmd.log")"
+    fi
+fi
 echo "$((n - fails)) passed, $fails failed"
 exit $((fails > 0))
