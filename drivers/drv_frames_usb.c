@@ -78,7 +78,8 @@ static int reject(usb_frames *u, drv_frame_err e, size_t skip, bool resync, cons
 {
     pthread_mutex_lock(&u->lock);
     u->st.rejected[e]++;
-    snprintf(u->st.last_error, sizeof u->st.last_error, "usb frames: frame rejected: %s%s%s", drv_frame_err_str(e),
+    snprintf(u->st.last_error, sizeof u->st.last_error, "%s frames: frame rejected: %s%s%s", u->base.name,
+             drv_frame_err_str(e),
              detail && detail[0] ? ": " : "", detail ? detail : "");
     pthread_mutex_unlock(&u->lock);
     drop(u, skip);
@@ -90,8 +91,8 @@ static void link_lost(usb_frames *u, ssize_t rc)
 {
     pthread_mutex_lock(&u->lock);
     u->st.disconnects++;
-    snprintf(u->st.last_error, sizeof u->st.last_error, "usb frames: OUT endpoint: %s (partial frame dropped)",
-             strerror((int)-rc));
+    snprintf(u->st.last_error, sizeof u->st.last_error, "%s frames: frame stream (OUT): %s (partial frame dropped)",
+             u->base.name, strerror((int)-rc));
     pthread_mutex_unlock(&u->lock);
     u->have = 0;
     u->discard_left = 0;
@@ -231,7 +232,7 @@ static void *pose_thread(void *arg)
         else
             u->st.poses_dropped++;
         if (rc < 0)
-            snprintf(u->st.last_error, sizeof u->st.last_error, "usb frames: IN endpoint (poses): %s",
+            snprintf(u->st.last_error, sizeof u->st.last_error, "%s frames: pose messages (IN): %s", u->base.name,
                      strerror((int)-rc));
         pthread_mutex_unlock(&u->lock);
     }
@@ -295,6 +296,7 @@ void drv_frames_usb_stats_get(drv_frames *fr, drv_frames_usb_stats *st)
     *st = u->st;
     pthread_mutex_unlock(&u->lock);
     st->connected = u->t->connected(u->t);
+    if (u->t->stats) u->t->stats(u->t, st);
     st->lead_ms = (double)atomic_load(&u->lead_ns) * 1e-6;
 }
 
@@ -354,7 +356,8 @@ drv_frames *drv_frames_usb_create_fed(const drv_frames_usb_params *p, char *err,
         warp_err(err, errlen, "usb frames: out of memory");
         return NULL;
     }
-    *u->t = (drv_usb_transport){fed_read, fed_write, fed_connected, fed_destroy};
+    *u->t = (drv_usb_transport){
+        .read = fed_read, .write = fed_write, .connected = fed_connected, .destroy = fed_destroy};
     u->base.name = "usb (fed)";
     return &u->base;
 }
