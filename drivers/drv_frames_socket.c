@@ -109,6 +109,8 @@ static ssize_t sock_read(drv_usb_transport *bt, uint8_t *buf, size_t cap, int ti
     if (n > 0) return n;
     if (n < 0 && (errno == EAGAIN || errno == EINTR)) return 0;
     int e = n == 0 ? ECONNRESET : errno; /* end of file: the host closed its end */
+    plat_log(PLAT_LOG_NOTICE, "socket frames: %s: host pid %d went away (%s)", t->path, (int)t->conn_pid,
+             n == 0 ? "closed" : strerror(e));
     drop_host(t);
     return -e;
 }

@@ -240,6 +240,7 @@ static void *usb_pose_thread(void *arg)
             atomic_store(&g_stop, true);
             break;
         }
+        if (drv_framelink_msg_peek(buf, (size_t)n, NULL) == DRV_FRAMELINK_CAMS_MAGIC) continue; /* not a pose */
         drv_framelink_pose p;
         drv_frame_err e = drv_framelink_pose_decode(buf, (size_t)n, &p);
         if (e == DRV_FRAME_OK) {
