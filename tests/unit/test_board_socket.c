@@ -1,7 +1,8 @@
 /* SPDX-License-Identifier: MIT */
 /* hmdwarpd end to end with its frames from another process: the simulated board (IMU, vsync, offscreen display) with
  * [frames] backend = socket, and this test as the host: it learns the eyes from the camera message, renders at the
- * poses the board sends, and the board receives every frame and shows them (--stats), none rejected. */
+ * poses the board sends, and the board receives every frame and shows them (--stats), none rejected; and the
+ * errors of a bad socket setting. */
 #include <errno.h>
 #include <poll.h>
 #include <setjmp.h>
@@ -125,8 +126,9 @@ static void host_pose_after(host *h, int64_t after, drv_framelink_pose *m)
 static void test_board_shows_socket_frames(void **state)
 {
     (void)state;
-    char out[400], live[400], stats[400], cmd[2400]; /* runner, build and the paths at their largest */
+    char out[400], live[400], stats[400], csv[400], cmd[2800]; /* runner, build and the paths at their largest */
     snprintf(out, sizeof out, "%s/board.out", tmp);
+    snprintf(csv, sizeof csv, "%s/board.csv", tmp);
     snprintf(live, sizeof live, "%s/board.live", tmp);
     snprintf(stats, sizeof stats, "%s/board.stats", tmp);
     unlink(live);
@@ -136,8 +138,8 @@ static void test_board_shows_socket_frames(void **state)
              "unset HMDWARP_TIME_SLOWDOWN; exec %s%s/hmdwarpd --config board/sim/board.ini --set sim.imu_rest_s=0.2 "
              "--set sim.eval_every_ms=0 --set render.rt_priority=0 --set frames.backend=socket "
              "--set frames.device=%s --set eye.width=%d --set eye.height=%d --duration 0 "
-             "--set telemetry.live_stats=%s --stats %s >%s 2>&1 </dev/null",
-             test_runner(), build, sock_path, EYE_W, EYE_H, live, stats, out);
+             "--set telemetry.live_stats=%s --set telemetry.csv=%s --stats %s >%s 2>&1 </dev/null",
+             test_runner(), build, sock_path, EYE_W, EYE_H, live, csv, stats, out);
     pid_t pid = fork();
     if (pid == 0) {
         execl("/bin/sh", "sh", "-c", cmd, (char *)NULL);
@@ -193,10 +195,20 @@ static void test_board_shows_socket_frames(void **state)
             done += (size_t)k;
         }
     }
-    /* until the board says it has them all (its live stats, once a second), then stop it as systemd would */
-    for (int i = 0; i < WAIT_S * 100 && !(slurp(live, text, sizeof text) && kv(text, "frames_received") >= FRAMES);
-         i++)
+    /* until the board says it has them all (its live stats, once a second) and its per-vsync CSV shows the last
+     * one (the newest frame is always shown, however busy the machine), then stop it as systemd would */
+    bool last_shown = false;
+    static char csv_text[1 << 20];
+    for (int i = 0; i < WAIT_S * 100 && !last_shown; i++) {
         usleep(10000);
+        if (!(slurp(live, text, sizeof text) && kv(text, "frames_received") >= FRAMES)) continue;
+        slurp(csv, csv_text, sizeof csv_text);
+        for (char *line = strchr(csv_text, '\n'); line && !last_shown; line = strchr(line + 1, '\n')) {
+            unsigned long long v, seq;
+            long long ns;
+            last_shown = sscanf(line + 1, "%llu,%lld,%llu,", &v, &ns, &seq) == 3 && seq == FRAMES;
+        }
+    }
     kill(pid, SIGTERM);
     int st = 0;
     assert_int_equal(waitpid(pid, &st, 0), pid);
@@ -213,11 +225,61 @@ static void test_board_shows_socket_frames(void **state)
     assert_non_null(strstr(text, "frames_backend=socket"));
     assert_true(kv(text, "frames_received") == FRAMES);
     assert_true(kv(text, "frames_rejected") == 0);
-    /* at 30 ms apart nearly every frame meets a vsync (12 of 12 on a quiet machine); a loaded one may deliver a
-     * few together, the older replaced unseen */
-    assert_true(kv(text, "frames_shown") >= FRAMES * 2 / 3);
+    /* at 30 ms apart nearly every frame meets a vsync (12 of 12 on a quiet machine); a loaded one delivers some
+     * together, the older replaced unseen (9 of 12 beside a load of 14 on two cores) */
+    if (!last_shown) fail_msg("the last frame (seq %d) was never shown; hmdwarpd said:\n%s", FRAMES, log);
+    assert_true(kv(text, "frames_shown") >= FRAMES / 3);
     assert_true(kv(text, "frames_shown") + kv(text, "frames_dropped") <= FRAMES);
     assert_non_null(strstr(log, "host connected"));
+}
+
+/* Runs cmd (stdout and stderr) into out; returns its exit status. */
+static int run(const char *cmd, char *out, size_t cap)
+{
+    FILE *p = popen(cmd, "r");
+    assert_non_null(p);
+    size_t n = fread(out, 1, cap - 1, p);
+    out[n] = 0;
+    int st = pclose(p);
+    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+}
+
+/* The configuration's errors name the key and what is wrong; a path taken by another file stops the start. */
+static void test_bad_socket_settings(void **state)
+{
+    (void)state;
+    char cmd[1200], out[4096], longp[200];
+    snprintf(cmd, sizeof cmd, "%s%s/hmdwarpd --check-config --config board/sim/board.ini --set frames.backend=socket "
+             "--set frames.device=mock 2>&1", test_runner(), build);
+    assert_int_not_equal(run(cmd, out, sizeof out), 0);
+    assert_non_null(strstr(out, "[frames] device = mock: the socket backend has no mock host"));
+    snprintf(longp, sizeof longp, "%s/%085d", sock_dir, 1); /* 115: a key's 127 hold it, sun_path does not */
+    snprintf(cmd, sizeof cmd, "%s%s/hmdwarpd --check-config --config board/sim/board.ini --set frames.backend=socket "
+             "--set frames.device=%s 2>&1", test_runner(), build, longp);
+    assert_int_not_equal(run(cmd, out, sizeof out), 0);
+    assert_non_null(strstr(out, "a Unix socket path holds at most 107"));
+    /* the default path when device is empty, accepted */
+    snprintf(cmd, sizeof cmd, "%s%s/hmdwarpd --check-config --config board/sim/board.ini --set frames.backend=socket "
+             "2>&1", test_runner(), build);
+    assert_int_equal(run(cmd, out, sizeof out), 0);
+    /* a regular file where the socket goes: start-up stops naming it, and the file stays */
+    char file[160];
+    snprintf(file, sizeof file, "%s/not-a-socket", sock_dir);
+    FILE *f = fopen(file, "w");
+    assert_non_null(f);
+    fputs("keep me\n", f);
+    fclose(f);
+    snprintf(cmd, sizeof cmd, "unset HMDWARP_TIME_SLOWDOWN; %s%s/hmdwarpd --config board/sim/board.ini "
+             "--set frames.backend=socket --set frames.device=%s --duration 1 2>&1", test_runner(), build, file);
+    assert_int_not_equal(run(cmd, out, sizeof out), 0);
+    char want[500];
+    snprintf(want, sizeof want, "[frames] backend = socket, device = %s: socket frames: %s exists and is a regular "
+             "file, not a socket", file, file);
+    if (!strstr(out, want)) fail_msg("expected '%s' in:\n%s", want, out);
+    char text[64] = "";
+    slurp(file, text, sizeof text);
+    assert_string_equal(text, "keep me\n");
+    unlink(file);
 }
 
 int main(int argc, char **argv)
@@ -230,6 +292,7 @@ int main(int argc, char **argv)
     snprintf(sock_path, sizeof sock_path, "%s/frames.sock", sock_dir);
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_board_shows_socket_frames),
+        cmocka_unit_test(test_bad_socket_settings),
     };
     int rc = cmocka_run_group_tests(tests, NULL, NULL);
     unlink(sock_path);
