@@ -94,7 +94,9 @@ static void drop_host(sock_transport *t)
     pthread_mutex_unlock(&t->lock);
 }
 
-/* The frames thread's: new hosts are accepted (or refused) here, between reads of the connected one's stream. */
+/* The frames thread's: new hosts are accepted (or refused) here, between reads of the connected one's stream. The
+ * connected host's bytes come first: a host that closed and at once reconnected has its end of file read (the old
+ * connection dropped) before the new connection is looked at, so it is accepted rather than refused. */
 static ssize_t sock_read(drv_usb_transport *bt, uint8_t *buf, size_t cap, int timeout_ms)
 {
     sock_transport *t = (sock_transport *)bt;
@@ -103,16 +105,20 @@ static ssize_t sock_read(drv_usb_transport *bt, uint8_t *buf, size_t cap, int ti
     int r = poll(pfd, conn >= 0 ? 2 : 1, plat_timeout_ms(timeout_ms));
     if (r < 0) return errno == EINTR ? 0 : -errno;
     if (r == 0) return 0;
+    ssize_t rc = 0;
+    if (conn >= 0 && (pfd[1].revents & (POLLIN | POLLHUP | POLLERR))) {
+        ssize_t n = recv(conn, buf, cap, MSG_DONTWAIT);
+        if (n > 0) return n; /* a waiting connection is taken at a later call: the listener stays readable */
+        if (n == 0 || (errno != EAGAIN && errno != EINTR)) {
+            int e = n == 0 ? ECONNRESET : errno; /* end of file: the host closed its end */
+            plat_log(PLAT_LOG_NOTICE, "socket frames: %s: host pid %d went away (%s)", t->path, (int)t->conn_pid,
+                     n == 0 ? "closed" : strerror(e));
+            drop_host(t);
+            rc = -e;
+        }
+    }
     if (pfd[0].revents & POLLIN) accept_host(t);
-    if (conn < 0 || !(pfd[1].revents & (POLLIN | POLLHUP | POLLERR))) return 0;
-    ssize_t n = recv(conn, buf, cap, MSG_DONTWAIT);
-    if (n > 0) return n;
-    if (n < 0 && (errno == EAGAIN || errno == EINTR)) return 0;
-    int e = n == 0 ? ECONNRESET : errno; /* end of file: the host closed its end */
-    plat_log(PLAT_LOG_NOTICE, "socket frames: %s: host pid %d went away (%s)", t->path, (int)t->conn_pid,
-             n == 0 ? "closed" : strerror(e));
-    drop_host(t);
-    return -e;
+    return rc;
 }
 
 static ssize_t sock_write(drv_usb_transport *bt, const uint8_t *buf, size_t len, int timeout_ms)

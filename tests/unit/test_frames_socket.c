@@ -355,6 +355,27 @@ static void test_reconnect(void **state)
     board_stop(&b);
 }
 
+/* A host that closes and reconnects at once (a restarted renderer): both are waiting when the board next reads,
+ * and the new connection is accepted, not refused as a second host. */
+static void test_reconnect_at_once(void **state)
+{
+    (void)state;
+    board b;
+    board_start(&b);
+    host h;
+    drv_framelink_cams c;
+    drv_framelink_pose m;
+    host_greeted(&h, &b, &c, &m);
+    host_close(&h);
+    host_greeted(&h, &b, &c, &m);
+    drv_frames_usb_stats st = stats(&b);
+    assert_int_equal(st.connections, 2);
+    assert_int_equal(st.disconnects, 1);
+    assert_int_equal(st.refused, 0);
+    host_close(&h);
+    board_stop(&b);
+}
+
 static void test_second_host_refused(void **state)
 {
     (void)state;
@@ -460,7 +481,8 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_cameras_poses_frames), cmocka_unit_test(test_garbage_and_cut_frames),
-        cmocka_unit_test(test_reconnect),            cmocka_unit_test(test_second_host_refused),
+        cmocka_unit_test(test_reconnect),            cmocka_unit_test(test_reconnect_at_once),
+        cmocka_unit_test(test_second_host_refused),
         cmocka_unit_test(test_socket_path),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
