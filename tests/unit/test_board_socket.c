@@ -231,6 +231,11 @@ static void test_board_shows_socket_frames(void **state)
     assert_true(kv(text, "frames_shown") >= FRAMES / 3);
     assert_true(kv(text, "frames_shown") + kv(text, "frames_dropped") <= FRAMES);
     assert_non_null(strstr(log, "host connected"));
+    /* the link's own keys: one host, still connected when the board stopped, poses sent */
+    assert_true(kv(text, "frames_link_connected") == 1);
+    assert_true(kv(text, "frames_link_connections") == 1);
+    assert_true(kv(text, "frames_link_refused") == 0 && kv(text, "frames_link_disconnects") == 0);
+    assert_true(kv(text, "frames_link_poses_sent") >= FRAMES);
 }
 
 /* Runs cmd (stdout and stderr) into out; returns its exit status. */
