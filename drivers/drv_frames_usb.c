@@ -80,8 +80,7 @@ static int reject(usb_frames *u, drv_frame_err e, size_t skip, bool resync, cons
     pthread_mutex_lock(&u->lock);
     u->st.rejected[e]++;
     snprintf(u->st.last_error, sizeof u->st.last_error, "%s frames: frame rejected: %s%s%s", u->base.name,
-             drv_frame_err_str(e),
-             detail && detail[0] ? ": " : "", detail ? detail : "");
+             drv_frame_err_str(e), detail && detail[0] ? ": " : "", detail ? detail : "");
     pthread_mutex_unlock(&u->lock);
     drop(u, skip);
     u->resyncing = resync;

@@ -798,16 +798,16 @@ bool rt_config_validate(const rt_config *c, rt_config_errors *err)
         add_error(err, "[imu] device: required for backend = %s (a device path%s, or mock); %s", c->imu_backend,
                   strcmp(c->imu_backend, "hid") == 0 ? " or VVVV:PPPP" : "",
                   keys_at(c, "imu.backend imu.device", at, sizeof at));
-    const bool socket = strcmp(c->frames_backend, "socket") == 0;
-    if (socket && strcmp(c->frames_device, "mock") == 0)
+    const bool on_socket = strcmp(c->frames_backend, "socket") == 0;
+    if (on_socket && strcmp(c->frames_device, "mock") == 0)
         add_error(err, "[frames] device = mock: the socket backend has no mock host (any process is its host; "
                        "backend = usb with device = mock runs the simulated host over the wire format); %s",
                   keys_at(c, "frames.backend frames.device", at, sizeof at));
-    if (socket && strlen(c->frames_device) > DRV_FRAMES_SOCKET_PATH_MAX)
+    if (on_socket && strlen(c->frames_device) > DRV_FRAMES_SOCKET_PATH_MAX)
         add_error(err, "[frames] device = %s: %zu characters, a Unix socket path holds at most %d; %s",
                   c->frames_device, strlen(c->frames_device), DRV_FRAMES_SOCKET_PATH_MAX,
                   keys_at(c, "frames.device", at, sizeof at));
-    if (strcmp(c->frames_backend, "sim") != 0 && !socket && !c->frames_device[0])
+    if (strcmp(c->frames_backend, "sim") != 0 && !on_socket && !c->frames_device[0])
         add_error(err, "[frames] device: required for backend = %s (%s, or mock); %s", c->frames_backend,
                   strcmp(c->frames_backend, "usb") == 0 ? "the FunctionFS mount directory" : "a /dev/videoN path",
                   keys_at(c, "frames.backend frames.device", at, sizeof at));
