@@ -51,7 +51,8 @@ typedef struct {
     _Atomic int64_t lead_ns;
     pthread_mutex_t lock;      /* stats */
     drv_frames_usb_stats st;
-    uint32_t pose_seq;
+    uint32_t pose_seq, cams_seq;
+    bool send_cams;            /* the params name the cameras: hosts get the camera message */
 } usb_frames;
 
 static void note(usb_frames *u, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
@@ -78,8 +79,8 @@ static int reject(usb_frames *u, drv_frame_err e, size_t skip, bool resync, cons
 {
     pthread_mutex_lock(&u->lock);
     u->st.rejected[e]++;
-    snprintf(u->st.last_error, sizeof u->st.last_error, "usb frames: frame rejected: %s%s%s", drv_frame_err_str(e),
-             detail && detail[0] ? ": " : "", detail ? detail : "");
+    snprintf(u->st.last_error, sizeof u->st.last_error, "%s frames: frame rejected: %s%s%s", u->base.name,
+             drv_frame_err_str(e), detail && detail[0] ? ": " : "", detail ? detail : "");
     pthread_mutex_unlock(&u->lock);
     drop(u, skip);
     u->resyncing = resync;
@@ -90,8 +91,8 @@ static void link_lost(usb_frames *u, ssize_t rc)
 {
     pthread_mutex_lock(&u->lock);
     u->st.disconnects++;
-    snprintf(u->st.last_error, sizeof u->st.last_error, "usb frames: OUT endpoint: %s (partial frame dropped)",
-             strerror((int)-rc));
+    snprintf(u->st.last_error, sizeof u->st.last_error, "%s frames: frame stream (OUT): %s (partial frame dropped)",
+             u->base.name, strerror((int)-rc));
     pthread_mutex_unlock(&u->lock);
     u->have = 0;
     u->discard_left = 0;
@@ -203,19 +204,50 @@ static void usb_last_error(drv_frames *fr, char *buf, int len);
 
 static unsigned usb_planes(drv_frames *fr) { return ((usb_frames *)fr)->p.planes; }
 
+/* The camera message (HWC1): what this board wants rendered, so a host need not be told by hand. */
+static void send_cams(usb_frames *u, int timeout_ms)
+{
+    drv_framelink_cams c = {.seq = ++u->cams_seq, .planes = u->p.planes, .depth_encoding = u->p.depth_encoding,
+                            .max_frame_bytes = u->p.max_frame_bytes, .refresh_hz = u->p.refresh_hz,
+                            .pose_rate_hz = u->p.pose_rate_hz, .cam = {u->p.cam[0], u->p.cam[1]}};
+    uint8_t msg[DRV_FRAMELINK_CAMS_BYTES];
+    drv_framelink_cams_encode(&c, msg, sizeof msg);
+    ssize_t rc = u->t->write(u->t, msg, sizeof msg, timeout_ms);
+    pthread_mutex_lock(&u->lock);
+    if (rc == (ssize_t)sizeof msg) u->st.cams_sent++;
+    if (rc < 0)
+        snprintf(u->st.last_error, sizeof u->st.last_error, "%s frames: camera message (IN): %s", u->base.name,
+                 strerror((int)-rc));
+    pthread_mutex_unlock(&u->lock);
+}
+
 static void *pose_thread(void *arg)
 {
     usb_frames *u = arg;
     plat_thread_set_name("hmdwarp-poses");
     warp_head head = u->p.head.ipd > 0 ? u->p.head : warp_head_default();
-    int64_t period = (int64_t)(1e9 / u->p.pose_rate_hz), next = plat_now_ns();
+    int64_t period = (int64_t)(1e9 / u->p.pose_rate_hz), next = plat_now_ns(), next_cams = 0;
+    int timeout_ms = (int)(period / PLAT_NS_PER_MS) + 1;
+    uint64_t greeted = 0; /* the hosts greeted with the camera message so far */
+    bool was_up = false;
     while (!atomic_load(&u->stop)) {
         next += period;
         int64_t now = plat_now_ns();
         if (next < now) next = now; /* fell behind (host stalled a write): no burst to catch up */
         plat_sleep_until_ns(next);
         if (atomic_load(&u->stop)) break;
-        if (!u->t->connected(u->t)) continue;
+        if (!u->t->connected(u->t)) {
+            was_up = false;
+            continue;
+        }
+        /* A new host hears the cameras first, before any pose; every host again once a second. */
+        uint64_t hosts = u->t->connections ? u->t->connections(u->t) : greeted + !was_up;
+        was_up = true;
+        if (u->send_cams && (hosts != greeted || plat_now_ns() >= next_cams)) {
+            send_cams(u, timeout_ms);
+            next_cams = plat_now_ns() + PLAT_NS_PER_S;
+        }
+        greeted = hosts;
         drv_framelink_pose m;
         m.board_t_ns = plat_now_ns();
         m.target_t_ns = m.board_t_ns + atomic_load(&u->lead_ns);
@@ -224,14 +256,14 @@ static void *pose_thread(void *arg)
         for (int e = 0; e < 2; e++) m.eye[e] = warp_head_eye_pose(&head, m.head, e);
         uint8_t msg[DRV_FRAMELINK_POSE_BYTES];
         drv_framelink_pose_encode(&m, msg, sizeof msg);
-        ssize_t rc = u->t->write(u->t, msg, sizeof msg, (int)(period / PLAT_NS_PER_MS) + 1);
+        ssize_t rc = u->t->write(u->t, msg, sizeof msg, timeout_ms);
         pthread_mutex_lock(&u->lock);
         if (rc == (ssize_t)sizeof msg)
             u->st.poses_sent++;
         else
             u->st.poses_dropped++;
         if (rc < 0)
-            snprintf(u->st.last_error, sizeof u->st.last_error, "usb frames: IN endpoint (poses): %s",
+            snprintf(u->st.last_error, sizeof u->st.last_error, "%s frames: pose messages (IN): %s", u->base.name,
                      strerror((int)-rc));
         pthread_mutex_unlock(&u->lock);
     }
@@ -258,9 +290,21 @@ static usb_frames *board_new(const drv_frames_usb_params *p, char *err, int errl
                               "max_frame_bytes >= 1024)");
         return NULL;
     }
+    /* Cameras are optional (tests of the receive path leave them out), but when given they must describe the
+     * frames accepted: a host renders what the camera message says. */
+    bool cams = p->cam[0].width > 0;
+    for (int e = 0; e < 2 && cams; e++)
+        if (warp_camera_check(&p->cam[e]) || p->cam[e].width != p->eye_w || p->cam[e].height != p->eye_h ||
+            !(p->refresh_hz > 0)) {
+            warp_err(err, errlen, "usb frames: bad parameters (eye %d camera: %s, %dx%d for %dx%d eyes, refresh %g Hz)",
+                     e, warp_camera_check(&p->cam[e]) ? warp_camera_check(&p->cam[e]) : "valid", p->cam[e].width,
+                     p->cam[e].height, p->eye_w, p->eye_h, p->refresh_hz);
+            return NULL;
+        }
     usb_frames *u = calloc(1, sizeof *u);
     if (!u) return NULL;
     u->p = *p;
+    u->send_cams = cams;
     u->cap = p->max_frame_bytes + CHUNK;
     u->buf = malloc(u->cap);
     u->scratch = malloc(CHUNK);
@@ -295,6 +339,7 @@ void drv_frames_usb_stats_get(drv_frames *fr, drv_frames_usb_stats *st)
     *st = u->st;
     pthread_mutex_unlock(&u->lock);
     st->connected = u->t->connected(u->t);
+    if (u->t->stats) u->t->stats(u->t, st);
     st->lead_ms = (double)atomic_load(&u->lead_ns) * 1e-6;
 }
 
@@ -354,7 +399,8 @@ drv_frames *drv_frames_usb_create_fed(const drv_frames_usb_params *p, char *err,
         warp_err(err, errlen, "usb frames: out of memory");
         return NULL;
     }
-    *u->t = (drv_usb_transport){fed_read, fed_write, fed_connected, fed_destroy};
+    *u->t = (drv_usb_transport){
+        .read = fed_read, .write = fed_write, .connected = fed_connected, .destroy = fed_destroy};
     u->base.name = "usb (fed)";
     return &u->base;
 }

@@ -20,13 +20,33 @@ typedef struct {
     drv_pose_source poses;    /* predictions sent to the host */
     double pose_rate_hz;      /* pose messages per second */
     warp_head head;           /* eye offsets (IPD) for the per-eye poses sent; all zero = warp_head_default() */
+    /* What the camera message (HWC1) tells each host to render: sent when a host connects, then once a second. */
+    warp_camera cam[2];                 /* the eye cameras frames must be rendered with */
+    double refresh_hz;                  /* the panel's refresh */
+    warp_depth_encoding depth_encoding; /* the depth encoding the board prefers (any is accepted) */
 } drv_frames_usb_params;
 
 /* The real gadget: writes the descriptors and strings to ffs_dir/ep0 (the gadget is bound afterwards, see
  * board/gadget.sh), then serves ep0 events, ep1 (frames) and ep2 (poses). NULL with a message in err on failure. */
 drv_frames *drv_frames_usb_create(const drv_frames_usb_params *p, char *err, int errlen);
 
-/* The lowest layer, below the framelink stream: what FunctionFS's endpoints are for the gadget. */
+typedef struct {
+    uint64_t frames;                            /* accepted */
+    uint64_t bytes;                             /* read from the OUT stream */
+    uint64_t rejected[DRV_FRAME_ERR_COUNT];     /* by reason */
+    uint64_t skipped_bytes;                     /* dropped while looking for a frame magic */
+    uint64_t discarded_bytes;                   /* oversize frames read into scratch and dropped */
+    uint64_t poses_sent, poses_dropped;         /* pose messages written / not taken by the host in time */
+    uint64_t disconnects;                       /* endpoint I/O failures and DISABLE/UNBIND events */
+    uint64_t connections, refused;              /* socket: hosts accepted / turned away while one was connected */
+    uint64_t cams_sent;                         /* camera messages (HWC1) written */
+    bool connected;                             /* the host has configured the function (ENABLE) */
+    double lead_ms;                             /* current pose lead: measured pose-to-frame latency */
+    char last_error[160];
+} drv_frames_usb_stats;
+
+/* The lowest layer, below the framelink stream: what FunctionFS's endpoints are for the gadget (and a Unix socket
+ * for drv_frames_socket.h). */
 typedef struct drv_usb_transport drv_usb_transport;
 struct drv_usb_transport {
     /* Up to cap bytes of the OUT stream within timeout_ms: bytes, 0 on timeout, -errno when the link failed. */
@@ -36,6 +56,12 @@ struct drv_usb_transport {
     bool (*connected)(drv_usb_transport *t);
     /* Called after the pose thread stopped: ends what serves the transport, then frees it. */
     void (*destroy)(drv_usb_transport *t);
+    /* Optional (NULL: each rise of connected() is a new host): how many hosts have connected so far. The pose
+     * thread greets each new one with the camera message before its first pose, so write() reaches only the host
+     * this last counted (a newer one gets nothing until it is counted: no pose can overtake its greeting). */
+    uint64_t (*connections)(drv_usb_transport *t);
+    /* Optional: adds what the transport counts itself (connections, refused) to st. */
+    void (*stats)(drv_usb_transport *t, drv_frames_usb_stats *st);
 };
 
 /* The board side (receive state machine, pose thread, statistics) on any transport, owned from here on (destroyed
@@ -51,20 +77,7 @@ drv_frames *drv_frames_usb_create_fed(const drv_frames_usb_params *p, char *err,
  * waiting to be received, or the buffer is full. */
 size_t drv_frames_usb_feed(drv_frames *fr, const uint8_t *data, size_t n);
 
-typedef struct {
-    uint64_t frames;                            /* accepted */
-    uint64_t bytes;                             /* read from the OUT stream */
-    uint64_t rejected[DRV_FRAME_ERR_COUNT];     /* by reason */
-    uint64_t skipped_bytes;                     /* dropped while looking for a frame magic */
-    uint64_t discarded_bytes;                   /* oversize frames read into scratch and dropped */
-    uint64_t poses_sent, poses_dropped;         /* pose messages written / not taken by the host in time */
-    uint64_t disconnects;                       /* endpoint I/O failures and DISABLE/UNBIND events */
-    bool connected;                             /* the host has configured the function (ENABLE) */
-    double lead_ms;                             /* current pose lead: measured pose-to-frame latency */
-    char last_error[160];
-} drv_frames_usb_stats;
-
-/* Statistics of a usb (or mock) frames source; safe from any thread. */
+/* Statistics of a usb, mock or socket frames source; safe from any thread. */
 void drv_frames_usb_stats_get(drv_frames *fr, drv_frames_usb_stats *st);
 
 #endif

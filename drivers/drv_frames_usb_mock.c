@@ -90,6 +90,8 @@ static void mock_drain_poses(struct mock_host *m)
     uint8_t msg[512];
     ssize_t n;
     while ((n = recv(m->in_fd, msg, sizeof msg, MSG_DONTWAIT)) > 0) {
+        /* Poses only: the camera message repeats what the simulated host was created with. */
+        if (drv_framelink_msg_peek(msg, (size_t)n, NULL) != DRV_FRAMELINK_POSE_MAGIC) continue;
         drv_framelink_pose p;
         if (drv_framelink_pose_decode(msg, (size_t)n, &p) == DRV_FRAME_OK) {
             m->latest = p;

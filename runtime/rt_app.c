@@ -347,6 +347,10 @@ static void summary_src(rt_app *a, rt_summary_src *s, bool live, bool with_outpu
     s->vsync_name = d->vsync ? d->vsync->name : "";
     s->has_imu_stats = d->imu && drv_imu_stats_get(d->imu, &s->imu);
     s->has_vsync_stats = d->vsync && drv_vsync_stats_get(d->vsync, &s->vsync);
+    /* the usb backend (or its mock) and the socket backend are one board side: its link statistics */
+    s->has_link_stats =
+        d->frames && (strcmp(c->frames_backend, "usb") == 0 || strcmp(c->frames_backend, "socket") == 0);
+    if (s->has_link_stats) drv_frames_usb_stats_get(d->frames, &s->link);
     s->kms = d->kms != NULL;
     s->kms_stats.api = "";
     s->kms_stats.format = "";

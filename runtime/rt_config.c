@@ -15,6 +15,7 @@
 #include <unistd.h>
 
 #include "drivers/drv_framelink.h"
+#include "drivers/drv_frames_socket.h"
 #include "warp/warp_head.h"
 #include "warp/warp_registry.h"
 
@@ -27,7 +28,7 @@ static const char *const renderer_names[] = {"auto", "cpu", "gles", NULL};
 static const char *const kernel_names[] = {"auto", "scalar", "vector", "avx2", "avx512", NULL};
 static const char *const output_names[] = {"offscreen", "kms", NULL};
 static const char *const imu_names[] = {"sim", "hid", "i2c", NULL};
-static const char *const frames_names[] = {"sim", "usb", "v4l2", NULL};
+static const char *const frames_names[] = {"sim", "usb", "v4l2", "socket", NULL};
 static const char *const vsync_names[] = {"sim", "gpio", "timer", "kms", NULL};
 static const char *const chip_names[] = {"auto", "mpu6050", "mpu9250", "icm42688", NULL};
 static const char *const v4l2_format_names[] = {"auto", "yuyv", "nv12", "bgr32", "rgb24", NULL};
@@ -137,9 +138,11 @@ static const keydef keys[] = {
      "mounting: the head's x y z axes as signed IMU axes, e.g. '-y +x +z' (head x = IMU -y)"},
     {"imu", "rate_hz", K_DOUBLE, F(imu_rate_hz), 0, 10, 10000, NULL, "IMU sample rate"},
     {"frames", "backend", K_CHOICE, F(frames_backend), S(frames_backend), 0, 0, frames_names,
-     "host frame source: sim (simulated host), usb (FunctionFS gadget) or v4l2 (HDMI/CSI capture)"},
+     "host frame source: sim (simulated host), usb (FunctionFS gadget), v4l2 (HDMI/CSI capture) or socket (a "
+     "local process through a Unix socket, the USB wire format; docs/framelink.md)"},
     {"frames", "device", K_STR, F(frames_device), S(frames_device), 0, 0, NULL,
-     "usb: FunctionFS mount directory; v4l2: capture device; mock: the simulated host over the real wire format"},
+     "usb: FunctionFS mount directory; v4l2: capture device; socket: the path to listen at (empty: "
+     DRV_FRAMES_SOCKET_DEFAULT "); mock (usb, v4l2): the simulated host over the real wire format"},
     {"frames", "format", K_CHOICE, F(v4l2_format), S(v4l2_format), 0, 0, v4l2_format_names,
      "v4l2: capture pixel format (auto picks one the device offers)"},
     {"frames", "depth", K_ENUM, F(frames_depth), 0, 0, 0, bool_names,
@@ -147,7 +150,7 @@ static const keydef keys[] = {
     {"frames", "max_frame_mb", K_DOUBLE, F(max_frame_mb), 0, 0.01, 4096, NULL,
      "largest host frame accepted, MiB (larger ones are rejected unread)"},
     {"frames", "pose_rate_hz", K_DOUBLE, F(pose_rate_hz), 0, 1, 2000, NULL,
-     "usb: how often the board sends its predicted head pose to the host"},
+     "usb, socket: how often the board sends its predicted head pose to the host"},
     {"vsync", "backend", K_CHOICE, F(vsync_backend), S(vsync_backend), 0, 0, vsync_names,
      "vsync source: sim (simulated panel), gpio (panel TE line via libgpiod), timer (free running) or kms (the "
      "display controller's vblank times; needs output = kms)"},
@@ -724,6 +727,11 @@ static bool method_needs(const rt_config *c, unsigned plane)
     return c->method == RT_METHOD_AUTO || (warp_method_get(rt_method_warp(c->method))->needs & plane);
 }
 static bool wants_ids(const rt_config *c) { return method_needs(c, WARP_NEEDS_IDS); }
+/* The backends that receive framelink streams into a max_frame_mb buffer (the USB board side, on either link). */
+static bool framelink_backend(const rt_config *c)
+{
+    return strcmp(c->frames_backend, "usb") == 0 || strcmp(c->frames_backend, "socket") == 0;
+}
 static bool wants_layers(const rt_config *c) { return method_needs(c, WARP_NEEDS_LAYERS); }
 
 uint64_t rt_config_frame_bytes(const rt_config *c)
@@ -750,11 +758,11 @@ uint64_t rt_config_memory_bytes(const rt_config *c)
      * min/max tree; the forward warp's scratch and hole filling for objects) */
     if (method_needs(c, WARP_NEEDS_DEPTH))
         total += eyes * eye_px * (4 + PLANAR + 1 + (layers ? 4 + 8 : 0) + (ids ? 24 + 11 : 0));
-    /* the frame backend: a simulated host renders into frames of its own; the USB receiver holds max_frame_mb
-     * (and its mock an encoded frame); V4L2 maps four capture buffers of about 4 bytes a pixel */
+    /* the frame backend: a simulated host renders into frames of its own; the USB (or socket) receiver holds
+     * max_frame_mb (and its mock an encoded frame); V4L2 maps four capture buffers of about 4 bytes a pixel */
     const bool sim_host = strcmp(c->frames_backend, "sim") == 0 || strcmp(c->frames_device, "mock") == 0;
     if (sim_host) total += 2 * frame;
-    if (strcmp(c->frames_backend, "usb") == 0) {
+    if (framelink_backend(c)) {
         total += (uint64_t)(c->max_frame_mb * 1024 * 1024);
         if (strcmp(c->frames_device, "mock") == 0) total += rt_config_frame_bytes(c);
     } else if (strcmp(c->frames_backend, "v4l2") == 0) {
@@ -790,7 +798,16 @@ bool rt_config_validate(const rt_config *c, rt_config_errors *err)
         add_error(err, "[imu] device: required for backend = %s (a device path%s, or mock); %s", c->imu_backend,
                   strcmp(c->imu_backend, "hid") == 0 ? " or VVVV:PPPP" : "",
                   keys_at(c, "imu.backend imu.device", at, sizeof at));
-    if (strcmp(c->frames_backend, "sim") != 0 && !c->frames_device[0])
+    const bool on_socket = strcmp(c->frames_backend, "socket") == 0;
+    if (on_socket && strcmp(c->frames_device, "mock") == 0)
+        add_error(err, "[frames] device = mock: the socket backend has no mock host (any process is its host; "
+                       "backend = usb with device = mock runs the simulated host over the wire format); %s",
+                  keys_at(c, "frames.backend frames.device", at, sizeof at));
+    if (on_socket && strlen(c->frames_device) > DRV_FRAMES_SOCKET_PATH_MAX)
+        add_error(err, "[frames] device = %s: %zu characters, a Unix socket path holds at most %d; %s",
+                  c->frames_device, strlen(c->frames_device), DRV_FRAMES_SOCKET_PATH_MAX,
+                  keys_at(c, "frames.device", at, sizeof at));
+    if (strcmp(c->frames_backend, "sim") != 0 && !on_socket && !c->frames_device[0])
         add_error(err, "[frames] device: required for backend = %s (%s, or mock); %s", c->frames_backend,
                   strcmp(c->frames_backend, "usb") == 0 ? "the FunctionFS mount directory" : "a /dev/videoN path",
                   keys_at(c, "frames.backend frames.device", at, sizeof at));
@@ -813,7 +830,7 @@ bool rt_config_validate(const rt_config *c, rt_config_errors *err)
      * run and show nothing. */
     const double mib = 1024.0 * 1024.0;
     const uint64_t frame = rt_config_frame_bytes(c);
-    if (strcmp(c->frames_backend, "usb") == 0 && (double)frame > c->max_frame_mb * mib) {
+    if (framelink_backend(c) && (double)frame > c->max_frame_mb * mib) {
         const char *planes = wants_layers(c) ? "colour, depth, ids, layers"
                              : wants_ids(c)  ? "colour, depth, ids"
                                              : "colour, depth";
@@ -826,8 +843,8 @@ bool rt_config_validate(const rt_config *c, rt_config_errors *err)
     if ((double)mem > c->max_memory_mb * mib)
         add_error(err, "[render] max_memory_mb = %g: this configuration allocates about %.0f MiB at start "
                        "(swapchain, frame slots, warp buffers%s); %s", c->max_memory_mb, (double)mem / mib,
-                  strcmp(c->frames_backend, "usb") == 0 ? ", the USB receive buffer" : "",
-                  keys_at(c, strcmp(c->frames_backend, "usb") == 0
+                  framelink_backend(c) ? ", the host link's receive buffer" : "",
+                  keys_at(c, framelink_backend(c)
                                  ? "render.max_memory_mb eye.width eye.height display.width display.height warp.method "
                                    "frames.max_frame_mb"
                                  : "render.max_memory_mb eye.width eye.height display.width display.height warp.method",
@@ -841,7 +858,9 @@ void rt_config_warnings(const rt_config *c, rt_config_errors *warn)
      * mocked. Such a board that displays nowhere is almost certainly a mistake in its board.ini. */
     bool named = c->board_name[0] && strcmp(c->board_name, "sim") != 0 && strcmp(c->board_name, "unnamed") != 0;
     bool real_imu = strcmp(c->imu_backend, "sim") != 0 && strcmp(c->imu_device, "mock") != 0;
-    bool real_frames = strcmp(c->frames_backend, "sim") != 0 && strcmp(c->frames_device, "mock") != 0;
+    /* (the socket backend's host is a process on the same machine: a PC, not a board) */
+    bool real_frames = strcmp(c->frames_backend, "sim") != 0 && strcmp(c->frames_backend, "socket") != 0 &&
+                       strcmp(c->frames_device, "mock") != 0;
     bool real_vsync = strcmp(c->vsync_backend, "kms") == 0 ||
                       (strcmp(c->vsync_backend, "gpio") == 0 && strcmp(c->vsync_chip, "mock") != 0);
     if ((named || real_imu || real_frames || real_vsync) && strcmp(c->output, "offscreen") == 0 &&

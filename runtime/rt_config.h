@@ -142,7 +142,7 @@ bool rt_config_set(rt_config *c, const char *assignment, rt_config_errors *err);
 bool rt_config_validate(const rt_config *c, rt_config_errors *err);
 
 /* Wire size of the smallest host frame the configured eye size and planes make (colour, depth as float32, ids and
- * layers when the warp method uses them): what [frames] max_frame_mb must hold on the usb backend. */
+ * layers when the warp method uses them): what [frames] max_frame_mb must hold on the usb and socket backends. */
 uint64_t rt_config_frame_bytes(const rt_config *c);
 /* Estimate of the memory the configuration allocates at start (swapchain, frame slots, the warps' eye-sized
  * buffers, the frame backend's buffers): the large allocations only, checked against [render] max_memory_mb. */

@@ -4,6 +4,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "drivers/drv_frames_socket.h"
 #include "drivers/drv_frames_usb_mock.h"
 #include "drivers/drv_frames_v4l2_mock.h"
 #include "drivers/drv_imu_hid_mock.h"
@@ -129,7 +130,7 @@ static bool open_frames(rt_devices *d, const rt_config *c, const drv_frames_sim_
     if (strcmp(c->frames_backend, "sim") == 0) {
         d->frames = drv_frames_sim_create(sp);
         d->sim_host = true;
-    } else if (strcmp(c->frames_backend, "usb") == 0) {
+    } else if (strcmp(c->frames_backend, "usb") == 0 || strcmp(c->frames_backend, "socket") == 0) {
         drv_frames_usb_params p;
         memset(&p, 0, sizeof p);
         snprintf(p.ffs_dir, sizeof p.ffs_dir, "%s", c->frames_device);
@@ -140,7 +141,15 @@ static bool open_frames(rt_devices *d, const rt_config *c, const drv_frames_sim_
         p.poses = sp->poses;
         p.pose_rate_hz = c->pose_rate_hz;
         p.head = sp->head;
-        if (mock) {
+        /* what the camera message asks hosts to render: the board's eyes, refresh, and linear depth (the warps'
+         * own encoding: nothing to convert) */
+        p.cam[0] = sp->cam[0];
+        p.cam[1] = sp->cam[1];
+        p.refresh_hz = c->refresh_hz;
+        p.depth_encoding = WARP_DEPTH_LINEAR;
+        if (strcmp(c->frames_backend, "socket") == 0) {
+            d->frames = drv_frames_socket_create(&p, c->frames_device, e, sizeof e);
+        } else if (mock) {
             drv_frames_usb_mock_params mp;
             memset(&mp, 0, sizeof mp);
             mp.corrupt_every = c->mock_corrupt_every;
@@ -164,7 +173,10 @@ static bool open_frames(rt_devices *d, const rt_config *c, const drv_frames_sim_
     }
     if (!d->frames) {
         return warp_err(err, errlen, "[frames] backend = %s, device = %s: %s", c->frames_backend,
-                        c->frames_device[0] ? c->frames_device : "(none)", e[0] ? e : "cannot open");
+                        c->frames_device[0]                          ? c->frames_device
+                        : strcmp(c->frames_backend, "socket") == 0 ? DRV_FRAMES_SOCKET_DEFAULT
+                                                                     : "(none)",
+                        e[0] ? e : "cannot open");
     }
     return true;
 }

@@ -19,7 +19,8 @@ enum {
     R_GL_RENDERER, R_RENDERER_REASON, R_DISPLAY_OUTPUT, R_KMS_FLIPS, R_KMS_FAILED, R_KMS_LATE, R_KMS_VBLANKS,
     R_KMS_API, R_KMS_FORMAT, R_GLES_P50, R_GLES_P99, R_GLES_ERRORS, R_VSYNCS, R_MISSED, R_MISSED_BY, R_NO_FRAME,
     R_NO_BUFFER, R_METHOD, R_WARP_P50, R_WARP_P99, R_STALL, R_M2P_P50, R_M2P_P99, R_AGE_P50, R_AGE_MAX, R_SELECT,
-    R_SWITCHES, R_RECEIVED, R_BYTES, R_SHOWN, R_DROPPED, R_REJECTED_BY, R_REJECTED, R_IMU_SAMPLES,
+    R_SWITCHES, R_RECEIVED, R_BYTES, R_SHOWN, R_DROPPED, R_REJECTED_BY, R_REJECTED, R_LINK_CONNECTED,
+    R_LINK_CONNECTIONS, R_LINK_REFUSED, R_LINK_DISCONNECTS, R_LINK_POSES, R_LINK_POSES_DROPPED, R_IMU_SAMPLES,
     R_IMU_READ_ERRORS, R_IMU_LOST, R_IMU_STALE, R_IMU_REPORTS, R_IMU_BAD, R_IMU_RECONNECTS, R_IMU_CONNECTED,
     R_VS_EDGES, R_VS_SPURIOUS, R_VS_MISSED, R_VS_FALLBACKS, R_VS_ON_TIMER, R_VS_PERIOD, R_VS_JITTER, R_ORIENT_W,
     R_ORIENT_X, R_ORIENT_Y, R_ORIENT_Z, R_ORIENT_ERR, R_PSNR, R_SSIM,
@@ -73,6 +74,12 @@ const rt_summary_row rt_summary_table[] = {
     [R_DROPPED] = {"frames_dropped", "received", B, 'u', 0, false},
     [R_REJECTED_BY] = {"frames_rejected_%s", "rejected as", B, 'u', 0, false},
     [R_REJECTED] = {"frames_rejected", "received", B, 'u', 0, false},
+    [R_LINK_CONNECTED] = {"frames_link_connected", "host link", B, 'd', 0, false},
+    [R_LINK_CONNECTIONS] = {"frames_link_connections", "host link", B, 'u', 0, false},
+    [R_LINK_REFUSED] = {"frames_link_refused", "host link", B, 'u', 0, false},
+    [R_LINK_DISCONNECTS] = {"frames_link_disconnects", "host link", B, 'u', 0, false},
+    [R_LINK_POSES] = {"frames_link_poses_sent", "host link", B, 'u', 0, false},
+    [R_LINK_POSES_DROPPED] = {"frames_link_poses_dropped", "host link", B, 'u', 0, false},
     [R_IMU_SAMPLES] = {"imu_samples", "IMU samples", B, 'u', 0, false},
     [R_IMU_READ_ERRORS] = {"imu_read_errors", "IMU samples", B, 'u', 0, false},
     [R_IMU_LOST] = {"imu_lost", "IMU lost", B, 'u', 0, false},
@@ -135,6 +142,12 @@ int rt_summary_members(const rt_summary_src *s, int r)
     case R_WARP_MS: return RT_METHOD_COUNT;
     case R_SELECT: return RT_WHY_COUNT;
     case R_REJECTED_BY: return DRV_FRAME_ERR_COUNT - 1; /* member i is reason i + 1: 0 is "ok" */
+    case R_LINK_CONNECTED:
+    case R_LINK_CONNECTIONS:
+    case R_LINK_REFUSED:
+    case R_LINK_DISCONNECTS:
+    case R_LINK_POSES:
+    case R_LINK_POSES_DROPPED: return s->has_link_stats;
     case R_IMU_REPORTS:
     case R_IMU_BAD:
     case R_IMU_RECONNECTS:
@@ -258,6 +271,12 @@ static val value(const rt_summary_src *s, int r, int i)
     case R_REJECTED:
         for (int e = 1; e < DRV_FRAME_ERR_COUNT; e++) v.u += t->frames_rejected[e];
         break;
+    case R_LINK_CONNECTED: v.u = s->link.connected; break;
+    case R_LINK_CONNECTIONS: v.u = s->link.connections; break;
+    case R_LINK_REFUSED: v.u = s->link.refused; break;
+    case R_LINK_DISCONNECTS: v.u = s->link.disconnects; break;
+    case R_LINK_POSES: v.u = s->link.poses_sent; break;
+    case R_LINK_POSES_DROPPED: v.u = s->link.poses_dropped; break;
     case R_IMU_SAMPLES: v.u = t->imu_samples; break;
     case R_IMU_READ_ERRORS: v.u = t->imu_read_errors; break;
     case R_IMU_LOST: v.u = t->imu_lost; break;
@@ -461,6 +480,11 @@ void rt_summary_print(const rt_summary_src *s, FILE *out)
         if (UI(R_REJECTED_BY, e))
             fprintf(out, "    %s %-13s %llu\n", L(R_REJECTED_BY), rt_summary_member_label(R_REJECTED_BY, e),
                     UI(R_REJECTED_BY, e));
+    if (s->has_link_stats)
+        fprintf(out, "  %-26s %s, hosts %llu (refused %llu), disconnects %llu; poses sent %llu, dropped "
+                     "%llu%s%s\n", L(R_LINK_CONNECTED), U(R_LINK_CONNECTED) ? "connected" : "NOT connected",
+                U(R_LINK_CONNECTIONS), U(R_LINK_REFUSED), U(R_LINK_DISCONNECTS), U(R_LINK_POSES),
+                U(R_LINK_POSES_DROPPED), s->link.last_error[0] ? "; last: " : "", s->link.last_error);
     pct_line(out, L(R_HOST_RENDER), value(s, R_HOST_RENDER, 0).h);
     if (rt_summary_members(s, R_PLANES)) {
         buf[0] = 0;

@@ -8,6 +8,7 @@
 #include <stdint.h>
 #include <stdio.h>
 
+#include "drivers/drv_frames_usb.h"
 #include "drivers/drv_imu.h"
 #include "drivers/drv_vsync.h"
 #include "platform/plat_kms.h"
@@ -37,6 +38,8 @@ typedef struct {
     /* devices */
     const char *imu_name, *frames_name, *vsync_name; /* "" when not open */
     bool has_imu_stats, has_vsync_stats, kms;
+    bool has_link_stats;       /* the frames come over a framelink link (usb, its mock, socket) */
+    drv_frames_usb_stats link;
     drv_imu_stats imu;
     drv_vsync_stats vsync;
     plat_kms_stats kms_stats;  /* zeros, api and format "", offscreen */

@@ -84,7 +84,9 @@ static int setup(void **state)
     s->imu_name = "hid-mock";
     s->frames_name = "usb-mock";
     s->vsync_name = "gpio-mock";
-    s->has_imu_stats = s->has_vsync_stats = s->kms = true;
+    s->has_imu_stats = s->has_vsync_stats = s->kms = s->has_link_stats = true;
+    s->link = (drv_frames_usb_stats){.connected = true, .connections = 2, .refused = 1, .disconnects = 1,
+                                     .poses_sent = 500, .poses_dropped = 3};
     s->imu = (drv_imu_stats){100, 2, 1, 1, true, "bad report"};
     s->vsync = (drv_vsync_stats){180, 1, 2, 1, false, 11111111, 12.5, ""};
     s->kms_stats = (plat_kms_stats){.flips = 180, .failed = 1, .late = 2, .vblanks = 181, .api = "atomic",
@@ -238,11 +240,11 @@ static void test_live_and_absent(void **state)
     fixture *f = *state;
     rt_summary_src s = f->src;
     s.live = true;
-    s.gles = s.kms = s.has_imu_stats = s.has_vsync_stats = s.has_orientation = false;
+    s.gles = s.kms = s.has_imu_stats = s.has_vsync_stats = s.has_orientation = s.has_link_stats = false;
     s.kms_stats = (plat_kms_stats){.api = "", .format = ""};
     char *kv = render(&s, false);
     assert_non_null(strstr(kv, "\nrunning=1\n"));
-    const char *gone[] = {"psnr_", "ssim_", "gles_", "imu_reports", "vsync_edges", "orientation_"};
+    const char *gone[] = {"psnr_", "ssim_", "gles_", "imu_reports", "vsync_edges", "orientation_", "frames_link_"};
     for (size_t i = 0; i < sizeof gone / sizeof gone[0]; i++)
         if (strstr(kv, gone[i])) fail_msg("live --stats has %s", gone[i]);
     /* the KMS keys are always there, zeros offscreen, so scripts need not test for them */
