@@ -170,6 +170,13 @@ $(BUILD)/tests/unit/test_registry: $(BUILD)/obj/tests/unit/test_registry.o $(TOO
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_ALL) $(TEST_LIBS)
 
+# test_sequence reads the sequences hmdwarp-warp writes and hmdwarp-feed plays with the tools' own reader.
+$(BUILD)/tests/unit/test_sequence: $(BUILD)/obj/tests/unit/test_sequence.o $(TOOLS_COMMON_OBJ) $(TEST_SUPPORT_OBJ) \
+                                   $(LIBS)
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_ALL) $(TEST_LIBS)
+
 # test_render_cpu checks hmdwarp-bench's display path (bench_display) against hmdwarpd's CPU pass.
 $(BUILD)/tests/unit/test_render_cpu: $(BUILD)/obj/tests/unit/test_render_cpu.o \
                                      $(BUILD)/obj/tools/hmdwarp-bench/bench_display.o $(TEST_SUPPORT_OBJ) $(LIBS)

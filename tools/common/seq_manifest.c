@@ -199,8 +199,12 @@ static bool parse_row(const seq_manifest *m, const column *cols, int ncols, char
                       seq_frame *fr, const char *path, int ln, char *err, int errlen)
 {
     double pose[2][7];
-    int i = 0;
+    int i = 0, fields = 1;
     fr->line = ln;
+    for (const char *c = s; *c; c++) fields += *c == ',';
+    /* Counted first: a shifted row would otherwise be reported as a bad number or a missing file. */
+    if (fields != ncols)
+        return warp_err(err, errlen, "%s:%d: %d fields, the column line names %d", path, ln, fields, ncols);
     char *cell = s;
     for (;; i++) {
         char *end = cell + strcspn(cell, ",");
@@ -209,7 +213,6 @@ static bool parse_row(const seq_manifest *m, const column *cols, int ncols, char
         cell += strspn(cell, " \t");
         cell[strcspn(cell, "\r\n")] = 0;
         for (size_t l = strlen(cell); l > 0 && (cell[l - 1] == ' ' || cell[l - 1] == '\t'); l--) cell[l - 1] = 0;
-        if (i >= ncols) return warp_err(err, errlen, "%s:%d: more than the %d fields the column line names", path, ln, ncols);
         const column *c = &cols[i];
         double v = 0;
         if (c->what == COL_INDEX || c->what == COL_TIME || c->what == COL_POSE) {
@@ -240,8 +243,6 @@ static bool parse_row(const seq_manifest *m, const column *cols, int ncols, char
         if (last) break;
         cell = end + 1;
     }
-    if (i + 1 != ncols)
-        return warp_err(err, errlen, "%s:%d: %d fields, the column line names %d", path, ln, i + 1, ncols);
     for (int e = 0; e < m->eyes; e++) {
         warp_quat q = {pose[e][0], pose[e][1], pose[e][2], pose[e][3]};
         double len = sqrt(q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z);
@@ -352,7 +353,8 @@ void seq_close(seq_manifest *m)
 
 /* ---- loading a frame ---- */
 
-static bool load_eye(const seq_manifest *m, const seq_frame *fr, int e, drv_frame *f, char *err, int errlen)
+static bool load_eye(const seq_manifest *m, const seq_frame *fr, int e, unsigned planes, drv_frame *f, char *err,
+                     int errlen)
 {
     const warp_camera *cam = &m->cam[e];
     int src = m->eyes == 1 ? 0 : e;
@@ -369,23 +371,23 @@ static bool load_eye(const seq_manifest *m, const seq_frame *fr, int e, drv_fram
         ok = warp_err(err, errlen, "%s: %dx%d, the manifest says %dx%d", fr->file[src][SEQ_COLOR], color.w, color.h,
                       cam->width, cam->height);
     if (ok) warp_image_rgba8_copy(&f->color[e], &color);
-    if (ok && (m->planes & DRV_PLANE_DEPTH)) {
+    if (ok && (planes & DRV_PLANE_DEPTH)) {
         ok = warpfile_load_depth(fr->file[src][SEQ_DEPTH], cam, m->depth_encoding, m->depth_ray, m->depth_scale,
                                  &depth, err, errlen);
         for (int y = 0; ok && y < cam->height; y++)
             memcpy(&WARP_AT(&f->depth[e], 0, y), &WARP_AT(&depth, 0, y), sizeof(float) * (size_t)cam->width);
     }
-    if (ok && (m->planes & DRV_PLANE_IDS)) {
+    if (ok && (planes & DRV_PLANE_IDS)) {
         ok = warpfile_load_ids(fr->file[src][SEQ_IDS], cam, &ids, err, errlen);
         for (int y = 0; ok && y < cam->height; y++)
             memcpy(&WARP_AT(&f->ids[e], 0, y), &WARP_AT(&ids, 0, y), sizeof(uint16_t) * (size_t)cam->width);
     }
-    if (ok && (m->planes & DRV_PLANE_MOTION)) {
+    if (ok && (planes & DRV_PLANE_MOTION)) {
         ok = warpfile_load_motion(fr->file[src][SEQ_MOTION], cam, &motion, err, errlen);
         for (int y = 0; ok && y < cam->height; y++)
             memcpy(&WARP_AT(&f->motion[e], 0, y), &WARP_AT(&motion, 0, y), sizeof(warp_vec2f) * (size_t)cam->width);
     }
-    if (ok && (m->planes & DRV_PLANE_LAYERS)) {
+    if (ok && (planes & DRV_PLANE_LAYERS)) {
         ok = warpfile_read_layers(fr->file[src][SEQ_LAYERS], cam, &layers, err, errlen);
         warp_image_layers *d = &f->layers[e];
         for (int i = 0; ok && i < layers.w * layers.h; i++) {
@@ -408,13 +410,14 @@ static bool load_eye(const seq_manifest *m, const seq_frame *fr, int e, drv_fram
     return ok;
 }
 
-bool seq_load_frame(const seq_manifest *m, int i, drv_frame *f, char *err, int errlen)
+bool seq_load_frame(const seq_manifest *m, int i, unsigned planes, drv_frame *f, char *err, int errlen)
 {
+    planes = (planes & m->planes) | DRV_PLANE_COLOR;
     if (i < 0 || i >= m->n) return warp_err(err, errlen, "%s: no frame %d (%d frames)", m->path, i, m->n);
     const seq_frame *fr = &m->frames[i];
     char why[400];
     for (int e = 0; e < 2; e++)
-        if (!load_eye(m, fr, e, f, why, sizeof why))
+        if (!load_eye(m, fr, e, planes, f, why, sizeof why))
             return warp_err(err, errlen, "%s:%d (frame %d): %s", m->path, fr->line, i, why);
     f->n_objects = 0;
     if (fr->objects) {
@@ -424,7 +427,7 @@ bool seq_load_frame(const seq_manifest *m, int i, drv_frame *f, char *err, int e
         f->n_objects = o.n;
         memcpy(f->object_pose, o.src, sizeof(warp_pose) * (size_t)o.n);
     }
-    f->planes = m->planes;
+    f->planes = planes;
     f->depth_encoding = m->depth_encoding;
     for (int e = 0; e < 2; e++) {
         f->cam[e] = m->cam[e];

@@ -48,11 +48,11 @@ typedef struct {
 bool seq_open(const char *path, seq_manifest *m, char *err, int errlen);
 void seq_close(seq_manifest *m);
 
-/* Loads frame i into f, allocated for (at least) m->planes by drv_frame_alloc(f, cam width, height, m->planes,
- * m->max_layers): cameras, poses, planes, depth encoding, object poses (source time), scene_time = the frame's
- * time. False with a message naming the file (and the manifest's line) when a file is unreadable or the wrong
- * size. */
-bool seq_load_frame(const seq_manifest *m, int i, drv_frame *f, char *err, int errlen);
+/* Loads frame i into f, allocated by drv_frame_alloc(f, cam width, height, planes, m->max_layers): the planes of
+ * m->planes & planes (colour always), cameras, poses, depth encoding, object poses (source time), scene_time = the
+ * frame's time. False with a message naming the file (and the manifest's line) when a file is unreadable or the
+ * wrong size. */
+bool seq_load_frame(const seq_manifest *m, int i, unsigned planes, drv_frame *f, char *err, int errlen);
 
 /* Writes a manifest: the header from the arguments, then one line per seq_writer_frame. files[e][kind] are names
  * relative to the manifest's directory; the kinds in planes (DRV_PLANE_*) must be given for every frame. */
