@@ -186,7 +186,8 @@ $(BUILD)/tests/unit/test_render_cpu: $(BUILD)/obj/tests/unit/test_render_cpu.o \
 
 # Fuzz harnesses (tests/fuzz/README.md): linked with the helpers and the hmdwarp-warp file readers they fuzz; as
 # regression runners (standalone.c, any compiler) in make test, with libFuzzer (clang) in make fuzz.
-FUZZ_LINK_OBJ := $(patsubst %.c,$(BUILD)/obj/%.o,tests/fuzz/util.c tools/common/warp_files.c)
+FUZZ_LINK_OBJ := $(patsubst %.c,$(BUILD)/obj/%.o,tests/fuzz/util.c tools/common/warp_files.c \
+                 tools/common/seq_manifest.c)
 $(FUZZ_REG_BINS): $(BUILD)/tests/fuzz/%: $(BUILD)/obj/tests/fuzz/%.o $(BUILD)/obj/tests/fuzz/standalone.o \
                   $(FUZZ_LINK_OBJ) $(LIBS)
 	@mkdir -p $(dir $@)

@@ -110,6 +110,7 @@ static void test_reader_broken_manifests(void **state)
         {HEAD COLS, "no frames"},
         {HEAD "index,time,qw,qx,qy,qz,x,y,z,colour\n", ":6: column 'colour': unknown"},
         {HEAD "index,time,qw,qx,qy,qz,x,y,z,color,time\n", ":6: column 'time': named twice"},
+        {HEAD "index,time,,qw,qx,qy,qz,x,y,z,color\n", ":6: column 3 has no name"},
         {HEAD "index,time,qw,qx,qy,qz,x,y,color\n", ":6: no column 'z'"},
         {HEAD "index,time,qw,qx,qy,qz,x,y,z\n", ":6: no column 'color'"},
         {"hmdwarp-sequence 1\nsize 4 2\ntan 1 1 1 1\nframes\nindex,time,left_qw,left_qx,left_qy,left_qz,left_x,left_y,"

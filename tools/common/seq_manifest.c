@@ -111,9 +111,14 @@ static bool parse_columns(seq_manifest *m, char *s, column **cols, int *ncols, c
     column *c = malloc(sizeof *c * (size_t)cap);
     if (!c) return warp_err(err, errlen, "out of memory");
     bool have_pose[2][7] = {{false}}, have_file[2][SEQ_KINDS] = {{false}}, have_index = false, have_time = false;
-    for (char *save = NULL, *tok = strtok_r(s, ",", &save); tok; tok = strtok_r(NULL, ",", &save)) {
+    s[strcspn(s, "\r\n")] = 0;
+    for (char *next = s, *tok; (tok = strsep(&next, ",")) != NULL;) {
         tok += strspn(tok, " \t");
-        tok[strcspn(tok, " \t\r\n")] = 0;
+        tok[strcspn(tok, " \t")] = 0;
+        if (!*tok) {
+            free(c);
+            return warp_err(err, errlen, "%s:%d: column %d has no name", path, ln, n + 1);
+        }
         if (n == cap) {
             column *nc = realloc(c, sizeof *c * (size_t)(cap *= 2));
             if (!nc) return free(c), warp_err(err, errlen, "out of memory");

@@ -184,6 +184,7 @@ int main(int argc, char **argv)
     if (!o.view) return fail_msg("--view FILE is required (intrinsics and poses; see docs/hmdwarp-warp.md)");
     warpfile_view vf;
     if (!warpfile_load_view(o.view, &vf, err, sizeof err)) return fail_msg(err);
+    if (o.sim && o.objects) return fail_msg("--objects is for frames from files (--sim has the scene's own)");
     if (o.write_sequence) {
         const sim_scene *sc = o.sim ? sim_scene_find(o.sim) : NULL;
         if (!sc) return fail_msg("--write-sequence needs --sim SCENE (a scene of hmdwarpd --list)");
