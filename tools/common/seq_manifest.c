@@ -53,7 +53,8 @@ static bool header_line(seq_manifest *m, header_seen *hs, const char *path, int 
     } else if (strcmp(key, "depth-encoding") == 0 || strcmp(key, "depth-kind") == 0) {
         char word[32];
         ok = sscanf(rest, "%31s", word) == 1 &&
-             (key[6] == 'e' ? warpfile_depth_encoding(word, &m->depth_encoding) : warpfile_depth_kind(word, &m->depth_ray));
+             (strcmp(key, "depth-kind") == 0 ? warpfile_depth_kind(word, &m->depth_ray)
+                                             : warpfile_depth_encoding(word, &m->depth_encoding));
     } else if (strcmp(key, "depth-scale") == 0) {
         ok = sscanf(rest, "%lf", &m->depth_scale) == 1 && isfinite(m->depth_scale) && m->depth_scale > 0;
     } else if (strcmp(key, "max-layers") == 0) {
