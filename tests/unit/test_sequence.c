@@ -102,7 +102,8 @@ static void test_reader_broken_manifests(void **state)
         {"hmdwarp-sequence 1\neyes 3\n", ":2: cannot read the value of 'eyes'"},
         {"hmdwarp-sequence 1\nsize 4 2\nintrinsics 0 2 2 1\n", ":3: cannot read the value of 'intrinsics'"},
         {"hmdwarp-sequence 1\nsize 4 2\nframes\n", "needs size and tan or intrinsics"},
-        {"hmdwarp-sequence 1\nsize 4 2\ntan 1 1 1 1\ndepth-encoding log\n", ":4: cannot read the value of 'depth-encoding'"},
+        {"hmdwarp-sequence 1\nsize 4 2\ntan 1 1 1 1\ndepth-encoding log\n",
+         ":4: cannot read the value of 'depth-encoding'"},
         {"hmdwarp-sequence 1\nsize 4 2\ntan 1 1 1 1\ndepth-kind ray\ndepth-encoding reversed\nframes\n",
          "depth-kind ray needs depth-encoding linear"},
         {"hmdwarp-sequence 1\nsize 4 2\ntan -1 -1 1 1\nframes\n", "left camera"},
@@ -375,7 +376,8 @@ static void test_feed_refuses_bad_sequence(void **state)
 {
     (void)state;
     char cmd[3000], out[8192];
-    const char *d = manifest("feedbad", HEAD COLS "0,0,1,0,0,0,0,1.6,0,c.png,d.pfm\n1,0.1,1,0,0,0,0,inf,0,c.png,d.pfm\n");
+    const char *d =
+        manifest("feedbad", HEAD COLS "0,0,1,0,0,0,0,1.6,0,c.png,d.pfm\n1,0.1,1,0,0,0,0,inf,0,c.png,d.pfm\n");
     snprintf(cmd, sizeof cmd, "%s/hmdwarp-feed --sequence %s --file %s/never.bin", build, d, dir);
     assert_int_equal(run(cmd, out, sizeof out), 2);
     assert_non_null(strstr(out, "manifest.txt:8: field 'y': 'inf' is not a finite number"));

@@ -111,8 +111,9 @@ static void test_objects_file_matches_simulator(void **state)
 {
     (void)state;
     char out[4096], args[8192];
-    snprintf(args, sizeof args, "--sim movers --view %s --warp objects --time 0 --target-time 0.05 --write-inputs %s/mov",
-             write_view(), dir);
+    snprintf(args, sizeof args,
+             "--sim movers --view %s --warp objects --time 0 --target-time 0.05 --write-inputs %s/mov", write_view(),
+             dir);
     assert_int_equal(run(args, out, sizeof out), 0);
     double sim_psnr = psnr_of(out);
     assert_non_null(strstr(out, "moved"));

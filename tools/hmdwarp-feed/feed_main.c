@@ -136,7 +136,8 @@ static bool parse_opts(int argc, char **argv, feed_opts *o)
 {
     *o = (feed_opts){.v4l2_format = "yuyv", .vid = DEFAULT_VID, .pid = DEFAULT_PID, .wait_s = 30, .scene = "room", .eye_w = 720,
                      .eye_h = 800, .fov = {52, 48, 52, 52}, .near_z = 0.05,
-                     .planes = DRV_PLANE_COLOR | DRV_PLANE_DEPTH, .rate_hz = 45, .synth_rate_hz = 90, .threads = 2, .seq_rate = "own"};
+                     .planes = DRV_PLANE_COLOR | DRV_PLANE_DEPTH, .rate_hz = 45, .synth_rate_hz = 90, .threads = 2,
+                     .seq_rate = "own"};
     enum { O_DEVICE = 256, O_IFACE, O_WAIT, O_SCENE, O_PNG, O_EYE, O_FOV, O_NEAR, O_PLANES, O_DEPTH, O_THREADS,
            O_RATE, O_FRAMES, O_DURATION, O_FILE, O_STDOUT, O_SYNTH, O_V4L2, O_V4L2_FMT, O_V4L2_DEPTH, O_SYNTH_POSES, O_DAMAGE,
            O_SEQUENCE, O_SEQ_RATE, O_LOOP };
@@ -476,7 +477,8 @@ int main(int argc, char **argv)
         planes = (sim_planes_for_effects(sim_scene_effects(scene)) & o.planes) | DRV_PLANE_COLOR;
     }
     drv_frame f;
-    if (!drv_frame_alloc(&f, o.eye_w, o.eye_h, planes, max_layers)) return fprintf(stderr, "hmdwarp-feed: out of memory\n"), 1;
+    if (!drv_frame_alloc(&f, o.eye_w, o.eye_h, planes, max_layers))
+        return fprintf(stderr, "hmdwarp-feed: out of memory\n"), 1;
     f.planes = planes;
     f.depth_encoding = WARP_DEPTH_LINEAR;
     for (int e = 0; e < 2; e++) {

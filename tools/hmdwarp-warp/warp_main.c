@@ -85,7 +85,8 @@ static void usage(FILE *f)
 
 static bool parse(int argc, char **argv, opts *o)
 {
-    *o = (opts){.seq_frames = 30, .seq_rate = 90, .dst_time = NAN, .depth_kind = "planar", .depth_encoding = "linear", .depth_scale = 1, .warp = "rotation"};
+    *o = (opts){.seq_frames = 30, .seq_rate = 90, .dst_time = NAN, .depth_kind = "planar", .depth_encoding = "linear",
+                .depth_scale = 1, .warp = "rotation"};
     enum { O_COLOR = 256, O_DEPTH, O_KIND, O_ENC, O_SCALE, O_IDS, O_MOTION, O_VIEW, O_REF, O_SIM, O_TIME, O_WRITE,
            O_WARP, O_PARAMS, O_LIST, O_OUT, O_MASK, O_TABLE, O_QUICK, O_TTIME, O_LAYERS,
            O_OBJECTS, O_WSEQ, O_FRAMES, O_RATE };
@@ -96,7 +97,8 @@ static bool parse(int argc, char **argv, opts *o)
         {"time", 1, 0, O_TIME}, {"target-time", 1, 0, O_TTIME}, {"write-inputs", 1, 0, O_WRITE}, {"warp", 1, 0, O_WARP},
         {"params", 1, 0, O_PARAMS}, {"list", 0, 0, O_LIST}, {"out", 1, 0, O_OUT}, {"mask", 1, 0, O_MASK},
         {"table", 1, 0, O_TABLE}, {"objects", 1, 0, O_OBJECTS}, {"write-sequence", 1, 0, O_WSEQ},
-        {"frames", 1, 0, O_FRAMES}, {"rate", 1, 0, O_RATE}, {"quick", 0, 0, O_QUICK}, {"help", 0, 0, 'h'}, {"version", 0, 0, 'V'}, {0, 0, 0, 0}};
+        {"frames", 1, 0, O_FRAMES}, {"rate", 1, 0, O_RATE},
+        {"quick", 0, 0, O_QUICK}, {"help", 0, 0, 'h'}, {"version", 0, 0, 'V'}, {0, 0, 0, 0}};
     int c;
     while ((c = getopt_long(argc, argv, "h", lo, NULL)) != -1) {
         switch (c) {
@@ -122,7 +124,8 @@ static bool parse(int argc, char **argv, opts *o)
             break;
         case O_RATE:
             o->seq_rate = atof(optarg);
-            if (!(o->seq_rate > 0) || !isfinite(o->seq_rate)) return fprintf(stderr, "--rate: a positive number\n"), false;
+            if (!(o->seq_rate > 0) || !isfinite(o->seq_rate))
+                return fprintf(stderr, "--rate: a positive number\n"), false;
             break;
         case O_WARP: o->warp = optarg; break;
         case O_PARAMS: o->params = optarg; break;
