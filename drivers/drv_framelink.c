@@ -77,6 +77,25 @@ static warp_pose get_pose(const uint8_t *p)
 }
 
 static bool pose_ok(warp_pose a) { return warp_pose_isfinite(a) && fabs(warp_quat_norm(a.q) - 1.0) <= 1e-3; }
+/* A camera on the wire (56 bytes): width, height u32, then the tangents, near and far (f64). */
+static void put_camera(uint8_t *p, const warp_camera *c)
+{
+    put_u32(p, (uint32_t)c->width);
+    put_u32(p + 4, (uint32_t)c->height);
+    const double v[6] = {c->tan_left, c->tan_right, c->tan_up, c->tan_down, c->near_z, c->far_z};
+    for (int i = 0; i < 6; i++) put_f64(p + 8 + 8 * i, v[i]);
+}
+/* The tangents, near and far of a wire camera (the size is read and checked by the caller). */
+static void get_camera_frustum(const uint8_t *p, warp_camera *c)
+{
+    c->tan_left = get_f64(p + 8);
+    c->tan_right = get_f64(p + 16);
+    c->tan_up = get_f64(p + 24);
+    c->tan_down = get_f64(p + 32);
+    c->near_z = get_f64(p + 40);
+    c->far_z = get_f64(p + 48);
+}
+
 static bool time_ok(int64_t t) { return t >= 0 && t <= DRV_FRAMELINK_TIME_MAX_NS; }
 
 /* ---- frame layout ---- */
@@ -301,10 +320,7 @@ size_t drv_framelink_encode_ex(const drv_frame *f, const drv_framelink_tx *tx, u
         uint8_t *p = buf + OFF_EYES + e * EYE_BYTES;
         const warp_camera *c = &f->cam[e];
         put_pose(p, f->eye_pose[e]);
-        put_u32(p + EYE_CAM, (uint32_t)c->width);
-        put_u32(p + EYE_CAM + 4, (uint32_t)c->height);
-        const double v[6] = {c->tan_left, c->tan_right, c->tan_up, c->tan_down, c->near_z, c->far_z};
-        for (int i = 0; i < 6; i++) put_f64(p + EYE_CAM + 8 + 8 * i, v[i]);
+        put_camera(p + EYE_CAM, c);
     }
     uint8_t *p = buf + DRV_FRAMELINK_FIXED_BYTES;
     for (int i = 0; i < f->n_objects; i++, p += DRV_FRAMELINK_OBJECT_BYTES) put_pose(p, f->object_pose[i]);
@@ -623,12 +639,7 @@ drv_frame_err drv_framelink_decode_ex(const uint8_t *buf, size_t len, size_t max
         out->eye_pose[e] = get_pose(p);
         warp_camera *c = &out->cam[e];
         c->width = w[e], c->height = h[e];
-        c->tan_left = get_f64(p + EYE_CAM + 8);
-        c->tan_right = get_f64(p + EYE_CAM + 16);
-        c->tan_up = get_f64(p + EYE_CAM + 24);
-        c->tan_down = get_f64(p + EYE_CAM + 32);
-        c->near_z = get_f64(p + EYE_CAM + 40);
-        c->far_z = get_f64(p + EYE_CAM + 48);
+        get_camera_frustum(p + EYE_CAM, c);
     }
     out->n_objects = n_obj;
     for (int i = 0; i < n_obj; i++)
@@ -655,6 +666,21 @@ drv_frame_err drv_framelink_decode(const uint8_t *buf, size_t len, size_t max_fr
     return drv_framelink_decode_ex(buf, len, max_frame, out, NULL, NULL, 0);
 }
 
+/* ---- board -> host messages ---- */
+
+/* What every board message shares, checked in this order: magic, version, size, length, CRC (the last 4 bytes). */
+static drv_frame_err msg_envelope(const uint8_t *buf, size_t len, uint32_t magic, uint16_t bytes)
+{
+    if (len < 4) return DRV_FRAME_ERR_TRUNCATED;
+    if (get_u32(buf) != magic) return DRV_FRAME_ERR_BAD_MAGIC;
+    if (len < 8) return DRV_FRAME_ERR_TRUNCATED;
+    if (get_u16(buf + 4) != DRV_FRAMELINK_VERSION) return DRV_FRAME_ERR_BAD_VERSION;
+    if (get_u16(buf + 6) != bytes) return DRV_FRAME_ERR_BAD_SIZE;
+    if (len < bytes) return DRV_FRAME_ERR_TRUNCATED;
+    if (get_u32(buf + bytes - 4) != crc(buf, bytes - 4u)) return DRV_FRAME_ERR_CRC;
+    return DRV_FRAME_OK;
+}
+
 /* ---- pose messages ---- */
 
 size_t drv_framelink_pose_encode(const drv_framelink_pose *p, uint8_t *buf, size_t cap)
@@ -676,13 +702,8 @@ size_t drv_framelink_pose_encode(const drv_framelink_pose *p, uint8_t *buf, size
 
 drv_frame_err drv_framelink_pose_decode(const uint8_t *buf, size_t len, drv_framelink_pose *out)
 {
-    if (len < 4) return DRV_FRAME_ERR_TRUNCATED;
-    if (get_u32(buf) != DRV_FRAMELINK_POSE_MAGIC) return DRV_FRAME_ERR_BAD_MAGIC;
-    if (len < 8) return DRV_FRAME_ERR_TRUNCATED;
-    if (get_u16(buf + 4) != DRV_FRAMELINK_VERSION) return DRV_FRAME_ERR_BAD_VERSION;
-    if (get_u16(buf + 6) != DRV_FRAMELINK_POSE_BYTES) return DRV_FRAME_ERR_BAD_SIZE;
-    if (len < DRV_FRAMELINK_POSE_BYTES) return DRV_FRAME_ERR_TRUNCATED;
-    if (get_u32(buf + 200) != crc(buf, 200)) return DRV_FRAME_ERR_CRC;
+    drv_frame_err env = msg_envelope(buf, len, DRV_FRAMELINK_POSE_MAGIC, DRV_FRAMELINK_POSE_BYTES);
+    if (env != DRV_FRAME_OK) return env;
     drv_framelink_pose p;
     p.seq = get_u32(buf + 8);
     p.board_t_ns = (int64_t)get_u64(buf + 16);
@@ -694,4 +715,68 @@ drv_frame_err drv_framelink_pose_decode(const uint8_t *buf, size_t len, drv_fram
     if (!time_ok(p.board_t_ns) || !time_ok(p.target_t_ns)) return DRV_FRAME_ERR_BAD_POSE;
     *out = p;
     return DRV_FRAME_OK;
+}
+
+/* ---- camera messages ---- */
+
+size_t drv_framelink_cams_encode(const drv_framelink_cams *c, uint8_t *buf, size_t cap)
+{
+    if (cap < DRV_FRAMELINK_CAMS_BYTES) return 0;
+    memset(buf, 0, DRV_FRAMELINK_CAMS_BYTES);
+    put_u32(buf, DRV_FRAMELINK_CAMS_MAGIC);
+    put_u16(buf + 4, DRV_FRAMELINK_VERSION);
+    put_u16(buf + 6, DRV_FRAMELINK_CAMS_BYTES);
+    put_u32(buf + 8, c->seq);
+    put_u32(buf + 16, c->planes);
+    put_u32(buf + 20, (uint32_t)c->depth_encoding);
+    put_u64(buf + 24, c->max_frame_bytes);
+    put_f64(buf + 32, c->refresh_hz);
+    put_f64(buf + 40, c->pose_rate_hz);
+    put_camera(buf + 48, &c->cam[0]);
+    put_camera(buf + 104, &c->cam[1]);
+    put_u32(buf + 164, crc(buf, 164));
+    return DRV_FRAMELINK_CAMS_BYTES;
+}
+
+drv_frame_err drv_framelink_cams_decode(const uint8_t *buf, size_t len, drv_framelink_cams *out)
+{
+    drv_frame_err env = msg_envelope(buf, len, DRV_FRAMELINK_CAMS_MAGIC, DRV_FRAMELINK_CAMS_BYTES);
+    if (env != DRV_FRAME_OK) return env;
+    drv_framelink_cams c;
+    memset(&c, 0, sizeof c);
+    c.seq = get_u32(buf + 8);
+    c.planes = get_u32(buf + 16);
+    uint32_t enc = get_u32(buf + 20);
+    c.max_frame_bytes = get_u64(buf + 24);
+    c.refresh_hz = get_f64(buf + 32);
+    c.pose_rate_hz = get_f64(buf + 40);
+    /* Reserved fields are zero in version 1 (docs/framelink.md, Versioning). */
+    if (get_u32(buf + 12) != 0 || get_u32(buf + 160) != 0) return DRV_FRAME_ERR_BAD_FORMAT;
+    if (!(c.planes & DRV_PLANE_COLOR) || (c.planes & ~(unsigned)(DRV_PLANE_COLOR | DRV_PLANE_DEPTH | DRV_PLANE_IDS |
+                                                                 DRV_PLANE_MOTION | DRV_PLANE_LAYERS)))
+        return DRV_FRAME_ERR_BAD_FORMAT;
+    if (enc > WARP_DEPTH_REVERSED) return DRV_FRAME_ERR_BAD_FORMAT;
+    c.depth_encoding = (warp_depth_encoding)enc;
+    if (!isfinite(c.refresh_hz) || c.refresh_hz <= 0 || !isfinite(c.pose_rate_hz) || c.pose_rate_hz <= 0 ||
+        c.max_frame_bytes == 0)
+        return DRV_FRAME_ERR_BAD_SIZE;
+    for (int e = 0; e < 2; e++) {
+        const uint8_t *p = buf + 48 + 56 * e;
+        uint32_t w = get_u32(p), h = get_u32(p + 4);
+        if (w == 0 || h == 0 || w > MAX_DIM || h > MAX_DIM) return DRV_FRAME_ERR_BAD_CAMERA;
+        c.cam[e].width = (int)w, c.cam[e].height = (int)h;
+        get_camera_frustum(p, &c.cam[e]);
+        if (warp_camera_check(&c.cam[e])) return DRV_FRAME_ERR_BAD_CAMERA;
+    }
+    *out = c;
+    return DRV_FRAME_OK;
+}
+
+uint32_t drv_framelink_msg_peek(const uint8_t *buf, size_t len, size_t *size)
+{
+    if (len < 12) return 0;
+    uint32_t magic = get_u32(buf);
+    if (magic != DRV_FRAMELINK_POSE_MAGIC && magic != DRV_FRAMELINK_CAMS_MAGIC) return 0;
+    if (size) *size = get_u16(buf + 6);
+    return magic;
 }

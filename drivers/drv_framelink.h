@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /* drv_framelink: the frame wire protocol between host and board (one codec for both ends): frames host -> board,
- * pose messages board -> host. Little-endian, versioned, CRC32-checked; byte layout in docs/framelink.md. */
+ * pose and camera messages board -> host. Little-endian, versioned, CRC32-checked; byte layout in docs/framelink.md. */
 #ifndef DRV_FRAMELINK_H
 #define DRV_FRAMELINK_H
 
@@ -95,5 +95,30 @@ size_t drv_framelink_pose_encode(const drv_framelink_pose *p, uint8_t *buf, size
 /* TRUNCATED, BAD_MAGIC, BAD_VERSION, BAD_SIZE, CRC, or BAD_POSE (non-finite or non-unit quaternion, non-finite
  * position, a time outside [0, DRV_FRAMELINK_TIME_MAX_NS]). */
 drv_frame_err drv_framelink_pose_decode(const uint8_t *buf, size_t len, drv_framelink_pose *out);
+
+/* Board -> host: what the board wants rendered (docs/framelink.md, Camera message). Sent when a host connects and
+ * then once a second, so a host that starts late or reconnects learns the eye cameras without asking. */
+#define DRV_FRAMELINK_CAMS_MAGIC 0x31435748u /* "HWC1" */
+#define DRV_FRAMELINK_CAMS_BYTES 168
+typedef struct {
+    uint32_t seq;
+    unsigned planes;                    /* DRV_PLANE_* the board accepts (allocated); COLOR always */
+    warp_depth_encoding depth_encoding; /* the depth encoding the board prefers (any is accepted) */
+    uint64_t max_frame_bytes;           /* frames declaring more are rejected */
+    double refresh_hz;                  /* the panel's refresh */
+    double pose_rate_hz;                /* pose messages per second */
+    warp_camera cam[2];                 /* the eye cameras (size, FOV tangents, near/far) frames must be rendered with */
+} drv_framelink_cams;
+
+/* Always DRV_FRAMELINK_CAMS_BYTES; returns 0 when cap is too small. */
+size_t drv_framelink_cams_encode(const drv_framelink_cams *c, uint8_t *buf, size_t cap);
+/* TRUNCATED, BAD_MAGIC, BAD_VERSION, BAD_SIZE (also a non-positive or non-finite rate, max_frame_bytes 0), CRC,
+ * BAD_FORMAT (reserved fields not zero, planes without COLOR or unknown bits, unknown depth encoding) or BAD_CAMERA
+ * (size 0 or above WARP_MAX_SIDE, warp_camera_check fails). */
+drv_frame_err drv_framelink_cams_decode(const uint8_t *buf, size_t len, drv_framelink_cams *out);
+
+/* Which board -> host message starts buf: DRV_FRAMELINK_POSE_MAGIC, DRV_FRAMELINK_CAMS_MAGIC, or 0 (unknown or
+ * fewer than 12 bytes); *size (may be NULL) = its declared size. */
+uint32_t drv_framelink_msg_peek(const uint8_t *buf, size_t len, size_t *size);
 
 #endif

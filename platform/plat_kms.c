@@ -14,6 +14,7 @@
 #include <poll.h>
 #include <pthread.h>
 #include <semaphore.h>
+#include <stdarg.h>
 #include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -193,8 +194,23 @@ struct plat_kms {
     char vbl_error[160];
 
     _Atomic uint64_t flips, failed, late, vblanks;
-    char last_error[160]; /* written by the committing thread; read for the summary after the run */
+    /* Written by the committing thread (the vsync path: it only try-locks, so a message is dropped rather than the
+     * commit waiting while stats are being copied; the failure is counted either way), read by plat_kms_stats_get
+     * from any thread. */
+    pthread_mutex_t err_mu;
+    char last_error[160];
 };
+
+static void note_error(plat_kms *k, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+static void note_error(plat_kms *k, const char *fmt, ...)
+{
+    if (pthread_mutex_trylock(&k->err_mu) != 0) return;
+    va_list ap;
+    va_start(ap, fmt);
+    warp_verr(k->last_error, sizeof k->last_error, fmt, ap);
+    va_end(ap);
+    pthread_mutex_unlock(&k->err_mu);
+}
 
 int plat_kms_fd(const plat_kms *k) { return k->fd; }
 const char *plat_kms_device(const plat_kms *k) { return k->device; }
@@ -424,6 +440,7 @@ plat_kms *plat_kms_open(const plat_kms_params *p, char *err, int errlen)
     k->format = DRM_FORMAT_XRGB8888;
     sem_init(&k->wake, 0, 0);
     pthread_mutex_init(&k->mu, NULL);
+    pthread_mutex_init(&k->err_mu, NULL);
     pthread_condattr_t ca;
     pthread_condattr_init(&ca);
     pthread_condattr_setclock(&ca, CLOCK_MONOTONIC);
@@ -453,8 +470,7 @@ plat_kms *plat_kms_open(const plat_kms_params *p, char *err, int errlen)
     }
     k->saved_crtc = drmModeGetCrtc(k->fd, k->ch.crtc_id);
     if (!drmIsMaster(k->fd))
-        snprintf(k->last_error, sizeof k->last_error,
-                 "%.60s: not DRM master (another process holds the display): commits will fail", dev);
+        note_error(k, "%.60s: not DRM master (another process holds the display): commits will fail", dev);
     if (pthread_create(&k->th, NULL, event_thread, k) != 0) {
         warp_err(err, errlen, "DRM device %s: cannot start the KMS event thread", dev);
         plat_kms_close(k);
@@ -471,8 +487,8 @@ static void commit_failed(plat_kms *k, const char *what, int code, char *err, in
                       : code == EINVAL                  ? "EINVAL, the driver refused the configuration"
                                                         : strerror(code);
     atomic_fetch_add(&k->failed, 1);
-    snprintf(k->last_error, sizeof k->last_error, "KMS %s: %s failed: %s", k->ch.conn_name, what, why);
-    warp_err(err, errlen, "%s", k->last_error);
+    note_error(k, "KMS %s: %s failed: %s", k->ch.conn_name, what, why);
+    warp_err(err, errlen, "KMS %s: %s failed: %s", k->ch.conn_name, what, why);
 }
 
 static void add_plane(plat_kms *k, uint32_t fb)
@@ -546,8 +562,7 @@ static void forget_flip(plat_kms *k, int waited_ms)
 {
     atomic_store(&k->pending, false);
     atomic_fetch_add(&k->failed, 1);
-    snprintf(k->last_error, sizeof k->last_error, "KMS %s: page flip never completed (no event in %d ms)",
-             k->ch.conn_name, waited_ms);
+    note_error(k, "KMS %s: page flip never completed (no event in %d ms)", k->ch.conn_name, waited_ms);
 }
 
 bool plat_kms_wait_flip(plat_kms *k, int timeout_ms)
@@ -605,7 +620,9 @@ void plat_kms_stats_get(plat_kms *k, plat_kms_stats *st)
     st->w = k->ch.mode.hdisplay;
     st->h = k->ch.mode.vdisplay;
     st->hz = k->ch.mode.vrefresh;
+    pthread_mutex_lock(&k->err_mu);
     snprintf(st->last_error, sizeof st->last_error, "%s", k->last_error);
+    pthread_mutex_unlock(&k->err_mu);
 }
 
 void plat_kms_close(plat_kms *k)
@@ -631,6 +648,7 @@ void plat_kms_close(plat_kms *k)
     if (k->fd >= 0) close(k->fd);
     pthread_cond_destroy(&k->cv);
     pthread_mutex_destroy(&k->mu);
+    pthread_mutex_destroy(&k->err_mu);
     sem_destroy(&k->wake);
     free(k);
 }

@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
-/* Fuzzes the framelink pose message decoder (board -> host; hmdwarp-feed decodes it): as received, then with its
- * CRC repaired; an accepted message re-encodes and decodes to the same values. */
+/* Fuzzes the board -> host message decoders (pose "HWP1" and camera "HWC1"; the host side decodes them): as received,
+ * then with the CRC repaired; an accepted message re-encodes and decodes to the same values. */
 #include <stdlib.h>
 #include <string.h>
 #include <zlib.h>
@@ -8,8 +8,25 @@
 #include "drivers/drv_framelink.h"
 #include "tests/fuzz/fuzz.h"
 
+static void run_cams(const uint8_t *data, size_t size)
+{
+    drv_framelink_cams c, d;
+    if (drv_framelink_cams_decode(data, size, &c) != DRV_FRAME_OK) return;
+    if (c.cam[0].width <= 0 || c.cam[1].height <= 0 || !(c.planes & DRV_PLANE_COLOR)) abort();
+    uint8_t buf[DRV_FRAMELINK_CAMS_BYTES];
+    if (drv_framelink_cams_encode(&c, buf, sizeof buf) != sizeof buf) abort();
+    if (drv_framelink_cams_decode(buf, sizeof buf, &d) != DRV_FRAME_OK || memcmp(&c.cam, &d.cam, sizeof c.cam) ||
+        c.seq != d.seq || c.planes != d.planes || c.max_frame_bytes != d.max_frame_bytes)
+        abort();
+}
+
 static void run(const uint8_t *data, size_t size)
 {
+    size_t declared = 0;
+    if (drv_framelink_msg_peek(data, size, &declared) == DRV_FRAMELINK_CAMS_MAGIC) {
+        run_cams(data, size);
+        return;
+    }
     drv_framelink_pose p, q;
     if (drv_framelink_pose_decode(data, size, &p) != DRV_FRAME_OK) return;
     if (p.board_t_ns < 0 || p.target_t_ns < 0) abort();
@@ -30,6 +47,13 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         for (int i = 0; i < 4; i++) copy[200 + i] = (uint8_t)(c >> (8 * i));
         run(copy, sizeof copy);
     }
+    if (size >= DRV_FRAMELINK_CAMS_BYTES) {
+        uint8_t copy[DRV_FRAMELINK_CAMS_BYTES];
+        memcpy(copy, data, sizeof copy);
+        uint32_t c = (uint32_t)crc32_z(0, copy, DRV_FRAMELINK_CAMS_BYTES - 4);
+        for (int i = 0; i < 4; i++) copy[DRV_FRAMELINK_CAMS_BYTES - 4 + i] = (uint8_t)(c >> (8 * i));
+        run(copy, sizeof copy);
+    }
     return 0;
 }
 
@@ -43,4 +67,10 @@ void fuzz_write_seeds(void)
     p.head.q = (warp_quat){0.5, 0.5, 0.5, 0.5};
     drv_framelink_pose_encode(&p, buf, sizeof buf);
     fuzz_seed("pose-turned", buf, sizeof buf);
+    drv_framelink_cams c = {.seq = 1, .planes = DRV_PLANE_COLOR | DRV_PLANE_DEPTH, .max_frame_bytes = 32u << 20,
+                            .refresh_hz = 90, .pose_rate_hz = 180};
+    c.cam[0] = c.cam[1] = warp_camera_symmetric(720, 800, 100, 104, 0.05, 1000);
+    uint8_t cb[DRV_FRAMELINK_CAMS_BYTES];
+    drv_framelink_cams_encode(&c, cb, sizeof cb);
+    fuzz_seed("cams", cb, sizeof cb);
 }

@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /* Unit tests for drv_framelink: bit-exact round trips of every plane combination, each rejection with its named
- * error, header peeking on partial streams, fixed-seed corruption fuzzing, and the board -> host pose message. */
+ * error, header peeking on partial streams, fixed-seed corruption fuzzing, and the board -> host pose and camera messages. */
 #include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
@@ -545,6 +545,39 @@ static void test_find_magic(void **state)
     fixture_free(&fx);
 }
 
+static drv_frame_err pose_decode(const uint8_t *b, size_t n)
+{
+    drv_framelink_pose p;
+    return drv_framelink_pose_decode(b, n, &p);
+}
+static drv_frame_err cams_decode(const uint8_t *b, size_t n)
+{
+    drv_framelink_cams c;
+    return drv_framelink_cams_decode(b, n, &c);
+}
+
+/* What every board -> host message of n bytes must refuse: any shorter length, another magic, version or size, and
+ * any single flipped bit after the size field (the CRC). */
+static void check_envelope(const uint8_t *buf, size_t n, drv_frame_err (*decode)(const uint8_t *, size_t))
+{
+    uint8_t b[256];
+    assert_true(n <= sizeof b);
+    assert_int_equal(decode(buf, n), DRV_FRAME_OK);
+    for (size_t len = 0; len < n; len++) assert_int_equal(decode(buf, len), DRV_FRAME_ERR_TRUNCATED);
+    const struct { int off, x; drv_frame_err want; } env[] = {
+        {1, 1, DRV_FRAME_ERR_BAD_MAGIC}, {4, 8, DRV_FRAME_ERR_BAD_VERSION}, {6, 100, DRV_FRAME_ERR_BAD_SIZE}};
+    for (size_t i = 0; i < 3; i++) {
+        memcpy(b, buf, n);
+        b[env[i].off] ^= (uint8_t)env[i].x;
+        assert_int_equal(decode(b, n), env[i].want);
+    }
+    for (size_t i = 8; i < n; i++) {
+        memcpy(b, buf, n);
+        b[i] ^= (uint8_t)(1u << (i % 8));
+        assert_int_equal(decode(b, n), DRV_FRAME_ERR_CRC);
+    }
+}
+
 static void test_pose_message(void **state)
 {
     (void)state;
@@ -565,22 +598,7 @@ static void test_pose_message(void **state)
     assert_same_pose(q.eye[0], p.eye[0]);
     assert_same_pose(q.eye[1], p.eye[1]);
 
-    for (size_t len = 0; len < sizeof buf; len++)
-        assert_int_equal(drv_framelink_pose_decode(buf, len, &q), DRV_FRAME_ERR_TRUNCATED);
-    memcpy(b, buf, sizeof b);
-    b[1] ^= 1;
-    assert_int_equal(drv_framelink_pose_decode(b, sizeof b, &q), DRV_FRAME_ERR_BAD_MAGIC);
-    memcpy(b, buf, sizeof b);
-    b[4] = 9;
-    assert_int_equal(drv_framelink_pose_decode(b, sizeof b, &q), DRV_FRAME_ERR_BAD_VERSION);
-    memcpy(b, buf, sizeof b);
-    b[6] = 100;
-    assert_int_equal(drv_framelink_pose_decode(b, sizeof b, &q), DRV_FRAME_ERR_BAD_SIZE);
-    for (int i = 8; i < DRV_FRAMELINK_POSE_BYTES; i++) { /* any single bit */
-        memcpy(b, buf, sizeof b);
-        b[i] ^= (uint8_t)(1u << (i % 8));
-        assert_int_equal(drv_framelink_pose_decode(b, sizeof b, &q), DRV_FRAME_ERR_CRC);
-    }
+    check_envelope(buf, sizeof buf, pose_decode);
     /* A sender's NaN or non-unit quaternion, with a correct CRC, is still refused. */
     p.head.q.w = NAN;
     drv_framelink_pose_encode(&p, b, sizeof b);
@@ -589,6 +607,79 @@ static void test_pose_message(void **state)
     drv_framelink_pose_encode(&p, b, sizeof b);
     assert_int_equal(drv_framelink_pose_decode(b, sizeof b, &q), DRV_FRAME_ERR_BAD_POSE);
     assert_int_equal(q.seq, 77); /* untouched by the failures */
+}
+
+/* Re-encodes with a correct CRC (so a field check, not the CRC, must catch what was changed). */
+static void recrc_cams(uint8_t *b) { set_le32(b + 164, (uint32_t)crc32_z(0, b, 164)); }
+
+static void test_cams_message(void **state)
+{
+    (void)state;
+    drv_framelink_cams c = {.seq = 5, .planes = DRV_PLANE_COLOR | DRV_PLANE_DEPTH,
+                            .depth_encoding = WARP_DEPTH_REVERSED, .max_frame_bytes = 64u << 20,
+                            .refresh_hz = 90, .pose_rate_hz = 180};
+    c.cam[0] = warp_camera_symmetric(720, 800, 100, 104, 0.05, INFINITY);
+    c.cam[1] = warp_camera_symmetric(720, 800, 96, 104, 0.05, 100);
+    c.cam[1].tan_left = 1.1; /* asymmetric */
+    uint8_t buf[DRV_FRAMELINK_CAMS_BYTES], b[DRV_FRAMELINK_CAMS_BYTES];
+    assert_int_equal(drv_framelink_cams_encode(&c, buf, sizeof buf - 1), 0);
+    assert_int_equal(drv_framelink_cams_encode(&c, buf, sizeof buf), DRV_FRAMELINK_CAMS_BYTES);
+    drv_framelink_cams q;
+    assert_int_equal(drv_framelink_cams_decode(buf, sizeof buf, &q), DRV_FRAME_OK);
+    assert_int_equal(q.seq, 5);
+    assert_int_equal(q.planes, c.planes);
+    assert_int_equal(q.depth_encoding, WARP_DEPTH_REVERSED);
+    assert_true(q.max_frame_bytes == c.max_frame_bytes);
+    assert_true(q.refresh_hz == 90 && q.pose_rate_hz == 180);
+    for (int e = 0; e < 2; e++) assert_memory_equal(&q.cam[e], &c.cam[e], sizeof c.cam[e]);
+    assert_true(isinf(q.cam[0].far_z));
+
+    /* Told apart from a pose message by its magic and size. */
+    size_t size = 0;
+    assert_int_equal(drv_framelink_msg_peek(buf, sizeof buf, &size), DRV_FRAMELINK_CAMS_MAGIC);
+    assert_int_equal(size, DRV_FRAMELINK_CAMS_BYTES);
+    assert_int_equal(drv_framelink_msg_peek(buf, 11, &size), 0);
+    drv_framelink_pose p = {.seq = 1, .board_t_ns = 1, .target_t_ns = 2};
+    p.head.q = p.eye[0].q = p.eye[1].q = (warp_quat){1, 0, 0, 0};
+    uint8_t pm[DRV_FRAMELINK_POSE_BYTES];
+    drv_framelink_pose_encode(&p, pm, sizeof pm);
+    assert_int_equal(drv_framelink_msg_peek(pm, sizeof pm, &size), DRV_FRAMELINK_POSE_MAGIC);
+    assert_int_equal(size, DRV_FRAMELINK_POSE_BYTES);
+    assert_int_equal(drv_framelink_cams_decode(pm, sizeof pm, &q), DRV_FRAME_ERR_BAD_MAGIC);
+    memcpy(b, buf, sizeof b);
+    b[2] ^= 1;
+    assert_int_equal(drv_framelink_msg_peek(b, sizeof b, &size), 0);
+
+    check_envelope(buf, sizeof buf, cams_decode);
+    /* Fields a board could get wrong, each behind a correct CRC. */
+    const struct { int off, byte; drv_frame_err want; } bad[] = {
+        {12, 1, DRV_FRAME_ERR_BAD_FORMAT},  /* flags reserved */
+        {160, 1, DRV_FRAME_ERR_BAD_FORMAT}, /* reserved */
+        {16, 0x02, DRV_FRAME_ERR_BAD_FORMAT}, /* planes without colour */
+        {17, 0x01, DRV_FRAME_ERR_BAD_FORMAT}, /* an unknown plane bit */
+        {20, 7, DRV_FRAME_ERR_BAD_FORMAT},  /* depth encoding */
+        {48, 0, DRV_FRAME_ERR_BAD_CAMERA},  /* width 0 (low byte; 720 = 0x2d0) */
+        {106, 1, DRV_FRAME_ERR_BAD_CAMERA}, /* eye 1 width > WARP_MAX_SIDE */
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        memcpy(b, buf, sizeof b);
+        b[bad[i].off] = (uint8_t)bad[i].byte;
+        if (bad[i].off == 48) b[49] = 0;
+        recrc_cams(b);
+        assert_int_equal(drv_framelink_cams_decode(b, sizeof b, &q), bad[i].want);
+    }
+    c.refresh_hz = NAN;
+    drv_framelink_cams_encode(&c, b, sizeof b);
+    assert_int_equal(drv_framelink_cams_decode(b, sizeof b, &q), DRV_FRAME_ERR_BAD_SIZE);
+    c.refresh_hz = 90;
+    c.max_frame_bytes = 0;
+    drv_framelink_cams_encode(&c, b, sizeof b);
+    assert_int_equal(drv_framelink_cams_decode(b, sizeof b, &q), DRV_FRAME_ERR_BAD_SIZE);
+    c.max_frame_bytes = 1;
+    c.cam[1].tan_up = -2; /* an inverted frustum */
+    drv_framelink_cams_encode(&c, b, sizeof b);
+    assert_int_equal(drv_framelink_cams_decode(b, sizeof b, &q), DRV_FRAME_ERR_BAD_CAMERA);
+    assert_int_equal(q.seq, 5); /* untouched by the failures */
 }
 
 int main(void)
@@ -604,6 +695,7 @@ int main(void)
         cmocka_unit_test(test_fuzz),
         cmocka_unit_test(test_find_magic),
         cmocka_unit_test(test_pose_message),
+        cmocka_unit_test(test_cams_message),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
