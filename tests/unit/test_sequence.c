@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /* Recorded sequences (docs/sequences.md): the manifest reader takes a good manifest and refuses broken ones naming
  * the line and field; hmdwarp-feed --sequence plays what hmdwarp-warp writes (--write-inputs, --write-sequence)
- * into a file whose frames decode to the manifest's images, poses and planes, at its own rate or the board's. */
+ * into a file whose frames decode to the manifest's images, layers, poses and planes, at its own rate or the board's. */
 #include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
@@ -87,6 +87,47 @@ static void test_reader_good_manifest(void **state)
     assert_false(seq_load_frame(&m, 2, ~0u, &f, err, sizeof err));
     drv_frame_free(&f);
     seq_close(&m);
+}
+
+/* Window depth from 16-bit PNG (value / 65535) in the manifest's encoding, ray distance in millimetres to planar
+ * metres, and a right eye with its own intrinsics. */
+static void test_reader_depth_encodings(void **state)
+{
+    (void)state;
+    char err[400], p[900];
+    const char *d = manifest("enc", "hmdwarp-sequence 1\nsize 4 2\nintrinsics 2 2 2 1\nintrinsics-right 2 2 1 1\n"
+                                    "depth-encoding reversed\nnear 0.1\nframes\n"
+                                    "index,time,left_qw,left_qx,left_qy,left_qz,left_x,left_y,left_z,right_qw,right_qx,"
+                                    "right_qy,right_qz,right_x,right_y,right_z,left_color,right_color,left_depth,"
+                                    "right_depth\n0,0,1,0,0,0,0,0,0,1,0,0,0,0.064,0,0,c.png,c.png,d16.png,d16.png\n");
+    const uint16_t u[8] = {0, 1, 65535, 32768, 100, 200, 300, 400};
+    snprintf(p, sizeof p, "%s/d16.png", d);
+    assert_true(plat_png_write_u16(p, u, 4, 2, err, sizeof err));
+    seq_manifest m;
+    assert_true(seq_open(d, &m, err, sizeof err));
+    assert_int_equal(m.eyes, 2);
+    assert_true(m.cam[1].tan_left == 0.5 && m.cam[1].tan_right == 1.5 && m.cam[0].tan_left == 1);
+    drv_frame f;
+    assert_true(drv_frame_alloc(&f, 4, 2, m.planes, m.max_layers));
+    assert_true(seq_load_frame(&m, 0, ~0u, &f, err, sizeof err));
+    assert_int_equal(f.depth_encoding, WARP_DEPTH_REVERSED);
+    assert_true(WARP_AT(&f.depth[1], 2, 0) == 1.0f && WARP_AT(&f.depth[0], 3, 0) == (float)(32768 / 65535.0));
+    assert_true(f.eye_pose[1].p.x == 0.064);
+    seq_close(&m);
+    /* ray distance in millimetres (raw float32): planar z = distance / |ray at z = 1| in metres */
+    d = manifest("ray", "hmdwarp-sequence 1\neyes 1\nsize 4 2\ntan 1 1 0.5 0.5\ndepth-kind ray\ndepth-scale 0.001\n"
+                        "frames\nindex,time,qw,qx,qy,qz,x,y,z,color,depth\n0,0,1,0,0,0,0,0,0,c.png,d.f32\n");
+    const float mm[8] = {3000, 3000, 3000, 3000, 3000, 3000, 3000, 3000};
+    snprintf(p, sizeof p, "%s/d.f32", d);
+    FILE *o = fopen(p, "wb");
+    fwrite(mm, sizeof mm, 1, o);
+    fclose(o);
+    assert_true(seq_open(d, &m, err, sizeof err));
+    assert_true(seq_load_frame(&m, 0, ~0u, &f, err, sizeof err));
+    /* pixel (0, 0): centre at tangents (-0.75, 0.25) */
+    assert_true(fabs(WARP_AT(&f.depth[0], 0, 0) - 3.0 / sqrt(0.75 * 0.75 + 0.25 * 0.25 + 1)) < 1e-6);
+    seq_close(&m);
+    drv_frame_free(&f);
 }
 
 /* Every broken manifest is refused with a message naming the line and field, nothing allocated stays (ASan). */
@@ -293,6 +334,14 @@ static int check_stream(const uint8_t *buf, size_t len, const seq_manifest *m, u
                 if (planes & DRV_PLANE_MOTION)
                     assert_memory_equal(&WARP_AT(&got.motion[e], 0, y), &WARP_AT(&want.motion[e], 0, y), 8 * (size_t)w);
             }
+            for (int i = 0; (planes & DRV_PLANE_LAYERS) && i < w * h; i++) {
+                assert_int_equal(got.layers[e].count[i], want.layers[e].count[i]);
+                for (int k = 0; k < want.layers[e].count[i]; k++) {
+                    const warp_fragment *a = &got.layers[e].frag[(size_t)i * got.layers[e].max_layers + k];
+                    const warp_fragment *b = &want.layers[e].frag[(size_t)i * want.layers[e].max_layers + k];
+                    assert_true(a->z == b->z && a->id == b->id && !memcmp(&a->rgba, &b->rgba, 4));
+                }
+            }
         }
         at += total;
         n++;
@@ -371,6 +420,36 @@ static void test_feed_plays_simulator_sequence(void **state)
     seq_close(&m);
 }
 
+/* Transparency: the layers files of a scene with glass reach the stream fragment for fragment. */
+static void test_feed_plays_layers(void **state)
+{
+    (void)state;
+    char cmd[3000], out[8192], err[400], sq[700];
+    snprintf(cmd, sizeof cmd, "%s/v.txt", dir);
+    write_view(cmd);
+    snprintf(sq, sizeof sq, "%s/glass", dir);
+    snprintf(cmd, sizeof cmd, "%s/hmdwarp-warp --sim glass --view %s/v.txt --write-sequence %s --frames 2", build, dir,
+             sq);
+    assert_int_equal(run(cmd, out, sizeof out), 0);
+    seq_manifest m;
+    assert_true(seq_open(sq, &m, err, sizeof err));
+    assert_true(m.planes & DRV_PLANE_LAYERS);
+    size_t len;
+    snprintf(cmd, sizeof cmd, "--sequence %s --planes color,depth,layers", sq);
+    uint8_t *buf = feed(cmd, "glass.bin", &len);
+    assert_int_equal(check_stream(buf, len, &m, DRV_PLANE_COLOR | DRV_PLANE_DEPTH | DRV_PLANE_LAYERS), 2);
+    /* the glass is there: some pixel carries fragments */
+    drv_frame f;
+    assert_true(drv_frame_alloc(&f, 96, 64, m.planes, m.max_layers));
+    assert_true(seq_load_frame(&m, 0, ~0u, &f, err, sizeof err));
+    long frags = 0;
+    for (int i = 0; i < 96 * 64; i++) frags += f.layers[0].count[i];
+    assert_true(frags > 100);
+    drv_frame_free(&f);
+    free(buf);
+    seq_close(&m);
+}
+
 /* Bad input on the command line: the manifest's problem named, exit 2, nothing written as a frame. */
 static void test_feed_refuses_bad_sequence(void **state)
 {
@@ -392,11 +471,13 @@ int main(int argc, char **argv)
     if (!test_build_dirs(argv[0], build, sizeof build, dir, sizeof dir, "sequence")) return 1;
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_reader_good_manifest),
+        cmocka_unit_test(test_reader_depth_encodings),
         cmocka_unit_test(test_reader_broken_manifests),
         cmocka_unit_test(test_reader_wrong_size_file),
         cmocka_unit_test(test_objects_file),
         cmocka_unit_test(test_feed_plays_write_inputs),
         cmocka_unit_test(test_feed_plays_simulator_sequence),
+        cmocka_unit_test(test_feed_plays_layers),
         cmocka_unit_test(test_feed_refuses_bad_sequence),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
