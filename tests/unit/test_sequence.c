@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /* Recorded sequences (docs/sequences.md): the manifest reader takes a good manifest and refuses broken ones naming
- * the line and field; hmdwarp-feed --sequence plays what hmdwarp-warp writes (--write-inputs, --write-sequence)
- * into a file whose frames decode to the manifest's images, layers, poses and planes, at its own rate or the board's. */
+ * the line and field; hmdwarp-feed --sequence plays what hmdwarp-warp writes (--write-inputs, --write-sequence) into
+ * a file whose frames decode to the manifest's images, layers, poses and planes, at its own rate or the board's. */
 #include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
