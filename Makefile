@@ -233,6 +233,12 @@ $(BUILD)/tests/packaging/host_api_smoke: $(BUILD)/obj/tests/packaging/host_api_s
 	@mkdir -p $(dir $@)
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -Wl,-rpath,'$$ORIGIN/../..' -o $@ $^
+# test_sequence reads the sequences hmdwarp-warp writes and hmdwarp-feed plays with the tools' own reader.
+$(BUILD)/tests/unit/test_sequence: $(BUILD)/obj/tests/unit/test_sequence.o $(TOOLS_COMMON_OBJ) $(TEST_SUPPORT_OBJ) \
+                                   $(LIBS)
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_ALL) $(TEST_LIBS)
 
 # test_render_cpu checks hmdwarp-bench's display path (bench_display) against hmdwarpd's CPU pass.
 $(BUILD)/tests/unit/test_render_cpu: $(BUILD)/obj/tests/unit/test_render_cpu.o \
@@ -243,7 +249,8 @@ $(BUILD)/tests/unit/test_render_cpu: $(BUILD)/obj/tests/unit/test_render_cpu.o \
 
 # Fuzz harnesses (tests/fuzz/README.md): linked with the helpers and the hmdwarp-warp file readers they fuzz; as
 # regression runners (standalone.c, any compiler) in make test, with libFuzzer (clang) in make fuzz.
-FUZZ_LINK_OBJ := $(patsubst %.c,$(BUILD)/obj/%.o,tests/fuzz/util.c tools/hmdwarp-warp/warp_files.c)
+FUZZ_LINK_OBJ := $(patsubst %.c,$(BUILD)/obj/%.o,tests/fuzz/util.c tools/common/warp_files.c \
+                 tools/common/seq_manifest.c)
 $(FUZZ_REG_BINS): $(BUILD)/tests/fuzz/%: $(BUILD)/obj/tests/fuzz/%.o $(BUILD)/obj/tests/fuzz/standalone.o \
                   $(FUZZ_LINK_OBJ) $(LIBS)
 	@mkdir -p $(dir $@)

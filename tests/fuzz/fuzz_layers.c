@@ -1,11 +1,11 @@
 /* SPDX-License-Identifier: MIT */
-/* Fuzzes hmdwarp-warp's layers (A-buffer) reader (tools/hmdwarp-warp/warp_files.c) for an 8 x 6 view: header,
+/* Fuzzes hmdwarp-warp's layers (A-buffer) reader (tools/common/warp_files.c) for an 8 x 6 view: header,
  * per-pixel counts against max_layers, truncation; nothing stays allocated when it fails. */
 #include <stdio.h>
 #include <stdlib.h>
 
 #include "tests/fuzz/fuzz.h"
-#include "tools/hmdwarp-warp/warp_files.h"
+#include "tools/common/warp_files.h"
 
 static const warp_camera cam = {FUZZ_EYE_W, FUZZ_EYE_H, 1, 1, 0.8, 0.8, 0.05, 100};
 

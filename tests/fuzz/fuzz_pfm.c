@@ -1,12 +1,12 @@
 /* SPDX-License-Identifier: MIT */
-/* Fuzzes hmdwarp-warp's PFM reader (tools/hmdwarp-warp/warp_files.c): header parsing and the check that the file
+/* Fuzzes hmdwarp-warp's PFM reader (tools/common/warp_files.c): header parsing and the check that the file
  * holds what its header declares before anything is allocated. */
 #include <stdio.h>
 #include <stdlib.h>
 #include <unistd.h>
 
 #include "tests/fuzz/fuzz.h"
-#include "tools/hmdwarp-warp/warp_files.h"
+#include "tools/common/warp_files.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {

@@ -1,12 +1,12 @@
 /* SPDX-License-Identifier: MIT */
-/* Fuzzes hmdwarp-warp's view file reader (tools/hmdwarp-warp/warp_files.c): an accepted view has a camera
+/* Fuzzes hmdwarp-warp's view file reader (tools/common/warp_files.c): an accepted view has a camera
  * warp_camera_check() takes and finite unit poses. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "tests/fuzz/fuzz.h"
-#include "tools/hmdwarp-warp/warp_files.h"
+#include "tools/common/warp_files.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {

@@ -20,6 +20,8 @@
 #include "sim/sim_scene.h"
 #include "warp/warp_head.h"
 
+#include "feed_sequence.h"
+
 #define DEFAULT_VID 0x1d6b /* Linux Foundation */
 #define DEFAULT_PID 0x0104 /* multifunction composite gadget: what board/gadget.sh registers */
 #define BAND 32
@@ -30,6 +32,8 @@ typedef struct {
     double wait_s;             /* how long to retry enumeration */
     const char *scene;
     const char *png;           /* printf pattern with one %d (frame index) or a plain file */
+    const char *sequence, *seq_rate; /* --sequence DIR (feed_sequence.h), --sequence-rate own|board */
+    bool loop;
     const char *out_path;      /* --file / --stdout ("-") */
     const char *socket_path;   /* --socket: hmdwarpd's [frames] backend = socket */
     const char *v4l2_dev;      /* --v4l2: a V4L2 output device (HDMI/CSI path to the board's capture) */
@@ -76,6 +80,11 @@ static void usage(FILE *f)
             "  --scene NAME        simulated scene to render (default room): %s\n"
             "  --png PATTERN       send PNG images instead (colour only); PATTERN may hold one %%d for the frame\n"
             "                      index, wrapping to 0 at the first missing file; both eyes get the same image\n"
+            "  --sequence DIR      play a recorded sequence (docs/sequences.md): per-eye colour, depth, ids, motion\n"
+            "                      and object poses with the poses they were rendered at; its size and cameras\n"
+            "                      replace --eye/--fov/--near, --planes picks among its planes, --rate is not used\n"
+            "  --sequence-rate R   own: at the manifest's times (the default); board: one frame per pose message\n"
+            "  --loop              play the sequence again when it ends (default: once, then stop)\n"
             "  --eye WxH           eye size, must match the board's [eye] (default 720x800)\n"
             "  --fov L,R,U,D       left-eye half angles in degrees, mirrored for the right eye (default 52,48,52,52)\n"
             "  --near M            near plane in metres (default 0.05)\n"
@@ -130,15 +139,17 @@ static bool parse_opts(int argc, char **argv, feed_opts *o)
 {
     *o = (feed_opts){.v4l2_format = "yuyv", .vid = DEFAULT_VID, .pid = DEFAULT_PID, .wait_s = 30, .scene = "room", .eye_w = 720,
                      .eye_h = 800, .fov = {52, 48, 52, 52}, .near_z = 0.05,
-                     .planes = DRV_PLANE_COLOR | DRV_PLANE_DEPTH, .rate_hz = 45, .synth_rate_hz = 90, .threads = 2};
+                     .planes = DRV_PLANE_COLOR | DRV_PLANE_DEPTH, .rate_hz = 45, .synth_rate_hz = 90, .threads = 2,
+                     .seq_rate = "own"};
     enum { O_DEVICE = 256, O_IFACE, O_WAIT, O_SCENE, O_PNG, O_EYE, O_FOV, O_NEAR, O_PLANES, O_DEPTH, O_THREADS,
            O_RATE, O_FRAMES, O_DURATION, O_FILE, O_STDOUT, O_SYNTH, O_V4L2, O_V4L2_FMT, O_V4L2_DEPTH, O_SYNTH_POSES,
-           O_DAMAGE, O_SOCKET };
+           O_DAMAGE, O_SOCKET, O_SEQUENCE, O_SEQ_RATE, O_LOOP };
     /* One entry a line: a new option is a line here and a case below. */
     static const struct option lo[] = {
         {"socket", 1, 0, O_SOCKET},
         {"device", 1, 0, O_DEVICE}, {"interface", 1, 0, O_IFACE}, {"wait", 1, 0, O_WAIT}, {"scene", 1, 0, O_SCENE},
-        {"png", 1, 0, O_PNG}, {"eye", 1, 0, O_EYE}, {"fov", 1, 0, O_FOV}, {"near", 1, 0, O_NEAR},
+        {"png", 1, 0, O_PNG}, {"sequence", 1, 0, O_SEQUENCE}, {"sequence-rate", 1, 0, O_SEQ_RATE},
+        {"loop", 0, 0, O_LOOP}, {"eye", 1, 0, O_EYE}, {"fov", 1, 0, O_FOV}, {"near", 1, 0, O_NEAR},
         {"planes", 1, 0, O_PLANES}, {"depth", 1, 0, O_DEPTH}, {"threads", 1, 0, O_THREADS}, {"rate", 1, 0, O_RATE},
         {"frames", 1, 0, O_FRAMES}, {"duration", 1, 0, O_DURATION}, {"file", 1, 0, O_FILE},
         {"stdout", 0, 0, O_STDOUT}, {"synth-rate", 1, 0, O_SYNTH}, {"v4l2", 1, 0, O_V4L2},
@@ -154,6 +165,9 @@ static bool parse_opts(int argc, char **argv, feed_opts *o)
         case O_WAIT: o->wait_s = atof(optarg); break;
         case O_SCENE: o->scene = optarg; break;
         case O_PNG: o->png = optarg; break;
+        case O_SEQUENCE: o->sequence = optarg; break;
+        case O_SEQ_RATE: o->seq_rate = optarg; break;
+        case O_LOOP: o->loop = true; break;
         case O_EYE:
             if (sscanf(optarg, "%dx%d", &o->eye_w, &o->eye_h) != 2 || o->eye_w <= 0 || o->eye_h <= 0)
                 return fprintf(stderr, "--eye wants WxH\n"), false;
@@ -251,7 +265,11 @@ static bool host_frame_init(host_frame *hf, const drv_frame *f, unsigned planes)
 {
     memset(hf, 0, sizeof *hf);
     hf->fr.color_format = HMDWARP_HOST_COLOR_RGBA8;
-    hf->fr.depth_format = planes & DRV_PLANE_DEPTH ? HMDWARP_HOST_DEPTH_LINEAR_F32 : HMDWARP_HOST_DEPTH_NONE;
+    /* The simulator renders linear depth; a sequence's depth may be window depth (its manifest's encoding). */
+    hf->fr.depth_format = !(planes & DRV_PLANE_DEPTH)                     ? HMDWARP_HOST_DEPTH_NONE
+                          : f->depth_encoding == WARP_DEPTH_STANDARD ? HMDWARP_HOST_DEPTH_STANDARD_F32
+                          : f->depth_encoding == WARP_DEPTH_REVERSED ? HMDWARP_HOST_DEPTH_REVERSED_F32
+                                                                     : HMDWARP_HOST_DEPTH_LINEAR_F32;
     for (int e = 0; e < 2; e++) {
         hmdwarp_host_eye *ey = &hf->fr.eye[e];
         const warp_camera *c = &f->cam[e];
@@ -291,7 +309,12 @@ static void host_frame_update(host_frame *hf, const drv_frame *f, const hmdwarp_
     fr->pose_target_ns = echo ? 0 : pm->target_time_ns;
     fr->pose_board_ns = echo ? 0 : pm->board_time_ns;
     fr->pose_received_ns = echo ? 0 : pm->received_ns;
-    for (int e = 0; e < 2; e++) fr->eye[e].pose = echo ? (hmdwarp_host_pose){{0}, {0}} : pm->eye[e];
+    /* Not echoing: the poses the frame was rendered at (a synthesised pose's, or a sequence's own). */
+    for (int e = 0; e < 2; e++) {
+        warp_pose p = f->eye_pose[e];
+        fr->eye[e].pose = echo ? (hmdwarp_host_pose){{0}, {0}}
+                               : (hmdwarp_host_pose){{p.q.w, p.q.x, p.q.y, p.q.z}, {p.p.x, p.p.y, p.p.z}};
+    }
     fr->render_start_ns = start;
     fr->render_end_ns = end;
     fr->scene_time = f->scene_time;
@@ -409,7 +432,14 @@ int main(int argc, char **argv)
 
     const sim_scene *scene = NULL;
     unsigned planes = DRV_PLANE_COLOR;
-    if (!o.png) {
+    feed_sequence *seq = NULL;
+    int max_layers = 4;
+    char serr[600];
+    if (o.sequence) {
+        if (!(seq = feed_sequence_open(o.sequence, o.seq_rate, o.loop, serr, sizeof serr)))
+            return fprintf(stderr, "hmdwarp-feed: --sequence: %s\n", serr), 2;
+        feed_sequence_shape(seq, o.planes, &o.eye_w, &o.eye_h, &planes, &max_layers);
+    } else if (!o.png) {
         scene = sim_scene_find(o.scene);
         if (!scene) return fprintf(stderr, "hmdwarp-feed: unknown scene '%s' (see --help)\n", o.scene), 2;
         planes = (sim_planes_for_effects(sim_scene_effects(scene)) & o.planes) | DRV_PLANE_COLOR;
@@ -418,7 +448,8 @@ int main(int argc, char **argv)
         return fprintf(stderr, "hmdwarp-feed: these planes/depth format cannot be encoded (--depth unorm16 needs "
                                "window depth; the simulator renders linear depth)\n"), 2;
     drv_frame f;
-    if (!drv_frame_alloc(&f, o.eye_w, o.eye_h, planes, 4)) return fprintf(stderr, "hmdwarp-feed: out of memory\n"), 1;
+    if (!drv_frame_alloc(&f, o.eye_w, o.eye_h, planes, max_layers))
+        return fprintf(stderr, "hmdwarp-feed: out of memory\n"), 1;
     f.planes = planes;
     f.depth_encoding = WARP_DEPTH_LINEAR;
     for (int e = 0; e < 2; e++) {
@@ -436,6 +467,8 @@ int main(int argc, char **argv)
     }
     if (scene) f.n_objects = sim_scene_object_count(scene) < DRV_MAX_OBJECTS ? sim_scene_object_count(scene)
                                                                              : DRV_MAX_OBJECTS;
+    if (seq && !feed_sequence_prepare(seq, &f, serr, sizeof serr))
+        return fprintf(stderr, "hmdwarp-feed: --sequence: %s\n", serr), 2;
     host_frame hf;
     plat_workers *workers = plat_workers_create(o.threads - 1, 0);
     if (!host_frame_init(&hf, &f, planes) || !workers) return fprintf(stderr, "hmdwarp-feed: out of memory\n"), 1;
@@ -455,7 +488,7 @@ int main(int argc, char **argv)
     uint8_t *buf = NULL; /* --damage-every: the encoded frame, damaged before it is sent */
     size_t cap = 0;
 
-    int64_t t_start = plat_now_ns(), last_start = 0, period = (int64_t)(1e9 / o.rate_hz);
+    int64_t t_start = plat_now_ns(), last_start = 0, period = seq ? 0 : (int64_t)(1e9 / o.rate_hz);
     int64_t scene_t0 = 0, report_at = t_start + PLAT_NS_PER_S;
     uint64_t frames = 0, win_frames = 0, win_bytes = 0, damaged = 0, damaged_kind[3] = {0}, synth_poses = 0;
     static const char *const damage_names[3] = {"crc", "truncated", "version"};
@@ -495,7 +528,12 @@ int main(int argc, char **argv)
         f.scene_time = (double)(pose.target_time_ns - scene_t0) * 1e-9;
         f.eye_pose[0] = pose_from_host(&pose.eye[0]);
         f.eye_pose[1] = pose_from_host(&pose.eye[1]);
-        if (scene) {
+        if (seq) {
+            /* The sequence's eye poses replace the board's: the frame goes with the poses it was rendered at. */
+            int got = feed_sequence_next(seq, &f, serr, sizeof serr);
+            if (got < 0) fprintf(stderr, "hmdwarp-feed: --sequence: %s\n", serr), rc = 1;
+            if (got <= 0) break;
+        } else if (scene) {
             for (int i = 0; i < f.n_objects; i++) f.object_pose[i] = sim_scene_object_pose(scene, i + 1, f.scene_time);
             render_job j = {scene, &f, planes, f.scene_time, o.eye_h};
             plat_workers_run(workers, 2 * ((o.eye_h + BAND - 1) / BAND), render_task, &j);
@@ -525,7 +563,7 @@ int main(int argc, char **argv)
             err = drv_v4l2_output_write(vo, &f);
             if (err) fprintf(stderr, "hmdwarp-feed: writing a frame to the V4L2 output: %s\n", strerror(-err));
         } else {
-            host_frame_update(&hf, &f, &pose, !synth, start, end);
+            host_frame_update(&hf, &f, &pose, !synth && !seq, start, end);
             drop_unaccepted(h, &hf.fr, &said_dropped);
             if (o.damage_every && (frames + 1) % (uint64_t)o.damage_every == 0) {
                 int64_t len = hmdwarp_host_encode(h, &hf.fr, buf, cap);
@@ -603,6 +641,7 @@ int main(int argc, char **argv)
                 (unsigned long long)damaged_kind[1], damage_names[2], (unsigned long long)damaged_kind[2]);
     plat_workers_destroy(workers);
     host_frame_free(&hf);
+    feed_sequence_close(seq);
     drv_frame_free(&f);
     free(buf);
     return rc;

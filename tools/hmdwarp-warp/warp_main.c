@@ -16,8 +16,9 @@
 #include "warp/warp_err.h"
 #include "warp/warp_metrics.h"
 #include "tools/common/cat_warps.h"
-#include "warp_files.h"
+#include "tools/common/warp_files.h"
 #include "warp_table.h"
+#include "warp_write.h"
 
 typedef struct {
     const char *color, *depth, *ids, *motion, *layers, *view, *ref;
@@ -25,7 +26,9 @@ typedef struct {
     double depth_scale;
     const char *warp, *params;
     const char *out, *mask;
-    const char *sim, *write_inputs;
+    const char *sim, *write_inputs, *write_sequence, *objects;
+    int seq_frames;
+    double seq_rate;
     double sim_time, dst_time;
     const char *table;
     bool table_quick;
@@ -49,6 +52,8 @@ static void usage(FILE *f)
             "  --ids FILE.png         object ids, 16-bit grey PNG, 0 = static scene (002 §3.2)\n"
             "  --motion FILE.pfm      screen motion in pixels per second, 3-channel PFM (x, y, unused)\n"
             "  --layers FILE          transparent fragments (A-buffer), the binary format of docs/hmdwarp-warp.md\n"
+            "  --objects FILE         object poses (id, world_from_object at the source and the target time) for the\n"
+            "                         per-object warp; format: docs/hmdwarp-warp.md\n"
             "  --view FILE            intrinsics and the source and target poses (format: docs/hmdwarp-warp.md)\n"
             "  --ref FILE.png         the true target view: prints PSNR, SSIM and error-pixel %% (002 §4)\n"
             "Or the simulator:\n"
@@ -57,8 +62,12 @@ static void usage(FILE *f)
             "  --time T               scene time of the source frame (object motion), seconds (default 0)\n"
             "  --target-time T        scene time of the target view (default: the source's); per-object warps\n"
             "                         extrapolate object poses to it\n"
-            "  --write-inputs DIR     with --sim: also write color.png, depth.pfm, ids.png, view.txt, truth.png there:\n"
-            "                         an example of every input format\n"
+            "  --write-inputs DIR     with --sim: also write color.png, depth.pfm, ids.png, motion.pfm, layers.bin,\n"
+            "                         objects.txt, view.txt, truth.png there (an example of every input format) and\n"
+            "                         manifest.txt: the directory is a one-frame sequence (docs/sequences.md)\n"
+            "  --write-sequence DIR   with --sim: write a stereo sequence for hmdwarp-feed --sequence instead of\n"
+            "                         warping: the head moves from the view's source to its target pose over\n"
+            "                         --frames N (default 30) frames at --rate HZ (default 90) from scene time --time\n"
             "Warp:\n"
             "  --warp NAME            which warp (default rotation); --list shows them with their parameters\n"
             "  --params K=V,K=V       the warp's knobs\n"
@@ -76,16 +85,20 @@ static void usage(FILE *f)
 
 static bool parse(int argc, char **argv, opts *o)
 {
-    *o = (opts){.dst_time = NAN, .depth_kind = "planar", .depth_encoding = "linear", .depth_scale = 1, .warp = "rotation"};
+    *o = (opts){.seq_frames = 30, .seq_rate = 90, .dst_time = NAN, .depth_kind = "planar", .depth_encoding = "linear",
+                .depth_scale = 1, .warp = "rotation"};
     enum { O_COLOR = 256, O_DEPTH, O_KIND, O_ENC, O_SCALE, O_IDS, O_MOTION, O_VIEW, O_REF, O_SIM, O_TIME, O_WRITE,
-           O_WARP, O_PARAMS, O_LIST, O_OUT, O_MASK, O_TABLE, O_QUICK, O_TTIME, O_LAYERS };
+           O_WARP, O_PARAMS, O_LIST, O_OUT, O_MASK, O_TABLE, O_QUICK, O_TTIME, O_LAYERS,
+           O_OBJECTS, O_WSEQ, O_FRAMES, O_RATE };
     static const struct option lo[] = {
         {"color", 1, 0, O_COLOR}, {"depth", 1, 0, O_DEPTH}, {"depth-kind", 1, 0, O_KIND},
         {"depth-encoding", 1, 0, O_ENC}, {"depth-scale", 1, 0, O_SCALE}, {"ids", 1, 0, O_IDS},
         {"motion", 1, 0, O_MOTION}, {"layers", 1, 0, O_LAYERS}, {"view", 1, 0, O_VIEW}, {"ref", 1, 0, O_REF}, {"sim", 1, 0, O_SIM},
         {"time", 1, 0, O_TIME}, {"target-time", 1, 0, O_TTIME}, {"write-inputs", 1, 0, O_WRITE}, {"warp", 1, 0, O_WARP},
         {"params", 1, 0, O_PARAMS}, {"list", 0, 0, O_LIST}, {"out", 1, 0, O_OUT}, {"mask", 1, 0, O_MASK},
-        {"table", 1, 0, O_TABLE}, {"quick", 0, 0, O_QUICK}, {"help", 0, 0, 'h'}, {"version", 0, 0, 'V'}, {0, 0, 0, 0}};
+        {"table", 1, 0, O_TABLE}, {"objects", 1, 0, O_OBJECTS}, {"write-sequence", 1, 0, O_WSEQ},
+        {"frames", 1, 0, O_FRAMES}, {"rate", 1, 0, O_RATE},
+        {"quick", 0, 0, O_QUICK}, {"help", 0, 0, 'h'}, {"version", 0, 0, 'V'}, {0, 0, 0, 0}};
     int c;
     while ((c = getopt_long(argc, argv, "h", lo, NULL)) != -1) {
         switch (c) {
@@ -103,6 +116,17 @@ static bool parse(int argc, char **argv, opts *o)
         case O_TIME: o->sim_time = atof(optarg); break;
         case O_TTIME: o->dst_time = atof(optarg); break;
         case O_WRITE: o->write_inputs = optarg; break;
+        case O_OBJECTS: o->objects = optarg; break;
+        case O_WSEQ: o->write_sequence = optarg; break;
+        case O_FRAMES:
+            o->seq_frames = atoi(optarg);
+            if (o->seq_frames < 1 || o->seq_frames > 100000) return fprintf(stderr, "--frames: 1..100000\n"), false;
+            break;
+        case O_RATE:
+            o->seq_rate = atof(optarg);
+            if (!(o->seq_rate > 0) || !isfinite(o->seq_rate))
+                return fprintf(stderr, "--rate: a positive number\n"), false;
+            break;
         case O_WARP: o->warp = optarg; break;
         case O_PARAMS: o->params = optarg; break;
         case O_LIST:
@@ -128,74 +152,6 @@ static bool parse(int argc, char **argv, opts *o)
         fprintf(stderr, "hmdwarp-warp: unexpected argument '%s' (see --help)\n", argv[optind]);
         return false;
     }
-    return true;
-}
-
-static bool load_depth(const opts *o, const warp_camera *cam, warp_image_f32 *depth, warp_depth_encoding *enc,
-                       char *err, int errlen)
-{
-    int w = cam->width, h = cam->height, ch = 1;
-    float *px = NULL;
-    const char *ext = strrchr(o->depth, '.');
-    bool png16 = ext && strcmp(ext, ".png") == 0;
-    if (ext && strcmp(ext, ".pfm") == 0) {
-        px = warpfile_read_pfm(o->depth, &w, &h, &ch, err, errlen);
-        if (!px) return false;
-    } else if (png16) {
-        uint16_t *u = NULL;
-        if (!plat_png_read_u16(o->depth, &u, &w, &h, err, errlen)) return false;
-        px = malloc(sizeof(float) * (size_t)w * (size_t)h);
-        if (px)
-            for (size_t i = 0; i < (size_t)w * (size_t)h; i++) px[i] = (float)u[i];
-        free(u);
-    } else {
-        FILE *f = fopen(o->depth, "rb");
-        if (!f) return warp_err(err, errlen, "%s: %s", o->depth, strerror(errno));
-        px = malloc(sizeof(float) * (size_t)w * (size_t)h);
-        size_t got = px ? fread(px, sizeof(float), (size_t)w * (size_t)h, f) : 0;
-        fclose(f);
-        if (got != (size_t)w * (size_t)h) {
-            free(px);
-            return warp_err(err, errlen, "%s: expected %dx%d float32 values (the colour's size)", o->depth, w, h);
-        }
-    }
-    if (!px) return warp_err(err, errlen, "out of memory");
-    if (w != cam->width || h != cam->height || ch != 1) {
-        free(px);
-        return warp_err(err, errlen, "%s: %dx%d, %d channels; expected %dx%d, 1 channel", o->depth, w, h, ch,
-                        cam->width, cam->height);
-    }
-    if (strcmp(o->depth_encoding, "linear") == 0)
-        *enc = WARP_DEPTH_LINEAR;
-    else if (strcmp(o->depth_encoding, "standard") == 0)
-        *enc = WARP_DEPTH_STANDARD;
-    else if (strcmp(o->depth_encoding, "reversed") == 0)
-        *enc = WARP_DEPTH_REVERSED;
-    else
-        return free(px), warp_err(err, errlen, "--depth-encoding %s: linear, standard or reversed", o->depth_encoding);
-    bool ray = strcmp(o->depth_kind, "ray") == 0;
-    if (!ray && strcmp(o->depth_kind, "planar") != 0)
-        return free(px), warp_err(err, errlen, "--depth-kind %s: planar or ray", o->depth_kind);
-    if (ray && *enc != WARP_DEPTH_LINEAR)
-        return free(px), warp_err(err, errlen, "--depth-kind ray needs --depth-encoding linear");
-    if (!warp_image_f32_alloc(depth, w, h)) return free(px), warp_err(err, errlen, "out of memory");
-    for (int y = 0; y < h; y++)
-        for (int x = 0; x < w; x++) {
-            double v = px[(size_t)y * w + x];
-            if (*enc == WARP_DEPTH_LINEAR) {
-                v *= o->depth_scale;
-                if (ray) {
-                    /* distance along the ray -> planar z: divide by the ray direction's length at z = 1 */
-                    double u, t;
-                    warp_camera_pixel_to_tan(cam, x + 0.5, y + 0.5, &u, &t);
-                    v /= sqrt(u * u + t * t + 1);
-                }
-            } else if (png16) {
-                v /= 65535.0;
-            }
-            WARP_AT(depth, x, y) = (float)v;
-        }
-    free(px);
     return true;
 }
 
@@ -231,6 +187,15 @@ int main(int argc, char **argv)
     if (!o.view) return fail_msg("--view FILE is required (intrinsics and poses; see docs/hmdwarp-warp.md)");
     warpfile_view vf;
     if (!warpfile_load_view(o.view, &vf, err, sizeof err)) return fail_msg(err);
+    if (o.sim && o.objects) return fail_msg("--objects is for frames from files (--sim has the scene's own)");
+    if (o.write_sequence) {
+        const sim_scene *sc = o.sim ? sim_scene_find(o.sim) : NULL;
+        if (!sc) return fail_msg("--write-sequence needs --sim SCENE (a scene of hmdwarpd --list)");
+        if (!warp_write_sequence(o.write_sequence, sc, &vf, o.seq_frames, o.seq_rate, o.sim_time, err, sizeof err))
+            return fail_msg(err);
+        printf("sequence of %d frames written to %s\n", o.seq_frames, o.write_sequence);
+        return 0;
+    }
 
     warp_image_rgba8 color = {0}, ref = {0};
     warp_image_f32 depth = {0}, inv = {0};
@@ -267,41 +232,11 @@ int main(int argc, char **argv)
         for (int i = 0; i < v.n_objects; i++) objs_dst[i] = sim_scene_object_pose(sc, i + 1, o.dst_time);
         cat_set_target_objects(objs_dst);
         if (o.write_inputs) {
-            mkdir(o.write_inputs, 0755);
-            char p[600];
-            snprintf(p, sizeof p, "%s/color.png", o.write_inputs);
-            if (!plat_png_write(p, &sb.color, true, err, sizeof err)) return fail_msg(err);
-            snprintf(p, sizeof p, "%s/truth.png", o.write_inputs);
-            if (!plat_png_write(p, &tb.color, true, err, sizeof err)) return fail_msg(err);
-            float *d = malloc(sizeof(float) * (size_t)vf.cam.width * (size_t)vf.cam.height);
-            uint16_t *u = malloc(sizeof(uint16_t) * (size_t)vf.cam.width * (size_t)vf.cam.height);
-            if (!d || !u) return fail_msg("out of memory");
-            for (int y = 0; y < vf.cam.height; y++)
-                for (int x = 0; x < vf.cam.width; x++) {
-                    float z = WARP_AT(&sb.depth, x, y);
-                    d[(size_t)y * vf.cam.width + x] = isfinite(z) ? z : 1e30f; /* PFM readers choke on inf */
-                    u[(size_t)y * vf.cam.width + x] = WARP_AT(&sb.ids, x, y);
-                }
-            snprintf(p, sizeof p, "%s/depth.pfm", o.write_inputs);
-            if (!warpfile_write_pfm(p, d, vf.cam.width, vf.cam.height, 1)) return fail_msg("cannot write depth.pfm");
-            snprintf(p, sizeof p, "%s/layers.bin", o.write_inputs);
-            if (!warpfile_write_layers(p, &sb.layers)) return fail_msg("cannot write layers.bin");
-            snprintf(p, sizeof p, "%s/ids.png", o.write_inputs);
-            if (!plat_png_write_u16(p, u, vf.cam.width, vf.cam.height, err, sizeof err)) return fail_msg(err);
-            free(d);
-            free(u);
-            snprintf(p, sizeof p, "%s/view.txt", o.write_inputs);
-            FILE *f = fopen(p, "w");
-            if (!f) return fail_msg("cannot write view.txt");
-            fprintf(f, "# hmdwarp-warp view: right-handed, the camera looks down -Z, +Y up, +X right; poses are\n"
-                       "# world_from_eye: qw qx qy qz (unit quaternion) then position x y z in metres\n");
-            fprintf(f, "size %d %d\ntan %.17g %.17g %.17g %.17g\nnear %.17g\nfar inf\n", vf.cam.width, vf.cam.height,
-                    vf.cam.tan_left, vf.cam.tan_right, vf.cam.tan_up, vf.cam.tan_down, vf.cam.near_z);
-            warpfile_pose_line(f, "source", vf.src);
-            warpfile_pose_line(f, "target", vf.dst);
-            fclose(f);
-            printf("inputs written to %s (color.png, depth.pfm, ids.png, layers.bin, view.txt, truth.png)\n",
-                   o.write_inputs);
+            if (!warp_write_inputs(o.write_inputs, &vf, &sb, &tb, o.sim_time, v.n_objects, objs, objs_dst, err,
+                                   sizeof err))
+                return fail_msg(err);
+            printf("inputs written to %s (color.png, depth.pfm, ids.png, motion.pfm, layers.bin, objects.txt, "
+                   "view.txt, truth.png, manifest.txt)\n", o.write_inputs);
         }
     } else {
         if (!o.color) return fail_msg("--color FILE.png (or --sim SCENE) is required");
@@ -311,30 +246,30 @@ int main(int argc, char **argv)
                            vf.cam.width, vf.cam.height), 1;
         v.color = &color;
         if (o.depth) {
-            if (!load_depth(&o, &vf.cam, &depth, &enc, err, sizeof err)) return fail_msg(err);
+            bool ray;
+            if (!warpfile_depth_encoding(o.depth_encoding, &enc))
+                return fail_msg("--depth-encoding: linear, standard or reversed");
+            if (!warpfile_depth_kind(o.depth_kind, &ray)) return fail_msg("--depth-kind: planar or ray");
+            if (ray && enc != WARP_DEPTH_LINEAR) return fail_msg("--depth-kind ray needs --depth-encoding linear");
+            if (!warpfile_load_depth(o.depth, &vf.cam, enc, ray, o.depth_scale, &depth, err, sizeof err))
+                return fail_msg(err);
             have_depth = true;
         }
         if (o.ids) {
-            uint16_t *u = NULL;
-            int iw, ih;
-            if (!plat_png_read_u16(o.ids, &u, &iw, &ih, err, sizeof err)) return fail_msg(err);
-            if (iw != vf.cam.width || ih != vf.cam.height || !warp_image_u16_alloc(&ids, iw, ih))
-                return free(u), fail_msg("--ids: size differs from the colour's");
-            for (int y = 0; y < ih; y++) memcpy(&WARP_AT(&ids, 0, y), u + (size_t)y * iw, sizeof(uint16_t) * iw);
-            free(u);
+            if (!warpfile_load_ids(o.ids, &vf.cam, &ids, err, sizeof err)) return fail_msg(err);
             v.ids = &ids;
         }
         if (o.motion) {
-            int mw, mh, ch;
-            float *m = warpfile_read_pfm(o.motion, &mw, &mh, &ch, err, sizeof err);
-            if (!m) return fail_msg(err);
-            if (mw != vf.cam.width || mh != vf.cam.height || ch != 3 || !warp_image_vec2f_alloc(&motion, mw, mh))
-                return free(m), fail_msg("--motion: expected a 3-channel PFM of the colour's size");
-            for (int y = 0; y < mh; y++)
-                for (int x = 0; x < mw; x++)
-                    WARP_AT(&motion, x, y) = (warp_vec2f){m[((size_t)y * mw + x) * 3], m[((size_t)y * mw + x) * 3 + 1]};
-            free(m);
+            if (!warpfile_load_motion(o.motion, &vf.cam, &motion, err, sizeof err)) return fail_msg(err);
             v.motion = &motion;
+        }
+        if (o.objects) {
+            /* Object poses from the user's renderer: the source's go with the frame, the target's to the warp. */
+            static warpfile_objects ob;
+            if (!warpfile_load_objects(o.objects, &ob, err, sizeof err)) return fail_msg(err);
+            v.n_objects = ob.n;
+            v.object_pose = ob.src;
+            cat_set_target_objects(ob.has_target ? ob.dst : NULL);
         }
         if (o.layers) {
             if (!warpfile_read_layers(o.layers, &vf.cam, &layers, err, sizeof err)) return fail_msg(err);
