@@ -68,6 +68,21 @@ CXX := $(CROSS_COMPILE)g++
 TOOL_LIBS_hmdwarp-bench := $(OPENCV_LIBS) -lstdc++
 PROGRAMS := $(BUILD)/hmdwarpd $(addprefix $(BUILD)/,$(TOOLS))
 
+# libhmdwarp-host (host/, docs/host-api.md): the host side of the frame link as a shared library with one installed
+# header; soname from the ABI major (HMDWARP_HOST_ABI_VERSION). The framelink codec and the bits of warp/ and
+# platform/ it needs are linked inside, built -fPIC with hidden visibility in their own object tree; the version
+# script exports hmdwarp_host_* only. hmdwarp-feed links it (rpath $ORIGIN in the tree; the installed copy is
+# relinked without one, see install).
+HOST_ABI := 0
+HOST_SONAME := libhmdwarp-host.so.$(HOST_ABI)
+HOST_LIB := $(BUILD)/$(HOST_SONAME)
+HOST_SRC := $(wildcard host/*.c)
+HOST_DEP_SRC := drivers/drv_framelink.c drivers/drv_frames.c platform/plat_version.c warp/warp_camera.c \
+                warp/warp_image.c warp/warp_math.c warp/warp_err.c
+HOST_PIC_OBJ := $(patsubst %.c,$(BUILD)/pic/%.o,$(HOST_SRC) $(HOST_DEP_SRC))
+HOST_LDLIBS = $(shell $(PKG_CONFIG) --libs libusb-1.0 zlib 2>/dev/null) -lm -pthread
+TOOL_LIBS_hmdwarp-feed := -Wl,-rpath,'$$ORIGIN'
+
 TEST_SRC := $(wildcard tests/unit/test_*.c tests/accuracy/test_*.c tests/stability/test_*.c)
 STABILITY_BINS := $(patsubst tests/%.c,$(BUILD)/tests/%,$(wildcard tests/stability/test_*.c))
 # Hardware-in-the-loop helper programs (they run inside the test VM, see tests/hil/): one per .c file.
@@ -87,9 +102,9 @@ TEST_SCRIPTS := tests/flash/test_flash.sh $(wildcard tests/packaging/test_*.sh) 
 
 .PHONY: all programs deps run test test-busy asan install clean results bench stability hil check-cross man install-man \
         have-help2man deb deb-arm64 deb-check fuzz fuzz-build fuzz-bins fuzz-merge soak
-all: $(PROGRAMS) $(TEST_BINS) $(HIL_BINS)
+all: $(PROGRAMS) $(HOST_LIB) $(BUILD)/libhmdwarp-host.so $(TEST_BINS) $(HIL_BINS)
 # The programs alone (what `make install` and the Debian packages need; no test dependencies).
-programs: $(PROGRAMS)
+programs: $(PROGRAMS) $(HOST_LIB) $(BUILD)/libhmdwarp-host.so $(BUILD)/install/hmdwarp-feed
 .SECONDARY:
 
 # Quiet by default; `make V=1` shows the commands.
@@ -121,6 +136,28 @@ $(BUILD)/obj/platform/plat_version.o: platform/plat_version.c $(VERSION_H)
 	$(Q)$(CC) $(CPPFLAGS) -I$(BUILD)/gen $(ALL_CFLAGS) -c $< -o $@
 .PHONY: FORCE
 FORCE:
+
+$(BUILD)/pic/%.o: %.c
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  CC [PIC] $<")
+	$(Q)$(CC) $(CPPFLAGS) $(ALL_CFLAGS) -fPIC -fvisibility=hidden -c $< -o $@
+$(BUILD)/pic/platform/plat_version.o: platform/plat_version.c $(VERSION_H)
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  CC [PIC] $<")
+	$(Q)$(CC) $(CPPFLAGS) -I$(BUILD)/gen $(ALL_CFLAGS) -fPIC -fvisibility=hidden -c $< -o $@
+$(HOST_LIB): $(HOST_PIC_OBJ) host/hmdwarp-host.map
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -shared -Wl,-soname,$(HOST_SONAME) -Wl,--version-script=host/hmdwarp-host.map \
+	  -Wl,--no-undefined -o $@ $(HOST_PIC_OBJ) $(HOST_LDLIBS)
+$(BUILD)/libhmdwarp-host.so: $(HOST_LIB)
+	$(Q)ln -sf $(HOST_SONAME) $@
+$(BUILD)/hmdwarp-feed: $(HOST_LIB)
+# The installed hmdwarp-feed: the same objects linked without the tree's rpath (Debian's lintian refuses one).
+$(BUILD)/install/hmdwarp-feed: $(patsubst %.c,$(BUILD)/obj/%.o,$(wildcard tools/hmdwarp-feed/*.c)) $(TOOLS_COMMON_OBJ) \
+                              $(LIBS) $(HOST_LIB)
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_ALL)
 
 $(BUILD)/obj/tests/%.o: tests/%.c
 	@mkdir -p $(dir $@)
@@ -422,4 +459,4 @@ check-cross:
 clean:
 	rm -rf build
 
--include $(shell find $(BUILD)/obj -name '*.d' 2>/dev/null)
+-include $(shell find $(BUILD)/obj $(BUILD)/pic -name '*.d' 2>/dev/null)
