@@ -159,6 +159,17 @@ $(BUILD)/install/hmdwarp-feed: $(patsubst %.c,$(BUILD)/obj/%.o,$(wildcard tools/
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_ALL)
 
+# The host examples (host/examples/, docs/stream-your-renderer.md) build as a user's program would: the public
+# header, libhmdwarp-host, EGL, GLES and libm only (no -I.: none of the tree's internals); rpath to the tree's library.
+EXAMPLE_PKGS := egl glesv2
+EXAMPLES := $(BUILD)/examples/render_gl
+$(BUILD)/examples/%: host/examples/%.c host/hmdwarp-host.h $(HOST_LIB)
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  CCLD    $@")
+	$(Q)$(CC) -std=gnu11 $(WARN) $(CFLAGS) -Ihost $(shell $(PKG_CONFIG) --cflags $(EXAMPLE_PKGS) 2>/dev/null) $(LDFLAGS) \
+	  -o $@ $< $(HOST_LIB) -Wl,-rpath,'$$ORIGIN/..' $(shell $(PKG_CONFIG) --libs $(EXAMPLE_PKGS) 2>/dev/null) -lm
+all: $(EXAMPLES)
+
 $(BUILD)/obj/tests/%.o: tests/%.c
 	@mkdir -p $(dir $@)
 	@$(if $(Q),echo "  CC      $<")
