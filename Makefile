@@ -100,7 +100,7 @@ TEST_BINS += $(FUZZ_REG_BINS)
 # headers self-contained and including only what they use.
 TEST_SCRIPTS := tests/flash/test_flash.sh $(wildcard tests/packaging/test_*.sh) tests/build/test_headers.sh
 
-.PHONY: all programs deps run test test-busy asan install clean results bench stability hil check-cross man install-man \
+.PHONY: all programs deps run test test-busy asan install install-python clean results bench stability hil check-cross man install-man \
         have-help2man deb deb-arm64 deb-check fuzz fuzz-build fuzz-bins fuzz-merge soak
 all: $(PROGRAMS) $(HOST_LIB) $(BUILD)/libhmdwarp-host.so $(TEST_BINS) $(HIL_BINS)
 # The programs alone (what `make install` and the Debian packages need; no test dependencies).
@@ -404,6 +404,17 @@ install-man: man
 	install -m 0644 $(filter %.1,$(MANPAGES)) $(DESTDIR)$(MANDIR)/man1/
 	install -m 0644 $(filter %.5,$(MANPAGES)) $(DESTDIR)$(MANDIR)/man5/
 install: install-man
+
+# The Python binding where Debian's python3 finds it: /usr/lib/python3/dist-packages for PREFIX=/usr (where Debian's
+# packages put modules), else PREFIX/lib/python3.N/dist-packages (/usr/local's); the examples beside the docs.
+PYTHON ?= /usr/bin/python3
+PYTHONDIR ?= $(if $(filter /usr,$(PREFIX)),/usr/lib/python3/dist-packages,$(PREFIX)/lib/python$(shell \
+               $(PYTHON) -c 'import sys; print("%d.%d" % sys.version_info[:2])' 2>/dev/null || echo 3)/dist-packages)
+install-python:
+	install -d $(DESTDIR)$(PYTHONDIR)/hmdwarp_host $(DESTDIR)$(PREFIX)/share/doc/hmdwarp/examples
+	install -m 0644 host/python/hmdwarp_host/*.py $(DESTDIR)$(PYTHONDIR)/hmdwarp_host/
+	install -m 0644 host/examples/render_gl.c host/examples/*.py $(DESTDIR)$(PREFIX)/share/doc/hmdwarp/examples/
+install: install-python
 
 # Debian packages hmdwarpd (the board) and hmdwarp-host (the host tools) from debian/, built in a copy of the
 # working tree under $(BUILD)/deb/ (dpkg-buildpackage writes its results to the parent directory), for this
