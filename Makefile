@@ -99,6 +99,8 @@ TEST_BINS += $(FUZZ_REG_BINS)
 # board/flash.sh against a fake merged-/usr board root; the version, licence lines and Debian packages; runtime/'s
 # headers self-contained and including only what they use.
 TEST_SCRIPTS := tests/flash/test_flash.sh $(wildcard tests/packaging/test_*.sh) tests/build/test_headers.sh
+# The Python binding and the host examples streaming to a stand-in board (TAP from Python; /usr/bin/python3).
+TEST_SCRIPTS += tests/examples/test_python.py
 
 .PHONY: all programs deps run test test-busy asan install install-python clean results bench stability hil check-cross man install-man \
         have-help2man deb deb-arm64 deb-check fuzz fuzz-build fuzz-bins fuzz-merge soak
@@ -168,7 +170,8 @@ $(BUILD)/examples/%: host/examples/%.c host/hmdwarp-host.h $(HOST_LIB)
 	@$(if $(Q),echo "  CCLD    $@")
 	$(Q)$(CC) -std=gnu11 $(WARN) $(CFLAGS) -Ihost $(shell $(PKG_CONFIG) --cflags $(EXAMPLE_PKGS) 2>/dev/null) $(LDFLAGS) \
 	  -o $@ $< $(HOST_LIB) -Wl,-rpath,'$$ORIGIN/..' $(shell $(PKG_CONFIG) --libs $(EXAMPLE_PKGS) 2>/dev/null) -lm
-all: $(EXAMPLES)
+# tests/examples/test_python.py's stand-in board (a program, not a test: not in TEST_BINS).
+all: $(EXAMPLES) $(BUILD)/tests/examples/fake_board
 
 $(BUILD)/obj/tests/%.o: tests/%.c
 	@mkdir -p $(dir $@)
