@@ -102,7 +102,7 @@ TEST_SCRIPTS := tests/flash/test_flash.sh $(wildcard tests/packaging/test_*.sh) 
 # The Python binding and the host examples streaming to a stand-in board (TAP from Python; /usr/bin/python3).
 TEST_SCRIPTS += tests/examples/test_python.py
 
-.PHONY: all programs deps run test test-busy asan install install-python clean results bench stability hil check-cross man install-man \
+.PHONY: all programs deps run test test-busy asan install clean results bench stability hil check-cross man install-man \
         have-help2man deb deb-arm64 deb-check fuzz fuzz-build fuzz-bins fuzz-merge soak
 all: $(PROGRAMS) $(HOST_LIB) $(BUILD)/libhmdwarp-host.so $(TEST_BINS) $(HIL_BINS)
 # The programs alone (what `make install` and the Debian packages need; no test dependencies).
@@ -413,6 +413,7 @@ install: install-man
 PYTHON ?= /usr/bin/python3
 PYTHONDIR ?= $(if $(filter /usr,$(PREFIX)),/usr/lib/python3/dist-packages,$(PREFIX)/lib/python$(shell \
                $(PYTHON) -c 'import sys; print("%d.%d" % sys.version_info[:2])' 2>/dev/null || echo 3)/dist-packages)
+.PHONY: install-python
 install-python:
 	install -d $(DESTDIR)$(PYTHONDIR)/hmdwarp_host $(DESTDIR)$(PREFIX)/share/doc/hmdwarp/examples
 	install -m 0644 host/python/hmdwarp_host/*.py $(DESTDIR)$(PYTHONDIR)/hmdwarp_host/
