@@ -82,6 +82,8 @@ HOST_DEP_SRC := drivers/drv_framelink.c drivers/drv_frames.c platform/plat_versi
 HOST_PIC_OBJ := $(patsubst %.c,$(BUILD)/pic/%.o,$(HOST_SRC) $(HOST_DEP_SRC))
 HOST_LDLIBS = $(shell $(PKG_CONFIG) --libs libusb-1.0 zlib 2>/dev/null) -lm -pthread
 TOOL_LIBS_hmdwarp-feed := -Wl,-rpath,'$$ORIGIN'
+# tests/packaging/test_host_install.sh's board and host program.
+HOST_TEST_BINS := $(BUILD)/tests/packaging/host_fake_board $(BUILD)/tests/packaging/host_api_smoke
 
 TEST_SRC := $(wildcard tests/unit/test_*.c tests/accuracy/test_*.c tests/stability/test_*.c)
 STABILITY_BINS := $(patsubst tests/%.c,$(BUILD)/tests/%,$(wildcard tests/stability/test_*.c))
@@ -104,7 +106,7 @@ TEST_SCRIPTS += tests/examples/test_python.py
 
 .PHONY: all programs deps run test test-busy asan install clean results bench stability hil check-cross man install-man \
         have-help2man deb deb-arm64 deb-check fuzz fuzz-build fuzz-bins fuzz-merge soak
-all: $(PROGRAMS) $(HOST_LIB) $(BUILD)/libhmdwarp-host.so $(TEST_BINS) $(HIL_BINS)
+all: $(PROGRAMS) $(HOST_LIB) $(BUILD)/libhmdwarp-host.so $(TEST_BINS) $(HOST_TEST_BINS) $(HIL_BINS)
 # The programs alone (what `make install` and the Debian packages need; no test dependencies).
 programs: $(PROGRAMS) $(HOST_LIB) $(BUILD)/libhmdwarp-host.so $(BUILD)/install/hmdwarp-feed
 .SECONDARY:
@@ -220,6 +222,24 @@ $(BUILD)/tests/unit/test_registry: $(BUILD)/obj/tests/unit/test_registry.o $(TOO
 	@mkdir -p $(dir $@)
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_ALL) $(TEST_LIBS)
+
+# test_host runs libhmdwarp-host itself (the .so, found through its rpath) against a fake board.
+$(BUILD)/tests/unit/test_host: $(BUILD)/obj/tests/unit/test_host.o $(TEST_SUPPORT_OBJ) $(LIBS) $(HOST_LIB)
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -Wl,-rpath,'$$ORIGIN/../..' -o $@ $^ $(LDLIBS_ALL) $(TEST_LIBS)
+
+# The installed-library test's board and host program (tests/packaging/test_host_install.sh builds the host program
+# again against the installed header; this build keeps it compiling clean with the project's flags).
+$(BUILD)/tests/packaging/host_fake_board: $(BUILD)/obj/tests/packaging/host_fake_board.o $(LIBS)
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_ALL)
+$(BUILD)/obj/tests/packaging/host_api_smoke.o: CPPFLAGS += -Ihost
+$(BUILD)/tests/packaging/host_api_smoke: $(BUILD)/obj/tests/packaging/host_api_smoke.o $(HOST_LIB)
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -Wl,-rpath,'$$ORIGIN/../..' -o $@ $^
 
 # test_render_cpu checks hmdwarp-bench's display path (bench_display) against hmdwarpd's CPU pass.
 $(BUILD)/tests/unit/test_render_cpu: $(BUILD)/obj/tests/unit/test_render_cpu.o \
@@ -343,11 +363,12 @@ pc_dir = $(patsubst /lib/%,/usr/lib/%,$(patsubst //%,/%,$(or $(shell $(PKG_CONFI
 UNITDIR ?= $(call pc_dir,systemd,systemdsystemunitdir,/usr/lib/systemd/system)
 UDEVDIR ?= $(call pc_dir,udev,udevdir,/usr/lib/udev)/rules.d
 SYSUSERSDIR ?= $(call pc_dir,systemd,sysusersdir,/usr/lib/sysusers.d)
-install: $(PROGRAMS)
+install: $(PROGRAMS) $(BUILD)/install/hmdwarp-feed
 	@test -f board/$(BOARD)/board.ini || { echo "install: no board/$(BOARD)/board.ini (BOARD= one of: $(BOARDS))"; exit 1; }
 	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/share/doc/hmdwarp $(DESTDIR)$(SYSCONFDIR)/hmdwarp \
 	  $(DESTDIR)$(UNITDIR) $(DESTDIR)$(UDEVDIR) $(DESTDIR)$(SYSUSERSDIR)
-	install -m 0755 $(PROGRAMS) $(DESTDIR)$(PREFIX)/bin/
+	install -m 0755 $(filter-out $(BUILD)/hmdwarp-feed,$(PROGRAMS)) $(DESTDIR)$(PREFIX)/bin/
+	install -m 0755 $(BUILD)/install/hmdwarp-feed $(DESTDIR)$(PREFIX)/bin/
 	install -m 0755 board/gadget.sh $(DESTDIR)$(PREFIX)/bin/hmdwarp-gadget
 	for b in $(BOARDS); do \
 	  install -d $(DESTDIR)$(PREFIX)/share/hmdwarp/boards/$$b && \
@@ -366,6 +387,22 @@ install: $(PROGRAMS)
 	install -m 0644 board/systemd/hmdwarp.sysusers.conf $(DESTDIR)$(SYSUSERSDIR)/hmdwarp.conf
 	install -m 0644 board/udev/99-hmdwarp.rules $(DESTDIR)$(UDEVDIR)/99-hmdwarp.rules
 	install -m 0644 README.md docs/*.md $(DESTDIR)$(PREFIX)/share/doc/hmdwarp/
+
+# libhmdwarp-host for host applications: the library with its soname and development symlinks in LIBDIR, the
+# header in INCLUDEDIR, hmdwarp-host.pc (prefix and libdir of this install) for pkg-config. After an install outside
+# Debian's directories run ldconfig, or set LD_LIBRARY_PATH, for programs to find the library.
+LIBDIR ?= $(PREFIX)/lib
+INCLUDEDIR ?= $(PREFIX)/include
+PKGCONFIGDIR ?= $(LIBDIR)/pkgconfig
+install-host-lib: $(HOST_LIB) host/hmdwarp-host.h host/hmdwarp-host.pc.in
+	install -d $(DESTDIR)$(LIBDIR) $(DESTDIR)$(INCLUDEDIR) $(DESTDIR)$(PKGCONFIGDIR)
+	install -m 0644 $(HOST_LIB) $(DESTDIR)$(LIBDIR)/
+	ln -sf $(HOST_SONAME) $(DESTDIR)$(LIBDIR)/libhmdwarp-host.so
+	install -m 0644 host/hmdwarp-host.h $(DESTDIR)$(INCLUDEDIR)/
+	sed -e 's|@PREFIX@|$(PREFIX)|; s|@LIBDIR@|$(LIBDIR)|; s|@VERSION@|$(shell scripts/version.sh)|' \
+	  host/hmdwarp-host.pc.in >$(DESTDIR)$(PKGCONFIGDIR)/hmdwarp-host.pc
+install: install-host-lib
+.PHONY: install-host-lib
 
 # Manual pages: section 1 by help2man from each program's --help and --version, hmdwarp-board.ini(5) from
 # hmdwarpd's own key table (--help-config), so neither can drift from the code. A cross build reads the programs'

@@ -307,7 +307,7 @@ API hmdwarp_host *hmdwarp_host_open(const char *uri)
     } else if (scheme == 4 && strncmp(uri, "file", 4) == 0) {
         o.transport = HMDWARP_HOST_TRANSPORT_FILE;
         o.path = colon + 1;
-    } else if (strcmp(uri, "-") == 0 || !colon || strchr(uri, '/') < colon) {
+    } else if (strcmp(uri, "-") == 0 || !colon || (strchr(uri, '/') && strchr(uri, '/') < colon)) {
         o.transport = HMDWARP_HOST_TRANSPORT_FILE; /* a plain path */
         o.path = uri;
     } else {

@@ -71,6 +71,8 @@ for p in "$BUILD"/hil/*; do
     [ -f "$p" ] && [ -x "$p" ] && case "$p" in *.cpio|*.sh) ;; *) progs="$progs $p" ;; esac
 done
 for p in $progs; do cp "$p" "$S/hil/bin/"; done
+# hmdwarp-feed loads libhmdwarp-host from beside it (its rpath is $ORIGIN), as in the build tree.
+cp "$BUILD/libhmdwarp-host.so.0" "$S/hil/bin/"
 cp "$top/board/gadget.sh" "$S/hil/bin/gadget.sh"
 # chrt (util-linux): the device stand-ins run at real-time priority (scenarios/lib.sh hil_device).
 extra=$(command -v chrt) || die "no chrt (util-linux)"

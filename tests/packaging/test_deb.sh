@@ -22,13 +22,14 @@ version=$(dpkg-parsechangelog -S Version)
 . "$(dirname "$0")/../support/tap.sh"
 check() { d=$1; shift; if "$@" >"$dir/check.out" 2>&1; then ok "$d"; else not_ok "$d" "$(head -n 3 "$dir/check.out")"; fi; }
 dpkg_root() { $fake dpkg --root="$root" --force-script-chrootless --force-depends "$@"; }
-echo "1..17"
+echo "1..18"
 
 rm -rf "$root"
 mkdir -p "$root/var/lib/dpkg/info" "$root/var/lib/dpkg/updates" "$root/etc"
 touch "$root/var/lib/dpkg/status" "$root/var/lib/dpkg/available"
 check "dpkg -i hmdwarpd and hmdwarp-host into $root" \
-    dpkg_root -i "$dir"/hmdwarpd_"$version"_*.deb "$dir"/hmdwarp-host_"$version"_*.deb
+    dpkg_root -i "$dir"/hmdwarpd_"$version"_*.deb "$dir"/hmdwarp-host_"$version"_*.deb \
+    "$dir"/libhmdwarp-host0_"$version"_*.deb "$dir"/libhmdwarp-host-dev_"$version"_*.deb
 for p in hmdwarpd hmdwarp-host; do
     check "$p is installed" sh -c "$fake dpkg --root='$root' -s $p | grep -qx 'Status: install ok installed'"
 done
@@ -42,8 +43,14 @@ check "/etc/hmdwarp/board.ini is a conffile" grep -qx /etc/hmdwarp/board.ini "$r
 check "/etc/hmdwarp/board.ini is the generic board's" cmp board/generic-aarch64/board.ini "$root/etc/hmdwarp/board.ini"
 check "the installed board.ini is valid" \
     "$root/usr/bin/hmdwarpd" --check-config --config "$root/etc/hmdwarp/board.ini"
+check "libhmdwarp-host0 and -dev: the library by its soname, the header, the .pc, hmdwarp-feed depends on it" \
+    sh -c "ls '$root'/usr/lib/*/libhmdwarp-host.so.0 && [ -f '$root/usr/include/hmdwarp-host.h' ] &&
+    ls '$root'/usr/lib/*/pkgconfig/hmdwarp-host.pc && $fake dpkg --root='$root' -s hmdwarp-host | grep -q '^Depends:.*libhmdwarp-host0'"
+# hmdwarp-feed loads libhmdwarp-host0's library from the root (the dynamic loader's paths are this host's).
+libdir=$root/usr/lib/$(dpkg-architecture -qDEB_HOST_MULTIARCH)
 for p in hmdwarpd hmdwarp-feed; do
-    check "installed $p --version prints '$p $version'" sh -c "[ \"\$('$root/usr/bin/$p' --version)\" = '$p $version' ]"
+    check "installed $p --version prints '$p $version'" \
+        sh -c "[ \"\$(LD_LIBRARY_PATH='$libdir' '$root/usr/bin/$p' --version)\" = '$p $version' ]"
 done
 check "man pages: seven in section 1 (hmdwarp-gadget and hmdwarp-top too), board.ini's in 5" sh -c "[ \$(ls '$root'/usr/share/man/man1/hmdwarp*.1.gz | wc -l) -eq 7 ] &&
     zcat '$root/usr/share/man/man5/hmdwarp-board.ini.5.gz' | grep -q '^\.TH HMDWARP-BOARD.INI 5'"

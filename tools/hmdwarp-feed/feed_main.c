@@ -1,11 +1,9 @@
 /* SPDX-License-Identifier: MIT */
-/* hmdwarp-feed: the host side of the USB frame link: reads the board's pose messages, renders the simulated scene
- * (or loads PNGs) at each pose, encodes frames with the framelink codec and sends them to the board (or a file). */
+/* hmdwarp-feed: a host for hmdwarp boards on libhmdwarp-host: argument parsing and content sources (the simulated
+ * scene, PNGs) rendered at the board's poses and submitted over USB, a socket or into a file (or a V4L2 output). */
 #include <errno.h>
 #include <getopt.h>
-#include <libusb.h>
 #include <math.h>
-#include <pthread.h>
 #include <signal.h>
 #include <stdatomic.h>
 #include <stdio.h>
@@ -14,6 +12,7 @@
 
 #include "drivers/drv_framelink.h"
 #include "drivers/drv_v4l2_output.h"
+#include "host/hmdwarp-host.h"
 #include "platform/plat_clock.h"
 #include "platform/plat_png.h"
 #include "platform/plat_version.h"
@@ -32,6 +31,7 @@ typedef struct {
     const char *scene;
     const char *png;           /* printf pattern with one %d (frame index) or a plain file */
     const char *out_path;      /* --file / --stdout ("-") */
+    const char *socket_path;   /* --socket: hmdwarpd's [frames] backend = socket */
     const char *v4l2_dev;      /* --v4l2: a V4L2 output device (HDMI/CSI path to the board's capture) */
     const char *v4l2_format;
     bool v4l2_depth;
@@ -62,13 +62,16 @@ static void usage(FILE *f)
     fprintf(f,
             "Usage: hmdwarp-feed [options]\n"
             "Feeds host frames to an hmdwarp board over USB (the board runs as a FunctionFS gadget, see\n"
-            "board/gadget.sh) or into a file: waits for the board's pose messages on bulk IN, renders each eye at the\n"
-            "pose received, and writes framelink frames (docs/framelink.md) to bulk OUT.\n"
+            "board/gadget.sh), a Unix socket or into a file: waits for the board's pose messages, renders each eye\n"
+            "at the pose received, and sends framelink frames (docs/framelink.md) through libhmdwarp-host\n"
+            "(docs/host-api.md).\n"
             "\n"
             "Device:\n"
             "  --device VID:PID    USB ids of the board, hex (default %04x:%04x)\n"
             "  --interface N       interface number of the hmdwarp function (default 0)\n"
-            "  --wait S            keep retrying enumeration for S seconds (no hotplug without udevd; default 30)\n"
+            "  --wait S            keep retrying enumeration (or the socket) for S seconds (default 30)\n"
+            "  --socket PATH       connect to hmdwarpd's socket backend at PATH instead of USB ([frames] backend =\n"
+            "                      socket, device = PATH)\n"
             "Content:\n"
             "  --scene NAME        simulated scene to render (default room): %s\n"
             "  --png PATTERN       send PNG images instead (colour only); PATTERN may hold one %%d for the frame\n"
@@ -95,7 +98,7 @@ static void usage(FILE *f)
             "  --v4l2-format FMT   yuyv, nv12, bgr32 or rgb24 (default yuyv)\n"
             "  --v4l2-depth        pack the depth plane below the colour (board: [frames] depth = true)\n"
             "  --synth-poses       synthesise poses (a slow head turn) instead of reading the board's\n"
-            "Faults (USB and file output; hardware-in-the-loop tests):\n"
+            "Faults (USB, socket and file output; hardware-in-the-loop tests):\n"
             "  --damage-every N    damage every Nth frame on the wire, in turn: one payload byte flipped (the\n"
             "                      board rejects it: crc), cut to half its bytes (truncated; the board resyncs on\n"
             "                      the next frame's magic), a version the board does not speak (bad version)\n"
@@ -129,8 +132,11 @@ static bool parse_opts(int argc, char **argv, feed_opts *o)
                      .eye_h = 800, .fov = {52, 48, 52, 52}, .near_z = 0.05,
                      .planes = DRV_PLANE_COLOR | DRV_PLANE_DEPTH, .rate_hz = 45, .synth_rate_hz = 90, .threads = 2};
     enum { O_DEVICE = 256, O_IFACE, O_WAIT, O_SCENE, O_PNG, O_EYE, O_FOV, O_NEAR, O_PLANES, O_DEPTH, O_THREADS,
-           O_RATE, O_FRAMES, O_DURATION, O_FILE, O_STDOUT, O_SYNTH, O_V4L2, O_V4L2_FMT, O_V4L2_DEPTH, O_SYNTH_POSES, O_DAMAGE };
+           O_RATE, O_FRAMES, O_DURATION, O_FILE, O_STDOUT, O_SYNTH, O_V4L2, O_V4L2_FMT, O_V4L2_DEPTH, O_SYNTH_POSES,
+           O_DAMAGE, O_SOCKET };
+    /* One entry a line: a new option is a line here and a case below. */
     static const struct option lo[] = {
+        {"socket", 1, 0, O_SOCKET},
         {"device", 1, 0, O_DEVICE}, {"interface", 1, 0, O_IFACE}, {"wait", 1, 0, O_WAIT}, {"scene", 1, 0, O_SCENE},
         {"png", 1, 0, O_PNG}, {"eye", 1, 0, O_EYE}, {"fov", 1, 0, O_FOV}, {"near", 1, 0, O_NEAR},
         {"planes", 1, 0, O_PLANES}, {"depth", 1, 0, O_DEPTH}, {"threads", 1, 0, O_THREADS}, {"rate", 1, 0, O_RATE},
@@ -174,6 +180,7 @@ static bool parse_opts(int argc, char **argv, feed_opts *o)
         case O_FRAMES: o->max_frames = atol(optarg); break;
         case O_DURATION: o->duration_s = atof(optarg); break;
         case O_FILE: o->out_path = optarg; break;
+        case O_SOCKET: o->socket_path = optarg; break;
         case O_STDOUT: o->out_path = "-"; break;
         case O_SYNTH: o->synth_rate_hz = atof(optarg); break;
         case O_V4L2: o->v4l2_dev = optarg; break;
@@ -194,209 +201,134 @@ static bool parse_opts(int argc, char **argv, feed_opts *o)
     if (!(o->rate_hz > 0) || !(o->synth_rate_hz > 0) || o->threads < 1)
         return fprintf(stderr, "--rate, --synth-rate and --threads must be positive\n"), false;
     if (o->damage_every && o->v4l2_dev)
-        return fprintf(stderr, "--damage-every damages framelink bytes: USB or file output only, not --v4l2\n"), false;
+        return fprintf(stderr, "--damage-every damages framelink bytes: USB, socket or file output only, not --v4l2\n"),
+               false;
+    if (o->socket_path && o->out_path)
+        return fprintf(stderr, "--socket and --file/--stdout are two outputs: choose one\n"), false;
     return true;
 }
 
-/* ---- pose input: the board over bulk IN, or synthesised for file output ---- */
+/* ---- poses: the board's (libhmdwarp-host), or synthesised (file output, --synth-poses) ---- */
+
+/* A slow head turn on the pose clock of a board that sends synth_rate_hz messages: the pose of the newest tick. */
+static hmdwarp_host_pose_msg synth_pose(int64_t t0, double rate_hz)
+{
+    static const warp_head *h;
+    static warp_head head;
+    if (!h) head = warp_head_default(), h = &head;
+    int64_t now = plat_now_ns(), period = (int64_t)(1e9 / rate_hz);
+    hmdwarp_host_pose_msg m = {.seq = (uint32_t)((now - t0) / period + 1)};
+    m.board_time_ns = t0 + (int64_t)(m.seq - 1) * period;
+    m.target_time_ns = m.board_time_ns + 20 * PLAT_NS_PER_MS;
+    m.received_ns = now;
+    double t = (double)(m.target_time_ns - t0) * 1e-9;
+    warp_pose head_pose = warp_head_pose_from_orientation(h, warp_quat_from_ypr(0.5 * sin(0.5 * t), 0.1 * sin(0.3 * t), 0));
+    for (int e = 0; e < 2; e++) {
+        warp_pose p = warp_head_eye_pose(h, head_pose, e);
+        m.eye[e] = (hmdwarp_host_pose){{p.q.w, p.q.x, p.q.y, p.q.z}, {p.p.x, p.p.y, p.p.z}};
+    }
+    return m;
+}
+
+static warp_pose pose_from_host(const hmdwarp_host_pose *p)
+{
+    return (warp_pose){{p->orientation[0], p->orientation[1], p->orientation[2], p->orientation[3]},
+                       {p->position[0], p->position[1], p->position[2]}};
+}
+
+/* ---- the frame as libhmdwarp-host takes it: pointers into the rendered drv_frame ---- */
 
 typedef struct {
-    pthread_mutex_t lock;
-    pthread_cond_t cond;
-    drv_framelink_pose latest;
-    int64_t latest_rx_ns;
-    uint64_t received, bad;
-    bool fresh;
-    /* USB */
-    libusb_device_handle *dev;
-    unsigned char ep_in, ep_out;
-    /* synthetic */
-    double synth_rate_hz;
-    pthread_t th;
-    bool th_up;
-} pose_input;
+    hmdwarp_host_frame fr;
+    hmdwarp_host_fragment *frags[2]; /* the layers plane packed (the library wants the fragments back to back) */
+    uint8_t *counts[2];
+    hmdwarp_host_pose objects[DRV_MAX_OBJECTS];
+} host_frame;
 
-static void pose_store(pose_input *pi, const drv_framelink_pose *p)
+static bool host_frame_init(host_frame *hf, const drv_frame *f, unsigned planes)
 {
-    pthread_mutex_lock(&pi->lock);
-    pi->latest = *p;
-    pi->latest_rx_ns = plat_now_ns();
-    pi->fresh = true;
-    pi->received++;
-    pthread_cond_signal(&pi->cond);
-    pthread_mutex_unlock(&pi->lock);
-}
-
-static void *usb_pose_thread(void *arg)
-{
-    pose_input *pi = arg;
-    unsigned char buf[512];
-    while (!atomic_load(&g_stop)) {
-        int n = 0;
-        int rc = libusb_bulk_transfer(pi->dev, pi->ep_in, buf, sizeof buf, &n, 100);
-        if (rc == LIBUSB_ERROR_TIMEOUT) continue;
-        if (rc != 0) {
-            fprintf(stderr, "hmdwarp-feed: reading poses: %s\n", libusb_strerror(rc));
-            atomic_store(&g_stop, true);
-            break;
-        }
-        drv_framelink_pose p;
-        drv_frame_err e = drv_framelink_pose_decode(buf, (size_t)n, &p);
-        if (e == DRV_FRAME_OK) {
-            pose_store(pi, &p);
-        } else {
-            pthread_mutex_lock(&pi->lock);
-            pi->bad++;
-            pthread_mutex_unlock(&pi->lock);
-            fprintf(stderr, "hmdwarp-feed: pose message rejected: %s (%d bytes)\n", drv_frame_err_str(e), n);
+    memset(hf, 0, sizeof *hf);
+    hf->fr.color_format = HMDWARP_HOST_COLOR_RGBA8;
+    hf->fr.depth_format = planes & DRV_PLANE_DEPTH ? HMDWARP_HOST_DEPTH_LINEAR_F32 : HMDWARP_HOST_DEPTH_NONE;
+    for (int e = 0; e < 2; e++) {
+        hmdwarp_host_eye *ey = &hf->fr.eye[e];
+        const warp_camera *c = &f->cam[e];
+        ey->camera = (hmdwarp_host_camera){(uint32_t)c->width, (uint32_t)c->height, c->tan_left, c->tan_right,
+                                           c->tan_up, c->tan_down, c->near_z, c->far_z};
+        ey->color = f->color[e].px, ey->color_stride = (size_t)f->color[e].stride * sizeof(warp_rgba8);
+        if (planes & DRV_PLANE_DEPTH) ey->depth = f->depth[e].px, ey->depth_stride = (size_t)f->depth[e].stride * 4;
+        if (planes & DRV_PLANE_IDS) ey->ids = f->ids[e].px, ey->ids_stride = (size_t)f->ids[e].stride * 2;
+        if (planes & DRV_PLANE_MOTION)
+            ey->motion = &f->motion[e].px[0].x, ey->motion_stride = (size_t)f->motion[e].stride * sizeof(warp_vec2f);
+        if (planes & DRV_PLANE_LAYERS) {
+            const warp_image_layers *l = &f->layers[e];
+            hf->frags[e] = malloc((size_t)l->w * l->h * l->max_layers * sizeof(hmdwarp_host_fragment));
+            hf->counts[e] = malloc((size_t)l->w * l->h);
+            if (!hf->frags[e] || !hf->counts[e]) return false;
+            ey->layer_count = hf->counts[e];
+            ey->fragments = hf->frags[e];
         }
     }
-    return NULL;
-}
-
-/* File mode: a slow head turn, encoded and decoded through the codec like the board's messages. */
-static void *synth_pose_thread(void *arg)
-{
-    pose_input *pi = arg;
-    warp_head h = warp_head_default();
-    int64_t t0 = plat_now_ns(), next = t0, period = (int64_t)(1e9 / pi->synth_rate_hz);
-    uint32_t seq = 0;
-    while (!atomic_load(&g_stop)) {
-        plat_sleep_until_ns(next += period);
-        drv_framelink_pose p = {.seq = ++seq, .board_t_ns = plat_now_ns()};
-        p.target_t_ns = p.board_t_ns + 20 * PLAT_NS_PER_MS;
-        double t = (double)(p.target_t_ns - t0) * 1e-9;
-        p.head = warp_head_pose_from_orientation(&h, warp_quat_from_ypr(0.5 * sin(0.5 * t), 0.1 * sin(0.3 * t), 0));
-        for (int e = 0; e < 2; e++) p.eye[e] = warp_head_eye_pose(&h, p.head, e);
-        uint8_t msg[DRV_FRAMELINK_POSE_BYTES];
-        drv_framelink_pose_encode(&p, msg, sizeof msg);
-        drv_framelink_pose q;
-        if (drv_framelink_pose_decode(msg, sizeof msg, &q) == DRV_FRAME_OK) pose_store(pi, &q);
-    }
-    return NULL;
-}
-
-/* Waits up to timeout_ms for a pose newer than the last one taken. */
-static bool pose_take(pose_input *pi, int timeout_ms, drv_framelink_pose *p, int64_t *rx_ns)
-{
-    pthread_mutex_lock(&pi->lock);
-    struct timespec ts;
-    clock_gettime(CLOCK_REALTIME, &ts);
-    ts.tv_nsec += (long)timeout_ms * 1000000L;
-    ts.tv_sec += ts.tv_nsec / 1000000000L;
-    ts.tv_nsec %= 1000000000L;
-    while (!pi->fresh && !atomic_load(&g_stop))
-        if (pthread_cond_timedwait(&pi->cond, &pi->lock, &ts) != 0) break;
-    bool ok = pi->fresh;
-    if (ok) {
-        *p = pi->latest;
-        *rx_ns = pi->latest_rx_ns;
-        pi->fresh = false;
-    }
-    pthread_mutex_unlock(&pi->lock);
-    return ok;
-}
-
-/* ---- frame output: USB bulk OUT, a file, or a V4L2 output device ---- */
-
-typedef struct feed_sink feed_sink;
-struct feed_sink {
-    const char *name;
-    /* buf/len: the framelink encoding of f (NULL/0 for sinks that do not want it) */
-    bool (*write)(feed_sink *s, const drv_frame *f, const uint8_t *buf, size_t len);
-    void (*close)(feed_sink *s);
-    void *ctx;
-    bool wants_bytes;
-};
-
-static bool v4l2_sink_write(feed_sink *s, const drv_frame *f, const uint8_t *buf, size_t len)
-{
-    (void)buf;
-    (void)len;
-    int rc = drv_v4l2_output_write(s->ctx, f);
-    if (rc) fprintf(stderr, "hmdwarp-feed: writing a frame to the V4L2 output: %s\n", strerror(-rc));
-    return rc == 0;
-}
-static void v4l2_sink_close(feed_sink *s) { drv_v4l2_output_close(s->ctx); }
-
-static bool usb_sink_write(feed_sink *s, const drv_frame *f, const uint8_t *buf, size_t len)
-{
-    (void)f;
-    pose_input *pi = s->ctx;
-    while (len > 0 && !atomic_load(&g_stop)) {
-        int n = 0, chunk = len > (1u << 24) ? 1 << 24 : (int)len;
-        int rc = libusb_bulk_transfer(pi->dev, pi->ep_out, (unsigned char *)buf, chunk, &n, 2000);
-        if (rc != 0 && rc != LIBUSB_ERROR_TIMEOUT) {
-            fprintf(stderr, "hmdwarp-feed: writing a frame: %s\n", libusb_strerror(rc));
-            return false;
-        }
-        buf += n;
-        len -= (size_t)n;
-    }
-    return len == 0;
-}
-static void usb_sink_close(feed_sink *s) { (void)s; }
-
-static bool file_sink_write(feed_sink *s, const drv_frame *f, const uint8_t *buf, size_t len)
-{
-    (void)f;
-    if (fwrite(buf, 1, len, s->ctx) != len) {
-        fprintf(stderr, "hmdwarp-feed: writing the stream: %s\n", strerror(errno));
-        return false;
-    }
-    return fflush(s->ctx) == 0;
-}
-static void file_sink_close(feed_sink *s)
-{
-    if (s->ctx != stdout) fclose(s->ctx);
-}
-
-/* Opens the board by VID:PID, retrying: without udevd there is no hotplug, so poll enumeration. */
-static bool usb_open(const feed_opts *o, pose_input *pi)
-{
-    int rc = libusb_init(NULL);
-    if (rc != 0) return fprintf(stderr, "hmdwarp-feed: libusb_init: %s\n", libusb_strerror(rc)), false;
-    int64_t until = plat_now_ns() + (int64_t)(o->wait_s * 1e9);
-    bool said = false;
-    while (!(pi->dev = libusb_open_device_with_vid_pid(NULL, (uint16_t)o->vid, (uint16_t)o->pid))) {
-        if (atomic_load(&g_stop) || plat_now_ns() > until) {
-            fprintf(stderr, "hmdwarp-feed: no USB device %04x:%04x after %.0f s (is the board's gadget bound? "
-                            "permissions on /dev/bus/usb?)\n", o->vid, o->pid, o->wait_s);
-            return false;
-        }
-        if (!said) fprintf(stderr, "hmdwarp-feed: waiting for %04x:%04x ...\n", o->vid, o->pid), said = true;
-        plat_sleep_ns(500 * PLAT_NS_PER_MS);
-        /* Without udevd libusb gets no hotplug events and keeps its first device list: a new context rescans. */
-        libusb_exit(NULL);
-        rc = libusb_init(NULL);
-        if (rc != 0) return fprintf(stderr, "hmdwarp-feed: libusb_init: %s\n", libusb_strerror(rc)), false;
-    }
-    libusb_set_auto_detach_kernel_driver(pi->dev, 1);
-    rc = libusb_claim_interface(pi->dev, o->interface);
-    if (rc != 0)
-        return fprintf(stderr, "hmdwarp-feed: claiming interface %d: %s\n", o->interface, libusb_strerror(rc)), false;
-    /* The endpoints from the descriptors rather than assumed numbers. */
-    struct libusb_config_descriptor *cfg;
-    rc = libusb_get_active_config_descriptor(libusb_get_device(pi->dev), &cfg);
-    if (rc != 0) return fprintf(stderr, "hmdwarp-feed: config descriptor: %s\n", libusb_strerror(rc)), false;
-    for (int i = 0; i < cfg->bNumInterfaces; i++) {
-        const struct libusb_interface_descriptor *id = &cfg->interface[i].altsetting[0];
-        if (id->bInterfaceNumber != o->interface) continue;
-        for (int e = 0; e < id->bNumEndpoints; e++) {
-            const struct libusb_endpoint_descriptor *ep = &id->endpoint[e];
-            if ((ep->bmAttributes & 3) != LIBUSB_TRANSFER_TYPE_BULK) continue;
-            if (ep->bEndpointAddress & LIBUSB_ENDPOINT_IN)
-                pi->ep_in = ep->bEndpointAddress;
-            else
-                pi->ep_out = ep->bEndpointAddress;
-        }
-    }
-    libusb_free_config_descriptor(cfg);
-    if (!pi->ep_in || !pi->ep_out)
-        return fprintf(stderr, "hmdwarp-feed: interface %d has no bulk IN + OUT pair\n", o->interface), false;
-    fprintf(stderr, "hmdwarp-feed: board %04x:%04x, bulk OUT 0x%02x, bulk IN 0x%02x\n", o->vid, o->pid, pi->ep_out,
-            pi->ep_in);
+    hf->fr.object_poses = hf->objects;
     return true;
+}
+
+static void host_frame_free(host_frame *hf)
+{
+    for (int e = 0; e < 2; e++) free(hf->frags[e]), free(hf->counts[e]);
+}
+
+/* The per-frame fields: poses, times, objects, and the layers packed. */
+static void host_frame_update(host_frame *hf, const drv_frame *f, const hmdwarp_host_pose_msg *pm, bool echo,
+                              int64_t start, int64_t end)
+{
+    hmdwarp_host_frame *fr = &hf->fr;
+    fr->pose_seq = echo ? pm->seq : 0;
+    fr->pose_target_ns = echo ? 0 : pm->target_time_ns;
+    fr->pose_board_ns = echo ? 0 : pm->board_time_ns;
+    fr->pose_received_ns = echo ? 0 : pm->received_ns;
+    for (int e = 0; e < 2; e++) fr->eye[e].pose = echo ? (hmdwarp_host_pose){{0}, {0}} : pm->eye[e];
+    fr->render_start_ns = start;
+    fr->render_end_ns = end;
+    fr->scene_time = f->scene_time;
+    fr->n_objects = (unsigned)f->n_objects;
+    for (int i = 0; i < f->n_objects; i++) {
+        warp_pose p = f->object_pose[i];
+        hf->objects[i] = (hmdwarp_host_pose){{p.q.w, p.q.x, p.q.y, p.q.z}, {p.p.x, p.p.y, p.p.z}};
+    }
+    for (int e = 0; e < 2; e++) {
+        if (!hf->frags[e]) continue;
+        const warp_image_layers *l = &f->layers[e];
+        size_t n = 0;
+        for (size_t i = 0; i < (size_t)l->w * (size_t)l->h; i++) {
+            int c = l->count[i] < l->max_layers ? l->count[i] : l->max_layers;
+            hf->counts[e][i] = (uint8_t)c;
+            for (int k = 0; k < c; k++, n++) {
+                const warp_fragment *s = &l->frag[i * (size_t)l->max_layers + (size_t)k];
+                hf->frags[e][n] = (hmdwarp_host_fragment){s->z, {s->rgba.r, s->rgba.g, s->rgba.b, s->rgba.a}, s->id};
+            }
+        }
+        fr->eye[e].n_fragments = n;
+    }
+}
+
+/* Opens the library's connection for the options: --file/--stdout, --socket, or the board over USB. */
+static hmdwarp_host *open_link(const feed_opts *o)
+{
+    hmdwarp_host_options ho = {.wait_s = o->wait_s};
+    if (o->out_path) {
+        ho.transport = HMDWARP_HOST_TRANSPORT_FILE, ho.path = o->out_path;
+    } else if (o->socket_path) {
+        ho.transport = HMDWARP_HOST_TRANSPORT_SOCKET, ho.path = o->socket_path;
+    } else {
+        ho.transport = HMDWARP_HOST_TRANSPORT_USB, ho.vid = (uint16_t)o->vid, ho.pid = (uint16_t)o->pid;
+        ho.interface = o->interface;
+        fprintf(stderr, "hmdwarp-feed: waiting for %04x:%04x ...\n", o->vid, o->pid);
+    }
+    hmdwarp_host *h = hmdwarp_host_open_ex(&ho);
+    if (!h) fprintf(stderr, "hmdwarp-feed: %s\n", hmdwarp_host_last_error());
+    else if (!o->out_path) fprintf(stderr, "hmdwarp-feed: connected to %s\n", o->socket_path ? o->socket_path : "the board");
+    return h;
 }
 
 /* ---- rendering ---- */
@@ -454,6 +386,9 @@ int main(int argc, char **argv)
         if (!scene) return fprintf(stderr, "hmdwarp-feed: unknown scene '%s' (see --help)\n", o.scene), 2;
         planes = (sim_planes_for_effects(sim_scene_effects(scene)) & o.planes) | DRV_PLANE_COLOR;
     }
+    if ((planes & DRV_PLANE_DEPTH) && o.depth_format == DRV_FRAMELINK_FMT_UNORM16)
+        return fprintf(stderr, "hmdwarp-feed: these planes/depth format cannot be encoded (--depth unorm16 needs "
+                               "window depth; the simulator renders linear depth)\n"), 2;
     drv_frame f;
     if (!drv_frame_alloc(&f, o.eye_w, o.eye_h, planes, 4)) return fprintf(stderr, "hmdwarp-feed: out of memory\n"), 1;
     f.planes = planes;
@@ -471,67 +406,67 @@ int main(int argc, char **argv)
         const char *why = warp_camera_check(c);
         if (why) return fprintf(stderr, "hmdwarp-feed: camera: %s\n", why), 2;
     }
-    drv_framelink_tx tx = {.depth_format = o.depth_format};
     if (scene) f.n_objects = sim_scene_object_count(scene) < DRV_MAX_OBJECTS ? sim_scene_object_count(scene)
                                                                              : DRV_MAX_OBJECTS;
-    size_t cap = drv_framelink_size_ex(&f, &tx);
-    if (!cap) return fprintf(stderr, "hmdwarp-feed: these planes/depth format cannot be encoded\n"), 2;
-    if (planes & DRV_PLANE_LAYERS) cap += (size_t)2 * o.eye_w * o.eye_h * 4 * 10;
-    uint8_t *buf = malloc(cap);
+    host_frame hf;
     plat_workers *workers = plat_workers_create(o.threads - 1, 0);
-    if (!buf || !workers) return fprintf(stderr, "hmdwarp-feed: out of memory\n"), 1;
+    if (!host_frame_init(&hf, &f, planes) || !workers) return fprintf(stderr, "hmdwarp-feed: out of memory\n"), 1;
 
-    pose_input pi;
-    memset(&pi, 0, sizeof pi);
-    pthread_mutex_init(&pi.lock, NULL);
-    pthread_cond_init(&pi.cond, NULL);
-    pi.synth_rate_hz = o.synth_rate_hz;
-    feed_sink sink;
-    if (o.out_path) {
-        FILE *fp = strcmp(o.out_path, "-") == 0 ? stdout : fopen(o.out_path, "wb");
-        if (!fp) return fprintf(stderr, "hmdwarp-feed: %s: %s\n", o.out_path, strerror(errno)), 1;
-        sink = (feed_sink){"file", file_sink_write, file_sink_close, fp, true};
-        pi.th_up = pthread_create(&pi.th, NULL, synth_pose_thread, &pi) == 0;
-    } else {
-        if (o.v4l2_dev) {
-            char err[300];
-            drv_v4l2_output *vo =
-                drv_v4l2_output_open(o.v4l2_dev, o.v4l2_format, o.eye_w, o.eye_h, o.v4l2_depth, err, sizeof err);
-            if (!vo) return fprintf(stderr, "hmdwarp-feed: --v4l2 %s: %s\n", o.v4l2_dev, err), 1;
-            sink = (feed_sink){"v4l2", v4l2_sink_write, v4l2_sink_close, vo, false};
-        }
-        /* Poses come from the board over USB (also when the pixels go out over V4L2), unless synthesised. */
-        if (o.synth_poses) {
-            pi.th_up = pthread_create(&pi.th, NULL, synth_pose_thread, &pi) == 0;
-        } else {
-            if (!usb_open(&o, &pi)) return 1;
-            pi.th_up = pthread_create(&pi.th, NULL, usb_pose_thread, &pi) == 0;
-        }
-        if (!o.v4l2_dev) sink = (feed_sink){"usb", usb_sink_write, usb_sink_close, &pi, true};
+    /* Frames go through libhmdwarp-host (USB, socket, file) or to a V4L2 output; poses come from the board over the
+     * library's link (also when the pixels go out over V4L2) unless synthesised. */
+    bool synth = o.synth_poses || o.out_path;
+    drv_v4l2_output *vo = NULL;
+    hmdwarp_host *h = NULL;
+    if (o.v4l2_dev) {
+        char err[300];
+        vo = drv_v4l2_output_open(o.v4l2_dev, o.v4l2_format, o.eye_w, o.eye_h, o.v4l2_depth, err, sizeof err);
+        if (!vo) return fprintf(stderr, "hmdwarp-feed: --v4l2 %s: %s\n", o.v4l2_dev, err), 1;
     }
-    if (!pi.th_up) return fprintf(stderr, "hmdwarp-feed: cannot start the pose thread\n"), 1;
+    if ((!o.v4l2_dev || !synth) && !(h = open_link(&o))) return 1;
+    const char *sink_name = vo ? "v4l2" : o.out_path ? "file" : o.socket_path ? "socket" : "usb";
+    uint8_t *buf = NULL; /* --damage-every: the encoded frame, damaged before it is sent */
+    size_t cap = 0;
 
     int64_t t_start = plat_now_ns(), last_start = 0, period = (int64_t)(1e9 / o.rate_hz);
     int64_t scene_t0 = 0, report_at = t_start + PLAT_NS_PER_S;
-    uint64_t frames = 0, win_frames = 0, win_bytes = 0, damaged = 0, damaged_kind[3] = {0};
+    uint64_t frames = 0, win_frames = 0, win_bytes = 0, damaged = 0, damaged_kind[3] = {0}, synth_poses = 0;
     static const char *const damage_names[3] = {"crc", "truncated", "version"};
     double win_latency_ms = 0, win_render_ms = 0;
+    bool said_gone = false;
+    uint64_t bytes_before = 0;
     int rc = 0;
     while (!atomic_load(&g_stop)) {
         if (o.max_frames && (long)frames >= o.max_frames) break;
         if (o.duration_s > 0 && plat_now_ns() - t_start > (int64_t)(o.duration_s * 1e9)) break;
         if (last_start) plat_sleep_until_ns(last_start + period);
-        drv_framelink_pose pose;
-        int64_t pose_rx;
-        if (!pose_take(&pi, 200, &pose, &pose_rx)) continue;
+        hmdwarp_host_pose_msg pose;
+        if (synth) {
+            /* A pose newer than the last one used, as from a board: wait for the next tick when it is the same. */
+            pose = synth_pose(t_start, o.synth_rate_hz);
+            if (pose.seq <= synth_poses) {
+                plat_sleep_until_ns(t_start + (int64_t)synth_poses * (int64_t)(1e9 / o.synth_rate_hz));
+                pose = synth_pose(t_start, o.synth_rate_hz);
+            }
+            synth_poses = pose.seq;
+        } else {
+            int got = hmdwarp_host_wait_pose(h, 200, &pose);
+            if (got == HMDWARP_HOST_ERR_NOT_CONNECTED) {
+                /* The board went away: the library reconnects when it is back. */
+                if (!said_gone) fprintf(stderr, "hmdwarp-feed: %s\n", hmdwarp_host_last_error()), said_gone = true;
+                plat_sleep_ns(100 * PLAT_NS_PER_MS);
+                continue;
+            }
+            if (got != 1) continue;
+            if (said_gone) fprintf(stderr, "hmdwarp-feed: the board is back\n"), said_gone = false;
+        }
         int64_t start = plat_now_ns();
         last_start = start;
-        if (!scene_t0) scene_t0 = pose.target_t_ns;
+        if (!scene_t0) scene_t0 = pose.target_time_ns;
         f.seq = frames + 1;
-        f.pose_t_ns = pose.target_t_ns; /* echoed: the board needs no clock sync */
-        f.scene_time = (double)(pose.target_t_ns - scene_t0) * 1e-9;
-        f.eye_pose[0] = pose.eye[0];
-        f.eye_pose[1] = pose.eye[1];
+        f.pose_t_ns = pose.target_time_ns;
+        f.scene_time = (double)(pose.target_time_ns - scene_t0) * 1e-9;
+        f.eye_pose[0] = pose_from_host(&pose.eye[0]);
+        f.eye_pose[1] = pose_from_host(&pose.eye[1]);
         if (scene) {
             for (int i = 0; i < f.n_objects; i++) f.object_pose[i] = sim_scene_object_pose(scene, i + 1, f.scene_time);
             render_job j = {scene, &f, planes, f.scene_time, o.eye_h};
@@ -555,30 +490,54 @@ int main(int argc, char **argv)
             warp_image_rgba8_copy(&f.color[1], &img);
             warp_image_free(&img);
         }
-        tx.pose_sent_ns = pose.board_t_ns;
-        tx.host_pose_rx_ns = pose_rx;
-        tx.host_render_start_ns = start;
-        tx.host_render_end_ns = plat_now_ns();
-        tx.host_send_ns = plat_now_ns();
-        size_t n = sink.wants_bytes ? drv_framelink_encode_ex(&f, &tx, buf, cap) : 1;
-        if (!n) {
-            fprintf(stderr, "hmdwarp-feed: frame %llu cannot be encoded\n", (unsigned long long)f.seq);
-            rc = 1;
-            break;
+        int64_t end = plat_now_ns();
+        size_t n = 0;
+        int err = 0;
+        if (vo) {
+            err = drv_v4l2_output_write(vo, &f);
+            if (err) fprintf(stderr, "hmdwarp-feed: writing a frame to the V4L2 output: %s\n", strerror(-err));
+        } else {
+            host_frame_update(&hf, &f, &pose, !synth, start, end);
+            if (o.damage_every && (frames + 1) % (uint64_t)o.damage_every == 0) {
+                int64_t len = hmdwarp_host_encode(h, &hf.fr, buf, cap);
+                if (len > (int64_t)cap) {
+                    free(buf);
+                    cap = (size_t)len;
+                    if (!(buf = malloc(cap))) return fprintf(stderr, "hmdwarp-feed: out of memory\n"), 1;
+                    len = hmdwarp_host_encode(h, &hf.fr, buf, cap);
+                }
+                err = len < 0 ? (int)len : 0;
+                if (!err) {
+                    /* The kinds in turn; the header's size fields stay intact so the board's resync is tested. */
+                    int kind = (int)(damaged % 3);
+                    size_t hdr = (size_t)buf[6] | (size_t)buf[7] << 8, wire = (size_t)len;
+                    n = (size_t)len;
+                    if (kind == 0) buf[hdr + (n - hdr - 4) / 2] ^= 0x5a; /* payload byte: payload CRC */
+                    else if (kind == 1) wire = n / 2;                    /* truncated */
+                    else buf[4] ^= 0x02;                                 /* version 3: bad version */
+                    damaged++;
+                    damaged_kind[kind]++;
+                    if (o.verbose)
+                        fprintf(stderr, "frame %llu: damaged (%s)\n", (unsigned long long)f.seq, damage_names[kind]);
+                    err = hmdwarp_host_send_raw(h, buf, wire);
+                    bytes_before += err ? 0 : wire;
+                }
+            } else {
+                err = hmdwarp_host_submit(h, &hf.fr);
+                hmdwarp_host_stats st;
+                hmdwarp_host_get_stats(h, &st);
+                n = (size_t)(st.bytes_sent - bytes_before); /* this thread is the only sender */
+                bytes_before = st.bytes_sent;
+            }
+            if (err == HMDWARP_HOST_ERR_DISCONNECTED || err == HMDWARP_HOST_ERR_NOT_CONNECTED) {
+                /* A frame cut short: the board drops it; the next pose after the reconnect renders the next one. */
+                if (!said_gone) fprintf(stderr, "hmdwarp-feed: %s\n", hmdwarp_host_last_error()), said_gone = true;
+                continue;
+            }
+            if (err) fprintf(stderr, "hmdwarp-feed: frame %llu: %s\n", (unsigned long long)f.seq,
+                             hmdwarp_host_last_error());
         }
-        size_t wire = n;
-        if (o.damage_every && (frames + 1) % (uint64_t)o.damage_every == 0) {
-            /* The kinds in turn; the header's size fields stay intact so the board's resync is what is tested. */
-            int kind = (int)(damaged % 3);
-            size_t hdr = (size_t)buf[6] | (size_t)buf[7] << 8;
-            if (kind == 0) buf[hdr + (n - hdr - 4) / 2] ^= 0x5a; /* payload byte: payload CRC */
-            else if (kind == 1) wire = n / 2;                    /* truncated */
-            else buf[4] ^= 0x02;                                 /* version 3: bad version */
-            damaged++;
-            damaged_kind[kind]++;
-            if (o.verbose) fprintf(stderr, "frame %llu: damaged (%s)\n", (unsigned long long)f.seq, damage_names[kind]);
-        }
-        if (!sink.write(&sink, &f, sink.wants_bytes ? buf : NULL, sink.wants_bytes ? wire : 0)) {
+        if (err) {
             rc = 1;
             break;
         }
@@ -586,37 +545,35 @@ int main(int argc, char **argv)
         frames++;
         win_frames++;
         win_bytes += n;
-        win_latency_ms += (double)(sent - pose_rx) * 1e-6;
-        win_render_ms += (double)(tx.host_render_end_ns - start) * 1e-6;
+        win_latency_ms += (double)(sent - pose.received_ns) * 1e-6;
+        win_render_ms += (double)(end - start) * 1e-6;
         if (o.verbose)
             fprintf(stderr, "frame %llu: %zu bytes, pose %u, render %.1f ms, pose->sent %.1f ms\n",
-                    (unsigned long long)f.seq, n, pose.seq, (double)(tx.host_render_end_ns - start) * 1e-6,
-                    (double)(sent - pose_rx) * 1e-6);
+                    (unsigned long long)f.seq, n, pose.seq, (double)(end - start) * 1e-6,
+                    (double)(sent - pose.received_ns) * 1e-6);
         if (sent >= report_at) {
+            hmdwarp_host_stats st = {.poses_received = synth_poses};
+            if (h && !synth) hmdwarp_host_get_stats(h, &st);
             double s = (double)(sent - report_at + PLAT_NS_PER_S) * 1e-9;
             fprintf(stderr, "%s: %.1f MB/s, %.1f frames/s, render %.1f ms, latency pose->sent %.1f ms, poses %llu "
                             "(%llu bad)\n",
-                    sink.name, (double)win_bytes / s * 1e-6, (double)win_frames / s, win_render_ms / (double)win_frames,
-                    win_latency_ms / (double)win_frames, (unsigned long long)pi.received, (unsigned long long)pi.bad);
+                    sink_name, (double)win_bytes / s * 1e-6, (double)win_frames / s, win_render_ms / (double)win_frames,
+                    win_latency_ms / (double)win_frames, (unsigned long long)st.poses_received,
+                    (unsigned long long)st.messages_rejected);
             report_at = sent + PLAT_NS_PER_S;
             win_frames = win_bytes = 0;
             win_latency_ms = win_render_ms = 0;
         }
     }
-    atomic_store(&g_stop, true);
-    pthread_join(pi.th, NULL);
-    sink.close(&sink);
-    if (pi.dev) {
-        libusb_release_interface(pi.dev, o.interface);
-        libusb_close(pi.dev);
-        libusb_exit(NULL);
-    }
+    hmdwarp_host_close(h);
+    if (vo) drv_v4l2_output_close(vo);
     fprintf(stderr, "hmdwarp-feed: %llu frames sent\n", (unsigned long long)frames);
     if (o.damage_every)
         fprintf(stderr, "hmdwarp-feed: %llu damaged: %s %llu, %s %llu, %s %llu\n", (unsigned long long)damaged,
                 damage_names[0], (unsigned long long)damaged_kind[0], damage_names[1],
                 (unsigned long long)damaged_kind[1], damage_names[2], (unsigned long long)damaged_kind[2]);
     plat_workers_destroy(workers);
+    host_frame_free(&hf);
     drv_frame_free(&f);
     free(buf);
     return rc;
