@@ -294,6 +294,25 @@ def c_and_python_examples_render_the_same_image():
           % (diff.mean(), out["c"].std()))
 
 
+@test
+def make_install_puts_the_module_where_python3_finds_it():
+    path = subprocess.run([sys.executable, "-c", "import sys; print('\\n'.join(sys.path))"], capture_output=True,
+                          text=True).stdout.split()
+    for prefix in ("/usr", "/usr/local"):
+        d = tempfile.mkdtemp(dir=TMP)
+        r = subprocess.run(["make", "--no-print-directory", "install-python", "DESTDIR=" + d, "PREFIX=" + prefix,
+                            "BUILD=" + BUILD], cwd=ROOT, capture_output=True, text=True)
+        check(r.returncode == 0, "make install-python PREFIX=%s: %s" % (prefix, r.stdout + r.stderr))
+        found = [p for p in path if os.path.isfile(d + p + "/hmdwarp_host/__init__.py")]
+        check(found, "PREFIX=%s: hmdwarp_host in none of python3's directories %s" % (prefix, path))
+        # from there, with the library found by the loader as an installed one is (no HMDWARP_HOST_LIB)
+        env = {k: v for k, v in ENV.items() if k != "HMDWARP_HOST_LIB"}
+        env.update(PYTHONPATH=d + found[0], LD_LIBRARY_PATH=os.path.dirname(LIB))
+        r = subprocess.run([sys.executable, "-c", "import hmdwarp_host as h; print(h.__file__, h.version())"], cwd=d,
+                           env=env, capture_output=True, text=True)
+        check(r.returncode == 0 and r.stdout.startswith(d + found[0]), "import: %s" % (r.stdout + r.stderr))
+
+
 # ---- hmdwarpd's socket backend (the simulated board: IMU, vsync, offscreen panel) ----
 
 HMDWARPD = os.path.abspath(os.path.join(BUILD, "hmdwarpd"))
