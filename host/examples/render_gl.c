@@ -395,6 +395,9 @@ static bool render_eye(renderer *r, int eye, const hmdwarp_host_pose *pose, cons
 
 /* ---- the loop: pose in, render, frame out ---- */
 
+/* A board that sends no pose this long is not coming back (the library reconnects to one that does). */
+#define NO_POSE_GIVE_UP_NS (30 * (int64_t)1000000000)
+
 typedef struct {
     const char *uri;
     long frames;      /* 0: until interrupted */
@@ -526,7 +529,8 @@ int main(int argc, char **argv)
         goto out;
     }
 
-    long done = 0, timeouts = 0;
+    long done = 0;
+    int64_t last_pose_ns = hmdwarp_host_now_ns();
     while (o.frames == 0 || done < o.frames) {
         hmdwarp_host_frame fr = {.color_format = HMDWARP_HOST_COLOR_RGBA8,
                                  .depth_format = HMDWARP_HOST_DEPTH_LINEAR_F32};
@@ -544,11 +548,14 @@ int main(int argc, char **argv)
             }
             if (w != 1) { /* the board is slow to start, or gone for a while: its reconnect is the library's */
                 if (w < 0) usleep(100000);
-                if (++timeouts == 10) fprintf(stderr, "render_gl: no pose from the board for 10 s\n");
-                if (timeouts >= 30) goto out;
+                int64_t quiet = hmdwarp_host_now_ns() - last_pose_ns;
+                if (quiet > NO_POSE_GIVE_UP_NS) {
+                    fprintf(stderr, "render_gl: no pose from the board for %.0f s: giving up\n", quiet / 1e9);
+                    goto out;
+                }
                 continue;
             }
-            timeouts = 0;
+            last_pose_ns = hmdwarp_host_now_ns();
             fr.pose_seq = pm.seq;
             memcpy(eye_pose, pm.eye, sizeof eye_pose);
             hmdwarp_host_get_cameras(h, &cams); /* a camera message may have changed the size */

@@ -27,6 +27,7 @@ from OpenGL.EGL.EXT.platform_base import eglGetPlatformDisplayEXT  # noqa: E402
 import hmdwarp_host as hh  # noqa: E402
 
 EGL_PLATFORM_SURFACELESS_MESA = 0x31DD  # EGL_MESA_platform_surfaceless (PyOpenGL 3.1.6 has no module for it)
+NO_POSE_GIVE_UP_S = 30  # a board silent this long is not coming back (the library reconnects to one that does)
 
 
 def gl_open():
@@ -273,7 +274,7 @@ def main(argv=None):
             host.set_cameras(hh.Cameras((cam, cam), refresh_hz=90, pose_rate_hz=90))
         elif host.wait_cameras(5.0) is None:
             sys.exit("render_gl.py: no camera message from %s in 5 s" % a.connection)
-        done, idle = 0, 0
+        done, last_pose_ns = 0, hh.now_ns()
         bufs = {}
         while a.frames == 0 or done < a.frames:
             if a.synth:
@@ -287,12 +288,11 @@ def main(argv=None):
                         raise
                     msg = None
                     time.sleep(0.1)
-                if msg is None:
-                    idle += 1
-                    if idle >= 30:
-                        sys.exit("render_gl.py: no pose from the board for 30 s")
+                if msg is None:  # the board is slow to start, or gone for a while: reconnecting is the library's
+                    if hh.now_ns() - last_pose_ns > NO_POSE_GIVE_UP_S * 1e9:
+                        sys.exit("render_gl.py: no pose from the board for %d s: giving up" % NO_POSE_GIVE_UP_S)
                     continue
-                idle, pose, eyes = 0, msg, msg.eye
+                last_pose_ns, pose, eyes = hh.now_ns(), msg, msg.eye
             cams = host.cameras()  # the board may have changed them: render with what it wants now
             start = hh.now_ns()
             color, depth = [], []

@@ -17,7 +17,9 @@ LIB = os.path.abspath(os.path.join(BUILD, "libhmdwarp-host.so.0"))
 FAKE = os.path.abspath(os.path.join(BUILD, "tests/examples/fake_board"))
 RENDER_GL = os.path.abspath(os.path.join(BUILD, "examples/render_gl"))
 EXAMPLES = os.path.join(ROOT, "host/examples")
-ENV = dict(os.environ, HMDWARP_HOST_LIB=LIB, PYTHONPATH=os.path.join(ROOT, "host/python"))
+# No __pycache__ written into the source tree by the examples and the binding run from it.
+ENV = dict(os.environ, HMDWARP_HOST_LIB=LIB, PYTHONPATH=os.path.join(ROOT, "host/python"), PYTHONDONTWRITEBYTECODE="1")
+sys.dont_write_bytecode = True
 os.environ.update(ENV)
 sys.path.insert(0, ENV["PYTHONPATH"])
 

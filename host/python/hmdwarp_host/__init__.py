@@ -223,7 +223,8 @@ class Host:
     """A connection to a board: "socket:PATH" (hmdwarpd's socket backend), "usb" or "usb:VID:PID", "file:PATH".
 
     Use it as a context manager, or call close(). The blocking calls (wait_pose, wait_cameras, submit) release the
-    GIL: another Python thread can wait for poses while one submits."""
+    GIL: another Python thread can wait for poses while one submits. close() must not run while another thread is
+    in a call on the same Host (the C library's rule)."""
 
     def __init__(self, uri: str):
         self._h = lib.hmdwarp_host_open(uri.encode())
