@@ -384,7 +384,8 @@ def shows_on_hmdwarpd(cmd, n=12):
     check(st.get("frames_backend") == "socket", "frames_backend=%s" % st.get("frames_backend"))
     check(int(st["frames_received"]) == n and int(st["frames_rejected"]) == 0 and int(st["frames_shown"]) >= 1,
           "received %s, rejected %s, shown %s" % (st["frames_received"], st["frames_rejected"], st["frames_shown"]))
-    panel = np.fromfile(raw, np.uint8)[-PANEL_W * PANEL_H * 4:].reshape(PANEL_H, PANEL_W, 4)
+    data, size = np.fromfile(raw, np.uint8), PANEL_W * PANEL_H * 4
+    panel = data[(len(data) // size - 1) * size:][:size].reshape(PANEL_H, PANEL_W, 4)  # the last whole image
     rendered = np.concatenate([read_ppm(prefix + "-0.ppm"), read_ppm(prefix + "-1.ppm")], axis=1)
     shown, sent = sky_share(panel), sky_share(rendered)
     check(sent > 0.3 and abs(shown - sent) < 0.1, "sky: %.2f of the panel, %.2f of what was rendered" % (shown, sent))
