@@ -539,7 +539,7 @@ int main(int argc, char **argv)
             synth_pose(done, eye_pose);
             usleep(11111); /* 90 Hz, as a board would ask */
         } else {
-            /* The newest prediction; the library echoes its seq, eye poses and board times in the frame. */
+            /* The newest prediction: rendered at its eye poses, its times echoed in the frame. */
             hmdwarp_host_pose_msg pm;
             int w = hmdwarp_host_wait_pose(h, 1000, &pm);
             if (w < 0 && w != HMDWARP_HOST_ERR_NOT_CONNECTED) {
@@ -556,7 +556,11 @@ int main(int argc, char **argv)
                 continue;
             }
             last_pose_ns = hmdwarp_host_now_ns();
-            fr.pose_seq = pm.seq;
+            /* The pose rendered for, given whole: pose_seq = pm.seq would do as long as the message is among the
+             * library's last 64 (128 ms at a board's 500 Hz), which a slow renderer outlasts. */
+            fr.pose_target_ns = pm.target_time_ns;
+            fr.pose_board_ns = pm.board_time_ns;
+            fr.pose_received_ns = pm.received_ns;
             memcpy(eye_pose, pm.eye, sizeof eye_pose);
             hmdwarp_host_get_cameras(h, &cams); /* a camera message may have changed the size */
         }
@@ -579,7 +583,7 @@ int main(int argc, char **argv)
             fr.eye[e].color = rgba[e];
             fr.eye[e].depth = depth[e];
             fr.eye[e].camera = cams.cam[e]; /* the camera rendered with: the library checks it is the board's */
-            if (o.synth) fr.eye[e].pose = eye_pose[e];
+            fr.eye[e].pose = eye_pose[e];
         }
         fr.render_end_ns = hmdwarp_host_now_ns();
         int s = hmdwarp_host_submit(h, &fr);

@@ -357,7 +357,12 @@ class Host:
                 E.fragments, E.n_fragments = frags.ctypes.data, frags.shape[0]
         keep = []
         if isinstance(pose, PoseMsg):
-            f.pose_seq = pose.seq
+            # The message whole (not its seq, which the library finds only among the last 64 messages: 128 ms at a
+            # board's 500 Hz, less than a slow render takes).
+            for e in range(2):
+                pose.eye[e]._to_c(f.eye[e].pose)
+            f.pose_target_ns, f.pose_board_ns, f.pose_received_ns = (pose.target_time_ns, pose.board_time_ns,
+                                                                     pose.received_ns)
         elif pose is not None:
             if len(pose) != 2:
                 raise HostError(ERR_ARG, "pose: a PoseMsg or two eye Poses")
