@@ -26,7 +26,13 @@ PKG_CONFIG ?= env PKG_CONFIG_LIBDIR=/usr/lib/$(TRIPLET)/pkgconfig:/usr/share/pkg
 BUILD ?= build/$(TRIPLET)
 else
 PKG_CONFIG ?= pkg-config
+# Another compiler (make CC=clang) gets its own tree too: one compiler's objects and dependency files never end up in
+# another's link, and switching back rebuilds nothing.
+ifeq ($(CC),gcc)
 BUILD ?= build
+else
+BUILD ?= build/$(notdir $(firstword $(CC)))
+endif
 endif
 PREFIX ?= /usr/local
 DESTDIR ?=
