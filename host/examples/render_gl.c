@@ -485,6 +485,17 @@ static void default_cameras(const options *o, hmdwarp_host_cameras *c)
         c->cam[e] = (hmdwarp_host_camera){(uint32_t)o->width, (uint32_t)o->height, th, th, tv, tv, 0.05, INFINITY};
 }
 
+/* Whether the board's eye sizes now differ from those rendered with (a frame refused for its size is then the
+ * only one lost; otherwise the refusal would repeat for ever). */
+static bool cameras_changed(hmdwarp_host *h, const hmdwarp_host_cameras *rendered)
+{
+    hmdwarp_host_cameras now;
+    if (hmdwarp_host_get_cameras(h, &now) != 1) return false;
+    for (int e = 0; e < 2; e++)
+        if (now.cam[e].width != rendered->cam[e].width || now.cam[e].height != rendered->cam[e].height) return true;
+    return false;
+}
+
 static bool save_ppm(const char *prefix, int eye, const uint8_t *rgba, int w, int h)
 {
     char path[4096];
@@ -588,7 +599,7 @@ int main(int argc, char **argv)
         fr.render_end_ns = hmdwarp_host_now_ns();
         int s = hmdwarp_host_submit(h, &fr);
         if (s == HMDWARP_HOST_ERR_DISCONNECTED || s == HMDWARP_HOST_ERR_NOT_CONNECTED ||
-            s == HMDWARP_HOST_ERR_SIZE) {
+            (s == HMDWARP_HOST_ERR_SIZE && cameras_changed(h, &cams))) {
             /* Gone (the library reconnects), or the board changed its cameras since the render: the next pose. */
             fprintf(stderr, "render_gl: frame dropped: %s\n", hmdwarp_host_last_error());
             continue;

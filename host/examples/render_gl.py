@@ -308,7 +308,10 @@ def main(argv=None):
             try:
                 host.submit(color, depth, pose=pose, cameras=cams, render_start_ns=start, render_end_ns=hh.now_ns())
             except hh.HostError as e:
-                if e.code not in (hh.ERR_DISCONNECTED, hh.ERR_NOT_CONNECTED, hh.ERR_SIZE):
+                # gone (the library reconnects), or the board changed its eye sizes since the render: the next pose
+                resized = e.code == hh.ERR_SIZE and [(c.width, c.height) for c in host.cameras().cam] != \
+                    [(c.width, c.height) for c in cams.cam]
+                if e.code not in (hh.ERR_DISCONNECTED, hh.ERR_NOT_CONNECTED) and not resized:
                     raise
                 print("render_gl.py: frame dropped: %s" % e, file=sys.stderr)
                 continue
