@@ -144,6 +144,8 @@ def errors_name_the_field():
         raises(hh.ERR_ARG, lambda: h.submit(color, [depth[0], np.asfortranarray(depth[1])], pose=EYES),
                "eye[1].depth", "not contiguous")
         raises(hh.ERR_ARG, lambda: h.submit(color[0], depth, pose=EYES), "color", "one per eye")
+        odd = np.frombuffer(bytes(4 * W * H + 1), np.uint8)[1:].view(np.float32).reshape(H, W)  # 1 byte off
+        raises(hh.ERR_ARG, lambda: h.submit(color, [depth[0], odd], pose=EYES), "eye[1].depth", "aligned")
         raises(hh.ERR_ARG, lambda: h.submit(color, depth, pose=None), "pose")
         raises(hh.ERR_FORMAT, lambda: h.submit(color, depth, pose=EYES, depth_format="inverse"), "depth_format")
 

@@ -203,6 +203,8 @@ def _plane(name: str, a, dtype, cam: Camera, comps: int):
     if a.shape != shape:
         raise HostError(ERR_SIZE, "%s: shape %s, but the eye camera is %dx%d: want %s"
                         % (name, a.shape, cam.width, cam.height, shape))
+    if not a.flags.aligned:
+        raise HostError(ERR_ARG, "%s: not aligned to its %d-byte elements: pass a.copy()" % (name, want.itemsize))
     item = want.itemsize
     inner = (a.strides[1] == comps * item) and (comps == 1 or a.strides[2] == item)
     if not inner or a.strides[0] < cam.width * comps * item:
