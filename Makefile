@@ -108,6 +108,8 @@ TEST_BINS += $(FUZZ_REG_BINS)
 # board/flash.sh against a fake merged-/usr board root; the version, licence lines and Debian packages; runtime/'s
 # headers self-contained and including only what they use.
 TEST_SCRIPTS := tests/flash/test_flash.sh $(wildcard tests/packaging/test_*.sh) tests/build/test_headers.sh
+# The Python binding and the host examples streaming to a stand-in board (TAP from Python; /usr/bin/python3).
+TEST_SCRIPTS += tests/examples/test_python.py
 
 .PHONY: all programs deps run run-socket test test-busy asan install clean results bench stability hil check-cross man install-man \
         have-help2man deb deb-arm64 deb-check fuzz fuzz-build fuzz-bins fuzz-merge soak
@@ -167,6 +169,18 @@ $(BUILD)/install/hmdwarp-feed: $(patsubst %.c,$(BUILD)/obj/%.o,$(wildcard tools/
 	@mkdir -p $(dir $@)
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_ALL)
+
+# The host examples (host/examples/, docs/stream-your-renderer.md) build as a user's program would: the public
+# header, libhmdwarp-host, EGL, GLES and libm only (no -I.: none of the tree's internals); rpath to the tree's library.
+EXAMPLE_PKGS := egl glesv2
+EXAMPLES := $(BUILD)/examples/render_gl
+$(BUILD)/examples/%: host/examples/%.c host/hmdwarp-host.h $(HOST_LIB)
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  CCLD    $@")
+	$(Q)$(CC) -std=gnu11 $(WARN) $(CFLAGS) -Ihost $(shell $(PKG_CONFIG) --cflags $(EXAMPLE_PKGS) 2>/dev/null) $(LDFLAGS) \
+	  -o $@ $< $(HOST_LIB) -Wl,-rpath,'$$ORIGIN/..' $(shell $(PKG_CONFIG) --libs $(EXAMPLE_PKGS) 2>/dev/null) -lm
+# tests/examples/test_python.py's stand-in board (a program, not a test: not in TEST_BINS).
+all: $(EXAMPLES) $(BUILD)/tests/examples/fake_board
 
 $(BUILD)/obj/tests/%.o: tests/%.c
 	@mkdir -p $(dir $@)
@@ -460,6 +474,18 @@ install-man: man
 	install -m 0644 $(filter %.1,$(MANPAGES)) $(DESTDIR)$(MANDIR)/man1/
 	install -m 0644 $(filter %.5,$(MANPAGES)) $(DESTDIR)$(MANDIR)/man5/
 install: install-man
+
+# The Python binding where Debian's python3 finds it: /usr/lib/python3/dist-packages for PREFIX=/usr (where Debian's
+# packages put modules), else PREFIX/lib/python3.N/dist-packages (/usr/local's); the examples beside the docs.
+PYTHON ?= /usr/bin/python3
+PYTHONDIR ?= $(if $(filter /usr,$(PREFIX)),/usr/lib/python3/dist-packages,$(PREFIX)/lib/python$(shell \
+               $(PYTHON) -c 'import sys; print("%d.%d" % sys.version_info[:2])' 2>/dev/null || echo 3)/dist-packages)
+.PHONY: install-python
+install-python:
+	install -d $(DESTDIR)$(PYTHONDIR)/hmdwarp_host $(DESTDIR)$(PREFIX)/share/doc/hmdwarp/examples
+	install -m 0644 host/python/hmdwarp_host/*.py $(DESTDIR)$(PYTHONDIR)/hmdwarp_host/
+	install -m 0644 host/examples/render_gl.c host/examples/*.py $(DESTDIR)$(PREFIX)/share/doc/hmdwarp/examples/
+install: install-python
 
 # Debian packages hmdwarpd (the board) and hmdwarp-host (the host tools) from debian/, built in a copy of the
 # working tree under $(BUILD)/deb/ (dpkg-buildpackage writes its results to the parent directory), for this
