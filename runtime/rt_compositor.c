@@ -168,14 +168,9 @@ void rt_compositor_run(rt_app *a)
     if (first < a->t0_ns - 1) first = a->t0_ns - 1;
     int64_t period = 0;
     int64_t t_first = drv_vsync_next(a->dev.vsync, first, &period);
-    /* Wake-up, lead, stall reserve, the cost estimator and overrun skipping: rt_pacer. */
-    rt_pacer_params pp = {RT_PACER_MARGIN_NS, (int64_t)(c->stall_reserve_ms * 1e6), gles};
-    rt_pacer *pacer = rt_pacer_create(&pp, t_first, period);
-    if (!pacer) {
-        plat_log(PLAT_LOG_ERR, "compositor: out of memory for the pacer");
-        if (gles) plat_egl_release(a->gl.egl);
-        return;
-    }
+    /* Wake-up, lead, stall reserve, the cost estimator and overrun skipping: rt_pacer (made by rt_app_init). */
+    rt_pacer *pacer = a->pacer;
+    rt_pacer_start(pacer, t_first, period, gles);
 
     while (!atomic_load_explicit(&a->stop, memory_order_relaxed)) {
         rt_pacer_frame pf;
@@ -329,6 +324,5 @@ void rt_compositor_run(rt_app *a)
             tel->missed_by[cause] += skipped;
         }
     }
-    rt_pacer_destroy(&pacer);
     if (gles) plat_egl_release(a->gl.egl);
 }
