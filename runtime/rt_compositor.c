@@ -18,19 +18,7 @@
 #include "warp/warp_objects.h"
 #include "runtime/rt_pacer.h"
 #include "warp/warp_raytrace.h"
-
-/* The method the GLES renderer runs for each runtime method (no GLES pass for the A-buffer and object warps yet:
- * the raytrace is the GPU's depth warp; and the GPU traces every pixel, so the mesh raytrace, a CPU economy, is
- * the raytrace there). The CPU passes are rt_render_cpu's. */
-static const rt_method gles_method[] = {
-    [RT_METHOD_NONE] = RT_METHOD_NONE,
-    [RT_METHOD_ROTATION] = RT_METHOD_ROTATION,
-    [RT_METHOD_RAYTRACE] = RT_METHOD_RAYTRACE,
-    [RT_METHOD_TRANSPARENCY] = RT_METHOD_RAYTRACE,
-    [RT_METHOD_OBJECTS] = RT_METHOD_RAYTRACE,
-    [RT_METHOD_RAYTRACE_MESH] = RT_METHOD_RAYTRACE,
-};
-_Static_assert(sizeof gles_method / sizeof gles_method[0] == RT_METHOD_COUNT, "a GLES method per runtime method");
+#include "warp/warp_registry.h"
 
 /* The CPU pass on the GPU: the frame's planes go to textures once per host frame, then the same warps as the CPU
  * path (same mesh, same raytrace setup) draw the panel, which is read back into `out` (offscreen) or page-flipped
@@ -40,8 +28,9 @@ static rt_method compose_gles(rt_app *a, const rt_frame *frame, const warp_pose 
 {
     plat_gles *g = a->gl.renderer;
     char err[200];
-    /* the GPU's methods need depth at most: the other planes are not asked for */
-    method = rt_render_cpu_usable(a->render, frame, gles_method[method], 0);
+    /* the GPU's stand-in for the method (the registry's gpu column; the CPU passes are rt_render_cpu's); its
+     * methods need depth at most: the other planes are not asked for */
+    method = rt_render_cpu_usable(a->render, frame, (rt_method)warp_method_get(rt_method_warp(method))->gpu, 0);
     if (frame != a->gl.frame || frame->f.seq != a->gl.frame_seq) {
         bool ok = true;
         for (int e = 0; e < 2; e++)
