@@ -11,6 +11,7 @@
 #include <string.h>
 #include <cmocka.h>
 
+#include "platform/plat_clock.h"
 #include "platform/plat_gles.h"
 #include "runtime/rt_app.h"
 #include "tests/support/test_run.h"
@@ -225,7 +226,11 @@ static void test_gles_misses_are_the_warps(void **state)
                   (unsigned long long)t->vsyncs, (unsigned long long)t->missed,
                   (unsigned long long)t->missed_by[RT_MISS_OWN], (unsigned long long)t->missed_by[RT_MISS_LATE_WAKE],
                   (unsigned long long)t->missed_by[RT_MISS_DESCHEDULED]);
-    assert_true(t->missed * 2 >= t->vsyncs);
+    /* On virtual time (make check-cross: qemu-user at 20x) llvmpipe's pass is CPU time on the real clock, which
+     * virtual time divides: whether it overruns the period is then the emulator's speed, not the runtime's (it
+     * overran 113 of 113 vsyncs in one run, 3 of 55 in another). There the misses are counted and summed only. */
+    const bool real_time = plat_clock_slowdown() == 1;
+    if (real_time) assert_true(t->missed * 2 >= t->vsyncs);
     uint64_t by = 0;
     for (int m = 0; m < RT_MISS_COUNT; m++) by += t->missed_by[m];
     assert_true(by == t->missed);
@@ -235,13 +240,13 @@ static void test_gles_misses_are_the_warps(void **state)
      * then 90 % of the misses are the pass's own, and the advice says the pass is too dear. */
     double others = test_others_share(others0);
     print_message("other processes used %.0f %% of the CPUs during the run\n", others * 100);
-    if (others < 0.15) {
+    if (real_time && others < 0.15) {
         assert_true(t->missed_by[RT_MISS_OWN] * 10 >= t->missed * 9);
         char *sum = summary_text();
         assert_non_null(strstr(sum, "misses, what to do         the GPU pass is too dear"));
         free(sum);
     } else {
-        print_message("busy machine: the misses' causes are reported, not judged\n");
+        print_message("%s: the misses' causes are reported, not judged\n", real_time ? "busy machine" : "virtual time");
     }
     rt_app_free(&app);
 }
