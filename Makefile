@@ -522,18 +522,21 @@ deb-check: deb
 # /usr/aarch64-linux-gnu, under which qemu-user 7.2 hangs in the guest's first pthread_create), and the programs
 # they start run under it too (TEST_RUNNER, tests/support/test_util.h). The tests paced by the simulated devices run
 # there on virtual time (test_paced_by_sim: HMDWARP_TIME_SLOWDOWN in platform/plat_clock.h), 20x slower than real
-# time, which the emulator can keep: test_config_cli, test_backends, test_imu_hid, test_board's sd_notify run. Left
-# out: test_sim_board, which runs and passes on virtual time but needs 60x (its CPU passes on 320x360 eyes took
-# 19 ms of virtual time at 20x on a loaded 2-core machine: the vector kernel on TCG), so its eleven tests take
-# about 35 minutes there (all 11 passed; run it alone: TEST_RUNNER=qemu-aarch64-static
-# qemu-aarch64-static build/aarch64-linux-gnu/tests/accuracy/test_sim_board); test_gles_runtime, whose llvmpipe
-# misses check needs a software GPU's pass to overrun the period: llvmpipe's work is CPU time on the real clock,
-# which virtual time divides, so under qemu it overran 192 of 192 vsyncs in one run and 3 of 55 in another; and
-# test_gles_parity, whose raytrace+lens parity on llvmpipe under qemu measures 43.4 dB against its 45 dB bar (the
-# CPU side's FMA contraction on aarch64 or llvmpipe's arm64 JIT; not tracked down). They all run in `make test`.
+# time, which the emulator can keep: test_config_cli, test_backends, test_imu_hid, test_board's sd_notify and
+# test_gles_runtime run (the latter's llvmpipe passes are CPU time on the real clock, which virtual time divides, so
+# whether they overrun a period is the emulator's speed: there its misses are counted, not judged; about 2 min).
+# test_live's daemons run in real time and are judged by counts (stopped once they have shown host frames), not by
+# how long they ran. Left out: test_sim_board, which runs and passes on virtual time but needs 60x (its CPU passes
+# on 320x360 eyes took 19 ms of virtual time at 20x on a loaded 2-core machine: the vector kernel on TCG), so its
+# eleven tests take about 35 minutes there (all 11 passed; run it alone: TEST_RUNNER=qemu-aarch64-static
+# qemu-aarch64-static build/aarch64-linux-gnu/tests/accuracy/test_sim_board); and test_gles_parity, whose
+# raytrace+lens parity on llvmpipe under qemu measures 43.40 dB against its 45 dB bar (54.57 dB natively; its
+# rotation and raytrace-only parities pass there at 48-50 dB: the loss comes with chaining the raytrace and lens;
+# the CPU side's FMA contraction on aarch64 or llvmpipe's arm64 JIT, not tracked down; its other 8 tests pass
+# there in about a minute). Both run in `make test`.
 CROSS ?= aarch64-linux-gnu-
 CROSS_BUILD = build/$(patsubst %-,%,$(CROSS))
-CROSS_SKIP := accuracy/test_sim_board unit/test_gles_runtime unit/test_gles_parity
+CROSS_SKIP := accuracy/test_sim_board unit/test_gles_parity
 CROSS_TESTS := $(filter-out $(CROSS_SKIP),$(patsubst tests/%.c,%,$(TEST_SRC)))
 check-cross:
 	@board/deps.sh && board/deps-cross.sh

@@ -61,37 +61,26 @@ static const char fs_lens[] =
     "    o = vec4(r, g, b, 1.0);\n"
     "}\n";
 
-/* Pyramid level 0: the largest inverse depth a bilinear sample in each cell can see. */
-static const char fs_pyr0[] =
-    "#version 300 es\n"
-    "precision highp float;\n"
-    "precision highp int;\n"
-    "uniform highp sampler2D u_in;\n"
-    "uniform ivec2 u_in_size;\n"
-    "layout(location = 0) out vec4 o;\n"
-    "void main() {\n"
-    "    ivec2 c = ivec2(gl_FragCoord.xy);\n"
-    "    ivec2 d = min(c + 1, u_in_size - 1);\n"
-    "    float m = max(max(texelFetch(u_in, c, 0).r, texelFetch(u_in, ivec2(d.x, c.y), 0).r),\n"
-    "                  max(texelFetch(u_in, ivec2(c.x, d.y), 0).r, texelFetch(u_in, d, 0).r));\n"
-    "    o = vec4(m, 0.0, 0.0, 1.0);\n"
-    "}\n";
-
-/* Pyramid level L > 0 from level L-1: 2x2 maximum, sizes rounded up. */
-static const char fs_pyrn[] =
-    "#version 300 es\n"
-    "precision highp float;\n"
-    "precision highp int;\n"
-    "uniform highp sampler2D u_in;\n"
-    "uniform ivec2 u_in_size;\n"
-    "layout(location = 0) out vec4 o;\n"
-    "void main() {\n"
-    "    ivec2 c = ivec2(gl_FragCoord.xy) * 2;\n"
-    "    ivec2 d = min(c + 1, u_in_size - 1);\n"
-    "    float m = max(max(texelFetch(u_in, c, 0).r, texelFetch(u_in, ivec2(d.x, c.y), 0).r),\n"
-    "                  max(texelFetch(u_in, ivec2(c.x, d.y), 0).r, texelFetch(u_in, d, 0).r));\n"
-    "    o = vec4(m, 0.0, 0.0, 1.0);\n"
-    "}\n";
+/* The pyramid's levels share one shader: level 0 holds the largest inverse depth a bilinear sample in each cell can
+ * see (the cell's texel and its right and lower neighbours, step ""), level L > 0 the 2x2 maximum of level L-1
+ * (step " * 2": sizes rounded up). */
+#define FS_PYRAMID(step)                                                                                               \
+    "#version 300 es\n"                                                                                               \
+    "precision highp float;\n"                                                                                        \
+    "precision highp int;\n"                                                                                          \
+    "uniform highp sampler2D u_in;\n"                                                                                 \
+    "uniform ivec2 u_in_size;\n"                                                                                      \
+    "layout(location = 0) out vec4 o;\n"                                                                              \
+    "void main() {\n"                                                                                                 \
+    "    ivec2 c = ivec2(gl_FragCoord.xy)" step ";\n"                                                                 \
+    "    ivec2 d = min(c + 1, u_in_size - 1);\n"                                                                      \
+    "    float m = max(max(texelFetch(u_in, c, 0).r, texelFetch(u_in, ivec2(d.x, c.y), 0).r),\n"                      \
+    "                  max(texelFetch(u_in, ivec2(c.x, d.y), 0).r, texelFetch(u_in, d, 0).r));\n"                     \
+    "    o = vec4(m, 0.0, 0.0, 1.0);\n"                                                                               \
+    "}\n"
+static const char fs_pyr0[] = FS_PYRAMID("");
+static const char fs_pyrn[] = FS_PYRAMID(" * 2");
+#undef FS_PYRAMID
 
 /* The raytrace of warp_raytrace.c, line for line where it decides anything (the same step grid, bracketing,
  * Illinois refinement and edge test), with one difference in how it walks: before taking the next step it asks

@@ -22,6 +22,7 @@
 #include "runtime/rt_csv.h"
 #include "runtime/rt_gles.h"
 #include "runtime/rt_live.h"
+#include "runtime/rt_pacer.h"
 #include "runtime/rt_simboard.h"
 #include "runtime/rt_summary.h"
 #include "warp/warp_err.h"
@@ -177,7 +178,9 @@ bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen)
 
     a->fusion = calloc(1, sizeof *a->fusion);
     a->tel = rt_telemetry_create();
-    if (!a->fusion || !a->tel) return warp_err(err, errlen, "out of memory");
+    rt_pacer_params pp = {RT_PACER_MARGIN_NS, (int64_t)(c->stall_reserve_ms * 1e6)};
+    a->pacer = rt_pacer_create(&pp);
+    if (!a->fusion || !a->tel || !a->pacer) return warp_err(err, errlen, "out of memory");
     rt_fusion_params fp = rt_fusion_default_params();
     fp.lever_arm = a->head.neck_to_eye; /* the IMU sits between the eyes, on the neck model's lever arm */
     rt_fusion_init(a->fusion, &fp);
@@ -428,6 +431,7 @@ void rt_app_free(rt_app *a)
     rt_devices_close(&a->dev);
     rt_gles_free(&a->gl);
     rt_render_cpu_destroy(&a->render); /* before the workers it borrows */
+    rt_pacer_destroy(&a->pacer);
     if (a->workers) plat_workers_destroy(a->workers);
     plat_swapchain_free(&a->sc);
     rt_frameq_free(&a->fq);

@@ -27,6 +27,7 @@
 
 /* Opaque parts held by pointer: their headers are for the files that call them. */
 typedef struct plat_workers plat_workers;
+typedef struct rt_pacer rt_pacer;
 typedef struct rt_simboard rt_simboard;
 
 /* Older than this, the newest IMU state is not extrapolated: the device is gone or stalled (prediction off). */
@@ -51,6 +52,7 @@ typedef struct {
     plat_swapchain sc;
     plat_workers *workers;
     rt_render_cpu *render;      /* the CPU pass: lens meshes (GLES draws through them too), scratch, fallbacks */
+    rt_pacer *pacer;            /* when to wake for which vsync, what warps cost, misses (started by the loop) */
     /* set by rt_app_run once the helper thread, which reads them for the live stats, may be running */
     _Atomic bool realtime;      /* compositor got SCHED_FIFO */
     _Atomic bool memory_locked; /* mlockall succeeded */

@@ -18,19 +18,7 @@
 #include "warp/warp_objects.h"
 #include "runtime/rt_pacer.h"
 #include "warp/warp_raytrace.h"
-
-/* The method the GLES renderer runs for each runtime method (no GLES pass for the A-buffer and object warps yet:
- * the raytrace is the GPU's depth warp; and the GPU traces every pixel, so the mesh raytrace, a CPU economy, is
- * the raytrace there). The CPU passes are rt_render_cpu's. */
-static const rt_method gles_method[] = {
-    [RT_METHOD_NONE] = RT_METHOD_NONE,
-    [RT_METHOD_ROTATION] = RT_METHOD_ROTATION,
-    [RT_METHOD_RAYTRACE] = RT_METHOD_RAYTRACE,
-    [RT_METHOD_TRANSPARENCY] = RT_METHOD_RAYTRACE,
-    [RT_METHOD_OBJECTS] = RT_METHOD_RAYTRACE,
-    [RT_METHOD_RAYTRACE_MESH] = RT_METHOD_RAYTRACE,
-};
-_Static_assert(sizeof gles_method / sizeof gles_method[0] == RT_METHOD_COUNT, "a GLES method per runtime method");
+#include "warp/warp_registry.h"
 
 /* The CPU pass on the GPU: the frame's planes go to textures once per host frame, then the same warps as the CPU
  * path (same mesh, same raytrace setup) draw the panel, which is read back into `out` (offscreen) or page-flipped
@@ -40,8 +28,9 @@ static rt_method compose_gles(rt_app *a, const rt_frame *frame, const warp_pose 
 {
     plat_gles *g = a->gl.renderer;
     char err[200];
-    /* the GPU's methods need depth at most: the other planes are not asked for */
-    method = rt_render_cpu_usable(a->render, frame, gles_method[method], 0);
+    /* the GPU's stand-in for the method (the registry's gpu column; the CPU passes are rt_render_cpu's); its
+     * methods need depth at most: the other planes are not asked for */
+    method = rt_render_cpu_usable(a->render, frame, (rt_method)warp_method_get(rt_method_warp(method))->gpu, 0);
     if (frame != a->gl.frame || frame->f.seq != a->gl.frame_seq) {
         bool ok = true;
         for (int e = 0; e < 2; e++)
@@ -168,14 +157,9 @@ void rt_compositor_run(rt_app *a)
     if (first < a->t0_ns - 1) first = a->t0_ns - 1;
     int64_t period = 0;
     int64_t t_first = drv_vsync_next(a->dev.vsync, first, &period);
-    /* Wake-up, lead, stall reserve, the cost estimator and overrun skipping: rt_pacer. */
-    rt_pacer_params pp = {RT_PACER_MARGIN_NS, (int64_t)(c->stall_reserve_ms * 1e6), gles};
-    rt_pacer *pacer = rt_pacer_create(&pp, t_first, period);
-    if (!pacer) {
-        plat_log(PLAT_LOG_ERR, "compositor: out of memory for the pacer");
-        if (gles) plat_egl_release(a->gl.egl);
-        return;
-    }
+    /* Wake-up, lead, stall reserve, the cost estimator and overrun skipping: rt_pacer (made by rt_app_init). */
+    rt_pacer *pacer = a->pacer;
+    rt_pacer_start(pacer, t_first, period, gles);
 
     while (!atomic_load_explicit(&a->stop, memory_order_relaxed)) {
         rt_pacer_frame pf;
@@ -329,6 +313,5 @@ void rt_compositor_run(rt_app *a)
             tel->missed_by[cause] += skipped;
         }
     }
-    rt_pacer_destroy(&pacer);
     if (gles) plat_egl_release(a->gl.egl);
 }

@@ -57,6 +57,11 @@ typedef struct {
 
 #define F(field) offsetof(rt_config, field)
 #define S(field) (int)sizeof(((rt_config *)0)->field)
+/* A mock device's fault window, two keys: NAME_at_s, when it starts (run time; 0 = never), and NAME_for_s. */
+#define MOCK_WINDOW(name, starts, lasts)                                                                               \
+    {"mock", #name "_at_s", K_DOUBLE, F(mock_##name##_at_s), 0, 0, 1e6, NULL,                                          \
+     starts " at this run time (0 = never)"},                                                                          \
+    {"mock", #name "_for_s", K_DOUBLE, F(mock_##name##_for_s), 0, 0, 1e6, NULL, lasts}
 
 static const keydef keys[] = {
     {"board", "name", K_STR, F(board_name), S(board_name), 0, 0, NULL, "board name shown in the summary"},
@@ -178,16 +183,10 @@ static const keydef keys[] = {
      "picture without it, in turn) (0 = never)"},
     {"mock", "truncate_every", K_INT, F(mock_truncate_every), 0, 0, 1000000, NULL,
      "mock host link: cut every Nth frame short (0 = never)"},
-    {"mock", "imu_unplug_at_s", K_DOUBLE, F(mock_imu_unplug_at_s), 0, 0, 1e6, NULL,
-     "mock HID IMU: unplug at this run time (0 = never)"},
-    {"mock", "imu_unplug_for_s", K_DOUBLE, F(mock_imu_unplug_for_s), 0, 0, 1e6, NULL, "... and replug after"},
-    {"mock", "host_stall_at_s", K_DOUBLE, F(mock_host_stall_at_s), 0, 0, 1e6, NULL,
-     "mock host link: the host stops sending at this run time (0 = never)"},
-    {"mock", "host_stall_for_s", K_DOUBLE, F(mock_host_stall_for_s), 0, 0, 1e6, NULL, "... for this long"},
+    MOCK_WINDOW(imu_unplug, "mock HID IMU: unplug", "... and replug after"),
+    MOCK_WINDOW(host_stall, "mock host link: the host stops sending", "... for this long"),
     {"mock", "vsync_jitter_us", K_DOUBLE, F(mock_vsync_jitter_us), 0, 0, 10000, NULL, "mock TE edges: jitter"},
-    {"mock", "edges_stop_at_s", K_DOUBLE, F(mock_edges_stop_at_s), 0, 0, 1e6, NULL,
-     "mock TE edges: stop at this run time (0 = never)"},
-    {"mock", "edges_stop_for_s", K_DOUBLE, F(mock_edges_stop_for_s), 0, 0, 1e6, NULL, "... for this long"},
+    MOCK_WINDOW(edges_stop, "mock TE edges: stop", "... for this long"),
     {"telemetry", "csv", K_STR, F(csv), S(csv), 0, 0, NULL, "write one CSV row per vsync to this file"},
     {"telemetry", "stats", K_STR, F(stats), S(stats), 0, 0, NULL,
      "write the run summary as key=value lines to this file at exit (for scripts)"},
@@ -197,6 +196,7 @@ static const keydef keys[] = {
     {"telemetry", "csv_max_mb", K_DOUBLE, F(csv_max_mb), 0, 0, 1e6, NULL,
      "rotate the per-vsync CSV at this size: the full one becomes FILE.1 (0 = never)"},
 };
+#undef MOCK_WINDOW
 #define NKEYS (int)(sizeof keys / sizeof keys[0])
 _Static_assert(NKEYS <= RT_CONFIG_MAX_KEYS, "rt_config's origin table is smaller than the key table");
 

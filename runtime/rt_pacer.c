@@ -8,6 +8,8 @@
 
 struct rt_pacer {
     rt_pacer_params p;
+    int64_t reserve_ns; /* p.reserve_ns clamped to the period */
+    bool one_period;
     int64_t t_vs, period;
     uint64_t vsync_no;
     /* When to wake: the vsync minus the longest warp and the latest wake-up among the last WINDOW vsyncs, plus a
@@ -25,11 +27,20 @@ struct rt_pacer {
     int64_t pending_next;
 };
 
-rt_pacer *rt_pacer_create(const rt_pacer_params *params, int64_t t_vs, int64_t period_ns)
+rt_pacer *rt_pacer_create(const rt_pacer_params *params)
 {
     rt_pacer *p = calloc(1, sizeof *p);
     if (!p) return NULL;
     p->p = *params;
+    return p;
+}
+
+void rt_pacer_start(rt_pacer *p, int64_t t_vs, int64_t period_ns, bool one_period)
+{
+    const rt_pacer_params params = p->p;
+    memset(p, 0, sizeof *p);
+    p->p = params;
+    p->one_period = one_period;
     p->t_vs = t_vs;
     p->period = period_ns;
     /* The first WINDOW vsyncs plan for a whole period: the first warps run with cold caches and TLBs and on pages
@@ -39,9 +50,9 @@ rt_pacer *rt_pacer_create(const rt_pacer_params *params, int64_t t_vs, int64_t p
     p->warp_est = period_ns - p->p.margin_ns;
     /* The stall reserve lets a pass start up to a period before the previous vsync: the warp for vsync N may run
      * while N-1's image waits and N-2's is still shown (the swapchain keeps both out of reach). */
-    if (p->p.reserve_ns > period_ns - p->p.margin_ns) p->p.reserve_ns = period_ns - p->p.margin_ns;
-    if (p->p.reserve_ns < 0) p->p.reserve_ns = 0;
-    return p;
+    p->reserve_ns = p->p.reserve_ns;
+    if (p->reserve_ns > period_ns - p->p.margin_ns) p->reserve_ns = period_ns - p->p.margin_ns;
+    if (p->reserve_ns < 0) p->reserve_ns = 0;
 }
 
 void rt_pacer_destroy(rt_pacer **p)
@@ -53,9 +64,9 @@ void rt_pacer_destroy(rt_pacer **p)
 
 static int64_t lead_of(const rt_pacer *p)
 {
-    int64_t lead = p->warp_est + p->late_est + p->p.margin_ns + p->p.reserve_ns;
+    int64_t lead = p->warp_est + p->late_est + p->p.margin_ns + p->reserve_ns;
     /* A KMS page flip cannot be queued behind one still pending: the GLES path plans within one period. */
-    if (p->p.one_period && lead > p->period) lead = p->period;
+    if (p->one_period && lead > p->period) lead = p->period;
     return lead;
 }
 

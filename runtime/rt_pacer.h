@@ -18,7 +18,6 @@ typedef struct rt_pacer rt_pacer;
 typedef struct {
     int64_t margin_ns;  /* kept between the estimated end of a pass and its vsync */
     int64_t reserve_ns; /* [render] stall_reserve_ms: started that much earlier still (clamped to period - margin) */
-    bool one_period;    /* plan within one period (a KMS page flip cannot queue behind one pending: GLES path) */
 } rt_pacer_params;
 
 /* The default margin: half a millisecond. */
@@ -64,10 +63,14 @@ typedef struct {
     int64_t late_ns; /* woken this much after the planned start */
 } rt_pacer_info;
 
-/* The first vsync at t_vs, period_ns long. NULL when out of memory (called before the vsync loop). */
-rt_pacer *rt_pacer_create(const rt_pacer_params *p, int64_t t_vs, int64_t period_ns);
+/* NULL when out of memory. Made with the run's other parts (rt_app_init): the vsync loop allocates nothing. */
+rt_pacer *rt_pacer_create(const rt_pacer_params *p);
 /* Frees and clears *p (NULL is fine). */
 void rt_pacer_destroy(rt_pacer **p);
+/* Starts (or starts again) from the first vsync, at t_vs and period_ns long, with no estimate yet. one_period: plan
+ * within one period (a KMS page flip cannot queue behind one pending: the GLES path); known only when the loop
+ * starts, since the compositor thread may fail to make the GLES context current and fall back to the CPU path. */
+void rt_pacer_start(rt_pacer *p, int64_t t_vs, int64_t period_ns, bool one_period);
 
 /* The plan for the vsync now targeted. */
 void rt_pacer_predict(const rt_pacer *p, rt_pacer_frame *out);

@@ -8,9 +8,9 @@
 #include <stddef.h>
 
 /* Adding a warp: its module (warp/warp_NAME.[ch]), one line in the X-list below and one entry in warp_registry.c's
- * table; then its entry points where it runs: tools/common/cat_warps.c's runs[] (hmdwarp-warp, the bench) and, for
- * a runtime method, runtime/rt_render_cpu.c's passes[] and rt_compositor.c's gles_method[]. Each of those tables is
- * _Static_assert-ed to the count.
+ * table (the GPU renderer's stand-in for it is a column there); then its entry points where it runs:
+ * tools/common/cat_warps.c's runs[] (hmdwarp-warp, the bench) and, for a runtime method, runtime/rt_render_cpu.c's
+ * passes[]. Both are indexed by the registry's ids and checked to cover every method.
  *
  * X(ID, "name"): the methods the runtime can run, in the order of [warp] method's values (config files and --stats
  * use the names, so neither order nor names may change; a new one goes at the end). */
@@ -62,6 +62,10 @@ typedef struct {
     warp_method fallback;
     int cost_rank;        /* larger = dearer and more capable; the selector escalates at once, de-escalates slowly */
     bool runtime;         /* hmdwarpd can run it ([warp] method) */
+    /* What the GLES renderer (platform/plat_gles) draws for it: itself where it has a GPU pass, else the GPU pass
+     * that stands in (the GPU traces every pixel, so its raytrace serves the mesh raytrace, the A-buffer and the
+     * object warps). WARP_METHOD_COUNT (no method) for the offline warps, which hmdwarpd never runs. */
+    warp_method gpu;
     int n_knobs;
     warp_knob knobs[WARP_MAX_KNOBS];
 } warp_method_info;

@@ -4,12 +4,14 @@
  * board whose summary names the renderer, the reason and the per-pass GPU times. */
 #include <setjmp.h>
 #include <stdarg.h>
+#include <stdatomic.h>
 #include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <cmocka.h>
 
+#include "platform/plat_clock.h"
 #include "platform/plat_gles.h"
 #include "runtime/rt_app.h"
 #include "tests/support/test_run.h"
@@ -145,13 +147,21 @@ static char *summary_text(void)
     return buf;
 }
 
+/* GPU times of pass p so far. The watcher thread asks while the compositor thread adds to the histograms: an
+ * atomic load, as the helper thread reads the other counters live (rt_telemetry.h). */
+static uint64_t gles_count(const rt_app *a, int p)
+{
+    return atomic_load_explicit(&a->gl.ms[p].count, memory_order_relaxed);
+}
+
 /* At least the run's 0.4 s, and until every pass has a GPU time (under an emulator llvmpipe's first passes, its
  * shaders compiled, can take most of that). */
 static bool llvmpipe_enough(const rt_app *a, double elapsed_s)
 {
-    return elapsed_s >= 0.4 && a->tel->method_count[RT_METHOD_RAYTRACE] > 0 &&
-           a->gl.ms[PLAT_GLES_RAYTRACE].count > 0 && a->gl.ms[PLAT_GLES_LENS].count > 0 &&
-           a->gl.ms[PLAT_GLES_PYRAMID].count > 0;
+    return elapsed_s >= 0.4 &&
+           atomic_load_explicit(&a->tel->method_count[RT_METHOD_RAYTRACE], memory_order_relaxed) > 0 &&
+           gles_count(a, PLAT_GLES_RAYTRACE) > 0 && gles_count(a, PLAT_GLES_LENS) > 0 &&
+           gles_count(a, PLAT_GLES_PYRAMID) > 0;
 }
 
 static void test_gles_run_on_llvmpipe(void **state)
@@ -170,9 +180,9 @@ static void test_gles_run_on_llvmpipe(void **state)
                   (unsigned long long)t->method_count[RT_METHOD_RAYTRACE], (unsigned long long)app.gl.errors);
     assert_true(t->method_count[RT_METHOD_RAYTRACE] > 0);
     assert_int_equal(app.gl.errors, 0);
-    assert_true(app.gl.ms[PLAT_GLES_RAYTRACE].count > 0);
-    assert_true(app.gl.ms[PLAT_GLES_LENS].count > 0);
-    assert_true(app.gl.ms[PLAT_GLES_PYRAMID].count > 0); /* built for new frames */
+    assert_true(gles_count(&app, PLAT_GLES_RAYTRACE) > 0);
+    assert_true(gles_count(&app, PLAT_GLES_LENS) > 0);
+    assert_true(gles_count(&app, PLAT_GLES_PYRAMID) > 0); /* built for new frames */
     /* something was drawn: the image on screen is not all black */
     int idx = app.sc.on_screen;
     assert_true(idx >= 0);
@@ -216,7 +226,11 @@ static void test_gles_misses_are_the_warps(void **state)
                   (unsigned long long)t->vsyncs, (unsigned long long)t->missed,
                   (unsigned long long)t->missed_by[RT_MISS_OWN], (unsigned long long)t->missed_by[RT_MISS_LATE_WAKE],
                   (unsigned long long)t->missed_by[RT_MISS_DESCHEDULED]);
-    assert_true(t->missed * 2 >= t->vsyncs);
+    /* On virtual time (make check-cross: qemu-user at 20x) llvmpipe's pass is CPU time on the real clock, which
+     * virtual time divides: whether it overruns the period is then the emulator's speed, not the runtime's (it
+     * overran 113 of 113 vsyncs in one run, 3 of 55 in another). There the misses are counted and summed only. */
+    const bool real_time = plat_clock_slowdown() == 1;
+    if (real_time) assert_true(t->missed * 2 >= t->vsyncs);
     uint64_t by = 0;
     for (int m = 0; m < RT_MISS_COUNT; m++) by += t->missed_by[m];
     assert_true(by == t->missed);
@@ -226,13 +240,13 @@ static void test_gles_misses_are_the_warps(void **state)
      * then 90 % of the misses are the pass's own, and the advice says the pass is too dear. */
     double others = test_others_share(others0);
     print_message("other processes used %.0f %% of the CPUs during the run\n", others * 100);
-    if (others < 0.15) {
+    if (real_time && others < 0.15) {
         assert_true(t->missed_by[RT_MISS_OWN] * 10 >= t->missed * 9);
         char *sum = summary_text();
         assert_non_null(strstr(sum, "misses, what to do         the GPU pass is too dear"));
         free(sum);
     } else {
-        print_message("busy machine: the misses' causes are reported, not judged\n");
+        print_message("%s: the misses' causes are reported, not judged\n", real_time ? "busy machine" : "virtual time");
     }
     rt_app_free(&app);
 }

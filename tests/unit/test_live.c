@@ -68,7 +68,7 @@ static double kv(const char *text, const char *key)
 /* Starts hmdwarpd (exec'd by sh, so the pid is hmdwarpd's) with stdout and stderr into out_path. */
 static pid_t spawn(const char *args, const char *out_path)
 {
-    char cmd[2048]; /* runner, build, args and out_path at their largest */
+    char cmd[4096]; /* runner, build, args and out_path at their largest */
     snprintf(cmd, sizeof cmd, "exec %s%s/hmdwarpd " RUN_ARGS " %s >%s 2>&1 </dev/null", test_runner(), build, args,
              out_path);
     pid_t pid = fork();
@@ -81,12 +81,17 @@ static pid_t spawn(const char *args, const char *out_path)
     return pid;
 }
 
-/* Waits until the live file says the display has run a while (vsyncs > 0): behaviour, not a wall-clock sleep.
- * Gives up after 60 s (a hung start), which fails the test. */
-static bool wait_live(const char *path, char *text, size_t cap)
+/* Waits until the live file says the display runs and has shown at least `shown` host frames: counts, not a
+ * wall-clock sleep, so a slow start (the simulated host's first frames take seconds under qemu-user, where the
+ * daemon runs in real time) only takes longer. The cap, 5 minutes, is there against a hung start only; reaching
+ * it fails the test. */
+#define LIVE_CAP_S 300
+static bool wait_live(const char *path, char *text, size_t cap, double shown)
 {
-    for (int i = 0; i < 6000; i++) {
-        if (slurp(path, text, cap) && kv(text, "vsyncs") > 0 && kv(text, "running") == 1) return true;
+    for (int i = 0; i < LIVE_CAP_S * 100; i++) {
+        if (slurp(path, text, cap) && kv(text, "vsyncs") > 0 && kv(text, "running") == 1 &&
+            kv(text, "frames_shown") >= shown)
+            return true;
         usleep(10000);
     }
     return false;
@@ -95,6 +100,9 @@ static bool wait_live(const char *path, char *text, size_t cap)
 typedef struct {
     int ready, status, stopping, order_ok, content_ok;
     char last_status[1024];
+    pid_t pid;        /* the daemon, stopped with SIGTERM once its live file says it has shown a host frame */
+    const char *live;
+    bool stopped;
 } status_counts;
 
 static bool count_status(const char *msg, void *ctx)
@@ -103,6 +111,11 @@ static bool count_status(const char *msg, void *ctx)
     if (strstr(msg, "READY=1")) c->ready++;
     if (strncmp(msg, "STATUS=", 7) == 0) {
         c->status++;
+        char text[16384];
+        if (!c->stopped && slurp(c->live, text, sizeof text) && kv(text, "frames_shown") >= 1) {
+            kill(c->pid, SIGTERM);
+            c->stopped = true;
+        }
         if (!c->ready) c->order_ok = 0;
         /* vsyncs, missed and why, m2p p99, frame age, link */
         const char *need[] = {"vsyncs/s", "missed", "own", "woken late", "descheduled", "m2p p99", "frame age",
@@ -116,23 +129,24 @@ static bool count_status(const char *msg, void *ctx)
 }
 
 /* hmdwarpd running until stopped with a live file (TMP/NAME.live, its output in TMP/NAME.out), and whether that
- * file came to say it runs (up; r->text holds what it said). */
+ * file came to say it runs and has shown `shown` host frames (up; r->text holds what it said). extra_args: more
+ * hmdwarpd arguments. */
 typedef struct {
     char live[400], out[400], text[16384];
     pid_t pid;
     bool up;
 } live_run;
 
-static void live_start(live_run *r, const char *name)
+static void live_start(live_run *r, const char *name, const char *extra_args, double shown)
 {
     snprintf(r->live, sizeof r->live, "%s/%s.live", tmp, name);
     snprintf(r->out, sizeof r->out, "%s/%s.out", tmp, name);
     unlink(r->live);
-    char args[600];
-    snprintf(args, sizeof args, "--duration 0 --set telemetry.live_stats=%s", r->live);
+    char args[1200];
+    snprintf(args, sizeof args, "--duration 0 --set telemetry.live_stats=%s %s", r->live, extra_args);
     r->pid = spawn(args, r->out);
     assert_true(r->pid > 0);
-    r->up = wait_live(r->live, r->text, sizeof r->text);
+    r->up = wait_live(r->live, r->text, sizeof r->text, shown);
 }
 
 /* Sends sig and reaps the daemon; returns its wait status. */
@@ -148,21 +162,27 @@ static void test_status_line_and_live_file(void **state)
 {
     (void)state;
     /* hmdwarpd under a stand-in for systemd: STATUS= once a second, after READY=1, naming what `systemctl
-     * status hmdwarpd` should show; the live file ends as the --stats file does */
+     * status hmdwarpd` should show; stopped (SIGTERM) once it has shown a host frame, or it would exit 1: counts,
+     * so a slow start only takes longer; the live file ends as the --stats file does */
     test_notify ns;
     assert_true(test_notify_open(&ns, "live"));
-    char live[400], stats[400], cmd[2000];
+    char live[400], stats[400], args[1000], daemon_out[400], cmd[2000];
     snprintf(live, sizeof live, "%s/status.live", tmp);
     snprintf(stats, sizeof stats, "%s/status.stats", tmp);
+    snprintf(daemon_out, sizeof daemon_out, "%s/status.out", tmp);
     unlink(live);
-    snprintf(cmd, sizeof cmd, "NOTIFY_SOCKET=%s %s%s/hmdwarpd " RUN_ARGS " --duration 3 --set telemetry.live_stats=%s "
-             "--stats %s >/dev/null 2>&1 </dev/null", ns.path, test_runner(), build, live, stats);
-    FILE *child = popen(cmd, "r");
-    assert_non_null(child);
-    status_counts sc = {0, 0, 0, 1, 1, ""};
-    test_notify_read(&ns, 60000, count_status, &sc);
-    assert_int_equal(pclose(child), 0);
+    snprintf(args, sizeof args, "--duration 0 --set telemetry.live_stats=%s --stats %s", live, stats);
+    setenv("NOTIFY_SOCKET", ns.path, 1); /* for the daemon alone */
+    status_counts sc = {0, 0, 0, 1, 1, "", spawn(args, daemon_out), live, false};
+    unsetenv("NOTIFY_SOCKET");
+    assert_true(sc.pid > 0);
+    test_notify_read(&ns, LIVE_CAP_S * 1000, count_status, &sc);
+    if (!sc.stopped) kill(sc.pid, SIGTERM); /* the cap: a hung start */
+    int st = 0;
+    assert_int_equal(waitpid(sc.pid, &st, 0), sc.pid);
     test_notify_close(&ns);
+    assert_true(sc.stopped);
+    assert_true(WIFEXITED(st) && WEXITSTATUS(st) == 0);
     const char *last_status = sc.last_status;
     print_message("notify: READY %d, STATUS %d, STOPPING %d; last: %s\n", sc.ready, sc.status, sc.stopping,
                   last_status);
@@ -195,12 +215,15 @@ static void test_status_line_and_live_file(void **state)
     assert_int_equal(access(cmd, F_OK), -1);
 }
 
+/* The host frames the daemon has shown when hmdwarp-top looks. */
+#define TOP_FRAMES 3
 static void test_top_shows_running_daemon_and_sigterm_summary(void **state)
 {
     (void)state;
-    /* a run until stopped: hmdwarp-top --once shows it while it runs; SIGTERM stops it with the summary, exit 0 */
+    /* a run until stopped: hmdwarp-top --once shows it while it runs; SIGTERM stops it with the summary, exit 0
+     * (a run that showed no host frame exits 1: the top is taken once the daemon has shown some) */
     static live_run r;
-    live_start(&r, "term");
+    live_start(&r, "term", "", TOP_FRAMES);
     char cmd[1200], top[8192];
     snprintf(cmd, sizeof cmd, "%s%s/hmdwarp-top --once --file %s 2>&1", test_runner(), build, r.live);
     int top_rc = r.up ? sh(cmd, top, sizeof top) : -1;
@@ -219,6 +242,11 @@ static void test_top_shows_running_daemon_and_sigterm_summary(void **state)
     assert_non_null(p);
     assert_int_equal(sscanf(p, "   vsyncs %llu", &v), 1);
     assert_true(v > 0);
+    unsigned long long shown = 0;
+    p = strstr(top, ", shown ");
+    assert_non_null(p);
+    assert_int_equal(sscanf(p, ", shown %llu", &shown), 1);
+    assert_true(shown >= TOP_FRAMES);
 
     char o[65536];
     slurp(r.out, o, sizeof o);
@@ -234,7 +262,7 @@ static void test_sigabrt_prints_last_stats(void **state)
     (void)state;
     /* systemd's watchdog sends SIGABRT: the process still dies of it, but says first what it saw */
     static live_run r;
-    live_start(&r, "abrt");
+    live_start(&r, "abrt", "", 0); /* what it saw, frames or none */
     int st = live_stop(&r, SIGABRT);
     assert_true(r.up);
     char o[65536];
@@ -251,18 +279,23 @@ static void test_sigabrt_prints_last_stats(void **state)
     assert_true(kv(s, "m2p_ms_p99") > 0);
 }
 
+/* bytes in path, 0 when it is not there */
+static long file_size(const char *path)
+{
+    struct stat st;
+    return stat(path, &st) == 0 ? (long)st.st_size : 0;
+}
+
 static void test_csv_rotates_by_size(void **state)
 {
     (void)state;
-    char csv[400], old[420], cmd[1200], a[65536], b[65536];
+    char csv[400], old[420], extra[600], a[65536], b[65536];
     snprintf(csv, sizeof csv, "%s/rot.csv", tmp);
     snprintf(old, sizeof old, "%s.1", csv);
-    unlink(csv);
-    unlink(old);
-    /* 2 KB: about 30 rows, so a two-second run at 90 Hz rotates even when a busy machine skips most vsyncs */
+    /* 2 KB: about 30 rows. The daemon runs until it has shown a host frame (or it would exit 1) and the CSV has
+     * rotated with rows after it: counts, so a busy machine or an emulator only takes longer. */
     const double max_mb = 2048.0 / (1024 * 1024);
-    snprintf(cmd, sizeof cmd, "%s%s/hmdwarpd " RUN_ARGS " --duration 2 --csv %s --set telemetry.csv_max_mb=%.9f "
-             ">/dev/null 2>&1 </dev/null", test_runner(), build, csv, max_mb);
+    snprintf(extra, sizeof extra, "--csv %s --set telemetry.csv_max_mb=%.9f", csv, max_mb);
     const char *header = "vsync,vsync_ns,frame_seq,method,warp_ms,missed,m2p_ms,frame_age_ms\n";
     size_t na = 0, nb = 0;
     /* a run that ended right after a rotation leaves the new file with its header alone, and nothing to check
@@ -270,7 +303,20 @@ static void test_csv_rotates_by_size(void **state)
     for (int run = 0; run < 3 && nb <= strlen(header); run++) {
         unlink(csv);
         unlink(old);
-        assert_int_equal(sh(cmd, NULL, 0), 0);
+        static live_run r;
+        live_start(&r, "rot", extra, 1);
+        /* rotated (FILE.1 is there), then more vsyncs, each a row: the live file's count goes up (the current
+         * file's rows wait in stdio's buffer until it is closed, so its size says nothing yet) */
+        double rotated_at = -1;
+        for (int i = 0; r.up && i < LIVE_CAP_S * 100; i++) {
+            bool read = slurp(r.live, r.text, sizeof r.text) > 0;
+            if (rotated_at < 0 && read && file_size(old) > 0) rotated_at = kv(r.text, "vsyncs");
+            if (rotated_at >= 0 && read && kv(r.text, "vsyncs") > rotated_at) break;
+            usleep(10000);
+        }
+        int st = live_stop(&r, SIGTERM);
+        assert_true(r.up);
+        assert_true(WIFEXITED(st) && WEXITSTATUS(st) == 0);
         na = slurp(old, a, sizeof a);
         nb = slurp(csv, b, sizeof b);
         print_message("rot.csv.1 %zu bytes, rot.csv %zu bytes\n", na, nb);

@@ -58,10 +58,11 @@ static pass_spec steady(int64_t dur) { return (pass_spec){0, dur, dur, false, RT
 
 static rt_pacer *new_pacer(fake_clock *c, int64_t reserve, bool one_period)
 {
-    rt_pacer_params pp = {MARGIN, reserve, one_period};
+    rt_pacer_params pp = {MARGIN, reserve};
     c->now = 100 * PERIOD - 20 * MS;
-    rt_pacer *p = rt_pacer_create(&pp, 100 * PERIOD, PERIOD);
+    rt_pacer *p = rt_pacer_create(&pp);
     assert_non_null(p);
+    rt_pacer_start(p, 100 * PERIOD, PERIOD, one_period);
     return p;
 }
 
@@ -109,6 +110,31 @@ static rt_pacer *converged(fake_clock *c, int64_t reserve, bool one_period)
     rt_pacer *p = new_pacer(c, reserve, one_period);
     for (int i = 0; i < RT_PACER_WINDOW; i++) run_pass(p, c, steady(2 * MS), NULL);
     return p;
+}
+
+/* rt_app_init makes the pacer, the vsync loop starts it: a start forgets the last run (lead, vsync count, costs)
+ * and plans from the new first vsync, within one period when asked (a stall reserve beyond it is cut). */
+static void test_start_again(void **state)
+{
+    (void)state;
+    fake_clock c;
+    rt_pacer *p = converged(&c, 0, false);
+    run_pass(p, &c, (pass_spec){0, 4 * MS, 4 * MS, false, RT_METHOD_NONE}, NULL);
+    assert_int_equal(lead(p), 5 * MS + MARGIN);
+    rt_pacer_start(p, 500 * PERIOD, PERIOD, true);
+    rt_pacer_frame f;
+    rt_pacer_predict(p, &f);
+    assert_int_equal(f.vsync_no, 0);
+    assert_int_equal(f.vsync_ns, 500 * PERIOD);
+    assert_int_equal(f.lead_ns, PERIOD);
+    for (int m = 0; m < RT_METHOD_COUNT; m++) assert_true(rt_pacer_costs(p)[m] == 0);
+    rt_pacer_destroy(&p);
+    /* a reserve of a whole period on the one-period (GLES) plan: the lead stays a period */
+    p = converged(&c, PERIOD, true);
+    assert_int_equal(lead(p), PERIOD);
+    rt_pacer_start(p, 600 * PERIOD, PERIOD, false);
+    assert_int_equal(lead(p), PERIOD + (PERIOD - MARGIN)); /* a cold window plus the reserve, cut to period - margin */
+    rt_pacer_destroy(&p);
 }
 
 /* One 4 ms pass against a 3 ms lead: exactly one miss, the pass's own; the lead grows to 4 * 1.25 + 0.5 ms at once
@@ -314,7 +340,7 @@ int main(void)
         cmocka_unit_test(test_steady_state_lead), cmocka_unit_test(test_spike_one_own_miss),
         cmocka_unit_test(test_miss_causes),       cmocka_unit_test(test_stall_reserve),
         cmocka_unit_test(test_overrun_skipping),  cmocka_unit_test(test_cost_estimator),
-        cmocka_unit_test(test_gles_gpu_time),
+        cmocka_unit_test(test_gles_gpu_time),       cmocka_unit_test(test_start_again),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -88,6 +88,31 @@ static void ladders_match_compositor(void **state)
     assert_int_equal(warp_method_usable(WARP_METHOD_RAYTRACE_MESH, DRV_PLANE_DEPTH, NULL), WARP_METHOD_RAYTRACE_MESH);
 }
 
+/* The GPU column: every runtime method has a stand-in that the GLES renderer draws (compose_gles draws none,
+ * rotation and raytrace: the methods that are their own stand-in), needing no plane the method itself does not;
+ * the transparency and object warps and the mesh raytrace are the GPU's raytrace, as before the column. */
+static void gpu_column_covers_runtime(void **state)
+{
+    (void)state;
+    for (int m = 0; m < WARP_METHOD_COUNT; m++) {
+        const warp_method_info *w = warp_method_get((warp_method)m);
+        if (!w->runtime) {
+            assert_int_equal(w->gpu, WARP_METHOD_COUNT);
+            continue;
+        }
+        const warp_method_info *g = warp_method_get(w->gpu);
+        assert_non_null(g);
+        assert_true(g->runtime);
+        assert_int_equal(g->gpu, w->gpu); /* a stand-in has a GPU pass of its own */
+        assert_int_equal(g->needs & ~w->needs, 0);
+        bool own = w->gpu == (warp_method)m;
+        assert_int_equal(own, m == WARP_METHOD_NONE || m == WARP_METHOD_ROTATION || m == WARP_METHOD_RAYTRACE);
+    }
+    assert_int_equal(warp_method_get(WARP_METHOD_TRANSPARENCY)->gpu, WARP_METHOD_RAYTRACE);
+    assert_int_equal(warp_method_get(WARP_METHOD_OBJECTS)->gpu, WARP_METHOD_RAYTRACE);
+    assert_int_equal(warp_method_get(WARP_METHOD_RAYTRACE_MESH)->gpu, WARP_METHOD_RAYTRACE);
+}
+
 /* [warp] method takes exactly the runtime methods (by the registry's names, stored as its index) and auto. */
 static void config_lists_registry(void **state)
 {
@@ -194,6 +219,7 @@ int main(int argc, char **argv)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(entries_consistent),
         cmocka_unit_test(ladders_match_compositor),
+        cmocka_unit_test(gpu_column_covers_runtime),
         cmocka_unit_test(config_lists_registry),
         cmocka_unit_test(catalogue_lists_registry),
         cmocka_unit_test(warp_tool_lists_registry),
