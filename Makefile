@@ -318,12 +318,12 @@ run: deps
 # `make run-socket`: the simulated board (IMU, vsync) with its frames from another process over [frames] backend =
 # socket (README, Frames from your own process): hmdwarpd listens at $(RUN_SOCKET), SOCKET_HOST connects once the
 # socket is there, and the host is stopped when the board's run ends (DURATION and the other knobs as for make run).
-# TODO(#18): the default host is hmdwarp-feed --socket (h-host's libhmdwarp-host transport, not on main yet); the
-# GLES example (h-py) is to replace it: SOCKET_HOST="build/NAME --socket $(RUN_SOCKET)" runs any host meanwhile.
+# The default host is the C example (host/examples/render_gl.c: EGL + GLES 3 rendering at the board's poses through
+# libhmdwarp-host); SOCKET_HOST="build/hmdwarp-feed --socket $(RUN_SOCKET)" (or any host program) runs another.
 RUN_SOCKET = $(BUILD)/run/frames.sock
-SOCKET_HOST ?= $(BUILD)/hmdwarp-feed --socket $(RUN_SOCKET)
+SOCKET_HOST ?= $(BUILD)/examples/render_gl socket:$(RUN_SOCKET)
 run-socket: deps
-	@$(MAKE) --no-print-directory $(BUILD)/hmdwarpd $(BUILD)/hmdwarp-feed $(BUILD)/hmdwarp-top
+	@$(MAKE) --no-print-directory $(BUILD)/hmdwarpd $(BUILD)/hmdwarp-feed $(BUILD)/hmdwarp-top $(EXAMPLES)
 	@mkdir -p $(BUILD)/run
 	@rm -f $(RUN_SOCKET)
 	@$(BUILD)/hmdwarpd --config board/sim/board.ini --set telemetry.live_stats=$(BUILD)/run/stats \
