@@ -233,7 +233,7 @@ typedef struct {
 } hmdwarp_host_frame;
 
 /* Checks, converts and sends one frame (one framelink frame, docs/framelink.md). Returns 0, or: ARG (a NULL
- * pointer, a plane given for one eye only, pose_seq not among the last 64 pose messages), SIZE (stride smaller
+ * pointer, a plane given for one eye only, pose_seq not among the last 1024 pose messages), SIZE (stride smaller
  * than a row, camera size different from the board's, too many fragments, frame over max_frame_bytes),
  * NOT_FINITE (a pose, depth, motion or fragment value), FORMAT (a format value, a plane the board's camera message
  * does not accept, window depth outside [0, 1] or a negative linear depth), NO_CAMERAS, NOT_CONNECTED,

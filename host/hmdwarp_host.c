@@ -18,9 +18,10 @@
 
 #define API __attribute__((visibility("default")))
 
-/* Pose messages kept for hmdwarp_host_frame.pose_seq: 64 at the board's 500 Hz is 128 ms, longer than any render a
- * board would still warp. */
-#define POSE_RING 64
+/* Pose messages kept for hmdwarp_host_frame.pose_seq: 1024 at the board's 500 Hz is 2 s (200 KB), longer than any
+ * render a board would still warp, even on a host loaded enough to stretch a render tenfold (64, 128 ms, refused a
+ * loaded machine's first frames). */
+#define POSE_RING 1024
 /* Board messages are small (204 and 168 bytes); a declared size above this is garbage to resynchronise past. */
 #define MSG_MAX 4096
 #define READ_TIMEOUT_MS 100

@@ -568,7 +568,7 @@ int main(int argc, char **argv)
             }
             last_pose_ns = hmdwarp_host_now_ns();
             /* The pose rendered for, given whole: pose_seq = pm.seq would do as long as the message is among the
-             * library's last 64 (128 ms at a board's 500 Hz), which a slow renderer outlasts. */
+             * library's last 1024 (2 s at a board's 500 Hz), which a slow renderer outlasts. */
             fr.pose_target_ns = pm.target_time_ns;
             fr.pose_board_ns = pm.board_time_ns;
             fr.pose_received_ns = pm.received_ns;

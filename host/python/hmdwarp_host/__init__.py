@@ -359,8 +359,8 @@ class Host:
                 E.fragments, E.n_fragments = frags.ctypes.data, frags.shape[0]
         keep = []
         if isinstance(pose, PoseMsg):
-            # The message whole (not its seq, which the library finds only among the last 64 messages: 128 ms at a
-            # board's 500 Hz, less than a slow render takes).
+            # The message whole (not its seq, which the library finds only among the last 1024 messages: 2 s at a
+            # board's 500 Hz, more than a render should take, but a loaded host can outlast it).
             for e in range(2):
                 pose.eye[e]._to_c(f.eye[e].pose)
             f.pose_target_ns, f.pose_board_ns, f.pose_received_ns = (pose.target_time_ns, pose.board_time_ns,
