@@ -354,6 +354,18 @@ static void deadline(struct timespec *ts, int timeout_ms)
     if (ts->tv_nsec >= 1000000000L) ts->tv_sec++, ts->tv_nsec -= 1000000000L;
 }
 
+/* One wait for the reader's signal (h->lock held); true when the caller's time is up: at once for a timeout of 0,
+ * never for a negative one. While the board is away the wait goes on (the reader reconnects and signals), so a
+ * caller's loop does not spin. */
+static bool wait_signal(hmdwarp_host *h, int timeout_ms, const struct timespec *ts)
+{
+    if (timeout_ms < 0) {
+        pthread_cond_wait(&h->cond, &h->lock);
+        return false;
+    }
+    return timeout_ms == 0 || pthread_cond_timedwait(&h->cond, &h->lock, ts) == ETIMEDOUT;
+}
+
 API int hmdwarp_host_wait_pose(hmdwarp_host *h, int timeout_ms, hmdwarp_host_pose_msg *out)
 {
     if (!h || !out) return host_fail(HMDWARP_HOST_ERR_ARG, "%s: NULL", !h ? "handle" : "out");
@@ -371,12 +383,8 @@ API int hmdwarp_host_wait_pose(hmdwarp_host *h, int timeout_ms, hmdwarp_host_pos
             rc = 1;
             break;
         }
-        /* While the board is away the wait goes on (the reader reconnects and signals), so a caller's loop does
-         * not spin; it ends NOT_CONNECTED when the board stayed away for all of it. */
-        bool expired = timeout_ms == 0 ||
-                       (timeout_ms > 0 && pthread_cond_timedwait(&h->cond, &h->lock, &ts) == ETIMEDOUT);
-        if (timeout_ms < 0) pthread_cond_wait(&h->cond, &h->lock);
-        if (expired && !h->fresh) {
+        /* it ends NOT_CONNECTED when the board stayed away for all of it */
+        if (wait_signal(h, timeout_ms, &ts) && !h->fresh) {
             if (!h->connected)
                 rc = host_fail(HMDWARP_HOST_ERR_NOT_CONNECTED, "wait_pose: not connected (the board went away; "
                                "reconnecting)");
@@ -416,12 +424,8 @@ API int hmdwarp_host_wait_cameras(hmdwarp_host *h, int timeout_ms, hmdwarp_host_
             break;
         }
         if (!h->messages) break; /* nothing will arrive: set_cameras is the way */
-        /* While the board is away the wait goes on (the reader reconnects and signals), so a caller's loop does
-         * not spin; it ends NOT_CONNECTED when the board stayed away for all of it. */
-        bool expired = timeout_ms == 0 ||
-                       (timeout_ms > 0 && pthread_cond_timedwait(&h->cond, &h->lock, &ts) == ETIMEDOUT);
-        if (timeout_ms < 0) pthread_cond_wait(&h->cond, &h->lock);
-        if (expired && !h->have_cams) {
+        /* it ends NOT_CONNECTED when the board stayed away for all of it */
+        if (wait_signal(h, timeout_ms, &ts) && !h->have_cams) {
             if (!h->connected)
                 rc = host_fail(HMDWARP_HOST_ERR_NOT_CONNECTED, "wait_cameras: not connected (the board went away; "
                                "reconnecting)");
