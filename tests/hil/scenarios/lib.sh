@@ -150,7 +150,8 @@ hil_te_start() {
     # for 85 % of its pulses (hmdwarpd's real-time threads first), at 70 for 48 %
     chrt -f 70 hil_te --chip "$HIL_GPIO_CHIP" --line 0 --ready-file "$HIL_WORK/te.ready" "$@" >"$HIL_WORK/te.log" 2>&1 &
     HIL_TE_PID=$!
-    hil_wait_until 10 grep -q '^state=ready' "$HIL_WORK/te.ready" 2>/dev/null ||
+    # (state=running once a second after that, with its counts)
+    hil_wait_until 10 grep -qE '^state=(ready|running)' "$HIL_WORK/te.ready" 2>/dev/null ||
         { cat "$HIL_WORK/te.log"; hil_fail "hil_te: line $HIL_GPIO_CHIP/0 not ready ($(tail -n 1 "$HIL_WORK/te.log"))"; }
 }
 

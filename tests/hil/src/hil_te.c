@@ -310,7 +310,7 @@ int main(int argc, char **argv)
         bool on = pulse_at(&s, k, &rel);
         int64_t nominal = t0 + llround((double)k * s.te.period_ns);
         if (nominal >= t_end) break;
-        if (k % 90 == 0 && k > 0)
+        if (k > 0 && k % (uint64_t)ceil(o.rate_hz) == 0) /* about once a second */
             hil_status_write(o.ready_file, "state=running\npull=%s\npulses=%llu\ndropped_late=%llu\n", o.pull,
                              (unsigned long long)pulses, (unsigned long long)dropped);
         if (!on) {
