@@ -36,7 +36,7 @@ if [ "${HIL_KERNEL:-vmlinux}" = vmlinuz ]; then kernel=$CACHE/root/boot/vmlinuz-
 # Kernel parameters: NAME=VALUE words without dots become /init's environment.
 append="console=ttyS0 panic=-1 loglevel=4 mitigations=off nokaslr tsc=reliable"
 append="$append HIL_SHELL=${HIL_SHELL:-0} HIL_VERBOSE=${HIL_VERBOSE:-0}"
-for v in HIL_SOAK_S HIL_NOMINAL_S HIL_HMD_ARGS HIL_PANEL HIL_MISSED_MAX HIL_OWN_MAX HIL_IMU_RATE_MIN HIL_KMS HIL_KMS_RENDERERS HIL_VKMS_STRESS HIL_STRICT HIL_OWN_FAIL HIL_SCHED_QUIET; do
+for v in HIL_SOAK_S HIL_NOMINAL_S HIL_HMD_ARGS HIL_PANEL HIL_MISSED_MAX HIL_OWN_MAX HIL_IMU_RATE_MIN HIL_KMS HIL_KMS_RENDERERS HIL_VKMS_STRESS HIL_STRICT HIL_OWN_FAIL HIL_SCHED_QUIET HIL_TE_LOCKABLE; do
     eval "val=\${$v:-}"
     [ -n "$val" ] && append="$append $v=$val"
 done

@@ -206,31 +206,44 @@ static void test_gles_run_on_llvmpipe(void **state)
 /* A GLES pass that llvmpipe draws for far longer than a period is the warp's own miss, not the scheduler's: the
  * compositor thread waits for the GPU without running, so its CPU time alone would blame the scheduler (make run
  * RENDER=gles once reported "descheduled 906, own 0"). Eye buffers of the sim board's size keep llvmpipe's pass at
- * ten periods or more however loaded the machine is. */
+ * ten periods or more however loaded the machine is. Only the vsyncs that had a host frame to warp are judged: before
+ * the first frame a vsync costs a clear, and on a busy machine the simulated host's first frame can take most of a
+ * short run (make test-busy: 55 vsyncs, 13 missed), so the run is repeated longer until 10 vsyncs had one. */
 static void test_gles_misses_are_the_warps(void **state)
 {
     (void)state;
-    rt_config c;
-    rt_config_defaults(&c);
-    const char *sets[] = {"render.renderer=gles", "warp.method=rotation", "sim.duration_s=0.6", "sim.eval_every_ms=0",
-                          "render.rt_priority=0", "sim.scene=room", "sim.host_threads=1"};
-    test_set_all(&c, sets, sizeof sets / sizeof sets[0]);
-    test_validate(&c);
-    char err[300];
-    if (!rt_app_init(&app, &c, err, sizeof err)) fail_msg("init: %s", err);
-    assert_true(app.gl.use && app.gl.software);
     test_others others0 = test_others_mark();
-    rt_app_run(&app);
-    const rt_telemetry *t = app.tel;
-    print_message("vsyncs %llu, missed %llu: own %llu, late wake %llu, descheduled %llu\n",
-                  (unsigned long long)t->vsyncs, (unsigned long long)t->missed,
-                  (unsigned long long)t->missed_by[RT_MISS_OWN], (unsigned long long)t->missed_by[RT_MISS_LATE_WAKE],
-                  (unsigned long long)t->missed_by[RT_MISS_DESCHEDULED]);
+    const rt_telemetry *t = NULL;
+    uint64_t framed = 0;
+    for (double secs = 0.6; secs < 5; secs *= 2) {
+        if (t) rt_app_free(&app);
+        rt_config c;
+        rt_config_defaults(&c);
+        const char *sets[] = {"render.renderer=gles", "warp.method=rotation", "sim.eval_every_ms=0",
+                              "render.rt_priority=0", "sim.scene=room", "sim.host_threads=1"};
+        test_set_all(&c, sets, sizeof sets / sizeof sets[0]);
+        test_setf(&c, "sim.duration_s=%g", secs);
+        test_validate(&c);
+        char err[300];
+        if (!rt_app_init(&app, &c, err, sizeof err)) fail_msg("init: %s", err);
+        assert_true(app.gl.use && app.gl.software);
+        others0 = test_others_mark();
+        rt_app_run(&app);
+        t = app.tel;
+        framed = t->vsyncs - t->no_frame;
+        print_message("%.1f s: vsyncs %llu (with a host frame %llu), missed %llu: own %llu, late wake %llu, "
+                      "descheduled %llu\n", secs, (unsigned long long)t->vsyncs, (unsigned long long)framed,
+                      (unsigned long long)t->missed, (unsigned long long)t->missed_by[RT_MISS_OWN],
+                      (unsigned long long)t->missed_by[RT_MISS_LATE_WAKE],
+                      (unsigned long long)t->missed_by[RT_MISS_DESCHEDULED]);
+        if (framed >= 10) break;
+    }
+    if (framed < 10) fail_msg("only %llu vsyncs had a host frame in the longest run", (unsigned long long)framed);
     /* On virtual time (make check-cross: qemu-user at 20x) llvmpipe's pass is CPU time on the real clock, which
      * virtual time divides: whether it overruns the period is then the emulator's speed, not the runtime's (it
      * overran 113 of 113 vsyncs in one run, 3 of 55 in another). There the misses are counted and summed only. */
     const bool real_time = plat_clock_slowdown() == 1;
-    if (real_time) assert_true(t->missed * 2 >= t->vsyncs);
+    if (real_time) assert_true(t->missed * 2 >= framed);
     uint64_t by = 0;
     for (int m = 0; m < RT_MISS_COUNT; m++) by += t->missed_by[m];
     assert_true(by == t->missed);

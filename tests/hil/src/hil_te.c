@@ -1,14 +1,15 @@
 /* SPDX-License-Identifier: MIT */
 /* hil_te: plays a display panel's TE (tearing effect) signal on a gpio-sim line: pulses at the panel rate written
  * through the simulated line's sysfs `pull` attribute, so libgpiod in hmdwarpd sees real edge interrupts; with
- * jitter, a TE dropout and a phase jump on request, as drivers/drv_te_schedule plans them. */
+ * jitter, a TE dropout and a phase jump on request, as drivers/drv_te_schedule plans them. A pulse it cannot start
+ * on time is dropped, not written late: a panel's TE edge comes on time or not at all. */
 #include <dirent.h>
 #include <fcntl.h>
 
 #include "drivers/drv_te_schedule.h"
 #include "tests/hil/src/hil_common.h"
 
-#define LATE_NS (500 * 1000) /* an edge written this late after its time counts as late */
+#define LATE_US 500 /* default --late-us: an edge written this late after its time counts as late */
 
 typedef struct {
     const char *pull;
@@ -16,6 +17,7 @@ typedef struct {
     double rate_hz, high_us, jitter_us;
     double duration_s, stop_at_s, stop_for_s;
     double jump_at_s, jump_us;
+    double late_us;
     bool active_low;
     uint64_t seed;
     const char *ready_file;
@@ -145,7 +147,8 @@ static void usage(FILE *f)
             "  --chip NAME         instead of --pull: the gpio-sim chip (gpiochipN, its bank's chip_name) ...\n"
             "  --line N            ... and the line offset (default 0)\n"
             "  --active-low        idle high, pulses low (for [vsync] edge = falling)\n"
-            "  --ready-file PATH   also write state=ready|done, pull=, pid= lines to PATH (atomic)\n"
+            "  --ready-file PATH   also write state=ready|running|done, pull=, pid= lines to PATH (atomic), and\n"
+            "                      once a second pulses= and dropped_late= (the share it could play on time)\n"
             "Signal:\n"
             "  --rate HZ           pulses per second (default 90)\n"
             "  --high-us US        pulse width (default 1000)\n"
@@ -159,11 +162,13 @@ static void usage(FILE *f)
             "  --stop-for S        ... for S seconds (default 1), then pulses resume on the same phase (relock)\n"
             "  --phase-jump-at S   S seconds after start, shift every later pulse by --phase-jump-us (a panel mode\n"
             "  --phase-jump-us US  change: hmdwarpd should relock on the new phase; default 3000)\n"
+            "  --late-us US        a pulse whose start would be written more than US late is dropped, a missed\n"
+            "                      edge (default %d; 0: write every pulse however late, in a burst after a stall)\n"
             "  --dry-run[=N]       no device: print the first N pulses (default 10) and the writes; PASS or FAIL\n"
             "  -v, --verbose       report every late edge\n"
             "  -h, --help          this text\n"
             "Exit status: 0 done, 1 device failure, 2 bad command line.\n",
-            hil_prog, hil_prog);
+            hil_prog, hil_prog, LATE_US);
 }
 
 enum {
@@ -181,6 +186,7 @@ enum {
     OPT_STOP_FOR,
     OPT_JUMP_AT,
     OPT_JUMP_US,
+    OPT_LATE_US,
     OPT_DRY_RUN,
 };
 
@@ -201,6 +207,7 @@ static void parse_args(int argc, char **argv, opts *o)
         {"stop-for", required_argument, NULL, OPT_STOP_FOR},
         {"phase-jump-at", required_argument, NULL, OPT_JUMP_AT},
         {"phase-jump-us", required_argument, NULL, OPT_JUMP_US},
+        {"late-us", required_argument, NULL, OPT_LATE_US},
         {"dry-run", optional_argument, NULL, OPT_DRY_RUN},
         HIL_LONGOPTS_END,
     };
@@ -210,6 +217,7 @@ static void parse_args(int argc, char **argv, opts *o)
     o->duration_s = 60;
     o->stop_for_s = 1;
     o->jump_us = 3000;
+    o->late_us = LATE_US;
     o->seed = 1;
     const char *chip = NULL;
     int line = 0;
@@ -230,6 +238,7 @@ static void parse_args(int argc, char **argv, opts *o)
         case OPT_STOP_FOR: o->stop_for_s = hil_parse_double("--stop-for", optarg, 0.001, 1e6); break;
         case OPT_JUMP_AT: o->jump_at_s = hil_parse_double("--phase-jump-at", optarg, 0, 1e6); break;
         case OPT_JUMP_US: o->jump_us = hil_parse_double("--phase-jump-us", optarg, -1e6, 1e6); break;
+        case OPT_LATE_US: o->late_us = hil_parse_double("--late-us", optarg, 0, 1e6); break;
         case OPT_DRY_RUN: o->dry_run = optarg ? (int)hil_parse_int("--dry-run", optarg, 1, 100000) : 10; break;
         case 'v': o->verbose = true; break;
         default: hil_opt_other(c, argv, usage);
@@ -283,7 +292,17 @@ int main(int argc, char **argv)
     /* the first pulse a little ahead, so it is not late by construction */
     const int64_t t0 = hil_now_ns() + 10 * PLAT_NS_PER_MS;
     const int64_t t_end = o.duration_s > 0 ? t0 + (int64_t)(o.duration_s * 1e9) : INT64_MAX;
-    uint64_t pulses = 0, stopped = 0, late = 0, n_late = 0;
+    /* A stalled player that wrote every pulse it owed would send them in a burst at its own pace (under TCG on a
+     * busy host it fell a minute behind, 76 edges a second for 90 Hz), which is no panel's TE signal: gpio-sim
+     * stamps an edge when it is written, so a late write is an edge at the wrong time. */
+    const int64_t drop_ns = o.late_us > 0 ? (int64_t)llround(o.late_us * 1e3) : INT64_MAX;
+    const int64_t late_ns = (int64_t)llround((o.late_us > 0 ? o.late_us : LATE_US) * 1e3);
+    uint64_t pulses = 0, stopped = 0, dropped = 0, late = 0, n_late = 0;
+    /* how late each pulse's start was when the player woke for it (before the write): the VM's scheduling, which
+     * decides how many pulses a given --late-us drops */
+    static const int64_t wake_le_us[] = {100, 250, 500, 1000, 2000, 5000};
+    enum { N_WAKE = sizeof wake_le_us / sizeof wake_le_us[0] + 1 };
+    uint64_t wake_hist[N_WAKE] = {0};
     int64_t late_max = 0;
     double late_sum = 0;
     for (uint64_t k = 0; !hil_stopped(); k++) {
@@ -291,6 +310,9 @@ int main(int argc, char **argv)
         bool on = pulse_at(&s, k, &rel);
         int64_t nominal = t0 + llround((double)k * s.te.period_ns);
         if (nominal >= t_end) break;
+        if (k > 0 && k % (uint64_t)ceil(o.rate_hz) == 0) /* about once a second */
+            hil_status_write(o.ready_file, "state=running\npull=%s\npulses=%llu\ndropped_late=%llu\n", o.pull,
+                             (unsigned long long)pulses, (unsigned long long)dropped);
         if (!on) {
             stopped++;
             hil_sleep_until_ns(nominal); /* keep the loop paced (and signals noticed) while the TE is off */
@@ -299,13 +321,25 @@ int main(int argc, char **argv)
         int64_t edges[2] = {t0 + rel, t0 + rel + s.high_ns};
         for (int e = 0; e < 2 && !hil_stopped(); e++) {
             if (!hil_sleep_until_ns(edges[e])) break;
+            if (e == 0) {
+                int64_t woke_us = (hil_now_ns() - edges[0]) / 1000;
+                int b = 0;
+                while (b < N_WAKE - 1 && woke_us > wake_le_us[b]) b++;
+                wake_hist[b]++;
+            }
+            if (e == 0 && hil_now_ns() - edges[0] > drop_ns) {
+                dropped++;
+                if (o.verbose) hil_msg("pulse %llu dropped: %.0f us late", (unsigned long long)k,
+                                       (double)(hil_now_ns() - edges[0]) * 1e-3);
+                break;
+            }
             line_set(&l, e == 0);
             pulses += e == 0;
             int64_t lat = hil_now_ns() - edges[e];
             late_sum += (double)lat;
             n_late++;
             if (lat > late_max) late_max = lat;
-            if (lat > LATE_NS) {
+            if (lat > late_ns) {
                 late++;
                 if (o.verbose) hil_msg("edge %llu.%d written %.0f us late", (unsigned long long)k, e, lat * 1e-3);
             }
@@ -313,12 +347,19 @@ int main(int argc, char **argv)
     }
     if (l.level) line_set(&l, false); /* stopped mid-pulse: leave the line idle */
     close(l.fd);
-    printf("%s: summary run_s=%.3f pulses=%llu rising=%llu falling=%llu stopped_pulses=%llu write_errors=%llu "
-           "late_mean_us=%.1f late_max_us=%.1f late_over_500us=%llu stop=%s\n",
+    char hist[200];
+    int hn = 0;
+    for (int b = 0; b < N_WAKE; b++)
+        hn += snprintf(hist + hn, sizeof hist - (size_t)hn, "%s%llu", b ? "," : "", (unsigned long long)wake_hist[b]);
+    printf("%s: summary run_s=%.3f pulses=%llu rising=%llu falling=%llu stopped_pulses=%llu dropped_late=%llu "
+           "write_errors=%llu late_mean_us=%.1f late_max_us=%.1f late_over_%.0fus=%llu "
+           "woke_late_us_le_100_250_500_1000_2000_5000_more=%s stop=%s\n",
            hil_prog, (double)(hil_now_ns() - t0) * 1e-9, (unsigned long long)pulses, (unsigned long long)l.rising,
-           (unsigned long long)l.falling, (unsigned long long)stopped, (unsigned long long)l.write_errors,
-           n_late ? late_sum / (double)n_late * 1e-3 : 0.0, (double)late_max * 1e-3, (unsigned long long)late,
+           (unsigned long long)l.falling, (unsigned long long)stopped, (unsigned long long)dropped,
+           (unsigned long long)l.write_errors, n_late ? late_sum / (double)n_late * 1e-3 : 0.0,
+           (double)late_max * 1e-3, (double)late_ns * 1e-3, (unsigned long long)late, hist,
            hil_stopped() ? "signal" : "duration");
-    hil_status_write(o.ready_file, "state=done\npull=%s\n", o.pull);
+    hil_status_write(o.ready_file, "state=done\npull=%s\npulses=%llu\ndropped_late=%llu\n", o.pull,
+                     (unsigned long long)pulses, (unsigned long long)dropped);
     return l.write_errors ? HIL_EXIT_FAIL : 0;
 }
