@@ -20,7 +20,13 @@
 #include <xf86drm.h>
 #include <xf86drmMode.h>
 
+#include "platform/plat_clock.h"
 #include "warp/warp_err.h"
+
+/* How long a present waits for the previous flip's event, and after how long a flip that never completed is taken
+ * as lost (see plat_egl_present). */
+#define PRESENT_WAIT_MS 100
+#define FLIP_LOST_MS 1000
 
 struct plat_egl {
     EGLDisplay dpy;
@@ -35,6 +41,7 @@ struct plat_egl {
     struct gbm_device *gbm;
     struct gbm_surface *gs;
     struct gbm_bo *shown_bo, *pending_bo;
+    int64_t pending_since_ns; /* when pending_bo's flip was committed */
 };
 
 #if defined(__GNUC__)
@@ -290,8 +297,22 @@ bool plat_egl_present(plat_egl *e, char *err, int errlen)
     /* The flip queued last vsync has normally completed long ago; its buffer is on screen from then on, and the
      * one it replaced can be drawn into again. */
     if (e->pending_bo) {
-        if (!plat_kms_wait_flip(e->k, 100)) {
-            warp_err(err, errlen, "KMS %s: previous page flip never completed", plat_kms_chosen(e->k)->conn_name);
+        /* A flip still pending after PRESENT_WAIT_MS stays the kernel's (a new commit would be refused EBUSY while it
+         * is: a busy host's event thread can take that long): this present is skipped and the next one waits again.
+         * Only after FLIP_LOST_MS is the flip taken as lost (driver hang, CRTC switched off) and forgotten. */
+        int64_t now = plat_now_ns(), until = now + PRESENT_WAIT_MS * PLAT_NS_PER_MS;
+        bool lost_by_now = now - e->pending_since_ns >= FLIP_LOST_MS * PLAT_NS_PER_MS;
+        if (!lost_by_now) {
+            while (plat_kms_flip_pending(e->k) && plat_now_ns() < until)
+                plat_kms_wait(e->k, (int)((until - plat_now_ns()) / PLAT_NS_PER_MS) + 1);
+            if (plat_kms_flip_pending(e->k)) {
+                warp_err(err, errlen, "KMS %s: the previous page flip is still pending after %d ms: this frame is "
+                         "not shown", plat_kms_chosen(e->k)->conn_name, PRESENT_WAIT_MS);
+                return false;
+            }
+        } else if (!plat_kms_wait_flip(e->k, 0)) {
+            warp_err(err, errlen, "KMS %s: previous page flip never completed (pending %d ms)",
+                     plat_kms_chosen(e->k)->conn_name, (int)((now - e->pending_since_ns) / PLAT_NS_PER_MS));
             gbm_surface_release_buffer(e->gs, e->pending_bo);
             e->pending_bo = NULL;
             return false;
@@ -323,6 +344,7 @@ bool plat_egl_present(plat_egl *e, char *err, int errlen)
         e->shown_bo = bo;
     } else {
         e->pending_bo = bo;
+        e->pending_since_ns = plat_now_ns();
     }
     return true;
 }

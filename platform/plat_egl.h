@@ -44,9 +44,10 @@ void plat_egl_kms_mode(const plat_egl *e, int *w, int *h, double *hz, const char
 
 /* KMS: shows what was rendered into the default framebuffer since the last call: eglSwapBuffers, then a page
  * flip of the new front buffer at the next vblank (plat_kms_commit: atomic where the driver has it; the first call
- * sets the mode instead). Waits for the previous flip's completion first, which plat_kms's event thread has
- * normally reported long before (one flip per vsync). Offscreen: nothing.
- * False with err when the flip failed (counted; the next call tries again). */
+ * sets the mode instead). Waits for the previous flip's completion first (100 ms at most), which plat_kms's event
+ * thread has normally reported long before (one flip per vsync). Offscreen: nothing.
+ * False with err when the flip failed (counted; the next call tries again) or the previous one is still pending (this
+ * frame is not shown: committing then would be refused EBUSY; a flip pending for a second is taken as lost). */
 bool plat_egl_present(plat_egl *e, char *err, int errlen);
 /* Page flips done and failed so far. */
 void plat_egl_flip_stats(const plat_egl *e, uint64_t *flips, uint64_t *failed);
