@@ -257,12 +257,9 @@ static int run(const char *cmd_args, char *out, size_t cap)
 {
     char cmd[4000];
     snprintf(cmd, sizeof cmd, "%s%s 2>&1", test_runner(), cmd_args);
-    FILE *p = popen(cmd, "r");
-    assert_non_null(p);
-    size_t n = fread(out, 1, cap - 1, p);
-    out[n] = 0;
-    int st = pclose(p);
-    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+    int st = -1;
+    assert_true(test_capture(cmd, out, cap, &st));
+    return st;
 }
 
 /* hmdwarp-feed ARGS --file DIR/NAME; returns the stream read back (free it) and its length. */
