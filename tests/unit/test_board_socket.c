@@ -19,6 +19,7 @@
 #include <cmocka.h>
 
 #include "drivers/drv_framelink.h"
+#include "tests/support/test_host_link.h"
 #include "tests/support/test_util.h"
 
 #define FRAMES 12
@@ -28,26 +29,10 @@
 
 static char build[256], tmp[300], sock_dir[48], sock_path[100];
 
-/* The host's end: the board -> host stream read so far. */
-typedef struct {
-    int fd;
-    uint8_t buf[8192];
-    size_t have;
-} host;
+typedef test_host_link host;
 
-static bool host_connect(host *h)
-{
-    memset(h, 0, sizeof *h);
-    struct sockaddr_un a = {.sun_family = AF_UNIX};
-    snprintf(a.sun_path, sizeof a.sun_path, "%s", sock_path);
-    for (int i = 0; i < WAIT_S * 100; i++) { /* until hmdwarpd listens */
-        h->fd = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
-        if (h->fd >= 0 && connect(h->fd, (struct sockaddr *)&a, sizeof a) == 0) return true;
-        close(h->fd);
-        usleep(10000);
-    }
-    return false;
-}
+/* tries until hmdwarpd listens */
+static bool host_connect(host *h) { return test_host_link_connect(h, sock_path, WAIT_S * 100); }
 
 /* The next whole message (its magic), 0 when the board closed, -1 after WAIT_S. */
 static int64_t host_next(host *h, uint8_t *msg, size_t cap)

@@ -22,6 +22,7 @@
 #include "drivers/drv_frames_socket.h"
 #include "platform/plat_clock.h"
 #include "warp/warp_head.h"
+#include "tests/support/test_host_link.h"
 
 #define W 32
 #define H 24
@@ -99,22 +100,10 @@ static int pump_until_result(board *b)
     return rc;
 }
 
-/* The test's host: its end of the socket and the board -> host stream read so far. */
-typedef struct {
-    int fd;
-    uint8_t buf[4096];
-    size_t have;
-} host;
+typedef test_host_link host;
 
-static void host_connect(host *h)
-{
-    memset(h, 0, sizeof *h);
-    h->fd = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
-    assert_true(h->fd >= 0);
-    struct sockaddr_un a = {.sun_family = AF_UNIX};
-    snprintf(a.sun_path, sizeof a.sun_path, "%s", path);
-    assert_int_equal(connect(h->fd, (struct sockaddr *)&a, sizeof a), 0);
-}
+/* the board listens already: one try */
+static void host_connect(host *h) { assert_true(test_host_link_connect(h, path, 1)); }
 
 static void host_close(host *h)
 {

@@ -11,6 +11,7 @@
 #include <string.h>
 #include <cmocka.h>
 
+#include "tests/support/test_host_link.h"
 #include "tests/support/test_util.h"
 
 #include "drivers/drv_framelink.h"
@@ -310,10 +311,7 @@ static int check_stream(const uint8_t *buf, size_t len, const seq_manifest *m, u
     size_t at = 0;
     int n = 0;
     while (at < len) {
-        size_t total;
-        assert_int_equal(drv_framelink_peek(buf + at, len - at, 256u << 20, &total), DRV_FRAME_OK);
-        assert_int_equal(drv_framelink_decode(buf + at, total, 256u << 20, &got), DRV_FRAME_OK);
-        assert_int_equal(drv_frame_validate(&got), DRV_FRAME_OK);
+        test_stream_next(buf, len, &at, 256u << 20, &got);
         assert_true(seq_load_frame(m, n % m->n, planes, &want, err, sizeof err));
         assert_int_equal(got.seq, (uint64_t)n + 1);
         assert_int_equal(got.planes, want.planes);
@@ -340,7 +338,6 @@ static int check_stream(const uint8_t *buf, size_t len, const seq_manifest *m, u
                 }
             }
         }
-        at += total;
         n++;
     }
     drv_frame_free(&got);
