@@ -381,19 +381,26 @@ static void test_feed_plays_write_inputs(void **state)
     seq_close(&m);
 }
 
+/* hmdwarp-warp --sim SIM ARGS writes a sequence at dir/NAME (its path into sq), opened into m. */
+static void sim_sequence(const char *sim, const char *args, const char *name, char *sq, size_t sqcap, seq_manifest *m)
+{
+    char cmd[3000], out[8192], err[400];
+    snprintf(cmd, sizeof cmd, "%s/v.txt", dir);
+    write_view(cmd);
+    snprintf(sq, sqcap, "%s/%s", dir, name);
+    snprintf(cmd, sizeof cmd, "%s/hmdwarp-warp --sim %s --view %s/v.txt --write-sequence %s %s", build, sim, dir, sq,
+             args);
+    assert_int_equal(run(cmd, out, sizeof out), 0);
+    assert_true(seq_open(sq, m, err, sizeof err));
+}
+
 /* A stereo sequence from the simulator, played once at its own rate, then at the board's, looping. */
 static void test_feed_plays_simulator_sequence(void **state)
 {
     (void)state;
-    char cmd[3000], out[8192], err[400], sq[700];
-    snprintf(cmd, sizeof cmd, "%s/v.txt", dir);
-    write_view(cmd);
-    snprintf(sq, sizeof sq, "%s/seq", dir);
-    snprintf(cmd, sizeof cmd, "%s/hmdwarp-warp --sim movers --view %s/v.txt --write-sequence %s --frames 4 --rate 200",
-             build, dir, sq);
-    assert_int_equal(run(cmd, out, sizeof out), 0);
+    char cmd[3000], sq[700];
     seq_manifest m;
-    assert_true(seq_open(sq, &m, err, sizeof err));
+    sim_sequence("movers", "--frames 4 --rate 200", "seq", sq, sizeof sq, &m);
     assert_int_equal(m.n, 4);
     assert_int_equal(m.eyes, 2);
     assert_true(m.objects);
@@ -418,15 +425,9 @@ static void test_feed_plays_simulator_sequence(void **state)
 static void test_feed_plays_layers(void **state)
 {
     (void)state;
-    char cmd[3000], out[8192], err[400], sq[700];
-    snprintf(cmd, sizeof cmd, "%s/v.txt", dir);
-    write_view(cmd);
-    snprintf(sq, sizeof sq, "%s/glass", dir);
-    snprintf(cmd, sizeof cmd, "%s/hmdwarp-warp --sim glass --view %s/v.txt --write-sequence %s --frames 2", build, dir,
-             sq);
-    assert_int_equal(run(cmd, out, sizeof out), 0);
+    char cmd[3000], err[400], sq[700];
     seq_manifest m;
-    assert_true(seq_open(sq, &m, err, sizeof err));
+    sim_sequence("glass", "--frames 2", "glass", sq, sizeof sq, &m);
     assert_true(m.planes & DRV_PLANE_LAYERS);
     size_t len;
     snprintf(cmd, sizeof cmd, "--sequence %s --planes color,depth,layers", sq);
