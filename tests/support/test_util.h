@@ -11,6 +11,8 @@
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
+#include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -47,6 +49,41 @@ static inline bool test_build_dirs(const char *argv0, char *build, size_t buildl
     char cmd[600];
     snprintf(cmd, sizeof cmd, "mkdir -p '%s'", tmp);
     return system(cmd) == 0;
+}
+
+/* Runs the shell command cmd, its output (what cmd itself redirects) into out, NUL-terminated; *status gets its exit
+ * status (-1 when a signal ended it). False when it could not be started. */
+static inline bool test_capture(const char *cmd, char *out, size_t cap, int *status)
+{
+    FILE *p = popen(cmd, "r");
+    if (!p) return false;
+    size_t n = fread(out, 1, cap - 1, p);
+    out[n] = 0;
+    int st = pclose(p);
+    *status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+    return true;
+}
+
+/* The file at path into buf, NUL-terminated; its length, 0 when it cannot be read (a status file not written yet). */
+static inline size_t test_slurp(const char *path, char *buf, size_t cap)
+{
+    FILE *f = fopen(path, "r");
+    if (!f) return 0;
+    size_t n = fread(buf, 1, cap - 1, f);
+    buf[n] = 0;
+    fclose(f);
+    return n;
+}
+
+/* The value of "key=" at a line start in key=value text (the daemons' --live and --stats files), or -1. */
+static inline double test_kv(const char *text, const char *key)
+{
+    char pat[80];
+    snprintf(pat, sizeof pat, "\n%s=", key);
+    size_t n = strlen(pat);
+    if (strncmp(text, pat + 1, n - 1) == 0) return strtod(text + n - 1, NULL); /* the first line */
+    const char *p = strstr(text, pat);
+    return p ? strtod(p + n, NULL) : -1;
 }
 
 /* A test paced by the simulated board (its vsync, IMU, host and mocks keep real time) calls this first. Under an

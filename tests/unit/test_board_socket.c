@@ -19,6 +19,7 @@
 #include <cmocka.h>
 
 #include "drivers/drv_framelink.h"
+#include "tests/support/test_host_link.h"
 #include "tests/support/test_util.h"
 
 #define FRAMES 12
@@ -28,47 +29,10 @@
 
 static char build[256], tmp[300], sock_dir[48], sock_path[100];
 
-static size_t slurp(const char *path, char *buf, size_t cap)
-{
-    FILE *f = fopen(path, "r");
-    if (!f) return 0;
-    size_t n = fread(buf, 1, cap - 1, f);
-    buf[n] = 0;
-    fclose(f);
-    return n;
-}
+typedef test_host_link host;
 
-/* value of "key=" at a line start in key=value text, or -1 */
-static double kv(const char *text, const char *key)
-{
-    char pat[80];
-    snprintf(pat, sizeof pat, "\n%s=", key);
-    size_t n = strlen(pat);
-    if (strncmp(text, pat + 1, n - 1) == 0) return strtod(text + n - 1, NULL);
-    const char *p = strstr(text, pat);
-    return p ? strtod(p + n, NULL) : -1;
-}
-
-/* The host's end: the board -> host stream read so far. */
-typedef struct {
-    int fd;
-    uint8_t buf[8192];
-    size_t have;
-} host;
-
-static bool host_connect(host *h)
-{
-    memset(h, 0, sizeof *h);
-    struct sockaddr_un a = {.sun_family = AF_UNIX};
-    snprintf(a.sun_path, sizeof a.sun_path, "%s", sock_path);
-    for (int i = 0; i < WAIT_S * 100; i++) { /* until hmdwarpd listens */
-        h->fd = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
-        if (h->fd >= 0 && connect(h->fd, (struct sockaddr *)&a, sizeof a) == 0) return true;
-        close(h->fd);
-        usleep(10000);
-    }
-    return false;
-}
+/* tries until hmdwarpd listens */
+static bool host_connect(host *h) { return test_host_link_connect(h, sock_path, WAIT_S * 100); }
 
 /* The next whole message (its magic), 0 when the board closed, -1 after WAIT_S. */
 static int64_t host_next(host *h, uint8_t *msg, size_t cap)
@@ -169,7 +133,7 @@ static void test_board_shows_socket_frames(void **state)
     assert_non_null(wire);
     /* once the display runs (frames sent before its first vsync would only replace each other unseen) */
     char text[16384] = "";
-    for (int i = 0; i < WAIT_S * 100 && !(slurp(live, text, sizeof text) && kv(text, "vsyncs") > 0); i++)
+    for (int i = 0; i < WAIT_S * 100 && !(test_slurp(live, text, sizeof text) && test_kv(text, "vsyncs") > 0); i++)
         usleep(10000);
     host_drain(&h);
     /* FRAMES frames about 30 ms apart on the board's clock, each at the newest pose, as a renderer would */
@@ -201,8 +165,8 @@ static void test_board_shows_socket_frames(void **state)
     static char csv_text[1 << 20];
     for (int i = 0; i < WAIT_S * 100 && !last_shown; i++) {
         usleep(10000);
-        if (!(slurp(live, text, sizeof text) && kv(text, "frames_received") >= FRAMES)) continue;
-        slurp(csv, csv_text, sizeof csv_text);
+        if (!(test_slurp(live, text, sizeof text) && test_kv(text, "frames_received") >= FRAMES)) continue;
+        test_slurp(csv, csv_text, sizeof csv_text);
         for (char *line = strchr(csv_text, '\n'); line && !last_shown; line = strchr(line + 1, '\n')) {
             unsigned long long v, seq;
             long long ns;
@@ -216,37 +180,34 @@ static void test_board_shows_socket_frames(void **state)
     free(wire);
     drv_frame_free(&f);
     char log[8192] = "";
-    slurp(out, log, sizeof log);
-    if (!slurp(stats, text, sizeof text)) fail_msg("no --stats file; hmdwarpd said:\n%s", log);
+    test_slurp(out, log, sizeof log);
+    if (!test_slurp(stats, text, sizeof text)) fail_msg("no --stats file; hmdwarpd said:\n%s", log);
     if (!WIFEXITED(st) || WEXITSTATUS(st) != 0) fail_msg("hmdwarpd exited with status %d:\n%s", st, log);
     print_message("frames_received=%g frames_shown=%g frames_dropped=%g frames_rejected=%g\n",
-                  kv(text, "frames_received"), kv(text, "frames_shown"), kv(text, "frames_dropped"),
-                  kv(text, "frames_rejected"));
+                  test_kv(text, "frames_received"), test_kv(text, "frames_shown"), test_kv(text, "frames_dropped"),
+                  test_kv(text, "frames_rejected"));
     assert_non_null(strstr(text, "frames_backend=socket"));
-    assert_true(kv(text, "frames_received") == FRAMES);
-    assert_true(kv(text, "frames_rejected") == 0);
+    assert_true(test_kv(text, "frames_received") == FRAMES);
+    assert_true(test_kv(text, "frames_rejected") == 0);
     /* at 30 ms apart nearly every frame meets a vsync (12 of 12 on a quiet machine); a loaded one delivers some
      * together, the older replaced unseen (9 of 12 beside a load of 14 on two cores) */
     if (!last_shown) fail_msg("the last frame (seq %d) was never shown; hmdwarpd said:\n%s", FRAMES, log);
-    assert_true(kv(text, "frames_shown") >= FRAMES / 3);
-    assert_true(kv(text, "frames_shown") + kv(text, "frames_dropped") <= FRAMES);
+    assert_true(test_kv(text, "frames_shown") >= FRAMES / 3);
+    assert_true(test_kv(text, "frames_shown") + test_kv(text, "frames_dropped") <= FRAMES);
     assert_non_null(strstr(log, "host connected"));
     /* the link's own keys: one host, still connected when the board stopped, poses sent */
-    assert_true(kv(text, "frames_link_connected") == 1);
-    assert_true(kv(text, "frames_link_connections") == 1);
-    assert_true(kv(text, "frames_link_refused") == 0 && kv(text, "frames_link_disconnects") == 0);
-    assert_true(kv(text, "frames_link_poses_sent") >= FRAMES);
+    assert_true(test_kv(text, "frames_link_connected") == 1);
+    assert_true(test_kv(text, "frames_link_connections") == 1);
+    assert_true(test_kv(text, "frames_link_refused") == 0 && test_kv(text, "frames_link_disconnects") == 0);
+    assert_true(test_kv(text, "frames_link_poses_sent") >= FRAMES);
 }
 
 /* Runs cmd (stdout and stderr) into out; returns its exit status. */
 static int run(const char *cmd, char *out, size_t cap)
 {
-    FILE *p = popen(cmd, "r");
-    assert_non_null(p);
-    size_t n = fread(out, 1, cap - 1, p);
-    out[n] = 0;
-    int st = pclose(p);
-    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+    int st = -1;
+    assert_true(test_capture(cmd, out, cap, &st));
+    return st;
 }
 
 /* The configuration's errors name the key and what is wrong; a path taken by another file stops the start. */
@@ -282,7 +243,7 @@ static void test_bad_socket_settings(void **state)
              "file, not a socket", file, file);
     if (!strstr(out, want)) fail_msg("expected '%s' in:\n%s", want, out);
     char text[64] = "";
-    slurp(file, text, sizeof text);
+    test_slurp(file, text, sizeof text);
     assert_string_equal(text, "keep me\n");
     unlink(file);
 }

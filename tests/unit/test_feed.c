@@ -10,6 +10,7 @@
 #include <string.h>
 #include <cmocka.h>
 
+#include "tests/support/test_host_link.h"
 #include "tests/support/test_util.h"
 
 #include "drivers/drv_framelink.h"
@@ -44,16 +45,12 @@ static void test_feed_stream_decodes(void **state)
     int frames = 0;
     int64_t last_pose_t = 0;
     while (at < len) {
-        size_t total;
-        assert_int_equal(drv_framelink_peek(buf + at, len - at, 64u << 20, &total), DRV_FRAME_OK);
-        assert_int_equal(drv_framelink_decode(buf + at, total, 64u << 20, &f), DRV_FRAME_OK);
-        assert_int_equal(drv_frame_validate(&f), DRV_FRAME_OK);
+        test_stream_next(buf, len, &at, 64u << 20, &f);
         /* the translation scene needs depth, and depth is what arrives */
         assert_true(f.planes & DRV_PLANE_DEPTH);
         assert_true(f.pose_t_ns > last_pose_t);
         last_pose_t = f.pose_t_ns;
         assert_int_equal(f.seq, (uint64_t)frames + 1);
-        at += total;
         frames++;
     }
     assert_int_equal(frames, 3);

@@ -22,6 +22,7 @@
 #include "drivers/drv_frames_socket.h"
 #include "platform/plat_clock.h"
 #include "warp/warp_head.h"
+#include "tests/support/test_host_link.h"
 
 #define W 32
 #define H 24
@@ -99,22 +100,10 @@ static int pump_until_result(board *b)
     return rc;
 }
 
-/* The test's host: its end of the socket and the board -> host stream read so far. */
-typedef struct {
-    int fd;
-    uint8_t buf[4096];
-    size_t have;
-} host;
+typedef test_host_link host;
 
-static void host_connect(host *h)
-{
-    memset(h, 0, sizeof *h);
-    h->fd = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
-    assert_true(h->fd >= 0);
-    struct sockaddr_un a = {.sun_family = AF_UNIX};
-    snprintf(a.sun_path, sizeof a.sun_path, "%s", path);
-    assert_int_equal(connect(h->fd, (struct sockaddr *)&a, sizeof a), 0);
-}
+/* the board listens already: one try */
+static void host_connect(host *h) { assert_true(test_host_link_connect(h, path, 1)); }
 
 static void host_close(host *h)
 {
@@ -210,60 +199,85 @@ static void host_greeted(host *h, board *b, drv_framelink_cams *c, drv_framelink
     assert_int_equal(drv_framelink_pose_decode(msg, DRV_FRAMELINK_POSE_BYTES, m), DRV_FRAME_OK);
 }
 
-static void test_cameras_poses_frames(void **state)
-{
-    (void)state;
+/* A test's board and its greeted host (cameras c, newest pose m), with a frame to render into. */
+typedef struct {
     board b;
-    board_start(&b);
     host h;
     drv_framelink_cams c;
     drv_framelink_pose m;
-    host_greeted(&h, &b, &c, &m);
+    drv_frame sent;
+} rig;
+
+static uint8_t wire[1 << 16]; /* the frame last sent, whole (static: too large for the stack) */
+
+static void rig_start(rig *r)
+{
+    board_start(&r->b);
+    host_greeted(&r->h, &r->b, &r->c, &r->m);
+    assert_true(drv_frame_alloc(&r->sent, W, H, PLANES, 0));
+}
+
+/* Ends a rig whose host may already be closed (host_close leaves fd -1, which close ignores). */
+static void rig_stop(rig *r)
+{
+    host_close(&r->h);
+    drv_frame_free(&r->sent);
+    board_stop(&r->b);
+}
+
+/* Renders frame seq at the newest pose into wire and sends it; the board receives it whole. Returns its bytes. */
+static size_t rig_send_frame(rig *r, uint64_t seq)
+{
+    size_t n = make_frame(&r->sent, seq, &r->m, wire, sizeof wire);
+    host_send(&r->h, wire, n);
+    assert_int_equal(pump_until_result(&r->b), 1);
+    assert_same_planes(&r->b.f, &r->sent);
+    return n;
+}
+
+static void test_cameras_poses_frames(void **state)
+{
+    (void)state;
+    rig r;
+    rig_start(&r);
     drv_frames_usb_params p = params();
-    assert_int_equal(c.seq, 1);
-    assert_int_equal(c.planes, PLANES);
-    assert_int_equal(c.depth_encoding, WARP_DEPTH_LINEAR);
-    assert_int_equal(c.max_frame_bytes, p.max_frame_bytes);
-    assert_true(c.refresh_hz == 90 && c.pose_rate_hz == 200);
+    assert_int_equal(r.c.seq, 1);
+    assert_int_equal(r.c.planes, PLANES);
+    assert_int_equal(r.c.depth_encoding, WARP_DEPTH_LINEAR);
+    assert_int_equal(r.c.max_frame_bytes, p.max_frame_bytes);
+    assert_true(r.c.refresh_hz == 90 && r.c.pose_rate_hz == 200);
     for (int e = 0; e < 2; e++) {
-        assert_int_equal(c.cam[e].width, W);
-        assert_int_equal(c.cam[e].height, H);
-        assert_true(c.cam[e].tan_left == p.cam[e].tan_left && c.cam[e].tan_up == p.cam[e].tan_up);
-        assert_true(c.cam[e].near_z == p.cam[e].near_z && isinf(c.cam[e].far_z));
+        assert_int_equal(r.c.cam[e].width, W);
+        assert_int_equal(r.c.cam[e].height, H);
+        assert_true(r.c.cam[e].tan_left == p.cam[e].tan_left && r.c.cam[e].tan_up == p.cam[e].tan_up);
+        assert_true(r.c.cam[e].near_z == p.cam[e].near_z && isinf(r.c.cam[e].far_z));
     }
     /* Poses follow, and the cameras again a second later (a host that missed them learns them). */
     uint8_t msg[512];
     int poses = 1, cams = 1;
-    uint32_t last_seq = m.seq;
+    uint32_t last_seq = r.m.seq;
     while (cams < 2) {
-        int64_t magic = host_next(&h, &b, msg, sizeof msg);
+        int64_t magic = host_next(&r.h, &r.b, msg, sizeof msg);
         assert_true(magic == DRV_FRAMELINK_POSE_MAGIC || magic == DRV_FRAMELINK_CAMS_MAGIC);
         if (magic == DRV_FRAMELINK_CAMS_MAGIC) {
-            assert_int_equal(drv_framelink_cams_decode(msg, DRV_FRAMELINK_CAMS_BYTES, &c), DRV_FRAME_OK);
-            assert_int_equal(c.seq, ++cams);
+            assert_int_equal(drv_framelink_cams_decode(msg, DRV_FRAMELINK_CAMS_BYTES, &r.c), DRV_FRAME_OK);
+            assert_int_equal(r.c.seq, ++cams);
             continue;
         }
-        assert_int_equal(drv_framelink_pose_decode(msg, DRV_FRAMELINK_POSE_BYTES, &m), DRV_FRAME_OK);
-        assert_true(m.seq > last_seq);
-        last_seq = m.seq;
+        assert_int_equal(drv_framelink_pose_decode(msg, DRV_FRAMELINK_POSE_BYTES, &r.m), DRV_FRAME_OK);
+        assert_true(r.m.seq > last_seq);
+        last_seq = r.m.seq;
         poses++;
     }
     assert_true(poses > 2);
     /* Frames rendered at the newest pose arrive whole, plane bytes identical. */
-    drv_frame sent;
-    assert_true(drv_frame_alloc(&sent, W, H, PLANES, 0));
-    static uint8_t wire[1 << 16];
     size_t total = 0;
     for (uint64_t seq = 1; seq <= 3; seq++) {
-        size_t n = make_frame(&sent, seq, &m, wire, sizeof wire);
-        total += n;
-        host_send(&h, wire, n);
-        assert_int_equal(pump_until_result(&b), 1);
-        assert_int_equal(drv_frame_validate(&b.f), DRV_FRAME_OK);
-        assert_same_planes(&b.f, &sent);
-        assert_memory_equal(&b.f.eye_pose[1], &m.eye[1], sizeof m.eye[1]);
+        total += rig_send_frame(&r, seq);
+        assert_int_equal(drv_frame_validate(&r.b.f), DRV_FRAME_OK);
+        assert_memory_equal(&r.b.f.eye_pose[1], &r.m.eye[1], sizeof r.m.eye[1]);
     }
-    drv_frames_usb_stats st = stats(&b);
+    drv_frames_usb_stats st = stats(&r.b);
     assert_int_equal(st.frames, 3);
     assert_int_equal(st.bytes, total);
     assert_true(st.connected);
@@ -272,87 +286,61 @@ static void test_cameras_poses_frames(void **state)
     assert_int_equal(st.refused, 0);
     assert_true(st.cams_sent >= 2 && st.poses_sent >= (uint64_t)poses);
     for (int e = 1; e < DRV_FRAME_ERR_COUNT; e++) assert_int_equal(st.rejected[e], 0);
-    host_close(&h);
-    drv_frame_free(&sent);
-    board_stop(&b);
+    rig_stop(&r);
 }
 
 static void test_garbage_and_cut_frames(void **state)
 {
     (void)state;
-    board b;
-    board_start(&b);
-    host h;
-    drv_framelink_cams c;
-    drv_framelink_pose m;
-    host_greeted(&h, &b, &c, &m);
-    drv_frame sent;
-    assert_true(drv_frame_alloc(&sent, W, H, PLANES, 0));
+    rig r;
+    rig_start(&r);
     static uint8_t a[1 << 16], cut[1 << 16];
     /* a good frame, garbage, a frame cut short by the next one, which must still arrive */
-    size_t n = make_frame(&sent, 1, &m, a, sizeof a);
-    host_send(&h, a, n);
-    assert_int_equal(pump_until_result(&b), 1);
-    host_send(&h, (const uint8_t *)"this is not a frame", 19);
-    assert_int_equal(pump_until_result(&b), -DRV_FRAME_ERR_BAD_MAGIC);
-    n = make_frame(&sent, 2, &m, cut, sizeof cut);
-    host_send(&h, cut, n / 2);
-    n = make_frame(&sent, 3, &m, a, sizeof a);
-    host_send(&h, a, n);
-    assert_int_equal(pump_until_result(&b), -DRV_FRAME_ERR_CRC);
-    assert_int_equal(pump_until_result(&b), 1);
-    assert_same_planes(&b.f, &sent);
-    drv_frames_usb_stats st = stats(&b);
+    rig_send_frame(&r, 1);
+    host_send(&r.h, (const uint8_t *)"this is not a frame", 19);
+    assert_int_equal(pump_until_result(&r.b), -DRV_FRAME_ERR_BAD_MAGIC);
+    size_t n = make_frame(&r.sent, 2, &r.m, cut, sizeof cut);
+    host_send(&r.h, cut, n / 2);
+    n = make_frame(&r.sent, 3, &r.m, a, sizeof a);
+    host_send(&r.h, a, n);
+    assert_int_equal(pump_until_result(&r.b), -DRV_FRAME_ERR_CRC);
+    assert_int_equal(pump_until_result(&r.b), 1);
+    assert_same_planes(&r.b.f, &r.sent);
+    drv_frames_usb_stats st = stats(&r.b);
     assert_int_equal(st.frames, 2);
     assert_int_equal(st.rejected[DRV_FRAME_ERR_BAD_MAGIC], 1);
     assert_int_equal(st.rejected[DRV_FRAME_ERR_CRC], 1);
     assert_true(st.skipped_bytes >= 19);
     assert_non_null(strstr(st.last_error, "socket frames: frame rejected"));
-    host_close(&h);
-    drv_frame_free(&sent);
-    board_stop(&b);
+    rig_stop(&r);
 }
 
 /* A host leaves mid-frame: a counted disconnect, the partial frame dropped; the next host is greeted afresh. */
 static void test_reconnect(void **state)
 {
     (void)state;
-    board b;
-    board_start(&b);
-    host h;
-    drv_framelink_cams c;
-    drv_framelink_pose m;
-    host_greeted(&h, &b, &c, &m);
-    drv_frame sent;
-    assert_true(drv_frame_alloc(&sent, W, H, PLANES, 0));
-    static uint8_t wire[1 << 16];
-    size_t n = make_frame(&sent, 1, &m, wire, sizeof wire);
-    host_send(&h, wire, n);
-    assert_int_equal(pump_until_result(&b), 1);
-    host_send(&h, wire, n / 2);
-    host_close(&h);
+    rig r;
+    rig_start(&r);
+    size_t n = rig_send_frame(&r, 1);
+    host_send(&r.h, wire, n / 2);
+    host_close(&r.h);
     int64_t until = plat_now_ns() + WAIT_S * PLAT_NS_PER_S;
-    while (stats(&b).disconnects == 0 && plat_now_ns() < until) assert_int_equal(pump(&b, 20), 0);
-    drv_frames_usb_stats st = stats(&b);
+    while (stats(&r.b).disconnects == 0 && plat_now_ns() < until) assert_int_equal(pump(&r.b, 20), 0);
+    drv_frames_usb_stats st = stats(&r.b);
     assert_int_equal(st.disconnects, 1);
     assert_false(st.connected);
     assert_non_null(strstr(st.last_error, "partial frame dropped"));
-    uint32_t first_cams = c.seq;
-    host_greeted(&h, &b, &c, &m);
-    assert_true(c.seq > first_cams);
-    n = make_frame(&sent, 2, &m, wire, sizeof wire);
-    host_send(&h, wire, n);
-    assert_int_equal(pump_until_result(&b), 1);
-    assert_same_planes(&b.f, &sent);
-    st = stats(&b);
+    uint32_t first_cams = r.c.seq;
+    host_greeted(&r.h, &r.b, &r.c, &r.m);
+    assert_true(r.c.seq > first_cams);
+    rig_send_frame(&r, 2);
+    st = stats(&r.b);
     assert_int_equal(st.frames, 2);
     assert_int_equal(st.connections, 2);
     assert_int_equal(st.disconnects, 1);
     assert_true(st.connected);
     for (int e = 1; e < DRV_FRAME_ERR_COUNT; e++) assert_int_equal(st.rejected[e], 0);
-    host_close(&h);
-    drv_frame_free(&sent);
-    board_stop(&b);
+    rig_stop(&r);
 }
 
 /* A host that closes and reconnects at once (a restarted renderer): both are waiting when the board next reads,
@@ -360,49 +348,34 @@ static void test_reconnect(void **state)
 static void test_reconnect_at_once(void **state)
 {
     (void)state;
-    board b;
-    board_start(&b);
-    host h;
-    drv_framelink_cams c;
-    drv_framelink_pose m;
-    host_greeted(&h, &b, &c, &m);
-    host_close(&h);
-    host_greeted(&h, &b, &c, &m);
-    drv_frames_usb_stats st = stats(&b);
+    rig r;
+    rig_start(&r);
+    host_close(&r.h);
+    host_greeted(&r.h, &r.b, &r.c, &r.m);
+    drv_frames_usb_stats st = stats(&r.b);
     assert_int_equal(st.connections, 2);
     assert_int_equal(st.disconnects, 1);
     assert_int_equal(st.refused, 0);
-    host_close(&h);
-    board_stop(&b);
+    rig_stop(&r);
 }
 
 static void test_second_host_refused(void **state)
 {
     (void)state;
-    board b;
-    board_start(&b);
-    host h, h2;
-    drv_framelink_cams c;
-    drv_framelink_pose m;
-    host_greeted(&h, &b, &c, &m);
+    rig r;
+    rig_start(&r);
+    host h2;
     host_connect(&h2);
     uint8_t msg[512];
-    assert_int_equal(host_next(&h2, &b, msg, sizeof msg), 0); /* closed, told nothing */
-    drv_frames_usb_stats st = stats(&b);
+    assert_int_equal(host_next(&h2, &r.b, msg, sizeof msg), 0); /* closed, told nothing */
+    drv_frames_usb_stats st = stats(&r.b);
     assert_int_equal(st.refused, 1);
     assert_int_equal(st.connections, 1);
     assert_int_equal(st.disconnects, 0);
     host_close(&h2);
     /* the first host carries on */
-    drv_frame sent;
-    assert_true(drv_frame_alloc(&sent, W, H, PLANES, 0));
-    static uint8_t wire[1 << 16];
-    host_send(&h, wire, make_frame(&sent, 1, &m, wire, sizeof wire));
-    assert_int_equal(pump_until_result(&b), 1);
-    assert_same_planes(&b.f, &sent);
-    host_close(&h);
-    drv_frame_free(&sent);
-    board_stop(&b);
+    rig_send_frame(&r, 1);
+    rig_stop(&r);
 }
 
 static void test_socket_path(void **state)
@@ -416,18 +389,14 @@ static void test_socket_path(void **state)
     snprintf(a.sun_path, sizeof a.sun_path, "%s", path);
     assert_int_equal(bind(s, (struct sockaddr *)&a, sizeof a), 0);
     close(s);
-    board b;
-    board_start(&b);
-    host h;
-    drv_framelink_cams c;
-    drv_framelink_pose m;
-    host_greeted(&h, &b, &c, &m);
-    host_close(&h);
+    rig r;
+    rig_start(&r);
+    host_close(&r.h);
     /* ... but not while a board listens there */
     assert_null(drv_frames_socket_create(&p, path, err, sizeof err));
     assert_non_null(strstr(err, path));
     assert_non_null(strstr(err, "another process is listening"));
-    board_stop(&b);
+    rig_stop(&r); /* the host is closed already */
     /* a regular file at the path: an error naming it, the file left alone */
     FILE *f = fopen(path, "w");
     assert_non_null(f);

@@ -51,6 +51,15 @@ static void board_send_cams(board *b)
     board_send(b, m, sizeof m);
 }
 
+/* Sends the cameras again numbered seq and waits (2 s at most) until the host has them. */
+static void board_send_cams_as(board *b, uint32_t seq)
+{
+    b->cams.seq = seq;
+    board_send_cams(b);
+    hmdwarp_host_cameras c = {0};
+    for (int k = 0; k < 200 && c.seq != seq; k++) hmdwarp_host_get_cameras(b->h, &c), sleep_ms(10);
+}
+
 static drv_framelink_pose test_pose(uint32_t seq)
 {
     drv_framelink_pose p = {.seq = seq, .board_t_ns = 1000000000LL * seq, .target_t_ns = 1000000000LL * seq + 20000000};
@@ -403,13 +412,8 @@ static void test_refusals(void **state)
             break;
         case 14: f.eye[0].color = NULL, r = (refusal){"no colour", -1, "frame.eye[0].color"}; break;
         case 15:
-            b->cams.max_frame_bytes = 1000, b->cams.seq = 2;
-            board_send_cams(b);
-            for (int k = 0; k < 100; k++) {
-                hmdwarp_host_cameras c;
-                if (hmdwarp_host_get_cameras(b->h, &c) == 1 && c.seq == 2) break;
-                sleep_ms(20);
-            }
+            b->cams.max_frame_bytes = 1000;
+            board_send_cams_as(b, 2);
             r = (refusal){"over max_frame_bytes", -2, "max_frame_bytes"};
             break;
         default: r.why = NULL;
@@ -427,10 +431,8 @@ static void test_refusals(void **state)
     hmdwarp_host_get_stats(b->h, &st);
     assert_int_equal(st.frames_refused, 16);
     assert_int_equal(st.frames_sent, 0);
-    b->cams.max_frame_bytes = 1u << 20, b->cams.seq = 3;
-    board_send_cams(b);
-    hmdwarp_host_cameras c = {0};
-    for (int k = 0; k < 100 && c.seq != 3; k++) hmdwarp_host_get_cameras(b->h, &c), sleep_ms(10);
+    b->cams.max_frame_bytes = 1u << 20;
+    board_send_cams_as(b, 3);
     if (hmdwarp_host_submit(b->h, &good)) fail_msg("submit: %s", hmdwarp_host_last_error());
     drv_frame f;
     board_decode(b, &f, 0x1f, NULL);
@@ -507,10 +509,7 @@ static void test_disconnect(void **state)
     fr.pose_seq = pm.seq;
     /* A small frame: the board reads it here after the submit returned. */
     b->cams.cam[0] = b->cams.cam[1] = warp_camera_symmetric(W, H, 100, 100, 0.05, INFINITY);
-    b->cams.seq = 9;
-    board_send_cams(b);
-    hmdwarp_host_cameras c = {0};
-    for (int k = 0; k < 100 && c.seq != 9; k++) hmdwarp_host_get_cameras(b->h, &c), sleep_ms(10);
+    board_send_cams_as(b, 9);
     if (hmdwarp_host_submit(b->h, &fr)) fail_msg("after reconnect: %s", hmdwarp_host_last_error());
     drv_frame f;
     board_decode(b, &f, 0x1f, NULL);

@@ -44,27 +44,6 @@ static int sh(const char *cmd, char *out, size_t cap)
     return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
 }
 
-static size_t slurp(const char *path, char *buf, size_t cap)
-{
-    FILE *f = fopen(path, "r");
-    if (!f) return 0;
-    size_t n = fread(buf, 1, cap - 1, f);
-    buf[n] = 0;
-    fclose(f);
-    return n;
-}
-
-/* value of "key=" in key=value text, or -1 */
-static double kv(const char *text, const char *key)
-{
-    char pat[80];
-    snprintf(pat, sizeof pat, "\n%s=", key);
-    size_t n = strlen(pat);
-    if (strncmp(text, pat + 1, n - 1) == 0) return strtod(text + n - 1, NULL); /* the first line */
-    const char *p = strstr(text, pat);
-    return p ? strtod(p + n, NULL) : -1;
-}
-
 /* Starts hmdwarpd (exec'd by sh, so the pid is hmdwarpd's) with stdout and stderr into out_path. */
 static pid_t spawn(const char *args, const char *out_path)
 {
@@ -89,8 +68,8 @@ static pid_t spawn(const char *args, const char *out_path)
 static bool wait_live(const char *path, char *text, size_t cap, double shown)
 {
     for (int i = 0; i < LIVE_CAP_S * 100; i++) {
-        if (slurp(path, text, cap) && kv(text, "vsyncs") > 0 && kv(text, "running") == 1 &&
-            kv(text, "frames_shown") >= shown)
+        if (test_slurp(path, text, cap) && test_kv(text, "vsyncs") > 0 && test_kv(text, "running") == 1 &&
+            test_kv(text, "frames_shown") >= shown)
             return true;
         usleep(10000);
     }
@@ -112,7 +91,7 @@ static bool count_status(const char *msg, void *ctx)
     if (strncmp(msg, "STATUS=", 7) == 0) {
         c->status++;
         char text[16384];
-        if (!c->stopped && slurp(c->live, text, sizeof text) && kv(text, "frames_shown") >= 1) {
+        if (!c->stopped && test_slurp(c->live, text, sizeof text) && test_kv(text, "frames_shown") >= 1) {
             kill(c->pid, SIGTERM);
             c->stopped = true;
         }
@@ -200,16 +179,16 @@ static void test_status_line_and_live_file(void **state)
 
     /* at the end the live file is the --stats file: same keys, same counts (run_s aside: written a moment apart) */
     char a[16384], b[16384];
-    assert_true(slurp(live, a, sizeof a) > 0);
-    assert_true(slurp(stats, b, sizeof b) > 0);
+    assert_true(test_slurp(live, a, sizeof a) > 0);
+    assert_true(test_slurp(stats, b, sizeof b) > 0);
     snprintf(cmd, sizeof cmd, "diff <(grep -v '^run_s=' %s) <(grep -v '^run_s=' %s)", live, stats);
     char c2[2100];
     snprintf(c2, sizeof c2, "bash -c \"%s\"", cmd);
     char out[2000];
     int rc = sh(c2, out, sizeof out);
     if (rc != 0) fail_msg("live file differs from --stats:\n%s", out);
-    assert_true(kv(a, "running") == 0);
-    assert_true(kv(a, "vsyncs") > 0);
+    assert_true(test_kv(a, "running") == 0);
+    assert_true(test_kv(a, "vsyncs") > 0);
     /* nothing left behind by the atomic rewrite */
     snprintf(cmd, sizeof cmd, "%s.tmp", live);
     assert_int_equal(access(cmd, F_OK), -1);
@@ -249,12 +228,12 @@ static void test_top_shows_running_daemon_and_sigterm_summary(void **state)
     assert_true(shown >= TOP_FRAMES);
 
     char o[65536];
-    slurp(r.out, o, sizeof o);
+    test_slurp(r.out, o, sizeof o);
     if (!WIFEXITED(st) || WEXITSTATUS(st) != 0) fail_msg("SIGTERM: status %d; output:\n%s", st, o);
     assert_non_null(strstr(o, "summary —"));
     assert_non_null(strstr(o, "  vsyncs  "));
-    slurp(r.live, r.text, sizeof r.text);
-    assert_true(kv(r.text, "running") == 0); /* the final word, as --stats */
+    test_slurp(r.live, r.text, sizeof r.text);
+    assert_true(test_kv(r.text, "running") == 0); /* the final word, as --stats */
 }
 
 static void test_sigabrt_prints_last_stats(void **state)
@@ -272,7 +251,7 @@ static void test_sigabrt_prints_last_stats(void **state)
     int st = live_stop(&r, SIGABRT);
     assert_true(r.up);
     char o[65536];
-    slurp(r.out, o, sizeof o);
+    test_slurp(r.out, o, sizeof o);
     if (!WIFSIGNALED(st) || WTERMSIG(st) != SIGABRT) fail_msg("SIGABRT: status %d; output:\n%s", st, o);
     const char *s = strstr(o, "hmdwarpd: aborted (SIGABRT");
     if (!s) fail_msg("no abort report; output:\n%s", o);
@@ -280,9 +259,9 @@ static void test_sigabrt_prints_last_stats(void **state)
     assert_non_null(s);
     s++;
     assert_int_equal(strncmp(s, "version=", 8), 0);
-    assert_true(kv(s, "running") == 1);
-    assert_true(kv(s, "vsyncs") > 0);
-    assert_true(kv(s, "m2p_ms_p99") > 0);
+    assert_true(test_kv(s, "running") == 1);
+    assert_true(test_kv(s, "vsyncs") > 0);
+    assert_true(test_kv(s, "m2p_ms_p99") > 0);
 }
 
 /* bytes in path, 0 when it is not there */
@@ -315,16 +294,16 @@ static void test_csv_rotates_by_size(void **state)
          * file's rows wait in stdio's buffer until it is closed, so its size says nothing yet) */
         double rotated_at = -1;
         for (int i = 0; r.up && i < LIVE_CAP_S * 100; i++) {
-            bool read = slurp(r.live, r.text, sizeof r.text) > 0;
-            if (rotated_at < 0 && read && file_size(old) > 0) rotated_at = kv(r.text, "vsyncs");
-            if (rotated_at >= 0 && read && kv(r.text, "vsyncs") > rotated_at) break;
+            bool read = test_slurp(r.live, r.text, sizeof r.text) > 0;
+            if (rotated_at < 0 && read && file_size(old) > 0) rotated_at = test_kv(r.text, "vsyncs");
+            if (rotated_at >= 0 && read && test_kv(r.text, "vsyncs") > rotated_at) break;
             usleep(10000);
         }
         int st = live_stop(&r, SIGTERM);
         assert_true(r.up);
         assert_true(WIFEXITED(st) && WEXITSTATUS(st) == 0);
-        na = slurp(old, a, sizeof a);
-        nb = slurp(csv, b, sizeof b);
+        na = test_slurp(old, a, sizeof a);
+        nb = test_slurp(csv, b, sizeof b);
         print_message("rot.csv.1 %zu bytes, rot.csv %zu bytes\n", na, nb);
     }
     assert_true(na > 0 && nb > 0);
@@ -395,7 +374,7 @@ static void test_log_priorities(void **state)
     dup2(saved, STDERR_FILENO);
     close(saved);
     close(fd);
-    slurp(path, text, sizeof text);
+    test_slurp(path, text, sizeof text);
     assert_string_equal(text, "<4>IMU hid lost\n<3>2 errors\n<5>back\ntest_live: plain\ntest_live: plain too\n");
 }
 

@@ -11,6 +11,7 @@
 #include <string.h>
 #include <cmocka.h>
 
+#include "tests/support/test_host_link.h"
 #include "tests/support/test_util.h"
 
 #include "drivers/drv_framelink.h"
@@ -257,12 +258,9 @@ static int run(const char *cmd_args, char *out, size_t cap)
 {
     char cmd[4000];
     snprintf(cmd, sizeof cmd, "%s%s 2>&1", test_runner(), cmd_args);
-    FILE *p = popen(cmd, "r");
-    assert_non_null(p);
-    size_t n = fread(out, 1, cap - 1, p);
-    out[n] = 0;
-    int st = pclose(p);
-    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+    int st = -1;
+    assert_true(test_capture(cmd, out, cap, &st));
+    return st;
 }
 
 /* hmdwarp-feed ARGS --file DIR/NAME; returns the stream read back (free it) and its length. */
@@ -313,10 +311,7 @@ static int check_stream(const uint8_t *buf, size_t len, const seq_manifest *m, u
     size_t at = 0;
     int n = 0;
     while (at < len) {
-        size_t total;
-        assert_int_equal(drv_framelink_peek(buf + at, len - at, 256u << 20, &total), DRV_FRAME_OK);
-        assert_int_equal(drv_framelink_decode(buf + at, total, 256u << 20, &got), DRV_FRAME_OK);
-        assert_int_equal(drv_frame_validate(&got), DRV_FRAME_OK);
+        test_stream_next(buf, len, &at, 256u << 20, &got);
         assert_true(seq_load_frame(m, n % m->n, planes, &want, err, sizeof err));
         assert_int_equal(got.seq, (uint64_t)n + 1);
         assert_int_equal(got.planes, want.planes);
@@ -343,7 +338,6 @@ static int check_stream(const uint8_t *buf, size_t len, const seq_manifest *m, u
                 }
             }
         }
-        at += total;
         n++;
     }
     drv_frame_free(&got);
@@ -387,19 +381,26 @@ static void test_feed_plays_write_inputs(void **state)
     seq_close(&m);
 }
 
+/* hmdwarp-warp --sim SIM ARGS writes a sequence at dir/NAME (its path into sq), opened into m. */
+static void sim_sequence(const char *sim, const char *args, const char *name, char *sq, size_t sqcap, seq_manifest *m)
+{
+    char cmd[3000], out[8192], err[400];
+    snprintf(cmd, sizeof cmd, "%s/v.txt", dir);
+    write_view(cmd);
+    snprintf(sq, sqcap, "%s/%s", dir, name);
+    snprintf(cmd, sizeof cmd, "%s/hmdwarp-warp --sim %s --view %s/v.txt --write-sequence %s %s", build, sim, dir, sq,
+             args);
+    assert_int_equal(run(cmd, out, sizeof out), 0);
+    assert_true(seq_open(sq, m, err, sizeof err));
+}
+
 /* A stereo sequence from the simulator, played once at its own rate, then at the board's, looping. */
 static void test_feed_plays_simulator_sequence(void **state)
 {
     (void)state;
-    char cmd[3000], out[8192], err[400], sq[700];
-    snprintf(cmd, sizeof cmd, "%s/v.txt", dir);
-    write_view(cmd);
-    snprintf(sq, sizeof sq, "%s/seq", dir);
-    snprintf(cmd, sizeof cmd, "%s/hmdwarp-warp --sim movers --view %s/v.txt --write-sequence %s --frames 4 --rate 200",
-             build, dir, sq);
-    assert_int_equal(run(cmd, out, sizeof out), 0);
+    char cmd[3000], sq[700];
     seq_manifest m;
-    assert_true(seq_open(sq, &m, err, sizeof err));
+    sim_sequence("movers", "--frames 4 --rate 200", "seq", sq, sizeof sq, &m);
     assert_int_equal(m.n, 4);
     assert_int_equal(m.eyes, 2);
     assert_true(m.objects);
@@ -424,15 +425,9 @@ static void test_feed_plays_simulator_sequence(void **state)
 static void test_feed_plays_layers(void **state)
 {
     (void)state;
-    char cmd[3000], out[8192], err[400], sq[700];
-    snprintf(cmd, sizeof cmd, "%s/v.txt", dir);
-    write_view(cmd);
-    snprintf(sq, sizeof sq, "%s/glass", dir);
-    snprintf(cmd, sizeof cmd, "%s/hmdwarp-warp --sim glass --view %s/v.txt --write-sequence %s --frames 2", build, dir,
-             sq);
-    assert_int_equal(run(cmd, out, sizeof out), 0);
+    char cmd[3000], err[400], sq[700];
     seq_manifest m;
-    assert_true(seq_open(sq, &m, err, sizeof err));
+    sim_sequence("glass", "--frames 2", "glass", sq, sizeof sq, &m);
     assert_true(m.planes & DRV_PLANE_LAYERS);
     size_t len;
     snprintf(cmd, sizeof cmd, "--sequence %s --planes color,depth,layers", sq);

@@ -23,12 +23,9 @@ static int run(const char *args, char *out, size_t cap)
 {
     char cmd[9000];
     snprintf(cmd, sizeof cmd, "%s%s %s 2>&1", test_runner(), tool, args);
-    FILE *p = popen(cmd, "r");
-    assert_non_null(p);
-    size_t n = fread(out, 1, cap - 1, p);
-    out[n] = 0;
-    int st = pclose(p);
-    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+    int st = -1;
+    assert_true(test_capture(cmd, out, cap, &st));
+    return st;
 }
 
 static double psnr_of(const char *out)
