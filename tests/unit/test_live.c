@@ -244,9 +244,9 @@ static void test_sigabrt_prints_last_stats(void **state)
     live_start(&r, "abrt", "", 0); /* what it saw, frames or none */
     /* the handler prints the live file's snapshot: abort once that has a motion-to-photon value (on a busy machine
      * the first second's vsyncs can all come before the first IMU sample: m2p_ms_p99 absent, make test-busy) */
-    for (int i = 0; i < 6000 && r.up && !(kv(r.text, "m2p_ms_p99") > 0); i++) {
+    for (int i = 0; i < 6000 && r.up && !(test_kv(r.text, "m2p_ms_p99") > 0); i++) {
         usleep(10000);
-        slurp(r.live, r.text, sizeof r.text);
+        test_slurp(r.live, r.text, sizeof r.text);
     }
     int st = live_stop(&r, SIGABRT);
     assert_true(r.up);
