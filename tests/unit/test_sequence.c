@@ -446,6 +446,41 @@ static void test_feed_plays_layers(void **state)
 }
 
 /* Bad input on the command line: the manifest's problem named, exit 2, nothing written as a frame. */
+/* The Done-when point on a board: hmdwarpd's socket backend (the simulated board's IMU and vsync, offscreen) receives
+ * every frame hmdwarp-feed --sequence plays to it once its display runs, at the sequence's own 30 Hz and looping,
+ * rejects none and shows more than one. */
+static void test_feed_plays_to_board(void **state)
+{
+    (void)state;
+    char sq[600], sock[108], stats[600], cmd[6000], out[16384];
+    seq_manifest m;
+    sim_sequence("movers", "--frames 4 --rate 30", "board", sq, sizeof sq, &m);
+    snprintf(sock, sizeof sock, "/tmp/hmdwarp-seq-%d.sock", (int)getpid()); /* sun_path holds 108 bytes */
+    snprintf(stats, sizeof stats, "%s/board.stats", dir);
+    const char *r = test_runner();
+    snprintf(cmd, sizeof cmd,
+             "unset HMDWARP_TIME_SLOWDOWN; rm -f %s; %s%s/hmdwarpd --config board/sim/board.ini --set sim.eval_every_ms=0 "
+             "--set render.rt_priority=0 --set frames.backend=socket --set frames.device=%s --set eye.width=96 "
+             "--set eye.height=64 --set sim.imu_rest_s=0.2 --duration 0 --set telemetry.live_stats=%s.live "
+             "--stats %s >%s/board.log 2>&1 </dev/null & b=$!; "
+             /* frames once the display runs (it starts after the IMU's rest); 5 minutes only against a hang */
+             "for i in $(seq 3000); do grep -qs '^vsyncs=[1-9]' %s.live && break; sleep 0.1; done; "
+             "%s%s/hmdwarp-feed --sequence %s --sequence-rate own --loop --frames 16 --socket %s; rc=$?; "
+             "kill -TERM $b; wait $b; echo \"board exit $?\"; cat %s/board.log; rm -f %s; exit $rc",
+             sock, r, build, sock, stats, stats, dir, stats, r, build, sq, sock, dir, sock);
+    int st = -1;
+    assert_true(test_capture(cmd, out, sizeof out, &st));
+    if (st != 0 || !strstr(out, "board exit 0")) fail_msg("feed or board failed (%d):\n%s", st, out);
+    char text[16384];
+    if (!test_slurp(stats, text, sizeof text)) fail_msg("no --stats file:\n%s", out);
+    print_message("frames_received=%g frames_shown=%g frames_rejected=%g\n", test_kv(text, "frames_received"),
+                  test_kv(text, "frames_shown"), test_kv(text, "frames_rejected"));
+    assert_true(test_kv(text, "frames_received") >= 16);
+    assert_true(test_kv(text, "frames_rejected") == 0);
+    assert_true(test_kv(text, "frames_shown") >= 2);
+    seq_close(&m);
+}
+
 static void test_feed_refuses_bad_sequence(void **state)
 {
     (void)state;
@@ -474,6 +509,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_feed_plays_simulator_sequence),
         cmocka_unit_test(test_feed_plays_layers),
         cmocka_unit_test(test_feed_refuses_bad_sequence),
+        cmocka_unit_test(test_feed_plays_to_board),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
