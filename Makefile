@@ -41,7 +41,9 @@ SYSCONFDIR ?= /etc
 BOARD ?= sim
 
 # Libraries every program links (Debian packages named in board/deps.sh).
-PKGS      := inih libpng zlib hidapi-hidraw libusb-1.0 libgpiod libsystemd egl glesv2 gbm libdrm
+# libturbojpeg, libzstd, libavcodec/libavutil/libswscale: framelink v2's plane codecs (drivers/drv_codec*.c).
+PKGS      := inih libpng zlib hidapi-hidraw libusb-1.0 libgpiod libsystemd egl glesv2 gbm libdrm \
+             libturbojpeg libzstd libavcodec libavutil libswscale
 TEST_PKGS := cmocka
 
 OPT      ?= -O2
@@ -84,10 +86,12 @@ HOST_ABI := 0
 HOST_SONAME := libhmdwarp-host.so.$(HOST_ABI)
 HOST_LIB := $(BUILD)/$(HOST_SONAME)
 HOST_SRC := $(wildcard host/*.c)
-HOST_DEP_SRC := drivers/drv_framelink.c drivers/drv_frames.c platform/plat_version.c warp/warp_camera.c \
+HOST_DEP_SRC := drivers/drv_framelink.c drivers/drv_frames.c drivers/drv_codec.c drivers/drv_codec_jpeg.c \
+                drivers/drv_codec_video.c platform/plat_version.c warp/warp_camera.c \
                 warp/warp_image.c warp/warp_math.c warp/warp_err.c
 HOST_PIC_OBJ := $(patsubst %.c,$(BUILD)/pic/%.o,$(HOST_SRC) $(HOST_DEP_SRC))
-HOST_LDLIBS = $(shell $(PKG_CONFIG) --libs libusb-1.0 zlib 2>/dev/null) -lm -pthread
+HOST_CODEC_PKGS := libturbojpeg libzstd libavcodec libavutil libswscale
+HOST_LDLIBS = $(shell $(PKG_CONFIG) --libs libusb-1.0 zlib $(HOST_CODEC_PKGS) 2>/dev/null) -lm -pthread
 TOOL_LIBS_hmdwarp-feed := -Wl,-rpath,'$$ORIGIN'
 # tests/packaging/test_host_install.sh's board and host program.
 HOST_TEST_BINS := $(BUILD)/tests/packaging/host_fake_board $(BUILD)/tests/packaging/host_api_smoke

@@ -7,13 +7,15 @@ set -eu
 # Keep in step with the README's dependency list. help2man writes the manual pages (`make man`). g++,
 # libopencv-imgproc-dev and gnuplot-nox are for `make bench` (OpenCV's cv::remap is the peer it measures against;
 # gnuplot draws the plots). python3-numpy and python3-opengl: the Python binding of libhmdwarp-host and its GLES
-# example (host/python, host/examples; make test runs them).
+# example (host/python, host/examples; make test runs them). libturbojpeg0-dev, libzstd-dev and FFmpeg's
+# libavcodec-dev, libavutil-dev, libswscale-dev: framelink v2's compressed planes (docs/framelink.md).
 PKGS="gcc libc6-dev make pkg-config
 libinih-dev libpng-dev zlib1g-dev
 libhidapi-dev libusb-1.0-0-dev libgpiod-dev libi2c-dev linux-libc-dev
 libcmocka-dev
 libegl-dev libgles-dev libgbm-dev libdrm-dev libegl-mesa0 libgl1-mesa-dri
 libsystemd-dev
+libturbojpeg0-dev libzstd-dev libavcodec-dev libavutil-dev libswscale-dev
 help2man
 g++ libopencv-imgproc-dev gnuplot-nox
 python3-numpy python3-opengl"
