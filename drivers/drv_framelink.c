@@ -693,6 +693,7 @@ size_t drv_framelink_pose_encode(const drv_framelink_pose *p, uint8_t *buf, size
     put_u32(buf + 8, p->seq);
     put_u64(buf + 16, (uint64_t)p->board_t_ns);
     put_u64(buf + 24, (uint64_t)p->target_t_ns);
+    put_u32(buf + 12, p->flags);
     put_pose(buf + 32, p->head);
     put_pose(buf + 88, p->eye[0]);
     put_pose(buf + 144, p->eye[1]);
@@ -706,6 +707,7 @@ drv_frame_err drv_framelink_pose_decode(const uint8_t *buf, size_t len, drv_fram
     if (env != DRV_FRAME_OK) return env;
     drv_framelink_pose p;
     p.seq = get_u32(buf + 8);
+    p.flags = get_u32(buf + 12);
     p.board_t_ns = (int64_t)get_u64(buf + 16);
     p.target_t_ns = (int64_t)get_u64(buf + 24);
     p.head = get_pose(buf + 32);

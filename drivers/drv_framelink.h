@@ -37,6 +37,7 @@ enum {
     DRV_FRAMELINK_FMT_U16 = 4,       /* object ids */
     DRV_FRAMELINK_FMT_VEC2F32 = 5,   /* motion: x, y float32, pixels per second */
     DRV_FRAMELINK_FMT_FRAGMENTS = 6, /* layers: u8 count per pixel, then the fragments (z f32, rgba8, id u16) */
+    DRV_FRAMELINK_FMT_INV16 = 7,     /* depth (v2): u16 round(65535 * near_z / z) of linear metres, 0 = sky */
 };
 
 /* What the sender adds to a drv_frame: host-clock timing for statistics and the encoding choices. */
@@ -82,8 +83,11 @@ drv_frame_err drv_framelink_decode_ex(const uint8_t *buf, size_t len, size_t max
 size_t drv_framelink_find_magic(const uint8_t *buf, size_t len);
 
 /* Board -> host: the head pose predicted for target_t_ns, sent at board_t_ns (both board clock). */
+/* Pose message flags. WANT_KEY: a video colour stream lost a reference; the host sends key frames next (v2). */
+#define DRV_FRAMELINK_POSE_WANT_KEY 0x1u
 typedef struct {
     uint32_t seq;
+    uint32_t flags;               /* DRV_FRAMELINK_POSE_*; unknown bits are ignored */
     int64_t board_t_ns;
     int64_t target_t_ns;
     warp_pose head;

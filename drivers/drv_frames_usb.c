@@ -248,7 +248,7 @@ static void *pose_thread(void *arg)
             next_cams = plat_now_ns() + PLAT_NS_PER_S;
         }
         greeted = hosts;
-        drv_framelink_pose m;
+        drv_framelink_pose m = {.flags = 0};
         m.board_t_ns = plat_now_ns();
         m.target_t_ns = m.board_t_ns + atomic_load(&u->lead_ns);
         if (!u->p.poses.predict(u->p.poses.ctx, m.target_t_ns, &m.head)) continue;

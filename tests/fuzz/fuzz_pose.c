@@ -59,7 +59,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 
 void fuzz_write_seeds(void)
 {
-    drv_framelink_pose p = {7, 5000000000LL, 5020000000LL, {{1, 0, 0, 0}, {0, 1.6, 0}},
+    drv_framelink_pose p = {7, 0, 5000000000LL, 5020000000LL, {{1, 0, 0, 0}, {0, 1.6, 0}},
                             {{{1, 0, 0, 0}, {-0.032, 1.6, 0}}, {{1, 0, 0, 0}, {0.032, 1.6, 0}}}};
     uint8_t buf[DRV_FRAMELINK_POSE_BYTES];
     drv_framelink_pose_encode(&p, buf, sizeof buf);
