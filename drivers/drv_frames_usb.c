@@ -21,7 +21,9 @@
 #include <sys/syscall.h>
 #include <unistd.h>
 
+#include "drivers/drv_codec.h"
 #include "drivers/drv_framelink.h"
+#include "drivers/drv_framelink_codec.h"
 #include "platform/plat_clock.h"
 #include "warp/warp_err.h"
 #include "warp/warp_head.h"
@@ -31,6 +33,14 @@
 #define LEAD_START_MS 20.0
 #define LEAD_MIN_MS 2.0
 #define LEAD_MAX_MS 200.0
+#define DECODE_THREADS_DEFAULT 2
+#define MAX_LAYERS_DEFAULT 4 /* what rt_app allocates its frame slots with */
+/* A video stream that lost a reference asks for a key frame in the pose messages of the next quarter second (at
+ * least 8): several, since a pose message the host did not take in time is dropped, and not forever, since a host
+ * that ignores the flag must not keep it on. The request ends early once a frame decodes again: the decoder drops
+ * every frame of the stream until its key frame, so an accepted frame means the key frame came. */
+#define WANT_KEY_S 0.25
+#define WANT_KEY_MIN_POSES 8
 
 /* ---- the board side (the same on every transport) ---- */
 
@@ -53,6 +63,9 @@ typedef struct {
     drv_frames_usb_stats st;
     uint32_t pose_seq, cams_seq;
     bool send_cams;            /* the params name the cameras: hosts get the camera message */
+    drv_framelink_dec *dec;    /* v1 and v2 frames, compressed planes decoded on its threads */
+    double decode_ms;          /* the last frame returned (receiving thread only) */
+    atomic_int want_key_poses; /* pose messages still to carry DRV_FRAMELINK_POSE_WANT_KEY */
 } usb_frames;
 
 static void note(usb_frames *u, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
@@ -104,6 +117,30 @@ static void link_lost(usb_frames *u, ssize_t rc)
  * goes where stream_space says, and stream_got accounts for it. usb_receive drives it from the endpoint, and
  * drv_frames_usb_feed from memory (tests, the fuzzer), so both run the same code. */
 
+/* After each decode: the decoder's counters into the stats, and a key frame request into the pose messages. */
+static void decoded(usb_frames *u, drv_frame_err e)
+{
+    drv_framelink_dec_stats ds;
+    drv_framelink_dec_stats_get(u->dec, &ds);
+    if (drv_framelink_dec_take_want_key(u->dec)) {
+        int n = (int)(u->p.pose_rate_hz * WANT_KEY_S);
+        atomic_store(&u->want_key_poses, n < WANT_KEY_MIN_POSES ? WANT_KEY_MIN_POSES : n);
+    } else if (e == DRV_FRAME_OK) {
+        atomic_store(&u->want_key_poses, 0);
+    }
+    u->decode_ms = ds.decode_ms_last;
+    pthread_mutex_lock(&u->lock);
+    u->st.compressed_frames = ds.compressed_frames;
+    u->st.codec_errors = ds.codec_errors;
+    u->st.key_requests = ds.key_requests;
+    u->st.wire_bytes = ds.wire_bytes;
+    u->st.plane_bytes = ds.plane_bytes;
+    u->st.decode_ms_last = ds.decode_ms_last;
+    u->st.codecs_seen = ds.codecs_seen;
+    snprintf(u->st.video_decoder, sizeof u->st.video_decoder, "%s", ds.video_decoder);
+    pthread_mutex_unlock(&u->lock);
+}
+
 /* 1 when a frame was stored in *f, -drv_frame_err when one was rejected, 0 when more bytes are needed. */
 static int stream_parse(usb_frames *u, drv_frame *f)
 {
@@ -132,7 +169,8 @@ static int stream_parse(usb_frames *u, drv_frame *f)
     if (e == DRV_FRAME_OK && u->have >= total) {
         char detail[160];
         drv_framelink_rx rx;
-        e = drv_framelink_decode_ex(u->buf, total, u->p.max_frame_bytes, f, &rx, detail, sizeof detail);
+        e = drv_framelink_dec_decode(u->dec, u->buf, total, u->p.max_frame_bytes, f, &rx, detail, sizeof detail);
+        decoded(u, e);
         if (e != DRV_FRAME_OK) return reject(u, e, 1, true, detail);
         f->received_ns = plat_now_ns();
         drop(u, total);
@@ -249,6 +287,11 @@ static void *pose_thread(void *arg)
         }
         greeted = hosts;
         drv_framelink_pose m = {.flags = 0};
+        int want_key = atomic_load(&u->want_key_poses);
+        if (want_key > 0) {
+            m.flags |= DRV_FRAMELINK_POSE_WANT_KEY;
+            atomic_compare_exchange_strong(&u->want_key_poses, &want_key, want_key - 1);
+        }
         m.board_t_ns = plat_now_ns();
         m.target_t_ns = m.board_t_ns + atomic_load(&u->lead_ns);
         if (!u->p.poses.predict(u->p.poses.ctx, m.target_t_ns, &m.head)) continue;
@@ -277,6 +320,7 @@ static void usb_destroy(drv_frames *fr)
     if (u->pose_up) pthread_join(u->pose_th, NULL);
     if (u->t) u->t->destroy(u->t);
     pthread_mutex_destroy(&u->lock);
+    drv_framelink_dec_destroy(u->dec);
     free(u->buf);
     free(u->scratch);
     free(u);
@@ -301,14 +345,51 @@ static usb_frames *board_new(const drv_frames_usb_params *p, char *err, int errl
                      p->cam[e].height, p->eye_w, p->eye_h, p->refresh_hz);
             return NULL;
         }
+    unsigned decodable = drv_codec_decodable();
+    if (p->codecs & ~decodable) {
+        for (int c = 0; c < DRV_CODEC_COUNT; c++)
+            if (p->codecs & ~decodable & DRV_CODEC_BIT(c)) {
+                warp_err(err, errlen, "usb frames: codec %s: not decodable in this build", drv_codec_name(c));
+                return NULL;
+            }
+        warp_err(err, errlen, "usb frames: codecs 0x%x: unknown codec bits", p->codecs);
+        return NULL;
+    }
+    if (p->decode_threads < 0 || p->decode_threads > 8 || p->max_layers < 0) {
+        warp_err(err, errlen, "usb frames: bad parameters (decode_threads %d: want 1..8; max_layers %d)",
+                 p->decode_threads, p->max_layers);
+        return NULL;
+    }
+    const char *vdec = p->video_decoder && p->video_decoder[0] ? p->video_decoder : "software";
+    if (strcmp(vdec, "software") != 0 && strcmp(vdec, "v4l2m2m") != 0) {
+        warp_err(err, errlen, "usb frames: video decoder '%s': want software or v4l2m2m", vdec);
+        return NULL;
+    }
+    char e[200] = "";
+    drv_framelink_dec *dec = drv_framelink_dec_create(
+        p->eye_w, p->eye_h, p->planes, p->max_layers ? p->max_layers : MAX_LAYERS_DEFAULT,
+        p->decode_threads ? p->decode_threads : DECODE_THREADS_DEFAULT,
+        strcmp(vdec, "software") == 0 ? NULL : vdec, e, sizeof e);
+    if (!dec) {
+        warp_err(err, errlen, "usb frames: framelink decoder: %s", e[0] ? e : "cannot create");
+        return NULL;
+    }
     usb_frames *u = calloc(1, sizeof *u);
-    if (!u) return NULL;
+    if (!u) {
+        drv_framelink_dec_destroy(dec);
+        return NULL;
+    }
     u->p = *p;
+    u->p.codecs = p->codecs ? p->codecs : decodable;
+    u->p.codecs |= DRV_CODEC_BIT(DRV_CODEC_RAW); /* v1 frames are always read */
+    u->dec = dec;
+    u->st.codecs = u->p.codecs;
     u->send_cams = cams;
     u->cap = p->max_frame_bytes + CHUNK;
     u->buf = malloc(u->cap);
     u->scratch = malloc(CHUNK);
     if (!u->buf || !u->scratch) {
+        drv_framelink_dec_destroy(u->dec);
         free(u->buf);
         free(u->scratch);
         warp_err(err, errlen, "usb frames: cannot allocate a %zu byte receive buffer", u->cap);
@@ -318,6 +399,7 @@ static usb_frames *board_new(const drv_frames_usb_params *p, char *err, int errl
     pthread_mutex_init(&u->lock, NULL);
     atomic_init(&u->lead_ns, (int64_t)(LEAD_START_MS * 1e6));
     atomic_init(&u->stop, false);
+    atomic_init(&u->want_key_poses, 0);
     u->base.receive = usb_receive;
     u->base.planes = usb_planes;
     u->base.destroy = usb_destroy;
@@ -342,6 +424,8 @@ void drv_frames_usb_stats_get(drv_frames *fr, drv_frames_usb_stats *st)
     if (u->t->stats) u->t->stats(u->t, st);
     st->lead_ms = (double)atomic_load(&u->lead_ns) * 1e-6;
 }
+
+double drv_frames_usb_decode_ms(drv_frames *fr) { return ((usb_frames *)fr)->decode_ms; }
 
 static void usb_last_error(drv_frames *fr, char *buf, int len)
 {

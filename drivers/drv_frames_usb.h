@@ -24,6 +24,11 @@ typedef struct {
     warp_camera cam[2];                 /* the eye cameras frames must be rendered with */
     double refresh_hz;                  /* the panel's refresh */
     warp_depth_encoding depth_encoding; /* the depth encoding the board prefers (any is accepted) */
+    /* framelink v2 (docs/framelink.md): compressed planes are decoded on the receiving thread plus helpers. */
+    int max_layers;           /* fragments per pixel the caller's frames hold (DRV_PLANE_LAYERS; 0: 4) */
+    unsigned codecs;          /* DRV_CODEC_BIT()s announced to hosts (0: drv_codec_decodable(), every one built) */
+    int decode_threads;       /* threads a frame's chunks decode on, 1..8 (0: 2) */
+    const char *video_decoder; /* "software" or "v4l2m2m" (NULL: software); read at create only */
 } drv_frames_usb_params;
 
 /* The real gadget: writes the descriptors and strings to ffs_dir/ep0 (the gadget is bound afterwards, see
@@ -42,6 +47,14 @@ typedef struct {
     uint64_t cams_sent;                         /* camera messages (HWC1) written */
     bool connected;                             /* the host has configured the function (ENABLE) */
     double lead_ms;                             /* current pose lead: measured pose-to-frame latency */
+    /* framelink v2 decoding (drv_framelink_dec_stats) */
+    uint64_t compressed_frames;                 /* accepted frames with at least one plane not RAW */
+    uint64_t codec_errors;                      /* rejected for a codec's reason (also in rejected[]) */
+    uint64_t key_requests;                      /* video key frames asked for (WANT_KEY raised) */
+    uint64_t wire_bytes, plane_bytes;           /* accepted frames: bytes on the wire and what they decoded to */
+    double decode_ms_last;                      /* the last accepted frame's decode (wall time, all threads) */
+    unsigned codecs, codecs_seen;               /* DRV_CODEC_BIT()s announced / met in frames */
+    char video_decoder[32];                     /* "software", "hevc_v4l2m2m", ... ("" before a video frame) */
     char last_error[160];
 } drv_frames_usb_stats;
 
@@ -79,5 +92,8 @@ size_t drv_frames_usb_feed(drv_frames *fr, const uint8_t *data, size_t n);
 
 /* Statistics of a usb, mock or socket frames source; safe from any thread. */
 void drv_frames_usb_stats_get(drv_frames *fr, drv_frames_usb_stats *st);
+/* The decode time (ms) of the frame the last drv_frames_receive returned: for the receiving thread only (no lock),
+ * so its telemetry can keep a histogram without the vsync path ever touching it. */
+double drv_frames_usb_decode_ms(drv_frames *fr);
 
 #endif

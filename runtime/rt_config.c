@@ -14,8 +14,10 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "drivers/drv_codec.h"
 #include "drivers/drv_framelink.h"
 #include "drivers/drv_frames_socket.h"
+#include "warp/warp_err.h"
 #include "warp/warp_head.h"
 #include "warp/warp_registry.h"
 
@@ -35,6 +37,7 @@ static const char *const v4l2_format_names[] = {"auto", "yuyv", "nv12", "bgr32",
 static const char *const bool_names[] = {"false", "true", NULL};
 static const char *const edge_names[] = {"rising", "falling", NULL};
 static const char *const arch_names[] = {"any", "aarch64", "x86_64", "arm", NULL};
+static const char *const video_decoder_names[] = {"software", "v4l2m2m", NULL};
 
 const char *rt_kernel_name(int k)
 {
@@ -156,6 +159,13 @@ static const keydef keys[] = {
      "largest host frame accepted, MiB (larger ones are rejected unread)"},
     {"frames", "pose_rate_hz", K_DOUBLE, F(pose_rate_hz), 0, 1, 2000, NULL,
      "usb, socket: how often the board sends its predicted head pose to the host"},
+    {"frames", "codecs", K_STR, F(frames_codecs), S(frames_codecs), 0, 0, NULL,
+     "usb, socket: the codecs the board tells hosts it decodes (framelink v2; docs/framelink.md): auto (every one "
+     "this build decodes) or a list of raw, zstd, jpeg, h264, hevc; raw (v1 frames) is always accepted"},
+    {"frames", "decode_threads", K_INT, F(decode_threads), 0, 1, 8, NULL,
+     "usb, socket: threads a frame's compressed planes decode on (eyes and JPEG slices in parallel)"},
+    {"frames", "video_decoder", K_CHOICE, F(video_decoder), S(video_decoder), 0, 0, video_decoder_names,
+     "usb, socket: H.264/HEVC colour decoder: software (libavcodec) or v4l2m2m (the board's hardware decoder)"},
     {"vsync", "backend", K_CHOICE, F(vsync_backend), S(vsync_backend), 0, 0, vsync_names,
      "vsync source: sim (simulated panel), gpio (panel TE line via libgpiod), timer (free running) or kms (the "
      "display controller's vblank times; needs output = kms)"},
@@ -252,6 +262,9 @@ void rt_config_defaults(rt_config *c)
     snprintf(c->v4l2_format, sizeof c->v4l2_format, "auto");
     c->max_frame_mb = 64;
     c->pose_rate_hz = 500;
+    snprintf(c->frames_codecs, sizeof c->frames_codecs, "auto");
+    c->decode_threads = 2;
+    snprintf(c->video_decoder, sizeof c->video_decoder, "software");
     snprintf(c->vsync_chip, sizeof c->vsync_chip, "gpiochip0");
     snprintf(c->scene, sizeof c->scene, "room");
     snprintf(c->trace, sizeof c->trace, "fast");
@@ -773,6 +786,35 @@ uint64_t rt_config_memory_bytes(const rt_config *c)
     return total;
 }
 
+bool rt_config_parse_codecs(const char *s, unsigned *mask, char *err, int errlen)
+{
+    unsigned m = DRV_CODEC_BIT(DRV_CODEC_RAW);
+    const char *p = s;
+    bool any = false;
+    while (*p) {
+        while (*p == ' ' || *p == '\t' || *p == ',') p++;
+        size_t n = strcspn(p, " \t,");
+        if (!n) break;
+        char name[16];
+        snprintf(name, sizeof name, "%.*s", (int)(n < sizeof name - 1 ? n : sizeof name - 1), p);
+        drv_codec_id id;
+        if (n == 4 && strncmp(p, "auto", 4) == 0) {
+            m |= drv_codec_decodable();
+        } else if (n >= sizeof name || !drv_codec_parse(name, &id)) {
+            return warp_err(err, errlen, "'%.*s' is not a codec (raw, zstd, jpeg, h264, hevc or auto)", (int)n, p);
+        } else if (!(drv_codec_decodable() & DRV_CODEC_BIT(id))) {
+            return warp_err(err, errlen, "%s: this build cannot decode it", name);
+        } else {
+            m |= DRV_CODEC_BIT(id);
+        }
+        any = true;
+        p += n;
+    }
+    if (!any) return warp_err(err, errlen, "empty (auto, or a list of raw, zstd, jpeg, h264, hevc)");
+    *mask = m;
+    return true;
+}
+
 bool rt_config_validate(const rt_config *c, rt_config_errors *err)
 {
     int before = err ? err->count : 0;
@@ -811,6 +853,10 @@ bool rt_config_validate(const rt_config *c, rt_config_errors *err)
         add_error(err, "[frames] device: required for backend = %s (%s, or mock); %s", c->frames_backend,
                   strcmp(c->frames_backend, "usb") == 0 ? "the FunctionFS mount directory" : "a /dev/videoN path",
                   keys_at(c, "frames.backend frames.device", at, sizeof at));
+    unsigned codecs;
+    char cwhy[160];
+    if (!rt_config_parse_codecs(c->frames_codecs, &codecs, cwhy, sizeof cwhy))
+        add_error(err, "%s = '%s': %s", keys_at(c, "frames.codecs", at, sizeof at), c->frames_codecs, cwhy);
     const bool kms = strcmp(c->output, "kms") == 0;
     if (strcmp(c->vsync_backend, "kms") == 0 && !kms)
         add_error(err, "[vsync] backend = kms: needs [display] output = kms (the vblanks come from the KMS output; "

@@ -90,6 +90,9 @@ typedef struct {
     int frames_depth;           /* v4l2: a depth plane is packed beside the colour */
     double max_frame_mb;
     double pose_rate_hz;        /* board -> host pose messages */
+    char frames_codecs[64];     /* usb, socket: codecs announced to hosts: auto, or a list of raw zstd jpeg h264 hevc */
+    int decode_threads;         /* usb, socket: threads a frame's compressed planes decode on */
+    char video_decoder[16];     /* software | v4l2m2m */
     char vsync_chip[64];        /* gpio: gpiochipN, N, /dev/gpiochipN, or mock */
     int vsync_line;
     int vsync_falling;          /* edge: 0 rising, 1 falling */
@@ -155,6 +158,9 @@ void rt_config_warnings(const rt_config *c, rt_config_errors *warn);
 
 /* Parses a [display] kms_mode: "auto" gives 0 x 0 at 0 Hz, "WxH" any refresh (hz 0), "WxH@Hz". */
 bool rt_config_parse_mode(const char *s, int *w, int *h, double *hz);
+/* [frames] codecs as DRV_CODEC_BIT()s (auto: every codec this build decodes; RAW always); false with the first
+ * unknown or undecodable name in err. */
+bool rt_config_parse_codecs(const char *s, unsigned *mask, char *err, int errlen);
 
 /* Parses a mounting string ("-y +x +z": head axis i = sign[i] * IMU axis map[i]). */
 bool rt_config_parse_axes(const char *s, int map[3], int sign[3]);

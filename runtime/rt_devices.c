@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "drivers/drv_frames_socket.h"
+#include "drivers/drv_frames_usb.h"
 #include "drivers/drv_frames_usb_mock.h"
 #include "drivers/drv_frames_v4l2_mock.h"
 #include "drivers/drv_imu_hid_mock.h"
@@ -147,6 +148,11 @@ static bool open_frames(rt_devices *d, const rt_config *c, const drv_frames_sim_
         p.cam[1] = sp->cam[1];
         p.refresh_hz = c->refresh_hz;
         p.depth_encoding = WARP_DEPTH_LINEAR;
+        /* framelink v2: what hosts are told the board decodes, and the decoder's threads (validated already) */
+        if (!rt_config_parse_codecs(c->frames_codecs, &p.codecs, e, sizeof e))
+            return warp_err(err, errlen, "[frames] codecs = '%s': %s", c->frames_codecs, e);
+        p.decode_threads = c->decode_threads;
+        p.video_decoder = c->video_decoder;
         if (strcmp(c->frames_backend, "socket") == 0) {
             d->frames = drv_frames_socket_create(&p, c->frames_device, e, sizeof e);
         } else if (mock) {
@@ -160,6 +166,7 @@ static bool open_frames(rt_devices *d, const rt_config *c, const drv_frames_sim_
         } else {
             d->frames = drv_frames_usb_create(&p, e, sizeof e);
         }
+        d->framelink = d->frames != NULL;
     } else if (strcmp(c->frames_backend, "v4l2") == 0) {
         drv_frames_v4l2_params p;
         memset(&p, 0, sizeof p);
@@ -345,6 +352,8 @@ void *rt_devices_frames_thread(void *arg)
          * simulated board's clock, which is what the accuracy evaluator re-renders. */
         if (a->dev->has_truth && !a->dev->sim_host)
             slot->f.scene_time = (double)(slot->f.pose_t_ns - a->t0_ns) * 1e-9;
+        /* measured on this thread by the decoder: the vsync path never decodes */
+        if (a->dev->framelink) rt_hist_add(&a->tel->decode_ms, drv_frames_usb_decode_ms(a->dev->frames));
         atomic_fetch_add(&a->tel->frames_received, 1);
         atomic_fetch_add_explicit(&a->tel->frames_bytes, frame_bytes(&slot->f), memory_order_relaxed);
         rt_frameq_publish(a->fq);

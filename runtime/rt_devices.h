@@ -28,6 +28,7 @@ typedef struct {
     bool sim_host;         /* frames come straight from the simulated host (its render statistics are known) */
     bool has_truth;        /* the head motion and the scene are simulated: accuracy can be scored */
     bool imu_remap;        /* [imu] axes is not the identity */
+    bool framelink;        /* frames is the framelink board side (usb, its mock, socket): decode times known */
     int imu_map[3], imu_sign[3];
 } rt_devices;
 

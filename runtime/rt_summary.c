@@ -7,6 +7,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "drivers/drv_codec.h"
 #include "drivers/drv_frames.h"
 #include "platform/plat_gles.h"
 #include "platform/plat_version.h"
@@ -20,13 +21,15 @@ enum {
     R_KMS_API, R_KMS_FORMAT, R_GLES_P50, R_GLES_P99, R_GLES_ERRORS, R_VSYNCS, R_MISSED, R_MISSED_BY, R_NO_FRAME,
     R_NO_BUFFER, R_METHOD, R_WARP_P50, R_WARP_P99, R_STALL, R_M2P_P50, R_M2P_P99, R_AGE_P50, R_AGE_MAX, R_SELECT,
     R_SWITCHES, R_RECEIVED, R_BYTES, R_SHOWN, R_DROPPED, R_REJECTED_BY, R_REJECTED, R_LINK_CONNECTED,
-    R_LINK_CONNECTIONS, R_LINK_REFUSED, R_LINK_DISCONNECTS, R_LINK_POSES, R_LINK_POSES_DROPPED, R_IMU_SAMPLES,
+    R_LINK_CONNECTIONS, R_LINK_REFUSED, R_LINK_DISCONNECTS, R_LINK_POSES, R_LINK_POSES_DROPPED, R_LINK_DECODE_P50,
+    R_LINK_DECODE_P99, R_LINK_COMPRESSED, R_LINK_CODEC_ERRORS, R_LINK_KEY_REQUESTS, R_LINK_WIRE_MB_S,
+    R_LINK_COMPRESSION, R_LINK_VIDEO_DECODER, R_IMU_SAMPLES,
     R_IMU_READ_ERRORS, R_IMU_LOST, R_IMU_STALE, R_IMU_REPORTS, R_IMU_BAD, R_IMU_RECONNECTS, R_IMU_CONNECTED,
     R_VS_EDGES, R_VS_SPURIOUS, R_VS_MISSED, R_VS_FALLBACKS, R_VS_ON_TIMER, R_VS_PERIOD, R_VS_JITTER, R_ORIENT_W,
     R_ORIENT_X, R_ORIENT_Y, R_ORIENT_Z, R_ORIENT_ERR, R_PSNR, R_SSIM,
     /* the summary's own: histograms it prints whole, and what only a reader needs */
     R_PANEL, R_ADVICE, R_WARP_MS, R_GLES_TIMING, R_GLES_MS, R_RT_FALLBACKS, R_PLANE_FALLBACKS, R_M2P, R_AGE,
-    R_OUTPUT, R_HOST_RENDER, R_PLANES, R_IMU_REJECTED, R_EVAL_N, R_POSE_ERR, R_CSV, R_COUNT
+    R_OUTPUT, R_HOST_RENDER, R_LINK_DECODE_MS, R_PLANES, R_IMU_REJECTED, R_EVAL_N, R_POSE_ERR, R_CSV, R_COUNT
 };
 
 #define B RT_SUM_BOTH
@@ -80,6 +83,14 @@ const rt_summary_row rt_summary_table[] = {
     [R_LINK_DISCONNECTS] = {"frames_link_disconnects", "host link", B, 'u', 0, false},
     [R_LINK_POSES] = {"frames_link_poses_sent", "host link", B, 'u', 0, false},
     [R_LINK_POSES_DROPPED] = {"frames_link_poses_dropped", "host link", B, 'u', 0, false},
+    [R_LINK_DECODE_P50] = {"frames_link_decode_ms_p50", "link decode", B, 'f', 3, false},
+    [R_LINK_DECODE_P99] = {"frames_link_decode_ms_p99", "link decode", B, 'f', 3, false},
+    [R_LINK_COMPRESSED] = {"frames_link_compressed_frames", "link codecs", B, 'u', 0, false},
+    [R_LINK_CODEC_ERRORS] = {"frames_link_codec_errors", "link codecs", B, 'u', 0, false},
+    [R_LINK_KEY_REQUESTS] = {"frames_link_key_requests", "link codecs", B, 'u', 0, false},
+    [R_LINK_WIRE_MB_S] = {"frames_link_wire_mb_s", "link codecs", B, 'f', 2, false},
+    [R_LINK_COMPRESSION] = {"frames_link_compression", "link codecs", B, 'f', 2, false},
+    [R_LINK_VIDEO_DECODER] = {"frames_link_video_decoder", "link codecs", B, 's', 0, false},
     [R_IMU_SAMPLES] = {"imu_samples", "IMU samples", B, 'u', 0, false},
     [R_IMU_READ_ERRORS] = {"imu_read_errors", "IMU samples", B, 'u', 0, false},
     [R_IMU_LOST] = {"imu_lost", "IMU lost", B, 'u', 0, false},
@@ -113,6 +124,7 @@ const rt_summary_row rt_summary_table[] = {
     [R_AGE] = {NULL, "frame age at photon time", S, 'h', 0, false},
     [R_OUTPUT] = {NULL, "output", S, 's', 0, false},
     [R_HOST_RENDER] = {NULL, "host render + transport", S, 'h', 0, false},
+    [R_LINK_DECODE_MS] = {NULL, "link decode", S, 'h', 0, false},
     [R_PLANES] = {NULL, "planes rendered", S, 'u', 0, false},
     [R_IMU_REJECTED] = {NULL, "IMU samples", S, 'u', 0, false},
     [R_EVAL_N] = {NULL, "accuracy vs ground truth", S, 'd', 0, false},
@@ -147,7 +159,16 @@ int rt_summary_members(const rt_summary_src *s, int r)
     case R_LINK_REFUSED:
     case R_LINK_DISCONNECTS:
     case R_LINK_POSES:
-    case R_LINK_POSES_DROPPED: return s->has_link_stats;
+    case R_LINK_POSES_DROPPED:
+    case R_LINK_DECODE_P50:
+    case R_LINK_DECODE_P99:
+    case R_LINK_COMPRESSED:
+    case R_LINK_CODEC_ERRORS:
+    case R_LINK_KEY_REQUESTS:
+    case R_LINK_WIRE_MB_S:
+    case R_LINK_COMPRESSION:
+    case R_LINK_VIDEO_DECODER:
+    case R_LINK_DECODE_MS: return s->has_link_stats;
     case R_IMU_REPORTS:
     case R_IMU_BAD:
     case R_IMU_RECONNECTS:
@@ -277,6 +298,19 @@ static val value(const rt_summary_src *s, int r, int i)
     case R_LINK_DISCONNECTS: v.u = s->link.disconnects; break;
     case R_LINK_POSES: v.u = s->link.poses_sent; break;
     case R_LINK_POSES_DROPPED: v.u = s->link.poses_dropped; break;
+    case R_LINK_DECODE_P50: v.f = rt_hist_pct(&t->decode_ms, 50); break;
+    case R_LINK_DECODE_P99: v.f = rt_hist_pct(&t->decode_ms, 99); break;
+    case R_LINK_COMPRESSED: v.u = s->link.compressed_frames; break;
+    case R_LINK_CODEC_ERRORS: v.u = s->link.codec_errors; break;
+    case R_LINK_KEY_REQUESTS: v.u = s->link.key_requests; break;
+    /* the accepted frames' bytes on the wire over the run (what the codecs left of plane_bytes) */
+    case R_LINK_WIRE_MB_S: v.f = s->run_s > 0 ? (double)s->link.wire_bytes / s->run_s * 1e-6 : 0; break;
+    /* decoded plane bytes per wire byte: 1 for raw frames, 0 before any frame */
+    case R_LINK_COMPRESSION:
+        v.f = s->link.wire_bytes ? (double)s->link.plane_bytes / (double)s->link.wire_bytes : 0;
+        break;
+    case R_LINK_VIDEO_DECODER: v.s = s->link.video_decoder; break;
+    case R_LINK_DECODE_MS: v.h = &t->decode_ms; break;
     case R_IMU_SAMPLES: v.u = t->imu_samples; break;
     case R_IMU_READ_ERRORS: v.u = t->imu_read_errors; break;
     case R_IMU_LOST: v.u = t->imu_lost; break;
@@ -485,6 +519,19 @@ void rt_summary_print(const rt_summary_src *s, FILE *out)
                      "%llu%s%s\n", L(R_LINK_CONNECTED), U(R_LINK_CONNECTED) ? "connected" : "NOT connected",
                 U(R_LINK_CONNECTIONS), U(R_LINK_REFUSED), U(R_LINK_DISCONNECTS), U(R_LINK_POSES),
                 U(R_LINK_POSES_DROPPED), s->link.last_error[0] ? "; last: " : "", s->link.last_error);
+    if (s->has_link_stats) {
+        char names[64] = "";
+        for (int k = 0; k < DRV_CODEC_COUNT; k++)
+            if (s->link.codecs & DRV_CODEC_BIT(k))
+                snprintf(names + strlen(names), sizeof names - strlen(names), "%s%s", names[0] ? " " : "",
+                         drv_codec_name((drv_codec_id)k));
+        fprintf(out, "  %-26s announced %s; %llu frames compressed, %.2f MB/s on the wire (%.1f:1), codec errors "
+                     "%llu, key frames asked %llu%s%s\n",
+                L(R_LINK_COMPRESSED), names[0] ? names : "-", U(R_LINK_COMPRESSED), value(s, R_LINK_WIRE_MB_S, 0).f,
+                value(s, R_LINK_COMPRESSION, 0).f, U(R_LINK_CODEC_ERRORS), U(R_LINK_KEY_REQUESTS),
+                STR(R_LINK_VIDEO_DECODER)[0] ? "; video decoder " : "", STR(R_LINK_VIDEO_DECODER));
+        pct_line(out, L(R_LINK_DECODE_MS), value(s, R_LINK_DECODE_MS, 0).h);
+    }
     pct_line(out, L(R_HOST_RENDER), value(s, R_HOST_RENDER, 0).h);
     if (rt_summary_members(s, R_PLANES)) {
         buf[0] = 0;

@@ -90,6 +90,7 @@ typedef struct {
     _Atomic uint64_t frames_bytes;   /* the planes of received frames: what the host link carried */
     _Atomic uint64_t frames_rejected[DRV_FRAME_ERR_COUNT];
     rt_hist host_render_ms;
+    rt_hist decode_ms;     /* framelink: a frame's decode on the frames thread (and its decode threads) */
     /* IMU thread */
     _Atomic uint64_t imu_samples, imu_read_errors;
     _Atomic uint64_t imu_lost;   /* times the IMU went away (read() reported the device gone) */
