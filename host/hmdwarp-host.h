@@ -267,6 +267,67 @@ typedef struct {
 /* Any thread. ARG when h or out is NULL. */
 int hmdwarp_host_get_stats(hmdwarp_host *h, hmdwarp_host_stats *out);
 
+/* ---- compression (framelink v2, docs/framelink.md) ---- */
+
+/* A plane's codec; the numbers are the wire's. AUTO: chosen from what the board announces in its camera message. */
+typedef enum {
+    HMDWARP_HOST_CODEC_AUTO = -1,
+    HMDWARP_HOST_CODEC_RAW = 0,  /* the plane as version 1 sends it */
+    HMDWARP_HOST_CODEC_ZSTD = 1, /* lossless (zstd): depth, ids, motion, layers */
+    HMDWARP_HOST_CODEC_JPEG = 2, /* colour: JPEG per horizontal slice of each eye */
+    HMDWARP_HOST_CODEC_H264 = 3, /* colour: one low-delay H.264 stream per eye */
+    HMDWARP_HOST_CODEC_HEVC = 4, /* colour: one low-delay HEVC stream per eye */
+} hmdwarp_host_codec;
+
+/* How depth goes on the wire. */
+typedef enum {
+    HMDWARP_HOST_WIRE_DEPTH_AUTO = 0,    /* with zstd: INV16 for linear depth, UNORM16 for window depth; else as sent */
+    HMDWARP_HOST_WIRE_DEPTH_F32 = 1,     /* float32 in the frame's encoding */
+    HMDWARP_HOST_WIRE_DEPTH_UNORM16 = 2, /* window depth * 65535 (standard and reversed window depth only) */
+    HMDWARP_HOST_WIRE_DEPTH_INV16 = 3,   /* linear depth as 65535 * near / z: precision where parallax is */
+} hmdwarp_host_wire_depth;
+
+/* The codec per plane. Zero fields take the defaults noted; hmdwarp_host_codec_defaults() sets everything to auto,
+ * which means: colour JPEG (quality 85, 4:2:0, 4 slices per eye) when the board decodes JPEG, depth zstd (wire
+ * format auto, full resolution) and ids, motion and layers zstd when it decodes zstd, raw otherwise. */
+typedef struct {
+    int color;           /* hmdwarp_host_codec: AUTO, RAW, JPEG, H264 or HEVC */
+    int quality;         /* JPEG 1..100 (0: 85); video: quantiser 1..51 when video_kbps is 0 (0: 23) */
+    int jpeg_subsampling; /* 420 or 444 (0: 420) */
+    int slices;          /* JPEG slices per eye 1..16 (0: 4), each decoded on its own thread */
+    int video_kbps;      /* video: constant bit rate per eye stream in kbit/s; 0: constant quality */
+    int refresh_frames;  /* video: intra refresh period in frames; 0: key frames only when the board asks */
+    int depth;           /* AUTO, RAW or ZSTD */
+    int depth_format;    /* hmdwarp_host_wire_depth */
+    int depth_scale;     /* depth at 1/2^scale resolution per axis: 0, 1 or 2 (the board upsamples along edges) */
+    int other;           /* ids, motion, layers: AUTO, RAW or ZSTD */
+} hmdwarp_host_codec_options;
+
+/* Everything auto (the recommended setting). */
+void hmdwarp_host_codec_defaults(hmdwarp_host_codec_options *out);
+/* Sets the codecs of the frames submitted (or encoded) from now on; NULL: all raw, version 1 frames, what a handle
+ * sends until this is called. ARG names a field out of range; UNSUPPORTED a codec this library cannot encode. A
+ * codec the board did not announce is refused at submit (FORMAT) when the board's camera message says what it
+ * decodes. With a video codec each submit or encode is one frame of the stream; a board that lost a reference
+ * asks for a key frame (in its pose messages) and the next frame is one. */
+int hmdwarp_host_set_codec(hmdwarp_host *h, const hmdwarp_host_codec_options *opts);
+
+typedef struct {
+    int color, depth, other;       /* hmdwarp_host_codec of the last frame encoded (never AUTO) */
+    int depth_format;              /* hmdwarp_host_wire_depth of the last frame (AUTO: as the frame was given) */
+    uint64_t frames;               /* frames encoded (submitted or encoded) */
+    uint64_t compressed_frames;    /* of them with a plane not RAW */
+    uint64_t key_requests;         /* pose messages that asked for a key frame (WANT_KEY) */
+    uint64_t key_frames;           /* frames encoded with key frames forced because of them */
+    uint64_t plane_bytes, wire_bytes; /* all frames: bytes before (raw, version 1) and after compression */
+    double plane_bytes_last, wire_bytes_last; /* the last frame's */
+    double encode_ms_last, encode_ms_mean;    /* the framelink encode (compression included) */
+    unsigned board_codecs;         /* bit (1 << hmdwarp_host_codec) for each codec the board announced; 0 unknown */
+} hmdwarp_host_codec_stats;
+
+/* Any thread. ARG when h or out is NULL. */
+int hmdwarp_host_get_codec_stats(hmdwarp_host *h, hmdwarp_host_codec_stats *out);
+
 #ifdef __cplusplus
 }
 #endif

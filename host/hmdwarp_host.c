@@ -10,7 +10,9 @@
 #include <string.h>
 #include <time.h>
 
+#include "drivers/drv_codec.h"
 #include "drivers/drv_framelink.h"
+#include "drivers/drv_framelink_codec.h"
 #include "host/hmdwarp-host.h"
 #include "host/host_frame.h"
 #include "host/host_link.h"
@@ -27,6 +29,14 @@
 #define READ_TIMEOUT_MS 100
 #define RECONNECT_MS 200
 #define DEFAULT_WAIT_S 5.0
+/* The board asks for a key frame in every pose message for a while after it lost a video reference (until a frame
+ * decodes again): one forced key frame answers a run of them, and another only after this long, when the first
+ * could have arrived (so a lost key frame is answered again, a quarter-second request not with ten). */
+#define KEY_HOLDOFF_NS 100000000
+/* auto's choices until the lead's measurements set them (docs/host-api.md): JPEG q85 4:2:0 in 4 slices per eye */
+#define AUTO_JPEG_QUALITY 85
+#define AUTO_JPEG_SLICES 4
+#define AUTO_VIDEO_QUANTISER 23
 
 struct hmdwarp_host {
     hmdwarp_host_options opts;
@@ -39,6 +49,13 @@ struct hmdwarp_host {
     host_frame_scratch scratch;
     uint8_t *buf;
     size_t cap;
+    /* compression (send_lock): the options as set, and the encoder made for them and the eye size */
+    bool codec_set;
+    hmdwarp_host_codec_options codec;
+    drv_framelink_enc *enc;
+    drv_framelink_enc_params enc_p;
+    int enc_w, enc_h;
+    int64_t last_key_ns;
 
     pthread_mutex_t lock; /* everything below */
     pthread_cond_t cond;
@@ -56,6 +73,10 @@ struct hmdwarp_host {
     int64_t win_start_ns;
     uint64_t win_bytes;
     double win_rate;
+    unsigned board_codecs;   /* DRV_CODEC_BIT()s the board's camera message announced; 0 unknown */
+    bool want_key, want_key_run; /* a pose message asked for a key frame; the last one did */
+    hmdwarp_host_codec_stats cst;
+    double encode_ms_total;
 
     pthread_t reader;
     bool reader_up;
@@ -119,6 +140,10 @@ static void store_pose(hmdwarp_host *h, const drv_framelink_pose *p)
     h->n_poses++;
     h->fresh = true;
     h->st.poses_received++;
+    bool wk = (p->flags & DRV_FRAMELINK_POSE_WANT_KEY) != 0;
+    if (wk) h->want_key = true;
+    if (wk && !h->want_key_run) h->cst.key_requests++;
+    h->want_key_run = wk;
     pthread_cond_broadcast(&h->cond);
     pthread_mutex_unlock(&h->lock);
 }
@@ -334,6 +359,7 @@ API void hmdwarp_host_close(hmdwarp_host *h)
     if (h->reader_up) pthread_join(h->reader, NULL);
     host_link_close(h->link);
     host_frame_scratch_free(&h->scratch);
+    drv_framelink_enc_destroy(h->enc);
     free(h->buf);
     free(h->path);
     pthread_cond_destroy(&h->cond);
@@ -458,6 +484,146 @@ API int hmdwarp_host_set_cameras(hmdwarp_host *h, const hmdwarp_host_cameras *ca
 
 /* ---- frames ---- */
 
+/* ---- compression ---- */
+
+static bool codec_in(int c, int lo, int hi) { return c == HMDWARP_HOST_CODEC_AUTO || (c >= lo && c <= hi); }
+
+static int wire_depth_of(int fmt)
+{
+    return fmt == DRV_FRAMELINK_FMT_F32       ? HMDWARP_HOST_WIRE_DEPTH_F32
+           : fmt == DRV_FRAMELINK_FMT_UNORM16 ? HMDWARP_HOST_WIRE_DEPTH_UNORM16
+           : fmt == DRV_FRAMELINK_FMT_INV16   ? HMDWARP_HOST_WIRE_DEPTH_INV16
+                                              : HMDWARP_HOST_WIRE_DEPTH_AUTO;
+}
+
+static bool enc_params_equal(const drv_framelink_enc_params *a, const drv_framelink_enc_params *b)
+{
+    return a->color == b->color && a->quality == b->quality && a->jpeg_sub == b->jpeg_sub &&
+           a->slices == b->slices && a->video_kbps == b->video_kbps && a->refresh_frames == b->refresh_frames &&
+           a->fps == b->fps && a->depth == b->depth && a->depth_format == b->depth_format &&
+           a->depth_scale == b->depth_scale && a->other == b->other && a->zstd_level == b->zstd_level;
+}
+
+/* A codec chosen by hand must be one the board announced (when it said: board != 0). */
+static int announced(const char *field, int c, unsigned board)
+{
+    if (!board || (board & DRV_CODEC_BIT(c))) return HMDWARP_HOST_OK;
+    char names[64] = "";
+    for (int k = 0; k < DRV_CODEC_COUNT; k++)
+        if (board & DRV_CODEC_BIT(k))
+            snprintf(names + strlen(names), sizeof names - strlen(names), " %s", drv_codec_name((drv_codec_id)k));
+    return host_fail(HMDWARP_HOST_ERR_FORMAT, "codec.%s: %s: the board does not decode it (it announced:%s)", field,
+                     drv_codec_name((drv_codec_id)c), names);
+}
+
+/* The encoder's parameters for frame f: the options with auto resolved against the board's codecs (board 0:
+ * unknown, so auto is raw) and the frame's depth encoding. */
+static int resolve_codec(const hmdwarp_host_codec_options *o, const drv_frame *f, unsigned board, double hz,
+                         drv_framelink_enc_params *p)
+{
+    unsigned avail = board ? board : DRV_CODEC_BIT(DRV_CODEC_RAW);
+    bool zstd = avail & DRV_CODEC_BIT(DRV_CODEC_ZSTD);
+    int rc;
+    p->color = o->color != HMDWARP_HOST_CODEC_AUTO                 ? (drv_codec_id)o->color
+               : avail & DRV_CODEC_BIT(DRV_CODEC_JPEG) ? DRV_CODEC_JPEG
+                                                       : DRV_CODEC_RAW;
+    if ((rc = announced("color", p->color, board))) return rc;
+    bool video = p->color == DRV_CODEC_H264 || p->color == DRV_CODEC_HEVC;
+    p->quality = o->quality ? o->quality : video ? AUTO_VIDEO_QUANTISER : AUTO_JPEG_QUALITY;
+    p->jpeg_sub = o->jpeg_subsampling == 444 ? DRV_JPEG_444 : DRV_JPEG_420;
+    p->slices = p->color != DRV_CODEC_JPEG ? 1 : o->slices ? o->slices : AUTO_JPEG_SLICES;
+    p->video_kbps = o->video_kbps;
+    p->refresh_frames = o->refresh_frames;
+    if (hz > 0) p->fps = hz / 2; /* rate control's guess: hosts render at half the panel's refresh or faster */
+    if (f->planes & DRV_PLANE_DEPTH) {
+        p->depth = o->depth != HMDWARP_HOST_CODEC_AUTO ? (drv_codec_id)o->depth
+                   : zstd                              ? DRV_CODEC_ZSTD
+                                                       : DRV_CODEC_RAW;
+        if ((rc = announced("depth", p->depth, board))) return rc;
+        bool linear = f->depth_encoding == WARP_DEPTH_LINEAR;
+        switch (o->depth_format) {
+        case HMDWARP_HOST_WIRE_DEPTH_F32: p->depth_format = DRV_FRAMELINK_FMT_F32; break;
+        case HMDWARP_HOST_WIRE_DEPTH_UNORM16: p->depth_format = DRV_FRAMELINK_FMT_UNORM16; break;
+        case HMDWARP_HOST_WIRE_DEPTH_INV16: p->depth_format = DRV_FRAMELINK_FMT_INV16; break;
+        default: /* 16 bits when compressing: INV16 for metres, UNORM16 for window depth; raw keeps the frame's */
+            p->depth_format = p->depth == DRV_CODEC_ZSTD ? linear ? DRV_FRAMELINK_FMT_INV16 : DRV_FRAMELINK_FMT_UNORM16
+                                                         : 0;
+        }
+        if (p->depth_format == DRV_FRAMELINK_FMT_UNORM16 && linear)
+            return host_fail(HMDWARP_HOST_ERR_FORMAT, "codec.depth_format: UNORM16 holds window depth only, the "
+                             "frame's is linear (INV16 is the 16-bit format for metres)");
+        if (p->depth_format == DRV_FRAMELINK_FMT_INV16 && !linear)
+            return host_fail(HMDWARP_HOST_ERR_FORMAT, "codec.depth_format: INV16 holds linear depth only, the frame's "
+                             "is window depth (UNORM16 is its 16-bit format)");
+        p->depth_scale = o->depth_scale;
+    }
+    if (f->planes & (DRV_PLANE_IDS | DRV_PLANE_MOTION | DRV_PLANE_LAYERS)) {
+        p->other = o->other != HMDWARP_HOST_CODEC_AUTO ? (drv_codec_id)o->other
+                   : zstd                              ? DRV_CODEC_ZSTD
+                                                       : DRV_CODEC_RAW;
+        if ((rc = announced("other", p->other, board))) return rc;
+    }
+    return HMDWARP_HOST_OK;
+}
+
+API void hmdwarp_host_codec_defaults(hmdwarp_host_codec_options *out)
+{
+    if (!out) return;
+    *out = (hmdwarp_host_codec_options){.color = HMDWARP_HOST_CODEC_AUTO, .depth = HMDWARP_HOST_CODEC_AUTO,
+                                        .other = HMDWARP_HOST_CODEC_AUTO};
+}
+
+API int hmdwarp_host_set_codec(hmdwarp_host *h, const hmdwarp_host_codec_options *o)
+{
+    if (!h) return host_fail(HMDWARP_HOST_ERR_ARG, "handle: NULL");
+    if (o) {
+        if (!codec_in(o->color, HMDWARP_HOST_CODEC_RAW, HMDWARP_HOST_CODEC_HEVC) ||
+            o->color == HMDWARP_HOST_CODEC_ZSTD)
+            return host_fail(HMDWARP_HOST_ERR_ARG, "codec.color: %d (want AUTO, RAW, JPEG, H264 or HEVC)", o->color);
+        if (!codec_in(o->depth, HMDWARP_HOST_CODEC_RAW, HMDWARP_HOST_CODEC_ZSTD))
+            return host_fail(HMDWARP_HOST_ERR_ARG, "codec.depth: %d (want AUTO, RAW or ZSTD)", o->depth);
+        if (!codec_in(o->other, HMDWARP_HOST_CODEC_RAW, HMDWARP_HOST_CODEC_ZSTD))
+            return host_fail(HMDWARP_HOST_ERR_ARG, "codec.other: %d (want AUTO, RAW or ZSTD)", o->other);
+        bool video = o->color == HMDWARP_HOST_CODEC_H264 || o->color == HMDWARP_HOST_CODEC_HEVC;
+        if (o->quality < 0 || o->quality > (video ? 51 : 100))
+            return host_fail(HMDWARP_HOST_ERR_ARG, "codec.quality: %d (want 0 for the default, or 1..%d)", o->quality,
+                             video ? 51 : 100);
+        if (o->jpeg_subsampling != 0 && o->jpeg_subsampling != 420 && o->jpeg_subsampling != 444)
+            return host_fail(HMDWARP_HOST_ERR_ARG, "codec.jpeg_subsampling: %d (want 420 or 444)", o->jpeg_subsampling);
+        if (o->slices < 0 || o->slices > 16)
+            return host_fail(HMDWARP_HOST_ERR_ARG, "codec.slices: %d (want 1..16, or 0 for 4)", o->slices);
+        if (o->video_kbps < 0 || o->refresh_frames < 0)
+            return host_fail(HMDWARP_HOST_ERR_ARG, "codec.%s: negative", o->video_kbps < 0 ? "video_kbps"
+                                                                                          : "refresh_frames");
+        if (o->depth_format < HMDWARP_HOST_WIRE_DEPTH_AUTO || o->depth_format > HMDWARP_HOST_WIRE_DEPTH_INV16)
+            return host_fail(HMDWARP_HOST_ERR_ARG, "codec.depth_format: %d (want AUTO, F32, UNORM16 or INV16)",
+                             o->depth_format);
+        if (o->depth_scale < 0 || o->depth_scale > 2)
+            return host_fail(HMDWARP_HOST_ERR_ARG, "codec.depth_scale: %d (want 0, 1 or 2)", o->depth_scale);
+        const int picked[3] = {o->color, o->depth, o->other};
+        const char *const names[3] = {"color", "depth", "other"};
+        for (int i = 0; i < 3; i++)
+            if (picked[i] != HMDWARP_HOST_CODEC_AUTO && !(drv_codec_encodable() & DRV_CODEC_BIT(picked[i])))
+                return host_fail(HMDWARP_HOST_ERR_UNSUPPORTED, "codec.%s: %s: this library cannot encode it here",
+                                 names[i], drv_codec_name((drv_codec_id)picked[i]));
+    }
+    pthread_mutex_lock(&h->send_lock);
+    h->codec_set = o != NULL;
+    if (o) h->codec = *o;
+    pthread_mutex_unlock(&h->send_lock);
+    return HMDWARP_HOST_OK;
+}
+
+API int hmdwarp_host_get_codec_stats(hmdwarp_host *h, hmdwarp_host_codec_stats *out)
+{
+    if (!h || !out) return host_fail(HMDWARP_HOST_ERR_ARG, "%s: NULL", !h ? "handle" : "out");
+    pthread_mutex_lock(&h->lock);
+    *out = h->cst;
+    out->board_codecs = h->board_codecs;
+    pthread_mutex_unlock(&h->lock);
+    return HMDWARP_HOST_OK;
+}
+
 /* Checks and encodes into h->buf (send_lock held); returns the size or an error. */
 static int64_t encode_locked(hmdwarp_host *h, const hmdwarp_host_frame *frame)
 {
@@ -492,23 +658,80 @@ static int64_t encode_locked(hmdwarp_host *h, const hmdwarp_host_frame *frame)
                            frame->pose_seq, POSE_RING);
     }
     ctx.seq = h->st.frames_sent + 1;
+    unsigned board_codecs = h->board_codecs;
+    bool want_key = h->want_key;
+    h->want_key = false;
     pthread_mutex_unlock(&h->lock);
     drv_framelink_tx tx;
     if (!rc) rc = host_frame_build(&h->scratch, frame, &ctx, &tx);
     if (rc) return rc;
-    size_t size = drv_framelink_size_ex(&h->scratch.f, &tx);
-    if (!size) return host_fail(HMDWARP_HOST_ERR_FORMAT, "frame: the planes and formats cannot be encoded together");
-    if (ctx.cams_from_board && size > cams.max_frame_bytes)
-        return host_fail(HMDWARP_HOST_ERR_SIZE, "frame: %zu bytes, over the board's max_frame_bytes %llu", size,
-                         (unsigned long long)cams.max_frame_bytes);
-    if (size > h->cap) {
-        uint8_t *b = realloc(h->buf, size);
-        if (!b) return host_fail(HMDWARP_HOST_ERR_NO_MEMORY, "frame: out of memory for %zu bytes", size);
-        h->buf = b;
-        h->cap = size;
+    const drv_frame *f = &h->scratch.f;
+    size_t raw_size = drv_framelink_size_ex(f, &tx);
+    if (!raw_size)
+        return host_fail(HMDWARP_HOST_ERR_FORMAT, "frame: the planes and formats cannot be encoded together");
+    drv_framelink_enc_params p = drv_framelink_enc_params_raw();
+    if (h->codec_set && (rc = resolve_codec(&h->codec, f, ctx.cams_from_board ? board_codecs : 0,
+                                            ctx.cams ? cams.refresh_hz : 0, &p)))
+        return rc;
+    bool raw = p.color == DRV_CODEC_RAW && p.depth == DRV_CODEC_RAW && p.other == DRV_CODEC_RAW &&
+               p.depth_scale == 0 && p.depth_format == 0;
+    int64_t now = hmdwarp_host_now_ns();
+    /* a key frame for a run of requests, then none until it could have arrived (KEY_HOLDOFF_NS) */
+    bool key = want_key && now - h->last_key_ns >= KEY_HOLDOFF_NS;
+    if (key) h->last_key_ns = now;
+    size_t size, bound = raw ? raw_size : 0;
+    char why[200] = "";
+    if (!raw) {
+        if (!h->enc || f->color[0].w != h->enc_w || f->color[0].h != h->enc_h || !enc_params_equal(&p, &h->enc_p)) {
+            drv_framelink_enc_destroy(h->enc);
+            h->enc = drv_framelink_enc_create(&p, f->color[0].w, f->color[0].h, why, sizeof why);
+            if (!h->enc) return host_fail(HMDWARP_HOST_ERR_FORMAT, "codec: %s", why);
+            h->enc_p = p, h->enc_w = f->color[0].w, h->enc_h = f->color[0].h;
+        }
+        bound = drv_framelink_enc_bound(h->enc, f);
+        if (!bound)
+            return host_fail(HMDWARP_HOST_ERR_FORMAT, "frame: the planes and formats cannot be encoded with codecs "
+                             "%s/%s/%s", drv_codec_name(p.color), drv_codec_name(p.depth), drv_codec_name(p.other));
     }
-    if (drv_framelink_encode_ex(&h->scratch.f, &tx, h->buf, h->cap) != size)
-        return host_fail(HMDWARP_HOST_ERR_FORMAT, "frame: the encoder refused it");
+    /* a raw frame is checked against the board's limit before it is written; a compressed one once its size is
+     * known (the bound only sizes the buffer) */
+    if (raw && ctx.cams_from_board && raw_size > cams.max_frame_bytes)
+        return host_fail(HMDWARP_HOST_ERR_SIZE, "frame: %zu bytes, over the board's max_frame_bytes %llu", raw_size,
+                         (unsigned long long)cams.max_frame_bytes);
+    if (bound > h->cap) {
+        uint8_t *b = realloc(h->buf, bound);
+        if (!b) return host_fail(HMDWARP_HOST_ERR_NO_MEMORY, "frame: out of memory for %zu bytes", bound);
+        h->buf = b;
+        h->cap = bound;
+    }
+    int64_t t0 = hmdwarp_host_now_ns();
+    if (raw) {
+        if (drv_framelink_encode_ex(f, &tx, h->buf, h->cap) != raw_size)
+            return host_fail(HMDWARP_HOST_ERR_FORMAT, "frame: the encoder refused it");
+        size = raw_size;
+    } else {
+        size = drv_framelink_enc_encode(h->enc, f, &tx, key, h->buf, h->cap, why, sizeof why);
+        if (!size) return host_fail(HMDWARP_HOST_ERR_FORMAT, "frame: %s", why);
+        if (ctx.cams_from_board && size > cams.max_frame_bytes)
+            return host_fail(HMDWARP_HOST_ERR_SIZE, "frame: %zu bytes compressed, over the board's max_frame_bytes "
+                             "%llu", size, (unsigned long long)cams.max_frame_bytes);
+    }
+    double ms = (double)(hmdwarp_host_now_ns() - t0) * 1e-6;
+    pthread_mutex_lock(&h->lock);
+    hmdwarp_host_codec_stats *cs = &h->cst;
+    cs->color = (int)p.color, cs->depth = (int)p.depth, cs->other = (int)p.other;
+    cs->depth_format = wire_depth_of(p.depth_format);
+    cs->frames++;
+    cs->compressed_frames += !raw && (p.color || p.depth || p.other);
+    cs->key_frames += key && (p.color == DRV_CODEC_H264 || p.color == DRV_CODEC_HEVC);
+    cs->plane_bytes += raw_size;
+    cs->wire_bytes += size;
+    cs->plane_bytes_last = (double)raw_size;
+    cs->wire_bytes_last = (double)size;
+    cs->encode_ms_last = ms;
+    h->encode_ms_total += ms;
+    cs->encode_ms_mean = h->encode_ms_total / (double)cs->frames;
+    pthread_mutex_unlock(&h->lock);
     return (int64_t)size;
 }
 

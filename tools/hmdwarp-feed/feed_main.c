@@ -49,6 +49,8 @@ typedef struct {
     long damage_every;
     int threads;
     bool verbose;
+    hmdwarp_host_codec_options codec; /* --color-codec ... --depth-scale (framelink v2) */
+    bool codec_set;
 } feed_opts;
 
 static atomic_bool g_stop;
@@ -93,6 +95,18 @@ static void usage(FILE *f)
             "  --depth f32|unorm16 depth plane format (unorm16 only with window-depth encodings; the simulator\n"
             "                      renders linear depth, so f32 there; default f32)\n"
             "  --threads N         render threads (default 2)\n"
+            "Compression (framelink v2, docs/framelink.md; USB, socket and file output):\n"
+            "  --color-codec C     raw, jpeg, h264, hevc or auto (what the board's camera message announces:\n"
+            "                      JPEG when it decodes it); default raw\n"
+            "  --quality N         JPEG quality 1..100 (default 85); video quantiser 1..51 (default 23)\n"
+            "  --jpeg-sub 420|444  JPEG chroma subsampling (default 420)\n"
+            "  --slices N          JPEG slices per eye 1..16, decoded in parallel on the board (default 4)\n"
+            "  --video-kbps N      H.264/HEVC constant bit rate per eye in kbit/s (default 0: constant quality)\n"
+            "  --depth-codec C     raw, zstd or auto (zstd when the board decodes it); default raw\n"
+            "  --depth-format F    depth on the wire: f32, unorm16 (window depth), inv16 (linear depth as\n"
+            "                      65535 * near / z) or auto (inv16/unorm16 with zstd); default auto\n"
+            "  --depth-scale 0|1|2 send depth at 1/2^N resolution per axis (the board upsamples; default 0)\n"
+            "  --other-codec C     ids, motion, layers: raw, zstd or auto; default raw\n"
             "Pacing:\n"
             "  --rate HZ           render at most this often (default 45)\n"
             "  --frames N          stop after N frames (default: run until interrupted)\n"
@@ -143,7 +157,8 @@ static bool parse_opts(int argc, char **argv, feed_opts *o)
                      .seq_rate = "own"};
     enum { O_DEVICE = 256, O_IFACE, O_WAIT, O_SCENE, O_PNG, O_EYE, O_FOV, O_NEAR, O_PLANES, O_DEPTH, O_THREADS,
            O_RATE, O_FRAMES, O_DURATION, O_FILE, O_STDOUT, O_SYNTH, O_V4L2, O_V4L2_FMT, O_V4L2_DEPTH, O_SYNTH_POSES,
-           O_DAMAGE, O_SOCKET, O_SEQUENCE, O_SEQ_RATE, O_LOOP };
+           O_DAMAGE, O_SOCKET, O_SEQUENCE, O_SEQ_RATE, O_LOOP, O_COLOR_CODEC, O_QUALITY, O_JPEG_SUB, O_SLICES,
+           O_VIDEO_KBPS, O_DEPTH_CODEC, O_DEPTH_FORMAT, O_DEPTH_SCALE, O_OTHER_CODEC };
     /* One entry a line: a new option is a line here and a case below. */
     static const struct option lo[] = {
         {"socket", 1, 0, O_SOCKET},
@@ -154,8 +169,19 @@ static bool parse_opts(int argc, char **argv, feed_opts *o)
         {"frames", 1, 0, O_FRAMES}, {"duration", 1, 0, O_DURATION}, {"file", 1, 0, O_FILE},
         {"stdout", 0, 0, O_STDOUT}, {"synth-rate", 1, 0, O_SYNTH}, {"v4l2", 1, 0, O_V4L2},
         {"v4l2-format", 1, 0, O_V4L2_FMT}, {"v4l2-depth", 0, 0, O_V4L2_DEPTH}, {"synth-poses", 0, 0, O_SYNTH_POSES}, {"damage-every", 1, 0, O_DAMAGE}, {"verbose", 0, 0, 'v'}, {"help", 0, 0, 'h'},
+        {"color-codec", 1, 0, O_COLOR_CODEC},
+        {"quality", 1, 0, O_QUALITY},
+        {"jpeg-sub", 1, 0, O_JPEG_SUB},
+        {"slices", 1, 0, O_SLICES},
+        {"video-kbps", 1, 0, O_VIDEO_KBPS},
+        {"depth-codec", 1, 0, O_DEPTH_CODEC},
+        {"depth-format", 1, 0, O_DEPTH_FORMAT},
+        {"depth-scale", 1, 0, O_DEPTH_SCALE},
+        {"other-codec", 1, 0, O_OTHER_CODEC},
         {"version", 0, 0, 'V'}, {0, 0, 0, 0}};
     int c;
+    o->codec = (hmdwarp_host_codec_options){.color = HMDWARP_HOST_CODEC_RAW, .depth = HMDWARP_HOST_CODEC_RAW,
+                                            .other = HMDWARP_HOST_CODEC_RAW};
     while ((c = getopt_long(argc, argv, "vh", lo, NULL)) != -1) {
         switch (c) {
         case O_DEVICE:
@@ -205,6 +231,38 @@ static bool parse_opts(int argc, char **argv, feed_opts *o)
             o->damage_every = atol(optarg);
             if (o->damage_every < 1) return fprintf(stderr, "--damage-every wants a whole number >= 1\n"), false;
             break;
+        case O_COLOR_CODEC:
+        case O_DEPTH_CODEC:
+        case O_OTHER_CODEC: {
+            /* colour: raw jpeg h264 hevc; depth and other planes: raw zstd; auto for each */
+            static const char *const names[] = {"raw", "zstd", "jpeg", "h264", "hevc"};
+            const bool color = c == O_COLOR_CODEC;
+            int v = strcmp(optarg, "auto") == 0 ? HMDWARP_HOST_CODEC_AUTO : -2;
+            for (int i = 0; i < 5 && v == -2; i++)
+                if (strcmp(optarg, names[i]) == 0 && (color ? i != 1 : i <= 1)) v = i;
+            if (v == -2)
+                return fprintf(stderr, "--%s wants %s or auto\n", color ? "color-codec" : c == O_DEPTH_CODEC
+                                                                       ? "depth-codec" : "other-codec",
+                               color ? "raw, jpeg, h264, hevc" : "raw, zstd"), false;
+            *(color ? &o->codec.color : c == O_DEPTH_CODEC ? &o->codec.depth : &o->codec.other) = v;
+            o->codec_set = true;
+            break;
+        }
+        case O_QUALITY: o->codec.quality = atoi(optarg), o->codec_set = true; break;
+        case O_JPEG_SUB: o->codec.jpeg_subsampling = atoi(optarg), o->codec_set = true; break;
+        case O_SLICES: o->codec.slices = atoi(optarg), o->codec_set = true; break;
+        case O_VIDEO_KBPS: o->codec.video_kbps = atoi(optarg), o->codec_set = true; break;
+        case O_DEPTH_SCALE: o->codec.depth_scale = atoi(optarg), o->codec_set = true; break;
+        case O_DEPTH_FORMAT: {
+            static const char *const names[] = {"auto", "f32", "unorm16", "inv16"};
+            int v = -1;
+            for (int i = 0; i < 4; i++)
+                if (strcmp(optarg, names[i]) == 0) v = i;
+            if (v < 0) return fprintf(stderr, "--depth-format wants f32, unorm16, inv16 or auto\n"), false;
+            o->codec.depth_format = v;
+            o->codec_set = true;
+            break;
+        }
         case 'v': o->verbose = true; break;
         case 'h': usage(stdout); exit(0);
         case 'V': printf("hmdwarp-feed %s\n", plat_version()); exit(0);
@@ -219,6 +277,9 @@ static bool parse_opts(int argc, char **argv, feed_opts *o)
                false;
     if (o->socket_path && o->out_path)
         return fprintf(stderr, "--socket and --file/--stdout are two outputs: choose one\n"), false;
+    if (o->codec_set && o->v4l2_dev)
+        return fprintf(stderr, "--color-codec ... --depth-scale compress framelink frames: USB, socket or file "
+                               "output only, not --v4l2\n"), false;
     return true;
 }
 
@@ -376,9 +437,17 @@ static hmdwarp_host *open_link(const feed_opts *o)
         fprintf(stderr, "hmdwarp-feed: waiting for %04x:%04x ...\n", o->vid, o->pid);
     }
     hmdwarp_host *h = hmdwarp_host_open_ex(&ho);
-    if (!h) fprintf(stderr, "hmdwarp-feed: %s\n", hmdwarp_host_last_error());
-    else if (!o->out_path)
+    if (!h) {
+        fprintf(stderr, "hmdwarp-feed: %s\n", hmdwarp_host_last_error());
+        return NULL;
+    }
+    if (!o->out_path)
         fprintf(stderr, "hmdwarp-feed: connected to %s\n", o->socket_path ? o->socket_path : "the board");
+    if (o->codec_set && hmdwarp_host_set_codec(h, &o->codec) != HMDWARP_HOST_OK) {
+        fprintf(stderr, "hmdwarp-feed: %s\n", hmdwarp_host_last_error());
+        hmdwarp_host_close(h);
+        return NULL;
+    }
     return h;
 }
 
@@ -623,10 +692,15 @@ int main(int argc, char **argv)
             if (h && !synth) hmdwarp_host_get_stats(h, &st);
             double s = (double)(sent - report_at + PLAT_NS_PER_S) * 1e-9;
             fprintf(stderr, "%s: %.1f MB/s, %.1f frames/s, render %.1f ms, latency pose->sent %.1f ms, poses %llu "
-                            "(%llu bad)\n",
+                            "(%llu bad)",
                     sink_name, (double)win_bytes / s * 1e-6, (double)win_frames / s, win_render_ms / (double)win_frames,
                     win_latency_ms / (double)win_frames, (unsigned long long)st.poses_received,
                     (unsigned long long)st.messages_rejected);
+            hmdwarp_host_codec_stats cs;
+            if (h && o.codec_set && hmdwarp_host_get_codec_stats(h, &cs) == HMDWARP_HOST_OK && cs.wire_bytes_last > 0)
+                fprintf(stderr, ", compressed %.1f:1, encode %.1f ms, key frames %llu", cs.plane_bytes_last /
+                        cs.wire_bytes_last, cs.encode_ms_last, (unsigned long long)cs.key_frames);
+            fputc('\n', stderr);
             report_at = sent + PLAT_NS_PER_S;
             win_frames = win_bytes = 0;
             win_latency_ms = win_render_ms = 0;

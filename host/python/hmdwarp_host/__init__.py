@@ -28,8 +28,8 @@ import numpy as np
 from . import _native
 from ._native import lib
 
-__all__ = ["Host", "HostError", "Pose", "PoseMsg", "Camera", "Cameras", "Stats", "FRAGMENT_DTYPE", "now_ns",
-           "version"]
+__all__ = ["Host", "HostError", "Pose", "PoseMsg", "Camera", "Cameras", "Stats", "CodecStats", "FRAGMENT_DTYPE",
+           "now_ns", "version"]
 
 # Error codes (hmdwarp_host_error).
 ERR_ARG, ERR_SIZE, ERR_NOT_FINITE, ERR_FORMAT, ERR_NO_CAMERAS = -1, -2, -3, -4, -5
@@ -40,6 +40,9 @@ _COLOR_FORMATS = {"rgba8": (1, 4), "bgra8": (2, 4), "rgb8": (3, 3), "rgbx8": (4,
 # depth_format name -> (float32 format, uint16 format or None)
 _DEPTH_FORMATS = {"linear": (1, None), "ray": (2, None), "standard": (3, 5), "reversed": (4, 6)}
 _ENCODINGS = {0: "linear", 1: "standard", 2: "reversed"}
+# Codec names (hmdwarp_host_codec) and 16-bit depth wire formats (hmdwarp_host_wire_depth) for Host.set_codec.
+_CODECS = {"auto": -1, "raw": 0, "zstd": 1, "jpeg": 2, "h264": 3, "hevc": 4}
+_WIRE_DEPTH = {"auto": 0, "f32": 1, "unorm16": 2, "inv16": 3}
 
 # One transparent fragment of the layers plane, as the C struct lays it out (hmdwarp_host_fragment).
 FRAGMENT_DTYPE = np.dtype([("z", "<f4"), ("rgba", "u1", (4,)), ("id", "<u2")], align=True)
@@ -187,6 +190,7 @@ class Cameras:
 
 
 Stats = dataclasses.make_dataclass("Stats", [name for name, _ in _native.Stats._fields_], frozen=True)
+CodecStats = dataclasses.make_dataclass("CodecStats", [name for name, _ in _native.CodecStats._fields_], frozen=True)
 Stats.__doc__ = "Link statistics (hmdwarp_host_stats): frames and bytes sent, MB/s, send times, poses received..."
 
 
@@ -437,3 +441,25 @@ class Host:
         if rc < 0:
             _fail(rc)
         return Stats(*[getattr(s, name) for name, _ in _native.Stats._fields_])
+
+    def set_codec(self, color: str = "auto", *, quality: int = 0, jpeg_subsampling: int = 0, slices: int = 0,
+                  video_kbps: int = 0, refresh_frames: int = 0, depth: str = "auto", depth_format: str = "auto",
+                  depth_scale: int = 0, other: str = "auto") -> None:
+        """Compresses the frames sent from now on (framelink v2; docs/host-api.md). Codecs: "auto" (from what the
+        board announces), "raw", "jpeg", "h264", "hevc" (colour), "zstd" (depth, other); depth_format "auto",
+        "f32", "unorm16" or "inv16". set_codec("raw", depth="raw", other="raw") sends version 1 frames again."""
+        try:
+            o = _native.CodecOptions(_CODECS[color], quality, jpeg_subsampling, slices, video_kbps, refresh_frames,
+                                     _CODECS[depth], _WIRE_DEPTH[depth_format], depth_scale, _CODECS[other])
+        except KeyError as e:
+            raise HostError(ERR_ARG, "set_codec: unknown name %s" % e) from None
+        rc = lib.hmdwarp_host_set_codec(self._handle(), ctypes.byref(o))
+        if rc < 0:
+            _fail(rc)
+
+    def codec_stats(self) -> "CodecStats":
+        s = _native.CodecStats()
+        rc = lib.hmdwarp_host_get_codec_stats(self._handle(), ctypes.byref(s))
+        if rc < 0:
+            _fail(rc)
+        return CodecStats(*[getattr(s, name) for name, _ in _native.CodecStats._fields_])

@@ -60,6 +60,19 @@ class Stats(ctypes.Structure):
                 ("disconnects", ctypes.c_uint64), ("reconnects", ctypes.c_uint64), ("connected", ctypes.c_int)]
 
 
+class CodecOptions(ctypes.Structure):
+    _fields_ = [(name, ctypes.c_int) for name in ("color", "quality", "jpeg_subsampling", "slices", "video_kbps",
+                                                  "refresh_frames", "depth", "depth_format", "depth_scale", "other")]
+
+
+class CodecStats(ctypes.Structure):
+    _fields_ = [("color", ctypes.c_int), ("depth", ctypes.c_int), ("other", ctypes.c_int),
+                ("depth_format", ctypes.c_int), ("frames", ctypes.c_uint64), ("compressed_frames", ctypes.c_uint64),
+                ("key_requests", ctypes.c_uint64), ("key_frames", ctypes.c_uint64), ("plane_bytes", ctypes.c_uint64),
+                ("wire_bytes", ctypes.c_uint64), ("plane_bytes_last", c_double), ("wire_bytes_last", c_double),
+                ("encode_ms_last", c_double), ("encode_ms_mean", c_double), ("board_codecs", ctypes.c_uint)]
+
+
 def _load():
     # HMDWARP_HOST_LIB: a library outside the loader's path (the build tree in tests); else the installed soname.
     path = os.environ.get("HMDWARP_HOST_LIB") or "libhmdwarp-host.so.%d" % ABI_VERSION
@@ -87,6 +100,8 @@ def _load():
         "hmdwarp_host_encode": (c_int64, [handle, ctypes.POINTER(Frame), ctypes.c_void_p, c_size_t]),
         "hmdwarp_host_send_raw": (ctypes.c_int, [handle, ctypes.c_void_p, c_size_t]),
         "hmdwarp_host_get_stats": (ctypes.c_int, [handle, ctypes.POINTER(Stats)]),
+        "hmdwarp_host_set_codec": (ctypes.c_int, [handle, ctypes.POINTER(CodecOptions)]),
+        "hmdwarp_host_get_codec_stats": (ctypes.c_int, [handle, ctypes.POINTER(CodecStats)]),
     }
     for name, (res, args) in protos.items():
         fn = getattr(lib, name)
