@@ -240,6 +240,12 @@ $(BUILD)/tests/unit/test_host: $(BUILD)/obj/tests/unit/test_host.o $(TEST_SUPPOR
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -Wl,-rpath,'$$ORIGIN/../..' -o $@ $^ $(LDLIBS_ALL) $(TEST_LIBS)
 
+# test_codec_link: libhmdwarp-host (the .so, as test_host) compressing to the board's socket backend.
+$(BUILD)/tests/unit/test_codec_link: $(BUILD)/obj/tests/unit/test_codec_link.o $(TEST_SUPPORT_OBJ) $(LIBS) $(HOST_LIB)
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -Wl,-rpath,'$$ORIGIN/../..' -o $@ $^ $(LDLIBS_ALL) $(TEST_LIBS)
+
 # The installed-library test's board and host program (tests/packaging/test_host_install.sh builds the host program
 # again against the installed header; this build keeps it compiling clean with the project's flags).
 $(BUILD)/tests/packaging/host_fake_board: $(BUILD)/obj/tests/packaging/host_fake_board.o $(LIBS)
