@@ -165,6 +165,32 @@ def library_refusals_carry_its_message_and_send_nothing():
 
 
 @test
+def set_codec_compresses_and_names_bad_options():
+    h, _ = file_host("codec.bin")
+    with h:
+        color, depth = images()
+        raises(hh.ERR_ARG, lambda: h.set_codec("vp9"), "vp9")
+        raises(hh.ERR_ARG, lambda: h.set_codec("jpeg", slices=17), "codec.slices")
+        raises(hh.ERR_ARG, lambda: h.set_codec("zstd"), "codec.color")
+        h.set_codec("raw", depth="raw", other="raw")
+        data = h.encode(color, depth, pose=EYES)
+        check(data[4] == 1, "an all-raw frame is version %d, want 1" % data[4])
+        h.set_codec("jpeg", quality=90, depth="zstd")
+        try:
+            data = h.encode(color, depth, pose=EYES)
+        except hh.HostError as e:
+            if "not built yet" in str(e):
+                return "SKIP the framelink encoder: " + str(e)
+            raise
+        check(data[4] == 2, "a compressed frame is version %d, want 2" % data[4])
+        s = h.codec_stats()
+        check(s.color == 2 and s.depth == 1 and s.compressed_frames == 1 and s.frames == 2,
+              "codec_stats %r" % (s,))
+        check(s.wire_bytes_last < s.plane_bytes_last, "compressed %d bytes, raw %d" % (s.wire_bytes_last,
+                                                                                       s.plane_bytes_last))
+
+
+@test
 def no_cameras_and_bad_connections():
     with hh.Host("file:" + os.path.join(TMP, "d.bin")) as h:
         color, depth = images()
