@@ -241,7 +241,9 @@ typedef struct {
  * bytes. Pixel data is read only during the call. */
 int hmdwarp_host_submit(hmdwarp_host *h, const hmdwarp_host_frame *frame);
 /* The same checks and conversions, into buf instead of the transport: returns the frame's size in bytes (> 0;
- * nothing written when it exceeds cap, so call with cap 0 to size buf) or an error. For tools and captures. */
+ * nothing written when it exceeds cap, so call with cap 0 to size buf) or an error. For tools and captures. With a
+ * codec (hmdwarp_host_set_codec) a call that only sized buf keeps the frame it compressed, and the next encode of
+ * the same frame pointer returns it without compressing again (a video stream advances once). */
 int64_t hmdwarp_host_encode(hmdwarp_host *h, const hmdwarp_host_frame *frame, void *buf, size_t cap);
 /* Sends bytes as they are (an encoded frame, possibly damaged on purpose for fault tests); counted as a frame. */
 int hmdwarp_host_send_raw(hmdwarp_host *h, const void *buf, size_t len);

@@ -56,6 +56,9 @@ struct hmdwarp_host {
     drv_framelink_enc_params enc_p;
     int enc_w, enc_h;
     int64_t last_key_ns;
+    bool last_raw;                        /* the frame last encoded into buf went out raw */
+    const hmdwarp_host_frame *sized;      /* a compressed frame in buf only sized by encode (cap too small) */
+    int64_t sized_len;
 
     pthread_mutex_t lock; /* everything below */
     pthread_cond_t cond;
@@ -704,6 +707,7 @@ static int64_t encode_locked(hmdwarp_host *h, const hmdwarp_host_frame *frame)
         h->buf = b;
         h->cap = bound;
     }
+    h->last_raw = raw;
     int64_t t0 = hmdwarp_host_now_ns();
     if (raw) {
         if (drv_framelink_encode_ex(f, &tx, h->buf, h->cap) != raw_size)
@@ -785,6 +789,7 @@ API int hmdwarp_host_submit(hmdwarp_host *h, const hmdwarp_host_frame *frame)
     if (!h->link || (h->messages && !is_connected(h))) {
         rc = host_fail(HMDWARP_HOST_ERR_NOT_CONNECTED, "submit: not connected (the board went away; reconnecting)");
     } else {
+        h->sized = NULL; /* buf is encoded again */
         int64_t n = encode_locked(h, frame);
         if (n < 0) {
             count_refused(h);
@@ -802,9 +807,13 @@ API int64_t hmdwarp_host_encode(hmdwarp_host *h, const hmdwarp_host_frame *frame
     if (!h) return host_fail(HMDWARP_HOST_ERR_ARG, "handle: NULL");
     if (!buf && cap) return host_fail(HMDWARP_HOST_ERR_ARG, "buf: NULL with cap %zu", cap);
     pthread_mutex_lock(&h->send_lock);
-    int64_t n = encode_locked(h, frame);
+    /* A compressed frame only sized (cap too small) stays in buf: the caller's next encode of the same frame gets
+     * it as it was, so the size-then-fetch idiom advances a video stream by one frame, not two. */
+    int64_t n = h->sized && h->sized == frame ? h->sized_len : encode_locked(h, frame);
+    h->sized = NULL;
     if (n < 0) count_refused(h);
     if (n > 0 && (size_t)n <= cap) memcpy(buf, h->buf, (size_t)n);
+    else if (n > 0 && !h->last_raw) h->sized = frame, h->sized_len = n;
     pthread_mutex_unlock(&h->send_lock);
     return n;
 }
