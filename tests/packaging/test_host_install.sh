@@ -3,7 +3,8 @@
 # libhmdwarp-host as a user gets it: `make install DESTDIR=...`, then a small C program (host_api_smoke.c) built
 # with the installed header and `pkg-config --cflags --libs hmdwarp-host` only, run against a board on a Unix
 # socket (host_fake_board: the codec's own decoder); the colour the board received must be what the program
-# rendered, byte for byte. TAP output; run from the repository root after `make all` (BUILD=build).
+# rendered, byte for byte; then hmdwarpd's socket backend with the program as host, its panel image compared with
+# what the program rendered. TAP output; run from the repository root after `make all` (BUILD=build).
 # usage: tests/packaging/test_host_install.sh
 set -u
 BUILD=${BUILD:-build}
@@ -13,7 +14,7 @@ CC=${CC:-cc}
 tmp=$(mktemp -d)
 trap 'kill "$board" 2>/dev/null; rm -rf "$tmp"' EXIT
 board=""
-echo "1..8"
+echo "1..9"
 
 if make --no-print-directory BUILD="$BUILD" install DESTDIR="$tmp/root" PREFIX=/usr >"$tmp/install.log" 2>&1; then
     ok "make install DESTDIR=$tmp/root PREFIX=/usr"
@@ -73,16 +74,30 @@ fi
 board=""
 
 # hmdwarpd's own socket backend ([frames] backend = socket, #18 point 3) with the installed program as its host:
-# frames received and shown in --stats. Skipped while this build's hmdwarpd has no such backend.
-set -- --set frames.backend=socket --set "frames.device=$tmp/hmd.sock"
-if ! "$BUILD/hmdwarpd" --check-config "$@" >"$tmp/check.log" 2>&1; then
-    ok "hmdwarpd with the socket backend # SKIP this hmdwarpd has no socket backend: $(tail -n 1 "$tmp/check.log")"
+# frames received and shown in --stats, and the panel image compared with what the program rendered. The board is
+# set up so that showing a frame as rendered is the identity: a still head, a lens without distortion whose scale
+# maps panel pixel centres onto eye pixel centres (64x48 eyes at tan 1 x 0.75, lens scale 32 px), both eyes side by
+# side on a 128x48 panel. The raw sink writes every 10th vsync; the last image is taken after the program's last frame.
+set -- --set frames.backend=socket --set "frames.device=$tmp/hmd.sock" --set sim.trace=still --set sim.imu_rest_s=0.2 \
+    --set sim.eval_every_ms=0 --set render.rt_priority=0 --set eye.width=64 --set eye.height=48 \
+    --set "eye.fov=45 45 36.869898 36.869898" --set display.width=128 --set display.height=48 \
+    --set "lens.k_red=1 0 0 0" --set "lens.k_green=1 0 0 0" --set "lens.k_blue=1 0 0 0" --set lens.scale=32 \
+    --set "lens.center=32 24" --set display.sink=raw --set display.sink_every=10 --set "display.sink_path=$tmp/panel"
+mkdir -p "$tmp/panel"
+if ! "$BUILD/hmdwarpd" --config board/sim/board.ini --check-config "$@" >"$tmp/check.log" 2>&1; then
+    not_ok "hmdwarpd with the socket backend" "--check-config: $(tail -n 1 "$tmp/check.log")"
+    not_ok "the panel shows what the program rendered" "hmdwarpd did not start"
 else
-    "$BUILD/hmdwarpd" "$@" --duration 0 --stats "$tmp/stats.txt" >"$tmp/hmd.log" 2>&1 &
+    "$BUILD/hmdwarpd" --config board/sim/board.ini "$@" --duration 0 --stats "$tmp/stats.txt" >"$tmp/hmd.log" 2>&1 &
     board=$!
     for _ in $(seq 300); do [ -S "$tmp/hmd.sock" ] && break; sleep 0.1; done
     LD_LIBRARY_PATH="$lib" timeout 120 "$tmp/smoke" "socket:$tmp/hmd.sock" 20 "$tmp/hmd.rgba" >"$tmp/smoke2.log" 2>&1
     rc=$?
+    # One more panel image after the last frame (the board keeps showing it).
+    sz=$(stat -c %s "$tmp/panel/frames.rgba" 2>/dev/null || echo 0)
+    for _ in $(seq 300); do [ "$(stat -c %s "$tmp/panel/frames.rgba" 2>/dev/null || echo 0)" -gt "$sz" ] && break
+                            sleep 0.1; done
+    sleep 0.5
     kill -INT "$board" 2>/dev/null; wait "$board"
     board=""
     received=$(sed -n 's/^frames_received=//p' "$tmp/stats.txt" 2>/dev/null)
@@ -92,6 +107,30 @@ else
     else
         not_ok "hmdwarpd with the socket backend" "program: $(tail -n 1 "$tmp/smoke2.log")" \
             "frames_received=${received:-none} frames_shown=${shown:-none}; $(tail -n 2 "$tmp/hmd.log")"
+    fi
+    # The last whole panel image against the last frame rendered, in both halves: colour channels, per pixel.
+    if cmp_out=$(/usr/bin/python3 - "$tmp/panel/frames.rgba" "$tmp/hmd.rgba" <<'PY'
+import sys
+W, H = 64, 48
+panel, host = open(sys.argv[1], "rb").read(), open(sys.argv[2], "rb").read()
+size = 2 * W * H * 4
+if len(panel) < size or len(host) != W * H * 4:
+    print("panel %d bytes, rendered %d bytes" % (len(panel), len(host)))
+    sys.exit(1)
+last = panel[(len(panel) // size - 1) * size:][:size]
+worst, off = 0, 0
+for y in range(H):
+    for x in range(2 * W):
+        p, q = 4 * (y * 2 * W + x), 4 * (y * W + x % W)
+        d = max(abs(last[p + c] - host[q + c]) for c in range(3))
+        worst, off = max(worst, d), off + (d > 2)
+print("largest difference %d, pixels off by more than 2: %d of %d" % (worst, off, 2 * W * H))
+sys.exit(0 if off <= 2 * W * H // 100 else 1)
+PY
+    ); then
+        ok "the panel shows what the program rendered, both eyes: $cmp_out"
+    else
+        not_ok "the panel shows what the program rendered" "$cmp_out"
     fi
 fi
 echo "$((n - fails)) passed, $fails failed"
