@@ -41,9 +41,9 @@ SYSCONFDIR ?= /etc
 BOARD ?= sim
 
 # Libraries every program links (Debian packages named in board/deps.sh).
-# libturbojpeg, libzstd, libavcodec/libavutil/libswscale: framelink v2's plane codecs (drivers/drv_codec*.c).
-PKGS      := inih libpng zlib hidapi-hidraw libusb-1.0 libgpiod libsystemd egl glesv2 gbm libdrm \
-             libturbojpeg libzstd libavcodec libavutil libswscale
+PKGS      := inih libpng zlib hidapi-hidraw libusb-1.0 libgpiod libsystemd egl glesv2 gbm libdrm
+# framelink v2's plane codecs (drivers/drv_codec*.c).
+PKGS      += libturbojpeg libzstd libavcodec libavutil libswscale
 TEST_PKGS := cmocka
 
 OPT      ?= -O2
