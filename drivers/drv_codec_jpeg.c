@@ -16,8 +16,9 @@ struct drv_jpeg {
 };
 
 /* Decoding: a warning (corrupt or truncated entropy data, which libjpeg would paint over with grey) fails the call
- * (2.1 returns -1 for it anyway), and STOPONWARNING makes it stop there rather than decode the rest; LIMITSCANS refuses progressive JPEGs with absurd scan counts, which
- * otherwise take seconds per band (a cheap way for a bad host to stall the frames thread). */
+ * (2.1 returns -1 for it anyway), and STOPONWARNING makes it stop there rather than decode the rest; LIMITSCANS
+ * refuses progressive JPEGs with absurd scan counts, which otherwise take seconds per band (a cheap way for a bad
+ * host to stall the frames thread). */
 #define DEC_FLAGS (TJFLAG_STOPONWARNING | TJFLAG_LIMITSCANS)
 /* Encoding into the caller's buffer only: libturbojpeg then assumes tjBufSize bytes, hence the cap check first. */
 #define ENC_FLAGS TJFLAG_NOREALLOC
@@ -71,7 +72,8 @@ size_t drv_jpeg_encode(drv_jpeg *j, const uint8_t *rgba, int w, int h, size_t st
         return warp_err(err, errlen, "JPEG encode: size %dx%d outside 1..%d", w, h, WARP_MAX_SIDE), 0;
     if (stride < (size_t)w * 4 || stride > INT_MAX)
         return warp_err(err, errlen, "JPEG encode: stride %zu for %d RGBA pixels a row", stride, w), 0;
-    if (quality < 1 || quality > 100) return warp_err(err, errlen, "JPEG encode: quality %d outside 1..100", quality), 0;
+    if (quality < 1 || quality > 100)
+        return warp_err(err, errlen, "JPEG encode: quality %d outside 1..100", quality), 0;
     if (!sub_ok(sub)) return warp_err(err, errlen, "JPEG encode: unknown subsampling %d", (int)sub), 0;
     size_t bound = drv_jpeg_bound(w, h, sub);
     if (cap < bound)
