@@ -227,6 +227,8 @@ $(BUILD)/tests/%: $(BUILD)/obj/tests/%.o $(TEST_SUPPORT_OBJ) $(LIBS)
 	@mkdir -p $(dir $@)
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_ALL) $(TEST_LIBS)
+# test_v4l2_fit checks docs/v4l2-inband.md's fit tables against what it computes (wherever the test runs from).
+$(BUILD)/obj/tests/unit/test_v4l2_fit.o: CPPFLAGS += -DDOCS_DIR='"$(CURDIR)/docs"'
 # test_registry checks the tools' catalogue against the warp registry (the catalogue before the libraries it uses).
 $(BUILD)/tests/unit/test_registry: $(BUILD)/obj/tests/unit/test_registry.o $(TOOLS_COMMON_OBJ) $(TEST_SUPPORT_OBJ) \
                                    $(LIBS)
