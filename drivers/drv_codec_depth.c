@@ -1,0 +1,166 @@
+/* SPDX-License-Identifier: MIT */
+/* drv_codec_depth: framelink v2's compact depth: quantisation to 16 bits, nearest-keeping downsampling and the
+ * colour-guided upsample on the board (pure functions; docs/framelink.md, Depth). */
+#include "drivers/drv_codec_depth.h"
+
+#include <math.h>
+#include <stdbool.h>
+#include <stdlib.h>
+
+uint16_t drv_depth_to_inv16(float z, double near_z)
+{
+    if (!(z < INFINITY)) return 0; /* +inf and NaN: sky */
+    if (z <= near_z) return 65535;
+    long v = lround(65535.0 * near_z / z);
+    return (uint16_t)(v < 1 ? 1 : v > 65535 ? 65535 : v);
+}
+
+float drv_depth_from_inv16(uint16_t v, double near_z)
+{
+    return v ? (float)(65535.0 * near_z / v) : INFINITY;
+}
+
+uint16_t drv_depth_to_unorm16(float d)
+{
+    double c = d >= 0.0f ? (d <= 1.0f ? d : 1.0) : (d < 0.0f ? 0.0 : 1.0);
+    return (uint16_t)lround(c * 65535.0);
+}
+
+float drv_depth_from_unorm16(uint16_t v) { return (float)(v / 65535.0); }
+
+/* The encoding's far end, and whether a is nearer than b (NaN never is). */
+static float far_value(warp_depth_encoding enc)
+{
+    return enc == WARP_DEPTH_LINEAR ? INFINITY : enc == WARP_DEPTH_REVERSED ? 0.0f : 1.0f;
+}
+static bool nearer(float a, float b, warp_depth_encoding enc)
+{
+    return enc == WARP_DEPTH_REVERSED ? a > b : a < b;
+}
+
+/* A value proportional to inverse depth (0 at infinity): window depth is affine in 1/z, linear depth is z. */
+static double inverse(float d, warp_depth_encoding enc)
+{
+    switch (enc) {
+    case WARP_DEPTH_LINEAR: return d > 0.0f ? 1.0 / d : 0.0;
+    case WARP_DEPTH_STANDARD: return 1.0 - d;
+    default: return d;
+    }
+}
+static float from_inverse(double q, warp_depth_encoding enc)
+{
+    switch (enc) {
+    case WARP_DEPTH_LINEAR: return q > 0.0 ? (float)(1.0 / q) : INFINITY;
+    case WARP_DEPTH_STANDARD: return (float)(1.0 - q);
+    default: return (float)q;
+    }
+}
+
+void drv_depth_downsample(const float *src, int w, int h, size_t stride, int scale, warp_depth_encoding enc,
+                          float *dst)
+{
+    int lw = drv_depth_scaled(w, scale), lh = drv_depth_scaled(h, scale), b = 1 << scale;
+    for (int by = 0; by < lh; by++)
+        for (int bx = 0; bx < lw; bx++) {
+            float best = far_value(enc);
+            double qmin = INFINITY, qmax = -INFINITY, qsum = 0;
+            int n = 0;
+            bool finite = true;
+            for (int y = by * b; y < by * b + b && y < h; y++)
+                for (int x = bx * b; x < bx * b + b && x < w; x++) {
+                    float d = src[(size_t)y * stride + (size_t)x];
+                    if (nearer(d, best, enc)) best = d;
+                    double q = inverse(d, enc);
+                    finite = finite && isfinite(d);
+                    qmin = q < qmin ? q : qmin, qmax = q > qmax ? q : qmax, qsum += q, n++;
+                }
+            /* One surface: its mean in inverse depth (the nearest would shift a slope by up to a block). */
+            if (finite && qmax - qmin <= DRV_DEPTH_EDGE_REL * qmax && qmax > 0) best = from_inverse(qsum / n, enc);
+            dst[(size_t)by * (size_t)lw + (size_t)bx] = best;
+        }
+}
+
+static int colour_dist(warp_rgba8 a, warp_rgba8 b)
+{
+    return abs(a.r - b.r) + abs(a.g - b.g) + abs(a.b - b.b);
+}
+
+/* Whether the samples of block (bx, by) and its 8 neighbours lie on one surface: all finite, within
+ * DRV_DEPTH_EDGE_REL of each other in inverse depth. A pixel of a block next to an edge is treated as on the edge
+ * even when its 4 nearest samples agree: its own block's sample may be a foreground depth its pixel does not have. */
+static bool one_surface(const float *lo, int lw, int lh, int bx, int by, warp_depth_encoding enc)
+{
+    double qmin = INFINITY, qmax = -INFINITY;
+    for (int sy = by - 1; sy <= by + 1; sy++)
+        for (int sx = bx - 1; sx <= bx + 1; sx++) {
+            if (sx < 0 || sy < 0 || sx >= lw || sy >= lh) continue;
+            float v = lo[(size_t)sy * (size_t)lw + (size_t)sx];
+            if (!isfinite(v)) return false;
+            double q = inverse(v, enc);
+            qmin = q < qmin ? q : qmin, qmax = q > qmax ? q : qmax;
+        }
+    return qmax - qmin <= DRV_DEPTH_EDGE_REL * qmax;
+}
+
+void drv_depth_upsample(const float *lo, int lw, int lh, int scale, warp_depth_encoding enc,
+                        const warp_image_rgba8 *color, float *dst, int w, int h, size_t stride)
+{
+    const int b = 1 << scale;
+    const double inv_b = 1.0 / b;
+    for (int y = 0; y < h; y++) {
+        /* Low-resolution coordinates of the pixel centre; samples sit at their block centres. */
+        double fy = (y + 0.5) * inv_b - 0.5;
+        int y0 = (int)floor(fy);
+        double ty = fy - y0;
+        int ys[2] = {y0 < 0 ? 0 : y0 >= lh ? lh - 1 : y0, y0 + 1 < 0 ? 0 : y0 + 1 >= lh ? lh - 1 : y0 + 1};
+        int flag_bx = -1; /* the block one_surface() last looked at in this row */
+        bool flat = false;
+        for (int x = 0; x < w; x++) {
+            double fx = (x + 0.5) * inv_b - 0.5;
+            int x0 = (int)floor(fx);
+            double tx = fx - x0;
+            int xs[2] = {x0 < 0 ? 0 : x0 >= lw ? lw - 1 : x0, x0 + 1 < 0 ? 0 : x0 + 1 >= lw ? lw - 1 : x0 + 1};
+            float v[4];
+            double q[4], qmin = INFINITY, qmax = -INFINITY;
+            bool finite = true;
+            for (int k = 0; k < 4; k++) {
+                v[k] = lo[(size_t)ys[k >> 1] * (size_t)lw + (size_t)xs[k & 1]];
+                q[k] = inverse(v[k], enc);
+                finite = finite && isfinite(v[k]);
+                if (q[k] < qmin) qmin = q[k];
+                if (q[k] > qmax) qmax = q[k];
+            }
+            float out;
+            if (x >> scale != flag_bx) flag_bx = x >> scale, flat = one_surface(lo, lw, lh, flag_bx, y >> scale, enc);
+            if (flat || (!color && finite && qmax - qmin <= DRV_DEPTH_EDGE_REL * qmax)) {
+                /* One surface: bilinear in inverse depth. */
+                double wx[2] = {1.0 - tx, tx}, wy[2] = {1.0 - ty, ty}, s = 0.0;
+                for (int k = 0; k < 4; k++) s += wx[k & 1] * wy[k >> 1] * q[k];
+                out = qmax == qmin ? v[0] : from_inverse(s, enc);
+            } else if (!color) {
+                out = v[(ty >= 0.5 ? 2 : 0) + (tx >= 0.5 ? 1 : 0)]; /* the spatially nearest */
+            } else {
+                /* A depth edge: the sample of the pixel's own block or one of its 8 neighbours (the 4 nearest
+                 * may all lie on the far side of the edge) whose block-centre colour is closest to the pixel's,
+                 * taken as it is. A tie goes to the farther sample: a nearer one sharing the colour took its
+                 * depth from a few foreground pixels of a block whose centre shows the background. */
+                warp_rgba8 c = WARP_AT(color, x, y);
+                int bx = x >> scale, by = y >> scale, bd = 1 << 30;
+                double bq = INFINITY;
+                out = lo[(size_t)by * (size_t)lw + (size_t)bx];
+                for (int i = 0; i < 9; i++) {
+                    int sx = bx + (i % 3 == 0 ? 0 : i % 3 == 1 ? -1 : 1), sy = by + (i / 3 == 0 ? 0 : i / 3 == 1 ? -1 : 1);
+                    if (sx < 0 || sy < 0 || sx >= lw || sy >= lh) continue;
+                    int cx = sx * b + b / 2, cy = sy * b + b / 2;
+                    if (cx >= w) cx = w - 1;
+                    if (cy >= h) cy = h - 1;
+                    float sv = lo[(size_t)sy * (size_t)lw + (size_t)sx];
+                    double sq = inverse(sv, enc);
+                    int d = colour_dist(c, WARP_AT(color, cx, cy));
+                    if (d < bd || (d == bd && sq < bq)) bd = d, bq = sq, out = sv;
+                }
+            }
+            dst[(size_t)y * stride + (size_t)x] = out;
+        }
+    }
+}
