@@ -163,7 +163,7 @@ struct drv_framelink_enc {
     plat_workers *workers;
     ZSTD_CCtx *zc[8];
     uint8_t *raw[8], *shuf[8];
-    size_t raw_cap[8];
+    size_t raw_cap[8], shuf_cap[8];
     float *lo[2];
     drv_jpeg *jpeg[DRV_FRAMELINK_MAX_CHUNKS];
     drv_video_enc *video[2];
@@ -199,8 +199,9 @@ drv_framelink_enc *drv_framelink_enc_create(const drv_framelink_enc_params *p, i
     drv_framelink_enc *e = calloc(1, sizeof *e);
     if (!e) return warp_err(err, errlen, "out of memory"), NULL;
     e->p = *p, e->w = w, e->h = h, e->need_key = true;
-    /* Host side: as many threads as the chunks can use, up to the CPUs. */
-    int chunks = (p->color == DRV_CODEC_RAW ? 0 : 2 * (p->color == DRV_CODEC_JPEG ? p->slices : 1)) + 8;
+    /* Host side: as many threads as the chunks can use, up to the CPUs (none for raw frames). */
+    int chunks = (p->color == DRV_CODEC_RAW ? 0 : 2 * (p->color == DRV_CODEC_JPEG ? p->slices : 1)) +
+                 (p->depth != DRV_CODEC_RAW || p->depth_scale ? 2 : 0) + (p->other != DRV_CODEC_RAW ? 6 : 0);
     int threads = online_cpus() < chunks ? online_cpus() : chunks;
     if (threads > 1 && !(e->workers = plat_workers_create(threads - 1, 0))) {
         warp_err(err, errlen, "cannot start %d encode threads", threads - 1);
@@ -410,8 +411,7 @@ size_t drv_framelink_enc_encode(drv_framelink_enc *e, const drv_frame *f, const 
             if (pl->type != 0) {
                 int s = slot(pl->type, eye);
                 size_t n = drv_framelink_eye_bytes(f, pl->type, pl->format, eye);
-                size_t dummy = e->raw_cap[s];
-                if (!grow(&e->raw[s], &e->raw_cap[s], n) || !grow(&e->shuf[s], &dummy, n))
+                if (!grow(&e->raw[s], &e->raw_cap[s], n) || !grow(&e->shuf[s], &e->shuf_cap[s], n))
                     return warp_err(err, errlen, "out of memory"), 0;
             }
             for (int k = 0; k < pl->slices; k++) {
