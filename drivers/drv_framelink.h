@@ -120,10 +120,11 @@ typedef struct {
     unsigned codecs;                    /* DRV_CODEC_BIT()s the board decodes (v2 message; v1 and 0: raw only) */
 } drv_framelink_cams;
 
-/* Always DRV_FRAMELINK_CAMS_BYTES; returns 0 when cap is too small. */
+/* Always DRV_FRAMELINK_CAMS_BYTES (version 1 when codecs is raw only, else 2); returns 0 when cap is too small. */
 size_t drv_framelink_cams_encode(const drv_framelink_cams *c, uint8_t *buf, size_t cap);
 /* TRUNCATED, BAD_MAGIC, BAD_VERSION, BAD_SIZE (also a non-positive or non-finite rate, max_frame_bytes 0), CRC,
- * BAD_FORMAT (reserved fields not zero, planes without COLOR or unknown bits, unknown depth encoding) or BAD_CAMERA
+ * BAD_FORMAT (reserved fields not zero, v2 codecs without RAW, planes without COLOR or unknown bits, unknown depth
+ * encoding) or BAD_CAMERA
  * (size 0 or above WARP_MAX_SIDE, warp_camera_check fails). */
 drv_frame_err drv_framelink_cams_decode(const uint8_t *buf, size_t len, drv_framelink_cams *out);
 
