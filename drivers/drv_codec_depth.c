@@ -85,82 +85,82 @@ static int colour_dist(warp_rgba8 a, warp_rgba8 b)
     return abs(a.r - b.r) + abs(a.g - b.g) + abs(a.b - b.b);
 }
 
-/* Whether the samples of block (bx, by) and its 8 neighbours lie on one surface: all finite, within
- * DRV_DEPTH_EDGE_REL of each other in inverse depth. A pixel of a block next to an edge is treated as on the edge
- * even when its 4 nearest samples agree: its own block's sample may be a foreground depth its pixel does not have. */
-static bool one_surface(const float *lo, int lw, int lh, int bx, int by, warp_depth_encoding enc)
+size_t drv_depth_upsample_scratch(int lw, int lh) { return (size_t)lw * (size_t)lh * (sizeof(float) + 1); }
+
+/* Whether the samples of block (bx, by) and its 8 neighbours lie on one surface (or are all sky): within
+ * DRV_DEPTH_EDGE_REL of each other in inverse depth (q). A pixel of a block next to an edge is treated as on the
+ * edge even when its 4 nearest samples agree: its own block's sample may be a foreground depth its pixel lacks. */
+static bool one_surface(const float *q, int lw, int lh, int bx, int by)
 {
-    double qmin = INFINITY, qmax = -INFINITY;
+    float qmin = INFINITY, qmax = -INFINITY;
     for (int sy = by - 1; sy <= by + 1; sy++)
         for (int sx = bx - 1; sx <= bx + 1; sx++) {
             if (sx < 0 || sy < 0 || sx >= lw || sy >= lh) continue;
-            float v = lo[(size_t)sy * (size_t)lw + (size_t)sx];
-            if (!isfinite(v)) return false;
-            double q = inverse(v, enc);
-            qmin = q < qmin ? q : qmin, qmax = q > qmax ? q : qmax;
+            float v = q[(size_t)sy * (size_t)lw + (size_t)sx];
+            if (isnan(v)) return false;
+            qmin = v < qmin ? v : qmin, qmax = v > qmax ? v : qmax;
         }
-    return qmax - qmin <= DRV_DEPTH_EDGE_REL * qmax;
+    return qmax - qmin <= (float)DRV_DEPTH_EDGE_REL * qmax;
 }
 
 void drv_depth_upsample(const float *lo, int lw, int lh, int scale, warp_depth_encoding enc,
-                        const warp_image_rgba8 *color, float *dst, int w, int h, size_t stride)
+                        const warp_image_rgba8 *color, float *dst, int w, int h, size_t stride, void *scratch)
 {
     const int b = 1 << scale;
-    const double inv_b = 1.0 / b;
+    const float inv_b = 1.0f / (float)b;
+    /* Inverse depth of every sample (sky 0) and whether its block's neighbourhood is one surface, once. */
+    float *q = scratch;
+    uint8_t *flat = (uint8_t *)(q + (size_t)lw * (size_t)lh);
+    for (size_t i = 0, n = (size_t)lw * (size_t)lh; i < n; i++) q[i] = (float)inverse(lo[i], enc);
+    for (int by = 0; by < lh; by++)
+        for (int bx = 0; bx < lw; bx++) flat[(size_t)by * (size_t)lw + (size_t)bx] = one_surface(q, lw, lh, bx, by);
     for (int y = 0; y < h; y++) {
         /* Low-resolution coordinates of the pixel centre; samples sit at their block centres. */
-        double fy = (y + 0.5) * inv_b - 0.5;
-        int y0 = (int)floor(fy);
-        double ty = fy - y0;
-        int ys[2] = {y0 < 0 ? 0 : y0 >= lh ? lh - 1 : y0, y0 + 1 < 0 ? 0 : y0 + 1 >= lh ? lh - 1 : y0 + 1};
-        int flag_bx = -1; /* the block one_surface() last looked at in this row */
-        bool flat = false;
+        float fy = ((float)y + 0.5f) * inv_b - 0.5f;
+        int y0 = (int)floorf(fy), by = y >> scale;
+        float ty = fy - (float)y0;
+        int ys[2] = {y0 < 0 ? 0 : y0 >= lh ? lh - 1 : y0, y0 + 1 >= lh ? lh - 1 : y0 + 1 < 0 ? 0 : y0 + 1};
+        const float *q0 = q + (size_t)ys[0] * (size_t)lw, *q1 = q + (size_t)ys[1] * (size_t)lw;
+        const uint8_t *frow = flat + (size_t)by * (size_t)lw;
+        float *drow = dst + (size_t)y * stride;
         for (int x = 0; x < w; x++) {
-            double fx = (x + 0.5) * inv_b - 0.5;
-            int x0 = (int)floor(fx);
-            double tx = fx - x0;
-            int xs[2] = {x0 < 0 ? 0 : x0 >= lw ? lw - 1 : x0, x0 + 1 < 0 ? 0 : x0 + 1 >= lw ? lw - 1 : x0 + 1};
-            float v[4];
-            double q[4], qmin = INFINITY, qmax = -INFINITY;
-            bool finite = true;
-            for (int k = 0; k < 4; k++) {
-                v[k] = lo[(size_t)ys[k >> 1] * (size_t)lw + (size_t)xs[k & 1]];
-                q[k] = inverse(v[k], enc);
-                finite = finite && isfinite(v[k]);
-                if (q[k] < qmin) qmin = q[k];
-                if (q[k] > qmax) qmax = q[k];
+            float fx = ((float)x + 0.5f) * inv_b - 0.5f;
+            int x0 = (int)floorf(fx), bx = x >> scale;
+            float tx = fx - (float)x0;
+            int xa = x0 < 0 ? 0 : x0 >= lw ? lw - 1 : x0, xb = x0 + 1 >= lw ? lw - 1 : x0 + 1 < 0 ? 0 : x0 + 1;
+            float a = q0[xa], bq = q0[xb], c = q1[xa], d = q1[xb];
+            bool one = frow[bx];
+            if (!one && !color) {
+                float mn = fminf(fminf(a, bq), fminf(c, d)), mx = fmaxf(fmaxf(a, bq), fmaxf(c, d));
+                one = !isnan(a + bq + c + d) && mx - mn <= (float)DRV_DEPTH_EDGE_REL * mx;
             }
-            float out;
-            if (x >> scale != flag_bx) flag_bx = x >> scale, flat = one_surface(lo, lw, lh, flag_bx, y >> scale, enc);
-            if (flat || (!color && finite && qmax - qmin <= DRV_DEPTH_EDGE_REL * qmax)) {
-                /* One surface: bilinear in inverse depth. */
-                double wx[2] = {1.0 - tx, tx}, wy[2] = {1.0 - ty, ty}, s = 0.0;
-                for (int k = 0; k < 4; k++) s += wx[k & 1] * wy[k >> 1] * q[k];
-                out = qmax == qmin ? v[0] : from_inverse(s, enc);
+            if (one) {
+                /* One surface: bilinear in inverse depth, exact for planes. */
+                float s = (a + (bq - a) * tx) + ((c + (d - c) * tx) - (a + (bq - a) * tx)) * ty;
+                drow[x] = from_inverse(s, enc);
             } else if (!color) {
-                out = v[(ty >= 0.5 ? 2 : 0) + (tx >= 0.5 ? 1 : 0)]; /* the spatially nearest */
+                /* the spatially nearest */
+                drow[x] = lo[(size_t)ys[ty >= 0.5f] * (size_t)lw + (size_t)(tx >= 0.5f ? xb : xa)];
             } else {
                 /* A depth edge: the sample of the pixel's own block or one of its 8 neighbours (the 4 nearest
                  * may all lie on the far side of the edge) whose block-centre colour is closest to the pixel's,
                  * taken as it is. A tie goes to the farther sample: a nearer one sharing the colour took its
                  * depth from a few foreground pixels of a block whose centre shows the background. */
-                warp_rgba8 c = WARP_AT(color, x, y);
-                int bx = x >> scale, by = y >> scale, bd = 1 << 30;
-                double bq = INFINITY;
-                out = lo[(size_t)by * (size_t)lw + (size_t)bx];
+                warp_rgba8 px = WARP_AT(color, x, y);
+                int bd = 1 << 30;
+                float best_q = INFINITY, out = lo[(size_t)by * (size_t)lw + (size_t)bx];
                 for (int i = 0; i < 9; i++) {
                     int sx = bx + (i % 3 == 0 ? 0 : i % 3 == 1 ? -1 : 1), sy = by + (i / 3 == 0 ? 0 : i / 3 == 1 ? -1 : 1);
                     if (sx < 0 || sy < 0 || sx >= lw || sy >= lh) continue;
                     int cx = sx * b + b / 2, cy = sy * b + b / 2;
                     if (cx >= w) cx = w - 1;
                     if (cy >= h) cy = h - 1;
-                    float sv = lo[(size_t)sy * (size_t)lw + (size_t)sx];
-                    double sq = inverse(sv, enc);
-                    int d = colour_dist(c, WARP_AT(color, cx, cy));
-                    if (d < bd || (d == bd && sq < bq)) bd = d, bq = sq, out = sv;
+                    size_t si = (size_t)sy * (size_t)lw + (size_t)sx;
+                    int dist = colour_dist(px, WARP_AT(color, cx, cy));
+                    if (dist < bd || (dist == bd && q[si] < best_q)) bd = dist, best_q = q[si], out = lo[si];
                 }
+                drow[x] = out;
             }
-            dst[(size_t)y * stride + (size_t)x] = out;
         }
     }
 }

@@ -37,7 +37,10 @@ void drv_depth_downsample(const float *src, int w, int h, size_t stride, int sca
  * whose block-centre colour is closest to its own (color NULL: the spatially nearest of the 4), so no pixel gets
  * an in-between depth floating in the gap and each edge pixel keeps its own surface's. */
 #define DRV_DEPTH_EDGE_REL 0.1
+/* scratch: drv_depth_upsample_scratch(lw, lh) bytes of the caller's (float-aligned), so upsampling allocates
+ * nothing. */
+size_t drv_depth_upsample_scratch(int lw, int lh);
 void drv_depth_upsample(const float *lo, int lw, int lh, int scale, warp_depth_encoding enc,
-                        const warp_image_rgba8 *color, float *dst, int w, int h, size_t stride);
+                        const warp_image_rgba8 *color, float *dst, int w, int h, size_t stride, void *scratch);
 
 #endif

@@ -4,6 +4,7 @@
 #include "drivers/drv_framelink.h"
 
 #include <math.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <string.h>
 #include <zlib.h>
@@ -265,6 +266,10 @@ size_t drv_framelink_put_eye(const drv_frame *f, int t, int format, int e, uint8
     uint8_t *start = p;
     int w = f->cam[e].width, h = f->cam[e].height;
     double near_z = f->cam[e].near_z;
+    if (t == 0) { /* warp_rgba8 is r, g, b, a bytes: the wire's layout (asserted below), a row at a time */
+        for (int y = 0; y < h; y++, p += (size_t)w * 4) memcpy(p, &WARP_AT(&f->color[e], 0, y), (size_t)w * 4);
+        return (size_t)(p - start);
+    }
     for (int y = 0; y < h && t != 4; y++) {
         for (int x = 0; x < w; x++) {
             switch (t) {
@@ -467,9 +472,16 @@ size_t drv_framelink_layers_check(const uint8_t *p, size_t avail, int w, int h, 
     return bytes <= avail ? bytes : 0;
 }
 
+_Static_assert(sizeof(warp_rgba8) == 4 && offsetof(warp_rgba8, r) == 0 && offsetof(warp_rgba8, a) == 3,
+               "colour planes are copied to and from the wire a row at a time");
+
 void drv_framelink_get_eye(drv_frame *out, int type, int format, int e, int w, int h, double near_z,
                            const uint8_t *p)
 {
+    if (type == 0) {
+        for (int y = 0; y < h; y++, p += (size_t)w * 4) memcpy(&WARP_AT(&out->color[e], 0, y), p, (size_t)w * 4);
+        return;
+    }
     for (int y = 0; y < h && type != 4; y++) {
         for (int x = 0; x < w; x++) {
             switch (type) {

@@ -501,6 +501,7 @@ struct drv_framelink_dec {
     uint8_t *zbuf[8], *ubuf[8];
     size_t zcap[8];
     float *lo[2];
+    void *upscratch[2];
     drv_jpeg *jpeg[DRV_FRAMELINK_MAX_CHUNKS];
     drv_video_dec *video[2][2]; /* [H264, HEVC][eye] */
     /* the video colour stream (frames thread only) */
@@ -562,7 +563,8 @@ drv_framelink_dec *drv_framelink_dec_create(int w, int h, unsigned planes, int m
     }
     if (planes & DRV_PLANE_DEPTH)
         for (int e = 0; e < 2; e++)
-            if (!(d->lo[e] = malloc(sizeof(float) * (size_t)drv_depth_scaled(w, 1) * (size_t)drv_depth_scaled(h, 1)))) {
+            if (!(d->lo[e] = malloc(sizeof(float) * (size_t)drv_depth_scaled(w, 1) * (size_t)drv_depth_scaled(h, 1))) ||
+                !(d->upscratch[e] = malloc(drv_depth_upsample_scratch(drv_depth_scaled(w, 1), drv_depth_scaled(h, 1))))) {
                 warp_err(err, errlen, "out of memory");
                 goto fail;
             }
@@ -596,7 +598,7 @@ void drv_framelink_dec_destroy(drv_framelink_dec *d)
         free(d->zbuf[i]);
         free(d->ubuf[i]);
     }
-    for (int e = 0; e < 2; e++) free(d->lo[e]);
+    for (int e = 0; e < 2; e++) free(d->lo[e]), free(d->upscratch[e]);
     for (int i = 0; i < DRV_FRAMELINK_MAX_CHUNKS; i++) drv_jpeg_destroy(d->jpeg[i]);
     for (int c = 0; c < 2; c++)
         for (int e = 0; e < 2; e++) drv_video_dec_destroy(d->video[c][e]);
@@ -714,7 +716,7 @@ static void dec_convert(void *ctx, int i)
     depth_from_wire(p, (size_t)lw * (size_t)lh, pl->format, near_z, d->lo[e]);
     warp_image_f32 *dst = &d->out->depth[e];
     drv_depth_upsample(d->lo[e], lw, lh, pl->scale, d->lay->depth_encoding, &d->out->color[e], dst->px, w, h,
-                       (size_t)dst->stride);
+                       (size_t)dst->stride, d->upscratch[e]);
 }
 
 static void raise_want_key(drv_framelink_dec *d)
