@@ -580,7 +580,8 @@ static void test_jpeg(void **state)
     (void)state;
     drv_jpeg *probe = drv_jpeg_create(true, NULL, 0);
     if (!probe) {
-        skip(); /* the JPEG placeholder is in place: drv_jpeg_create returns NULL */
+        printf("# jpeg: skipped, drv_jpeg_create returned NULL (the JPEG placeholder is in place)\n");
+        skip();
         return;
     }
     drv_jpeg_destroy(probe);
