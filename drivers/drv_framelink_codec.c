@@ -553,9 +553,9 @@ drv_framelink_dec *drv_framelink_dec_create(int w, int h, unsigned planes, int m
             int s = slot(t, e);
             d->zd[s] = ZSTD_createDCtx();
             d->zbuf[s] = malloc(n);
-            d->ubuf[s] = malloc(n);
+            d->ubuf[s] = t == 4 ? NULL : malloc(n); /* layers are not shuffled */
             d->zcap[s] = n;
-            if (!d->zd[s] || !d->zbuf[s] || !d->ubuf[s]) {
+            if (!d->zd[s] || !d->zbuf[s] || (t != 4 && !d->ubuf[s])) {
                 warp_err(err, errlen, "out of memory (zstd scratch)");
                 goto fail;
             }

@@ -226,6 +226,8 @@ static void test_inv16(void **state)
         assert_int_equal(buf[DESC(1) + 1], DRV_FRAMELINK_FMT_INV16);
         assert_true(drv_frame_alloc(&g, W, H, ALL, MAX_LAYERS));
         drv_framelink_dec *d = make_dec(W, H, 2);
+        /* raw INV16 is an all-raw v2 frame: drv_framelink_decode_ex reads it too */
+        if (codec == 0) assert_int_equal(drv_framelink_decode_ex(buf, n, 0, &g, NULL, NULL, 0), DRV_FRAME_OK);
         assert_int_equal(drv_framelink_dec_decode(d, buf, n, 0, &g, NULL, NULL, 0), DRV_FRAME_OK);
         for (int e = 0; e < 2; e++)
             for (int y = 0; y < H; y++)
