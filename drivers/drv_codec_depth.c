@@ -149,8 +149,9 @@ void drv_depth_upsample(const float *lo, int lw, int lh, int scale, warp_depth_e
                 warp_rgba8 px = WARP_AT(color, x, y);
                 int bd = 1 << 30;
                 float best_q = INFINITY, out = lo[(size_t)by * (size_t)lw + (size_t)bx];
+                static const int off[3] = {0, -1, 1}; /* own block first: it wins ties of colour and depth */
                 for (int i = 0; i < 9; i++) {
-                    int sx = bx + (i % 3 == 0 ? 0 : i % 3 == 1 ? -1 : 1), sy = by + (i / 3 == 0 ? 0 : i / 3 == 1 ? -1 : 1);
+                    int sx = bx + off[i % 3], sy = by + off[i / 3];
                     if (sx < 0 || sy < 0 || sx >= lw || sy >= lh) continue;
                     int cx = sx * b + b / 2, cy = sy * b + b / 2;
                     if (cx >= w) cx = w - 1;

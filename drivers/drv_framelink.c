@@ -901,7 +901,8 @@ size_t drv_framelink_pose_encode(const drv_framelink_pose *p, uint8_t *buf, size
 
 drv_frame_err drv_framelink_pose_decode(const uint8_t *buf, size_t len, drv_framelink_pose *out)
 {
-    drv_frame_err env = msg_envelope(buf, len, DRV_FRAMELINK_POSE_MAGIC, DRV_FRAMELINK_POSE_BYTES, DRV_FRAMELINK_VERSION);
+    drv_frame_err env =
+        msg_envelope(buf, len, DRV_FRAMELINK_POSE_MAGIC, DRV_FRAMELINK_POSE_BYTES, DRV_FRAMELINK_VERSION);
     if (env != DRV_FRAME_OK) return env;
     drv_framelink_pose p;
     p.seq = get_u32(buf + 8);

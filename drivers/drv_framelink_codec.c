@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
-/* drv_framelink_codec: framelink v2's frame encoder (host) and decoder (board), a codec per plane: zstd (byte-shuffled)
- * for depth, ids, motion and layers, JPEG slices and H.264/HEVC for colour, chunks coded in parallel on plat_workers. */
+/* drv_framelink_codec: framelink v2's frame encoder (host) and decoder (board), a codec per plane: zstd (shuffled)
+ * for depth, ids, motion and layers, JPEG slices and H.264/HEVC for colour, chunks coded in parallel (plat_workers). */
 #include "drivers/drv_framelink_codec.h"
 
 #include <math.h>
@@ -123,7 +123,8 @@ bool drv_framelink_enc_params_check(const drv_framelink_enc_params *p, char *err
         return warp_err(err, errlen, "depth format %d: not one of F32, UNORM16, INV16", p->depth_format);
     if (p->depth_scale < 0 || p->depth_scale > 2)
         return warp_err(err, errlen, "depth scale %d: not 0, 1 or 2", p->depth_scale);
-    if (p->zstd_level < 1 || p->zstd_level > 19) return warp_err(err, errlen, "zstd level %d: not 1..19", p->zstd_level);
+    if (p->zstd_level < 1 || p->zstd_level > 19)
+        return warp_err(err, errlen, "zstd level %d: not 1..19", p->zstd_level);
     return true;
 }
 
@@ -344,9 +345,9 @@ static void enc_run(void *ctx, int i)
         if (pl->codec == DRV_CODEC_JPEG) {
             int y0, y1;
             drv_framelink_slice_rows(c->h, t->slice, pl->slices, &y0, &y1);
-            t->len = drv_jpeg_encode(e->jpeg[t->eye * pl->slices + t->slice], (const uint8_t *)c->px + stride * (size_t)y0,
-                                     c->w, y1 - y0, stride, e->p.quality, e->p.jpeg_sub, t->out, t->cap, t->why,
-                                     WHY_LEN);
+            t->len = drv_jpeg_encode(e->jpeg[t->eye * pl->slices + t->slice],
+                                     (const uint8_t *)c->px + stride * (size_t)y0, c->w, y1 - y0, stride,
+                                     e->p.quality, e->p.jpeg_sub, t->out, t->cap, t->why, WHY_LEN);
         } else {
             t->len = drv_video_encode(e->video[t->eye], (const uint8_t *)c->px, stride, e->force_key, t->out, t->cap,
                                       &t->is_key, t->why, WHY_LEN);
@@ -561,10 +562,11 @@ drv_framelink_dec *drv_framelink_dec_create(int w, int h, unsigned planes, int m
             }
         }
     }
+    int lw = drv_depth_scaled(w, 1), lh = drv_depth_scaled(h, 1); /* scale 1 is the largest reduced one */
     if (planes & DRV_PLANE_DEPTH)
         for (int e = 0; e < 2; e++)
-            if (!(d->lo[e] = malloc(sizeof(float) * (size_t)drv_depth_scaled(w, 1) * (size_t)drv_depth_scaled(h, 1))) ||
-                !(d->upscratch[e] = malloc(drv_depth_upsample_scratch(drv_depth_scaled(w, 1), drv_depth_scaled(h, 1))))) {
+            if (!(d->lo[e] = malloc(sizeof(float) * (size_t)lw * (size_t)lh)) ||
+                !(d->upscratch[e] = malloc(drv_depth_upsample_scratch(lw, lh)))) {
                 warp_err(err, errlen, "out of memory");
                 goto fail;
             }
@@ -847,8 +849,10 @@ drv_frame_err drv_framelink_dec_decode(drv_framelink_dec *d, const uint8_t *buf,
         d->st.wire_bytes += r.total_bytes;
         for (int i = 0; i < 2; i++) {
             size_t px = (size_t)out->cam[i].width * (size_t)out->cam[i].height;
+            /* what the planes hold in memory (layers: their counts) */
             d->st.plane_bytes += px * (4 + (out->planes & DRV_PLANE_DEPTH ? 4 : 0) +
-                                       (out->planes & DRV_PLANE_IDS ? 2 : 0) + (out->planes & DRV_PLANE_MOTION ? 8 : 0) +
+                                       (out->planes & DRV_PLANE_IDS ? 2 : 0) +
+                                       (out->planes & DRV_PLANE_MOTION ? 8 : 0) +
                                        (out->planes & DRV_PLANE_LAYERS ? 1 : 0));
         }
         d->st.decode_ms_last = ms;

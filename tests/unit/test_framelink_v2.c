@@ -291,7 +291,8 @@ static void test_upsample_edges(void **state)
                     for (int x = 0; x < UW; x++) {
                         float z = WARP_AT(&g.depth[e], x, y);
                         bool fg = z < 3.0f, bg = fabsf(z - 10.0f) < 0.01f;
-                        if (!((fg && z > 1.99f) || bg)) fail_msg("scale %d (%d,%d): depth %g between surfaces", scale, x, y, z);
+                        if (!((fg && z > 1.99f) || bg))
+                            fail_msg("scale %d (%d,%d): depth %g between surfaces", scale, x, y, z);
                         if (abs(x - EDGE_X) >= 2 * b) {
                             double rel = fabs(z - scene_z(x, y)) / scene_z(x, y);
                             if (rel > worst) worst = rel;
