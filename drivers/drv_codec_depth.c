@@ -103,18 +103,32 @@ static bool one_surface(const float *q, int lw, int lh, int bx, int by)
     return qmax - qmin <= (float)DRV_DEPTH_EDGE_REL * qmax;
 }
 
-void drv_depth_upsample(const float *lo, int lw, int lh, int scale, warp_depth_encoding enc,
-                        const warp_image_rgba8 *color, float *dst, int w, int h, size_t stride, void *scratch)
+void drv_depth_upsample_prepare(const float *lo, int lw, int lh, warp_depth_encoding enc, void *scratch)
 {
-    const int b = 1 << scale;
-    const float inv_b = 1.0f / (float)b;
     /* Inverse depth of every sample (sky 0) and whether its block's neighbourhood is one surface, once. */
     float *q = scratch;
     uint8_t *flat = (uint8_t *)(q + (size_t)lw * (size_t)lh);
     for (size_t i = 0, n = (size_t)lw * (size_t)lh; i < n; i++) q[i] = (float)inverse(lo[i], enc);
     for (int by = 0; by < lh; by++)
         for (int bx = 0; bx < lw; bx++) flat[(size_t)by * (size_t)lw + (size_t)bx] = one_surface(q, lw, lh, bx, by);
-    for (int y = 0; y < h; y++) {
+}
+
+void drv_depth_upsample(const float *lo, int lw, int lh, int scale, warp_depth_encoding enc,
+                        const warp_image_rgba8 *color, float *dst, int w, int h, size_t stride, void *scratch)
+{
+    drv_depth_upsample_prepare(lo, lw, lh, enc, scratch);
+    drv_depth_upsample_rows(lo, lw, lh, scale, enc, color, dst, w, h, stride, 0, h, scratch);
+}
+
+void drv_depth_upsample_rows(const float *lo, int lw, int lh, int scale, warp_depth_encoding enc,
+                             const warp_image_rgba8 *color, float *dst, int w, int h, size_t stride, int row0,
+                             int row1, const void *scratch)
+{
+    const int b = 1 << scale;
+    const float inv_b = 1.0f / (float)b;
+    const float *q = scratch;
+    const uint8_t *flat = (const uint8_t *)(q + (size_t)lw * (size_t)lh);
+    for (int y = row0; y < row1; y++) {
         /* Low-resolution coordinates of the pixel centre; samples sit at their block centres. */
         float fy = ((float)y + 0.5f) * inv_b - 0.5f;
         int y0 = (int)floorf(fy), by = y >> scale;

@@ -42,5 +42,11 @@ void drv_depth_downsample(const float *src, int w, int h, size_t stride, int sca
 size_t drv_depth_upsample_scratch(int lw, int lh);
 void drv_depth_upsample(const float *lo, int lw, int lh, int scale, warp_depth_encoding enc,
                         const warp_image_rgba8 *color, float *dst, int w, int h, size_t stride, void *scratch);
+/* The same in two steps, so bands of rows upsample on several threads: prepare (once, fills scratch), then rows
+ * [row0, row1) of dst, any number of bands at once. */
+void drv_depth_upsample_prepare(const float *lo, int lw, int lh, warp_depth_encoding enc, void *scratch);
+void drv_depth_upsample_rows(const float *lo, int lw, int lh, int scale, warp_depth_encoding enc,
+                             const warp_image_rgba8 *color, float *dst, int w, int h, size_t stride, int row0,
+                             int row1, const void *scratch);
 
 #endif

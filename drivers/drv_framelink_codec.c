@@ -515,7 +515,8 @@ struct drv_framelink_dec {
     drv_frame *out;
     dec_task task[MAX_TASKS]; /* phase 1: chunks */
     dec_task conv[MAX_TASKS]; /* phase 2: eyes of planes other than colour */
-    int n_tasks, n_conv;
+    dec_task band[2 * MAX_THREADS]; /* phase 3: bands of rows of reduced depth (slice: the band) */
+    int n_tasks, n_conv, n_band;
     bool hook_failed;
     unsigned frame_codecs;
     uint64_t key_requests;
@@ -716,9 +717,21 @@ static void dec_convert(void *ctx, int i)
     }
     int lw = drv_depth_scaled(w, pl->scale), lh = drv_depth_scaled(h, pl->scale);
     depth_from_wire(p, (size_t)lw * (size_t)lh, pl->format, near_z, d->lo[e]);
+    drv_depth_upsample_prepare(d->lo[e], lw, lh, d->lay->depth_encoding, d->upscratch[e]);
+}
+
+/* Phase 3: a band of rows of a reduced depth plane upsampled (the bands of both eyes spread over every thread). */
+static void dec_upsample(void *ctx, int i)
+{
+    drv_framelink_dec *d = ctx;
+    const dec_task *t = &d->band[i];
+    const drv_framelink_plane *pl = &d->lay->pl[t->plane];
+    int e = t->eye, w = d->lay->w[e], h = d->lay->h[e], y0, y1;
+    drv_framelink_slice_rows(h, t->slice, d->threads, &y0, &y1);
     warp_image_f32 *dst = &d->out->depth[e];
-    drv_depth_upsample(d->lo[e], lw, lh, pl->scale, d->lay->depth_encoding, &d->out->color[e], dst->px, w, h,
-                       (size_t)dst->stride, d->upscratch[e]);
+    drv_depth_upsample_rows(d->lo[e], drv_depth_scaled(w, pl->scale), drv_depth_scaled(h, pl->scale), pl->scale,
+                            d->lay->depth_encoding, &d->out->color[e], dst->px, w, h, (size_t)dst->stride, y0, y1,
+                            d->upscratch[e]);
 }
 
 static void raise_want_key(drv_framelink_dec *d)
@@ -774,7 +787,7 @@ static drv_frame_err dec_planes(void *ctx, const drv_framelink_layout *lay, drv_
             return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE, "eye %d is %dx%d, the decoder was made for %dx%d",
                                   e, lay->w[e], lay->h[e], d->w, d->h);
     const drv_framelink_plane *video = NULL;
-    d->n_tasks = d->n_conv = 0;
+    d->n_tasks = d->n_conv = d->n_band = 0;
     for (int i = 0; i < lay->n_planes; i++) {
         const drv_framelink_plane *pl = &lay->pl[i];
         d->frame_codecs |= DRV_CODEC_BIT(pl->codec);
@@ -789,6 +802,8 @@ static drv_frame_err dec_planes(void *ctx, const drv_framelink_layout *lay, drv_
                 for (int k = 0; k < pl->slices; k++)
                     d->task[d->n_tasks++] = (dec_task){.plane = i, .eye = e, .slice = k};
             if (pl->type != 0) d->conv[d->n_conv++] = (dec_task){.plane = i, .eye = e};
+            for (int k = 0; pl->type == 1 && pl->scale && k < d->threads; k++)
+                d->band[d->n_band++] = (dec_task){.plane = i, .eye = e, .slice = k};
         }
     }
     if (video) {
@@ -822,6 +837,7 @@ static drv_frame_err dec_planes(void *ctx, const drv_framelink_layout *lay, drv_
     }
     /* Phase 2: every eye of every coded plane but colour into the frame (depth guided by the decoded colour). */
     run_tasks(d, dec_convert, d->n_conv);
+    run_tasks(d, dec_upsample, d->n_band);
     d->hook_failed = false;
     return DRV_FRAME_OK;
 }
