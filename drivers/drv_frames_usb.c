@@ -605,6 +605,11 @@ static void *ep0_thread(void *arg)
             switch (ev[i].type) {
             case FUNCTIONFS_ENABLE:
                 pthread_mutex_lock(&t->lock);
+                if (!t->enabled) { /* a host configured the function: counted as socket hosts are */
+                    pthread_mutex_lock(&t->owner->lock);
+                    t->owner->st.connections++;
+                    pthread_mutex_unlock(&t->owner->lock);
+                }
                 t->enabled = true;
                 pthread_cond_broadcast(&t->cond);
                 pthread_mutex_unlock(&t->lock);

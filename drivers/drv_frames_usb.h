@@ -38,7 +38,8 @@ typedef struct {
     uint64_t discarded_bytes;                   /* oversize frames read into scratch and dropped */
     uint64_t poses_sent, poses_dropped;         /* pose messages written / not taken by the host in time */
     uint64_t disconnects;                       /* endpoint I/O failures and DISABLE/UNBIND events */
-    uint64_t connections, refused;              /* socket: hosts accepted / turned away while one was connected */
+    uint64_t connections, refused;              /* hosts connected (USB: function enabled; socket: accepted) /
+                                                 * turned away while one was connected (socket) */
     uint64_t cams_sent;                         /* camera messages (HWC1) written */
     bool connected;                             /* the host has configured the function (ENABLE) */
     double lead_ms;                             /* current pose lead: measured pose-to-frame latency */
