@@ -42,6 +42,8 @@ typedef struct {
     uint64_t cams_sent;                         /* camera messages (HWC1) written */
     bool connected;                             /* the host has configured the function (ENABLE) */
     double lead_ms;                             /* current pose lead: measured pose-to-frame latency */
+    char usb_speed[24];                         /* usb: the speed the host negotiated ("high-speed", "super-speed",
+                                                 * drv_usb_speed_name; "unknown" before the first); "" on the others */
     char last_error[160];
 } drv_frames_usb_stats;
 
