@@ -19,6 +19,7 @@ typedef struct {
     unsigned planes;          /* DRV_PLANE_* the caller allocates (drv_frames_planes reports them) */
     drv_pose_source poses;    /* predictions sent to the host */
     double pose_rate_hz;      /* pose messages per second */
+    double link_mbps;         /* mock and socket transports: read at most this many MB/s (10^6 B/s; 0 = unlimited) */
     warp_head head;           /* eye offsets (IPD) for the per-eye poses sent; all zero = warp_head_default() */
     /* What the camera message (HWC1) tells each host to render: sent when a host connects, then once a second. */
     warp_camera cam[2];                 /* the eye cameras frames must be rendered with */

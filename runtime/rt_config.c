@@ -156,6 +156,9 @@ static const keydef keys[] = {
      "largest host frame accepted, MiB (larger ones are rejected unread)"},
     {"frames", "pose_rate_hz", K_DOUBLE, F(pose_rate_hz), 0, 1, 2000, NULL,
      "usb, socket: how often the board sends its predicted head pose to the host"},
+    {"frames", "link_mbps", K_DOUBLE, F(link_mbps), 0, 0, 100000, NULL,
+     "mock usb and socket links: the most they carry, MB/s (10^6 bytes), as a real link would (USB 2.0 ~40, USB 3 "
+     "~400; docs/link-budget.md); 0 = unlimited"},
     {"vsync", "backend", K_CHOICE, F(vsync_backend), S(vsync_backend), 0, 0, vsync_names,
      "vsync source: sim (simulated panel), gpio (panel TE line via libgpiod), timer (free running) or kms (the "
      "display controller's vblank times; needs output = kms)"},
