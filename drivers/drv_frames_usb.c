@@ -676,8 +676,8 @@ static void ffs_destroy(drv_usb_transport *bt)
 
 /* Descriptors: one vendor interface, bulk OUT ep1 (frames) and bulk IN ep2 (poses), at full, high and super speed.
  * FunctionFS has no SuperSpeedPlus set of its own: it offers the super-speed one at SuperSpeedPlus too (f_fs.c's
- * _ffs_func_bind, Linux 5.12 on), so a USB 3.1/3.2 controller runs Gen 2 with these. On a USB 3 controller the
- * composite layer writes the device's bcdUSB (3.2 at super speed, 2.1 below) whatever board/gadget.sh put in configfs. */
+ * _ffs_func_bind, as in Debian 12's 6.1), so a USB 3.1/3.2 controller runs Gen 2 with these. On a USB 3 controller
+ * the composite layer writes the device's bcdUSB (3.2 at super speed, 2.1 below) whatever gadget.sh put in configfs. */
 struct ffs_ep_pair {
     struct usb_interface_descriptor intf;
     struct usb_endpoint_descriptor_no_audio out, in;
