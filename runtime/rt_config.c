@@ -157,6 +157,9 @@ static const keydef keys[] = {
      "largest host frame accepted, MiB (larger ones are rejected unread)"},
     {"frames", "pose_rate_hz", K_DOUBLE, F(pose_rate_hz), 0, 1, 2000, NULL,
      "usb, socket: how often the board sends its predicted head pose to the host"},
+    {"frames", "link_mbps", K_DOUBLE, F(link_mbps), 0, 0, 100000, NULL,
+     "mock usb and socket links: the most they carry, MB/s (10^6 bytes), as a real link would (USB 2.0 ~40, USB 3 "
+     "~400; docs/link-budget.md); 0 = unlimited"},
     {"vsync", "backend", K_CHOICE, F(vsync_backend), S(vsync_backend), 0, 0, vsync_names,
      "vsync source: sim (simulated panel), gpio (panel TE line via libgpiod), timer (free running) or kms (the "
      "display controller's vblank times; needs output = kms)"},
@@ -898,6 +901,14 @@ void rt_config_warnings(const rt_config *c, rt_config_errors *warn)
     if (pages > 0 && page > 0 && mem > (uint64_t)pages * (uint64_t)page)
         add_error(warn, "this configuration allocates about %.0f MiB at start, more than this machine's %.0f MiB",
                   (double)mem / (1024.0 * 1024.0), (double)pages * (double)page / (1024.0 * 1024.0));
+    /* only the links that stand in for one are limited: a real link runs at its own rate */
+    const bool limitable = strcmp(c->frames_backend, "socket") == 0 ||
+                           (strcmp(c->frames_backend, "usb") == 0 && strcmp(c->frames_device, "mock") == 0);
+    char at[300];
+    if (c->link_mbps > 0 && !limitable)
+        add_error(warn, "%s = %g: ignored for backend = %s%s (only the mock usb and the socket links are limited)",
+                  keys_at(c, "frames.link_mbps", at, sizeof at), c->link_mbps, c->frames_backend,
+                  strcmp(c->frames_backend, "usb") == 0 ? ", a real link at its bus's rate" : "");
 }
 
 static void format_value(const rt_config *c, const keydef *k, char *buf, size_t len)

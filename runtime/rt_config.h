@@ -90,6 +90,7 @@ typedef struct {
     int frames_depth;           /* v4l2: a depth plane is packed beside the colour */
     double max_frame_mb;
     double pose_rate_hz;        /* board -> host pose messages */
+    double link_mbps;           /* mock usb and socket links: a token-bucket limit in MB/s (10^6 B/s), 0 = none */
     char vsync_chip[64];        /* gpio: gpiochipN, N, /dev/gpiochipN, or mock */
     int vsync_line;
     int vsync_falling;          /* edge: 0 rising, 1 falling */
