@@ -364,6 +364,44 @@ static void test_params_and_hw(void **state)
     assert_false(drv_video_can_decode(DRV_CODEC_RAW));
 }
 
+/* Decoding into an image with no slack (stride 4w, nothing after the last row) writes nothing past it and alpha 255
+ * everywhere, at widths libswscale's fast path handles and at ones it does not (it overruns at 40, 44; alpha 0 at
+ * the row ends of 36, 37, 52). */
+static void test_no_overrun(void **state)
+{
+    drv_codec_id c = (drv_codec_id)(intptr_t)*state;
+    if (!have(c)) skip();
+    static const int widths[] = {32, 36, 37, 40, 44, 52, 64};
+    enum { H = 18, CANARY = 256 };
+    for (size_t i = 0; i < sizeof widths / sizeof widths[0]; i++) {
+        int w = widths[i];
+        rig r;
+        rig_init(&r, w, H);
+        char err[256] = "";
+        drv_video_params p = params(c, w, H);
+        drv_video_enc *e = drv_video_enc_create(&p, err, sizeof err);
+        drv_video_dec *d = drv_video_dec_create(c, w, H, NULL, err, sizeof err);
+        assert_non_null(e);
+        assert_non_null(d);
+        bool key;
+        size_t n = enc(e, &r, 0, false, &key);
+        size_t img = (size_t)w * 4 * H;
+        uint8_t *tight = malloc(img + CANARY);
+        assert_non_null(tight);
+        memset(tight, 0, img);
+        memset(tight + img, 0xA5, CANARY);
+        if (drv_video_decode(d, r.au, n, tight, (size_t)w * 4, err, sizeof err) != DRV_FRAME_OK) fail_msg("%s", err);
+        for (size_t k = 0; k < CANARY; k++)
+            if (tight[img + k] != 0xA5) fail_msg("width %d: byte %zu past the image written", w, k);
+        for (size_t k = 3; k < img; k += 4)
+            if (tight[k] != 255) fail_msg("width %d: alpha %u at pixel %zu", w, tight[k], k / 4);
+        free(tight);
+        drv_video_dec_destroy(d);
+        drv_video_enc_destroy(e);
+        rig_free(&r);
+    }
+}
+
 #define PER_CODEC(fn)                                                                                               \
     cmocka_unit_test_prestate(fn, (void *)(intptr_t)DRV_CODEC_H264),                                                \
         cmocka_unit_test_prestate(fn, (void *)(intptr_t)DRV_CODEC_HEVC)
@@ -373,6 +411,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         PER_CODEC(test_roundtrip),     PER_CODEC(test_keys_and_loss), PER_CODEC(test_damage),
         PER_CODEC(test_wrong_size),    PER_CODEC(test_intra_refresh), PER_CODEC(test_params_and_hw),
+        PER_CODEC(test_no_overrun),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
