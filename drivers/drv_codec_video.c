@@ -14,12 +14,9 @@
  * "keyframe" flag on refresh starts is not a key frame here (decoding from it shows no picture until the refresh
  * wave has passed).
  *
- * What the decoder detects (measured in tests/unit/test_codec_video.c): a corrupt or truncated access unit that
- * libavcodec reports (AV_EF_EXPLODE) or that yields a picture flagged corrupt / with decode_error_flags; a P-frame
- * after reset (the context is reopened, so its parameter sets are gone: refused); no picture for an access unit; a
- * picture of another size. It does NOT see a single lost P-frame in mid-stream: libavcodec conceals a frame_num / POC
- * gap by reusing the previous reference, so the next picture comes out close but wrong. framelink's per-stream frame
- * counter (the plane's `param`) is what detects that loss, and its decoder then drops frames until the next key. */
+ * What the decoder refuses (drv_codec_video.h lists it; tests/unit/test_codec_video.c checks it): libavcodec
+ * conceals what it can and says so only in its log, so the log is read (silenced, kept per thread; decoding runs on
+ * the caller's thread) as well as the return codes and the picture's corrupt flags. */
 #include "drivers/drv_codec_video.h"
 
 #include <limits.h>
@@ -37,8 +34,10 @@
 #include "warp/warp_err.h"
 #include "warp/warp_image.h"
 
-/* Encoder speed presets: measured at 1440x1600 (see the module's report in the #19 merge): ultrafast keeps one
- * eye's encode well inside a 45 Hz host frame on this machine's cores; HEVC's ultrafast is slower than H.264's. */
+/* Encoder presets, measured for one 1440x1600 eye of the simulator's scenes at quality 23: H.264 superfast costs the
+ * host the same CPU as ultrafast for a fifth of the bytes, but CABAC and deblocking make the board's decode ~40%
+ * slower, and decode time is the budget that binds (bytes are a tenth of USB 2.0's); HEVC ultrafast is already
+ * 2.5x H.264's encode CPU. Overridable at build time (-DVIDEO_PRESET_H264=...) to measure others. */
 #ifndef VIDEO_PRESET_H264
 #define VIDEO_PRESET_H264 "ultrafast"
 #endif

@@ -275,7 +275,8 @@ static void test_wrong_size(void **state)
     rig_free(&r);
 }
 
-/* Intra refresh: a key frame first, then none, and no frame much bigger than the rest (the refresh is spread). */
+/* Intra refresh: a key frame first, then none, and no frame much bigger than the rest (the refresh is spread); a
+ * forced key frame still works. */
 static void test_intra_refresh(void **state)
 {
     drv_codec_id c = (drv_codec_id)(intptr_t)*state;
@@ -307,6 +308,16 @@ static void test_intra_refresh(void **state)
     printf("# %s intra refresh: first %zu bytes, then %zu..%zu\n", drv_codec_name(c), first, least, most);
     assert_true(most < first); /* no second full key frame */
     assert_true(most < 4 * least);
+    /* the board lost a reference: a forced key frame is an IDR here too, and a reset decoder resumes from it */
+    bool key;
+    size_t n = enc(e, &r, 24, true, &key);
+    assert_true(key);
+    drv_video_dec_reset(d);
+    if (dec(d, &r, n, err, sizeof err) != DRV_FRAME_OK) fail_msg("forced key frame: %s", err);
+    assert_true(psnr(&r) > MIN_PSNR_DB);
+    n = enc(e, &r, 25, false, &key);
+    assert_false(key);
+    if (dec(d, &r, n, err, sizeof err) != DRV_FRAME_OK) fail_msg("frame after the forced key: %s", err);
     drv_video_dec_destroy(d);
     drv_video_enc_destroy(e);
     rig_free(&r);
