@@ -164,7 +164,8 @@ static bool enc_check(const drv_video_params *p, char *err, int errlen)
     if (!is_video(p->codec)) return warp_err(err, errlen, "video encoder: codec %d is not h264 or hevc", p->codec);
     if (p->w < 2 || p->h < 2 || p->w > WARP_MAX_SIDE || p->h > WARP_MAX_SIDE)
         return warp_err(err, errlen, "video encoder: eye size %dx%d outside 2..%d", p->w, p->h, WARP_MAX_SIDE);
-    if (!(p->fps > 0 && p->fps <= 1000)) return warp_err(err, errlen, "video encoder: fps %g outside (0, 1000]", p->fps);
+    if (!(p->fps > 0 && p->fps <= 1000))
+        return warp_err(err, errlen, "video encoder: fps %g outside (0, 1000]", p->fps);
     if (p->bitrate_kbps < 0 || p->bitrate_kbps > 10000000)
         return warp_err(err, errlen, "video encoder: bitrate_kbps %d outside 0..10000000", p->bitrate_kbps);
     if (p->bitrate_kbps == 0 && (p->quality < 1 || p->quality > 51))
@@ -251,7 +252,8 @@ drv_video_enc *drv_video_enc_create(const drv_video_params *p, char *err, int er
     int ret = avcodec_open2(c, codec, NULL);
     if (ret < 0) {
         char why[256];
-        warp_err(err, errlen, "video encoder %s %dx%d: %s", enc_name(p->codec), p->w, p->h, av_why(ret, why, sizeof why));
+        warp_err(err, errlen, "video encoder %s %dx%d: %s", enc_name(p->codec), p->w, p->h,
+                 av_why(ret, why, sizeof why));
         drv_video_enc_destroy(e);
         return NULL;
     }
@@ -449,7 +451,8 @@ const char *drv_video_dec_name(const drv_video_dec *d) { return d ? d->name : "n
 drv_frame_err drv_video_decode(drv_video_dec *d, const uint8_t *au, size_t len, uint8_t *rgba, size_t stride,
                                char *err, int errlen)
 {
-    if (!d || !au || !rgba) return drv_frame_fail(err, errlen, DRV_FRAME_ERR_BAD_FORMAT, "video decode: no decoder, data or image");
+    if (!d || !au || !rgba)
+        return drv_frame_fail(err, errlen, DRV_FRAME_ERR_BAD_FORMAT, "video decode: no decoder, data or image");
     if (!d->ctx)
         return drv_frame_fail(err, errlen, DRV_FRAME_ERR_BAD_FORMAT, "video decode: %s decoder could not be reopened",
                               drv_codec_name(d->codec));
@@ -501,8 +504,8 @@ drv_frame_err drv_video_decode(drv_video_dec *d, const uint8_t *au, size_t len, 
     if (!((f->width == d->w || f->width == d->cw) && (f->height == d->h || f->height == d->ch))) {
         int fw = f->width, fh = f->height;
         av_frame_unref(f);
-        return drv_frame_fail(err, errlen, DRV_FRAME_ERR_BAD_SIZE, "video decode: %s picture is %dx%d, this eye is %dx%d",
-                              cn, fw, fh, d->w, d->h);
+        return drv_frame_fail(err, errlen, DRV_FRAME_ERR_BAD_SIZE,
+                              "video decode: %s picture is %dx%d, this eye is %dx%d", cn, fw, fh, d->w, d->h);
     }
     /* libavcodec conceals what it can and says so only in its log (one decoding thread: this one's). A missing HEVC
      * reference ("Could not find ref"), a damaged slice header, or an H.264 frame_num gap all give a picture that
@@ -517,11 +520,10 @@ drv_frame_err drv_video_decode(drv_video_dec *d, const uint8_t *au, size_t len, 
         /* Another layout (a hw decoder's NV12) or colour space: libswscale allocates here, once per change. */
         d->sws_fmt = -1;
         if (!dec_sws(d, f->format, range, (int)f->colorspace)) {
-            int fmt = f->format;
+            const char *fmt = av_get_pix_fmt_name((enum AVPixelFormat)f->format);
             av_frame_unref(f);
             return drv_frame_fail(err, errlen, DRV_FRAME_ERR_BAD_FORMAT,
-                                  "video decode: %s picture format %s is not 4:2:0 8-bit", cn,
-                                  av_get_pix_fmt_name((enum AVPixelFormat)fmt) ? av_get_pix_fmt_name((enum AVPixelFormat)fmt) : "?");
+                                  "video decode: %s picture format %s is not 4:2:0 8-bit", cn, fmt ? fmt : "?");
         }
         d->sws_fmt = f->format, d->sws_range = range, d->sws_space = (int)f->colorspace;
     }

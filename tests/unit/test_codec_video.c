@@ -1,6 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /* drv_codec_video, H.264 and HEVC per eye through libavcodec: round trips at three sizes judged by PSNR, key frames
- * forced and recovered from, a missing reference refused, damaged access units survived, sizes checked, intra refresh. */
+ * forced and recovered from, a missing reference refused, damaged access units survived, sizes checked, intra
+ * refresh, and nothing written past the caller's image. */
 #include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
@@ -117,7 +118,8 @@ static void roundtrip(drv_codec_id c, int w, int h, double min_db)
         bool key = true;
         size_t n = enc(e, &r, t, false, &key);
         assert_int_equal(key, t == 0); /* gop 0: only the first */
-        if (dec(d, &r, n, err, sizeof err) != DRV_FRAME_OK) fail_msg("%s %dx%d frame %d: %s", drv_codec_name(c), w, h, t, err);
+        if (dec(d, &r, n, err, sizeof err) != DRV_FRAME_OK)
+            fail_msg("%s %dx%d frame %d: %s", drv_codec_name(c), w, h, t, err);
         double db = psnr(&r);
         if (db < worst) worst = db;
         if (getenv("VIDEO_TEST_VERBOSE")) printf("#   frame %d: %zu bytes %.1f dB\n", t, n, db);
