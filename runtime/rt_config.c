@@ -16,6 +16,7 @@
 
 #include "drivers/drv_framelink.h"
 #include "drivers/drv_frames_socket.h"
+#include "drivers/drv_v4l2_inband.h"
 #include "warp/warp_head.h"
 #include "warp/warp_registry.h"
 
@@ -773,6 +774,8 @@ uint64_t rt_config_memory_bytes(const rt_config *c)
     return total;
 }
 
+static unsigned v4l2_planes(const rt_config *c) { return DRV_PLANE_COLOR | (c->frames_depth ? DRV_PLANE_DEPTH : 0u); }
+
 bool rt_config_validate(const rt_config *c, rt_config_errors *err)
 {
     int before = err ? err->count : 0;
@@ -811,6 +814,12 @@ bool rt_config_validate(const rt_config *c, rt_config_errors *err)
         add_error(err, "[frames] device: required for backend = %s (%s, or mock); %s", c->frames_backend,
                   strcmp(c->frames_backend, "usb") == 0 ? "the FunctionFS mount directory" : "a /dev/videoN path",
                   keys_at(c, "frames.backend frames.device", at, sizeof at));
+    /* V4L2 in band: the capture mode is the incoming signal's, known only at start-up (drv_frames_v4l2 checks it
+     * there); an eye size without any layout is known now. */
+    drv_v4l2_fit fit;
+    if (strcmp(c->frames_backend, "v4l2") == 0 &&
+        !drv_v4l2_fit_check(1 << 16, 1 << 16, DRV_V4L2_YUYV, c->eye_w, c->eye_h, v4l2_planes(c), &fit, buf, sizeof buf))
+        add_error(err, "[frames] backend = v4l2: %s; %s", buf, keys_at(c, "eye.width eye.height", at, sizeof at));
     const bool kms = strcmp(c->output, "kms") == 0;
     if (strcmp(c->vsync_backend, "kms") == 0 && !kms)
         add_error(err, "[vsync] backend = kms: needs [display] output = kms (the vblanks come from the KMS output; "
@@ -867,6 +876,21 @@ void rt_config_warnings(const rt_config *c, rt_config_errors *warn)
         strcmp(c->sink, "null") == 0)
         add_error(warn, "board '%s' displays nowhere: [display] output = offscreen and sink = null (set output = kms "
                         "to show the panel)", c->board_name);
+    /* A V4L2 in-band layout larger than every common capture mode (docs/v4l2-inband.md) needs a capture device
+     * with an unusual mode; the start-up check is the final word (the mock delivers the layout's own size). */
+    if (strcmp(c->frames_backend, "v4l2") == 0 && strcmp(c->frames_device, "mock") != 0) {
+        const drv_v4l2_mode *big = &drv_v4l2_common_modes[drv_v4l2_common_mode_count - 1];
+        drv_v4l2_fit fit;
+        bool any = false;
+        for (int i = 0; i < drv_v4l2_common_mode_count; i++)
+            any = any || drv_v4l2_fit_check(drv_v4l2_common_modes[i].w, drv_v4l2_common_modes[i].h, DRV_V4L2_YUYV,
+                                            c->eye_w, c->eye_h, v4l2_planes(c), &fit, NULL, 0);
+        if (!any && fit.need_w > 0)
+            add_error(warn, "[frames] backend = v4l2: eyes %dx%d (%s) need a %dx%d in-band frame, larger than every "
+                            "common capture mode up to %s %dx%d (docs/v4l2-inband.md); the capture device must "
+                            "deliver at least that", c->eye_w, c->eye_h, c->frames_depth ? "colour + depth" : "colour",
+                      fit.need_w, fit.need_h, big->name, big->w, big->h);
+    }
     /* max_memory_mb is the board's budget; this machine may have less (a warning only: a board's configuration is
      * also checked on the host that builds it) */
     long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
