@@ -243,7 +243,7 @@ drv_video_enc *drv_video_enc_create(const drv_video_params *p, char *err, int er
                  keyint, p->refresh_frames > 0 ? ":intra-refresh=1" : "");
     else
         snprintf(params, sizeof params,
-                 "log-level=none:keyint=%s:min-keyint=1:scenecut=0:rc-lookahead=0:bframes=0:frame-threads=1:"
+                 "log-level=none:info=0:keyint=%s:min-keyint=1:scenecut=0:rc-lookahead=0:bframes=0:frame-threads=1:"
                  "repeat-headers=1%s",
                  keyint, p->refresh_frames > 0 ? ":intra-refresh=1" : "");
     av_opt_set(priv, x264 ? "x264-params" : "x265-params", params, 0);
