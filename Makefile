@@ -87,7 +87,8 @@ HOST_SONAME := libhmdwarp-host.so.$(HOST_ABI)
 HOST_LIB := $(BUILD)/$(HOST_SONAME)
 HOST_SRC := $(wildcard host/*.c)
 HOST_DEP_SRC := drivers/drv_framelink.c drivers/drv_frames.c drivers/drv_codec.c drivers/drv_codec_jpeg.c \
-                drivers/drv_codec_video.c drivers/drv_framelink_codec.c platform/plat_version.c warp/warp_camera.c \
+                drivers/drv_codec_video.c drivers/drv_framelink_codec.c drivers/drv_codec_depth.c \
+                platform/plat_version.c platform/plat_workers.c platform/plat_clock.c warp/warp_camera.c \
                 warp/warp_image.c warp/warp_math.c warp/warp_err.c
 HOST_PIC_OBJ := $(patsubst %.c,$(BUILD)/pic/%.o,$(HOST_SRC) $(HOST_DEP_SRC))
 HOST_CODEC_PKGS := libturbojpeg libzstd libavcodec libavutil libswscale
