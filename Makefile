@@ -41,9 +41,9 @@ SYSCONFDIR ?= /etc
 BOARD ?= sim
 
 # Libraries every program links (Debian packages named in board/deps.sh).
-# libturbojpeg, libzstd, libavcodec/libavutil/libswscale: framelink v2's plane codecs (drivers/drv_codec*.c).
-PKGS      := inih libpng zlib hidapi-hidraw libusb-1.0 libgpiod libsystemd egl glesv2 gbm libdrm \
-             libturbojpeg libzstd libavcodec libavutil libswscale
+PKGS      := inih libpng zlib hidapi-hidraw libusb-1.0 libgpiod libsystemd egl glesv2 gbm libdrm
+# framelink v2's plane codecs (drivers/drv_codec*.c).
+PKGS      += libturbojpeg libzstd libavcodec libavutil libswscale
 TEST_PKGS := cmocka
 
 OPT      ?= -O2
@@ -87,14 +87,15 @@ HOST_SONAME := libhmdwarp-host.so.$(HOST_ABI)
 HOST_LIB := $(BUILD)/$(HOST_SONAME)
 HOST_SRC := $(wildcard host/*.c)
 HOST_DEP_SRC := drivers/drv_framelink.c drivers/drv_frames.c drivers/drv_codec.c drivers/drv_codec_jpeg.c \
-                drivers/drv_codec_video.c drivers/drv_framelink_codec.c platform/plat_version.c warp/warp_camera.c \
+                drivers/drv_codec_video.c drivers/drv_framelink_codec.c drivers/drv_codec_depth.c \
+                platform/plat_version.c platform/plat_workers.c platform/plat_clock.c warp/warp_camera.c \
                 warp/warp_image.c warp/warp_math.c warp/warp_err.c
 HOST_PIC_OBJ := $(patsubst %.c,$(BUILD)/pic/%.o,$(HOST_SRC) $(HOST_DEP_SRC))
 HOST_CODEC_PKGS := libturbojpeg libzstd libavcodec libavutil libswscale
 HOST_LDLIBS = $(shell $(PKG_CONFIG) --libs libusb-1.0 zlib $(HOST_CODEC_PKGS) 2>/dev/null) -lm -pthread
 TOOL_LIBS_hmdwarp-feed := -Wl,-rpath,'$$ORIGIN'
-# tests/packaging/test_host_install.sh's board and host program.
-HOST_TEST_BINS := $(BUILD)/tests/packaging/host_fake_board $(BUILD)/tests/packaging/host_api_smoke
+# tests/packaging/test_host_install.sh's host program (its board is tests/examples/fake_board).
+HOST_TEST_BINS := $(BUILD)/tests/packaging/host_api_smoke
 
 TEST_SRC := $(wildcard tests/unit/test_*.c tests/accuracy/test_*.c tests/stability/test_*.c)
 STABILITY_BINS := $(patsubst tests/%.c,$(BUILD)/tests/%,$(wildcard tests/stability/test_*.c))
@@ -227,6 +228,8 @@ $(BUILD)/tests/%: $(BUILD)/obj/tests/%.o $(TEST_SUPPORT_OBJ) $(LIBS)
 	@mkdir -p $(dir $@)
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_ALL) $(TEST_LIBS)
+# test_v4l2_fit checks docs/v4l2-inband.md's fit tables against what it computes (wherever the test runs from).
+$(BUILD)/obj/tests/unit/test_v4l2_fit.o: CPPFLAGS += -DDOCS_DIR='"$(CURDIR)/docs"'
 # test_registry checks the tools' catalogue against the warp registry (the catalogue before the libraries it uses).
 $(BUILD)/tests/unit/test_registry: $(BUILD)/obj/tests/unit/test_registry.o $(TOOLS_COMMON_OBJ) $(TEST_SUPPORT_OBJ) \
                                    $(LIBS)
@@ -246,12 +249,8 @@ $(BUILD)/tests/unit/test_codec_link: $(BUILD)/obj/tests/unit/test_codec_link.o $
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -Wl,-rpath,'$$ORIGIN/../..' -o $@ $^ $(LDLIBS_ALL) $(TEST_LIBS)
 
-# The installed-library test's board and host program (tests/packaging/test_host_install.sh builds the host program
-# again against the installed header; this build keeps it compiling clean with the project's flags).
-$(BUILD)/tests/packaging/host_fake_board: $(BUILD)/obj/tests/packaging/host_fake_board.o $(LIBS)
-	@mkdir -p $(dir $@)
-	@$(if $(Q),echo "  LD      $@")
-	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_ALL)
+# The installed-library test's host program (tests/packaging/test_host_install.sh builds it again against the
+# installed header; this build keeps it compiling clean with the project's flags).
 $(BUILD)/obj/tests/packaging/host_api_smoke.o: CPPFLAGS += -Ihost
 $(BUILD)/tests/packaging/host_api_smoke: $(BUILD)/obj/tests/packaging/host_api_smoke.o $(HOST_LIB)
 	@mkdir -p $(dir $@)

@@ -10,8 +10,9 @@
 
 #include "drivers/drv_frames.h"
 
-/* One libturbojpeg handle: an encoder or a decoder, used by one thread at a time. Made at start-up (it allocates);
- * encode and decode then allocate nothing (the caller's buffers are used as they are). */
+/* One libturbojpeg handle: an encoder or a decoder, used by one thread at a time. Made at start-up; encode and
+ * decode write straight into the caller's buffers (libjpeg keeps its own working memory per call, and a decoder
+ * is remade after a header it refused: frames thread only, never the vsync path). */
 typedef struct drv_jpeg drv_jpeg;
 drv_jpeg *drv_jpeg_create(bool encoder, char *err, int errlen);
 void drv_jpeg_destroy(drv_jpeg *j);

@@ -4,9 +4,15 @@
 #include "drivers/drv_framelink.h"
 
 #include <math.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <string.h>
 #include <zlib.h>
+#include <zstd.h>
+
+#include "drivers/drv_codec.h"
+#include "drivers/drv_codec_depth.h"
+#include "drivers/drv_framelink_wire.h"
 
 /* ---- little-endian primitives (explicit bytes: the wire layout never depends on the compiler's structs) ---- */
 
@@ -106,17 +112,21 @@ enum {
     OFF_HOST_SEND = 64, OFF_DEPTH_ENC = 72, OFF_N_OBJECTS = 74, OFF_N_PLANES = 76, OFF_RESERVED = 78,
     OFF_SCENE_TIME = 80, OFF_EYES = 88, EYE_BYTES = 112, EYE_CAM = 56,
 };
+/* Plane descriptor: v1's reserved u32 at 12 carries v2's codec, flags, scale and slices bytes. */
+enum { DESC_CODEC = 12, DESC_FLAGS = 13, DESC_SCALE = 14, DESC_SLICES = 15 };
 /* depth_encoding travels as the warp_depth_encoding value itself; docs/framelink.md numbers it for hosts */
 _Static_assert(WARP_DEPTH_LINEAR == 0 && WARP_DEPTH_STANDARD == 1 && WARP_DEPTH_REVERSED == 2,
                "framelink's depth_encoding values (docs/framelink.md) are warp_depth_encoding's");
 #define MAX_DIM WARP_MAX_SIDE
 #define FRAG_BYTES 10
+#define MAX_DEPTH_SCALE 2
 
 static size_t header_bytes(int n_objects, int n_planes)
 {
     return DRV_FRAMELINK_FIXED_BYTES + (size_t)n_objects * DRV_FRAMELINK_OBJECT_BYTES +
            (size_t)n_planes * DRV_FRAMELINK_PLANE_DESC_BYTES + 4;
 }
+size_t drv_framelink_header_size(int n_objects, int n_planes) { return header_bytes(n_objects, n_planes); }
 
 static int bytes_per_pixel(int format)
 {
@@ -124,24 +134,37 @@ static int bytes_per_pixel(int format)
     case DRV_FRAMELINK_FMT_RGBA8: return 4;
     case DRV_FRAMELINK_FMT_F32: return 4;
     case DRV_FRAMELINK_FMT_UNORM16: return 2;
+    case DRV_FRAMELINK_FMT_INV16: return 2;
     case DRV_FRAMELINK_FMT_U16: return 2;
     case DRV_FRAMELINK_FMT_VEC2F32: return 8;
     default: return 0;
     }
 }
+int drv_framelink_format_bpp(int format) { return bytes_per_pixel(format); }
 
-/* Which formats each plane type (DRV_PLANE_* bit index) may use. */
-static bool format_ok(int type, int format)
+/* Which formats each plane type (DRV_PLANE_* bit index) may use; INV16 is version 2's. */
+static bool format_ok(int type, int format, int version)
 {
     switch (type) {
     case 0: return format == DRV_FRAMELINK_FMT_RGBA8;
-    case 1: return format == DRV_FRAMELINK_FMT_F32 || format == DRV_FRAMELINK_FMT_UNORM16;
+    case 1:
+        return format == DRV_FRAMELINK_FMT_F32 || format == DRV_FRAMELINK_FMT_UNORM16 ||
+               (version >= DRV_FRAMELINK_VERSION_2 && format == DRV_FRAMELINK_FMT_INV16);
     case 2: return format == DRV_FRAMELINK_FMT_U16;
     case 3: return format == DRV_FRAMELINK_FMT_VEC2F32;
     case 4: return format == DRV_FRAMELINK_FMT_FRAGMENTS;
     default: return false;
     }
 }
+
+/* Which codecs each plane type may be sent with (version 2). */
+static bool codec_ok(int type, int codec)
+{
+    if (codec == DRV_CODEC_RAW) return true;
+    if (type == 0) return codec == DRV_CODEC_JPEG || codec == DRV_CODEC_H264 || codec == DRV_CODEC_HEVC;
+    return codec == DRV_CODEC_ZSTD;
+}
+static bool codec_video(int codec) { return codec == DRV_CODEC_H264 || codec == DRV_CODEC_HEVC; }
 
 static int plane_format(int type, const drv_framelink_tx *tx)
 {
@@ -177,7 +200,7 @@ static size_t layers_eye_bytes(const warp_image_layers *l)
 }
 
 /* The most fragments any pixel of either eye sends (the layers descriptor's parameter). */
-static int layers_deepest(const drv_frame *f)
+int drv_framelink_layers_deepest(const drv_frame *f)
 {
     int m = 0;
     for (int e = 0; e < 2; e++) {
@@ -190,7 +213,13 @@ static int layers_deepest(const drv_frame *f)
     return m;
 }
 
-/* Plane payload sizes of f (both eyes), or false when f cannot be encoded. */
+size_t drv_framelink_eye_bytes(const drv_frame *f, int type, int format, int e)
+{
+    if (type == 4) return layers_eye_bytes(&f->layers[e]);
+    return (size_t)f->cam[e].width * (size_t)f->cam[e].height * (size_t)bytes_per_pixel(format);
+}
+
+/* Plane payload sizes of f (both eyes) as version 1 sends them, or false when f cannot be encoded. */
 static bool plan(const drv_frame *f, const drv_framelink_tx *tx, size_t sizes[DRV_FRAMELINK_MAX_PLANES],
                  int *n_planes)
 {
@@ -214,10 +243,7 @@ static bool plan(const drv_frame *f, const drv_framelink_tx *tx, size_t sizes[DR
             if (!allocated || w != f->cam[e].width || h != f->cam[e].height || w <= 0 || h <= 0 || w > MAX_DIM ||
                 h > MAX_DIM)
                 return false;
-            if (t == 4)
-                sizes[t] += layers_eye_bytes(&f->layers[e]);
-            else
-                sizes[t] += (size_t)w * (size_t)h * (size_t)bytes_per_pixel(plane_format(t, tx));
+            sizes[t] += drv_framelink_eye_bytes(f, t, plane_format(t, tx), e);
         }
     }
     return true;
@@ -235,10 +261,16 @@ size_t drv_framelink_size_ex(const drv_frame *f, const drv_framelink_tx *tx)
 
 size_t drv_framelink_size(const drv_frame *f) { return drv_framelink_size_ex(f, NULL); }
 
-static uint8_t *encode_plane(const drv_frame *f, int t, int format, int e, uint8_t *p)
+size_t drv_framelink_put_eye(const drv_frame *f, int t, int format, int e, uint8_t *p)
 {
+    uint8_t *start = p;
     int w = f->cam[e].width, h = f->cam[e].height;
-    for (int y = 0; y < h; y++) {
+    double near_z = f->cam[e].near_z;
+    if (t == 0) { /* warp_rgba8 is r, g, b, a bytes: the wire's layout (asserted below), a row at a time */
+        for (int y = 0; y < h; y++, p += (size_t)w * 4) memcpy(p, &WARP_AT(&f->color[e], 0, y), (size_t)w * 4);
+        return (size_t)(p - start);
+    }
+    for (int y = 0; y < h && t != 4; y++) {
         for (int x = 0; x < w; x++) {
             switch (t) {
             case 0: {
@@ -251,8 +283,10 @@ static uint8_t *encode_plane(const drv_frame *f, int t, int format, int e, uint8
                 float d = WARP_AT(&f->depth[e], x, y);
                 if (format == DRV_FRAMELINK_FMT_UNORM16) {
                     /* NaN (never valid depth) goes to far like a cleared depth buffer would hold. */
-                    double c = d >= 0.0f ? (d <= 1.0f ? d : 1.0) : (d < 0.0f ? 0.0 : 1.0);
-                    put_u16(p, (uint16_t)lround(c * 65535.0));
+                    put_u16(p, drv_depth_to_unorm16(d));
+                    p += 2;
+                } else if (format == DRV_FRAMELINK_FMT_INV16) {
+                    put_u16(p, drv_depth_to_inv16(d, near_z));
                     p += 2;
                 } else {
                     put_f32(p, d);
@@ -287,19 +321,17 @@ static uint8_t *encode_plane(const drv_frame *f, int t, int format, int e, uint8
             }
         }
     }
-    return p;
+    return (size_t)(p - start);
 }
 
-size_t drv_framelink_encode_ex(const drv_frame *f, const drv_framelink_tx *tx, uint8_t *buf, size_t cap)
+bool drv_framelink_finish(const drv_frame *f, const drv_framelink_tx *tx, int version, const drv_framelink_plane *pl,
+                          int n_planes, uint8_t *buf, size_t total)
 {
-    size_t sizes[DRV_FRAMELINK_MAX_PLANES];
-    int n_planes;
-    if (!plan(f, tx, sizes, &n_planes)) return 0;
-    size_t hdr = header_bytes(f->n_objects, n_planes), total = drv_framelink_size_ex(f, tx);
-    if (!total || total > cap) return 0;
+    size_t hdr = header_bytes(f->n_objects, n_planes);
+    if (n_planes < 1 || n_planes > DRV_FRAMELINK_MAX_PLANES || total < hdr + 4 || total > UINT32_MAX) return false;
     memset(buf, 0, hdr);
     put_u32(buf + OFF_MAGIC, DRV_FRAMELINK_MAGIC);
-    put_u16(buf + OFF_VERSION, DRV_FRAMELINK_VERSION);
+    put_u16(buf + OFF_VERSION, (uint16_t)version);
     put_u16(buf + OFF_HEADER_SIZE, (uint16_t)hdr);
     put_u32(buf + OFF_TOTAL, (uint32_t)total);
     put_u32(buf + OFF_PLANES, f->planes);
@@ -318,31 +350,50 @@ size_t drv_framelink_encode_ex(const drv_frame *f, const drv_framelink_tx *tx, u
     put_f64(buf + OFF_SCENE_TIME, f->scene_time);
     for (int e = 0; e < 2; e++) {
         uint8_t *p = buf + OFF_EYES + e * EYE_BYTES;
-        const warp_camera *c = &f->cam[e];
         put_pose(p, f->eye_pose[e]);
-        put_camera(p + EYE_CAM, c);
+        put_camera(p + EYE_CAM, &f->cam[e]);
     }
     uint8_t *p = buf + DRV_FRAMELINK_FIXED_BYTES;
     for (int i = 0; i < f->n_objects; i++, p += DRV_FRAMELINK_OBJECT_BYTES) put_pose(p, f->object_pose[i]);
-    uint32_t off = 0;
-    for (int t = 0; t < DRV_FRAMELINK_MAX_PLANES; t++) {
-        if (!(f->planes & (1u << t))) continue;
-        p[0] = (uint8_t)t;
-        p[1] = (uint8_t)plane_format(t, tx);
-        put_u16(p + 2, t == 4 ? (uint16_t)layers_deepest(f) : 0);
-        put_u32(p + 4, off);
-        put_u32(p + 8, (uint32_t)sizes[t]);
-        off += (uint32_t)sizes[t];
-        p += DRV_FRAMELINK_PLANE_DESC_BYTES;
+    for (int i = 0; i < n_planes; i++, p += DRV_FRAMELINK_PLANE_DESC_BYTES) {
+        p[0] = (uint8_t)pl[i].type;
+        p[1] = (uint8_t)pl[i].format;
+        put_u16(p + 2, (uint16_t)pl[i].param);
+        put_u32(p + 4, (uint32_t)pl[i].off);
+        put_u32(p + 8, (uint32_t)pl[i].size);
+        if (version >= DRV_FRAMELINK_VERSION_2) {
+            p[DESC_CODEC] = (uint8_t)pl[i].codec;
+            p[DESC_FLAGS] = (uint8_t)pl[i].flags;
+            p[DESC_SCALE] = (uint8_t)pl[i].scale;
+            p[DESC_SLICES] = (uint8_t)pl[i].slices;
+        }
     }
     put_u32(buf + hdr - 4, crc(buf, hdr - 4));
-    p = buf + hdr;
+    put_u32(buf + total - 4, crc(buf + hdr, total - hdr - 4));
+    return true;
+}
+
+size_t drv_framelink_encode_ex(const drv_frame *f, const drv_framelink_tx *tx, uint8_t *buf, size_t cap)
+{
+    size_t sizes[DRV_FRAMELINK_MAX_PLANES];
+    int n_planes;
+    if (!plan(f, tx, sizes, &n_planes)) return 0;
+    size_t hdr = header_bytes(f->n_objects, n_planes), total = drv_framelink_size_ex(f, tx);
+    if (!total || total > cap) return 0;
+    drv_framelink_plane pl[DRV_FRAMELINK_MAX_PLANES];
+    int n = 0;
+    size_t off = 0;
+    uint8_t *p = buf + hdr;
     for (int t = 0; t < DRV_FRAMELINK_MAX_PLANES; t++) {
         if (!(f->planes & (1u << t))) continue;
-        for (int e = 0; e < 2; e++) p = encode_plane(f, t, plane_format(t, tx), e, p);
+        pl[n] = (drv_framelink_plane){.type = t, .format = plane_format(t, tx), .slices = 1, .off = off,
+                                      .size = sizes[t]};
+        pl[n].param = t == 4 ? (unsigned)drv_framelink_layers_deepest(f) : 0;
+        for (int e = 0; e < 2; e++) p += drv_framelink_put_eye(f, t, pl[n].format, e, p);
+        off += sizes[t];
+        n++;
     }
-    put_u32(p, crc(buf + hdr, total - hdr - 4));
-    return total;
+    return drv_framelink_finish(f, tx, DRV_FRAMELINK_VERSION, pl, n, buf, total) ? total : 0;
 }
 
 size_t drv_framelink_encode(const drv_frame *f, uint8_t *buf, size_t cap)
@@ -375,9 +426,9 @@ static drv_frame_err check_header(const uint8_t *buf, size_t len, size_t max_fra
     *need = DRV_FRAMELINK_PREFIX_BYTES;
     if (len < 6) return drv_frame_fail(detail, dlen, DRV_FRAME_ERR_TRUNCATED, "%zu bytes: no version yet", len);
     unsigned version = get_u16(buf + OFF_VERSION);
-    if (version != DRV_FRAMELINK_VERSION)
-        return drv_frame_fail(detail, dlen, DRV_FRAME_ERR_BAD_VERSION, "version %u (this build reads %d)", version,
-                              DRV_FRAMELINK_VERSION);
+    if (version < DRV_FRAMELINK_VERSION || version > DRV_FRAMELINK_VERSION_MAX)
+        return drv_frame_fail(detail, dlen, DRV_FRAME_ERR_BAD_VERSION, "version %u (this build reads %d to %d)",
+                              version, DRV_FRAMELINK_VERSION, DRV_FRAMELINK_VERSION_MAX);
     if (len < DRV_FRAMELINK_PREFIX_BYTES)
         return drv_frame_fail(detail, dlen, DRV_FRAME_ERR_TRUNCATED, "%zu bytes: header prefix incomplete", len);
     size_t hdr = get_u16(buf + OFF_HEADER_SIZE);
@@ -407,13 +458,8 @@ drv_frame_err drv_framelink_peek(const uint8_t *buf, size_t len, size_t max_fram
     return e;
 }
 
-typedef struct {
-    int type, format, param;
-    size_t off, size;
-} plane_desc;
-
 /* Layers of one eye: counts within the allocation and the fragments adding up; returns the eye's bytes or 0. */
-static size_t layers_check(const uint8_t *p, size_t avail, int w, int h, int max_layers, int *deepest)
+size_t drv_framelink_layers_check(const uint8_t *p, size_t avail, int w, int h, int max_layers, int *deepest)
 {
     size_t n = (size_t)w * (size_t)h, frags = 0;
     if (avail < n) return 0;
@@ -426,11 +472,19 @@ static size_t layers_check(const uint8_t *p, size_t avail, int w, int h, int max
     return bytes <= avail ? bytes : 0;
 }
 
-static void decode_plane(drv_frame *out, const plane_desc *d, int e, int w, int h, const uint8_t *p)
+_Static_assert(sizeof(warp_rgba8) == 4 && offsetof(warp_rgba8, r) == 0 && offsetof(warp_rgba8, a) == 3,
+               "colour planes are copied to and from the wire a row at a time");
+
+void drv_framelink_get_eye(drv_frame *out, int type, int format, int e, int w, int h, double near_z,
+                           const uint8_t *p)
 {
-    for (int y = 0; y < h; y++) {
+    if (type == 0) {
+        for (int y = 0; y < h; y++, p += (size_t)w * 4) memcpy(&WARP_AT(&out->color[e], 0, y), p, (size_t)w * 4);
+        return;
+    }
+    for (int y = 0; y < h && type != 4; y++) {
         for (int x = 0; x < w; x++) {
-            switch (d->type) {
+            switch (type) {
             case 0: {
                 warp_rgba8 *c = &WARP_AT(&out->color[e], x, y);
                 c->r = p[0], c->g = p[1], c->b = p[2], c->a = p[3];
@@ -438,8 +492,11 @@ static void decode_plane(drv_frame *out, const plane_desc *d, int e, int w, int 
                 break;
             }
             case 1:
-                if (d->format == DRV_FRAMELINK_FMT_UNORM16) {
-                    WARP_AT(&out->depth[e], x, y) = (float)(get_u16(p) / 65535.0);
+                if (format == DRV_FRAMELINK_FMT_UNORM16) {
+                    WARP_AT(&out->depth[e], x, y) = drv_depth_from_unorm16(get_u16(p));
+                    p += 2;
+                } else if (format == DRV_FRAMELINK_FMT_INV16) {
+                    WARP_AT(&out->depth[e], x, y) = drv_depth_from_inv16(get_u16(p), near_z);
                     p += 2;
                 } else {
                     WARP_AT(&out->depth[e], x, y) = get_f32(p);
@@ -456,7 +513,7 @@ static void decode_plane(drv_frame *out, const plane_desc *d, int e, int w, int 
             }
         }
     }
-    if (d->type == 4) {
+    if (type == 4) {
         warp_image_layers *l = &out->layers[e];
         size_t n = (size_t)w * (size_t)h;
         const uint8_t *fp = p + n;
@@ -473,12 +530,109 @@ static void decode_plane(drv_frame *out, const plane_desc *d, int e, int w, int 
     }
 }
 
-drv_frame_err drv_framelink_decode_ex(const uint8_t *buf, size_t len, size_t max_frame, drv_frame *out,
-                                      drv_framelink_rx *rx, char *detail, int dl)
+/* Rows padded up to whole 16 x 16 blocks: libjpeg-turbo's worst case is under 6 bytes a padded pixel (tjBufSize:
+ * 4:4:4 takes 6, 4:2:0 3, plus 2048), whatever the quality. */
+static size_t pad16(int v) { return ((size_t)v + 15) / 16 * 16; }
+
+size_t drv_framelink_chunk_bound(const drv_framelink_plane *p, int w, int h, int slice, int max_layers)
+{
+    int sw = p->scale ? drv_depth_scaled(w, p->scale) : w, sh = p->scale ? drv_depth_scaled(h, p->scale) : h;
+    size_t raw = p->type == 4 ? (size_t)w * (size_t)h * (1 + (size_t)max_layers * FRAG_BYTES)
+                              : (size_t)sw * (size_t)sh * (size_t)bytes_per_pixel(p->format);
+    switch (p->codec) {
+    case DRV_CODEC_ZSTD: return ZSTD_COMPRESSBOUND(raw) + 64; /* + room for the checksum, whatever the version */
+    case DRV_CODEC_JPEG: {
+        int y0, y1;
+        drv_framelink_slice_rows(h, slice, p->slices, &y0, &y1);
+        return pad16(w) * pad16(y1 - y0) * 6 + 2048;
+    }
+    /* One access unit: at most the RGBA picture it replaces plus the parameter sets (a key frame at the finest
+     * quantiser stays below 12 bits a pixel). */
+    case DRV_CODEC_H264:
+    case DRV_CODEC_HEVC: return raw + 65536;
+    default: return raw;
+    }
+}
+
+/* Bytes of the plane a RAW descriptor must declare, fixed-size formats (the depth plane at its scale). */
+static size_t raw_plane_bytes(const drv_framelink_plane *d, const int w[2], const int h[2])
+{
+    size_t s = 0;
+    for (int e = 0; e < 2; e++)
+        s += (size_t)drv_depth_scaled(w[e], d->scale) * (size_t)drv_depth_scaled(h[e], d->scale) *
+             (size_t)bytes_per_pixel(d->format);
+    return s;
+}
+
+/* Descriptor i's version 2 bytes: codec known and allowed for the type, flags, scale and slices in range. */
+static drv_frame_err check_desc_v2(drv_framelink_plane *d, const uint8_t *dp, int i, const int h[2], bool hooked,
+                                   char *detail, int dl)
+{
+    d->codec = dp[DESC_CODEC], d->flags = dp[DESC_FLAGS], d->scale = dp[DESC_SCALE], d->slices = dp[DESC_SLICES];
+    if (d->codec >= DRV_CODEC_COUNT)
+        return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "plane %d: unknown codec %d", i, d->codec);
+    if (!codec_ok(d->type, d->codec))
+        return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "plane type %d: codec %s not allowed for it",
+                              d->type, drv_codec_name((drv_codec_id)d->codec));
+    if (d->flags & ~DRV_FRAMELINK_DESC_KEY || (d->flags && !codec_video(d->codec)))
+        return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "plane type %d: flags 0x%x", d->type, d->flags);
+    if (d->scale > MAX_DEPTH_SCALE || (d->scale && d->type != 1))
+        return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "plane type %d: scale %d (depth only, 0..%d)",
+                              d->type, d->scale, MAX_DEPTH_SCALE);
+    int max_slices = d->codec == DRV_CODEC_JPEG ? DRV_FRAMELINK_MAX_SLICES : 1;
+    if (d->slices < 1 || d->slices > max_slices)
+        return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "plane type %d: %d slices (codec %s: 1..%d)",
+                              d->type, d->slices, drv_codec_name((drv_codec_id)d->codec), max_slices);
+    if (d->slices > h[0] || d->slices > h[1])
+        return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE, "plane type %d: %d slices of %d and %d rows",
+                              d->type, d->slices, h[0], h[1]);
+    if (d->param && !(d->type == 4 || (d->type == 0 && codec_video(d->codec))))
+        return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "plane type %d: parameter %u set", d->type,
+                              d->param);
+    if (drv_framelink_plane_coded(d) && !hooked)
+        return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT,
+                              "plane type %d: codec %s scale %d needs a drv_framelink_dec (drv_framelink_codec.h)",
+                              d->type, drv_codec_name((drv_codec_id)d->codec), d->scale);
+    return DRV_FRAME_OK;
+}
+
+/* A coded plane's chunk table (2 * slices u32 lengths, then the chunks): every length non-zero and within the
+ * plane's bound, adding up to the plane. Fills d->chunk. */
+static drv_frame_err check_chunks(drv_framelink_plane *d, const uint8_t *p, const int w[2], const int h[2],
+                                  const drv_frame *out, char *detail, int dl)
+{
+    size_t table = 4 * 2 * (size_t)d->slices, sum = 0;
+    const uint8_t *c = p + table;
+    for (int e = 0; e < 2; e++)
+        for (int k = 0; k < d->slices; k++) {
+            int i = e * d->slices + k;
+            size_t n = get_u32(p + 4 * i);
+            size_t bound = drv_framelink_chunk_bound(d, w[e], h[e], k, out->layers[e].max_layers);
+            if (n == 0 || n > bound)
+                return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE,
+                                      "plane type %d eye %d chunk %d: %zu bytes, bound %zu", d->type, e, k, n, bound);
+            sum += n;
+            if (sum > d->size - table)
+                return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE,
+                                      "plane type %d: chunks add up to more than its %zu bytes", d->type,
+                                      d->size - table);
+            d->chunk[i] = c;
+            d->chunk_len[i] = n;
+            c += n;
+        }
+    if (sum != d->size - table)
+        return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE, "plane type %d: chunks add up to %zu, plane has %zu",
+                              d->type, sum, d->size - table);
+    return DRV_FRAME_OK;
+}
+
+drv_frame_err drv_framelink_decode_hooked(const uint8_t *buf, size_t len, size_t max_frame, drv_frame *out,
+                                          drv_framelink_rx *rx, char *detail, int dl, const drv_framelink_hook *hook)
 {
     size_t need;
     drv_frame_err err = check_header(buf, len, max_frame, &need, detail, dl);
     if (err) return err;
+    int version = get_u16(buf + OFF_VERSION);
     size_t hdr = get_u16(buf + OFF_HEADER_SIZE), total = get_u32(buf + OFF_TOTAL);
     unsigned planes = get_u32(buf + OFF_PLANES);
     int depth_enc = get_u16(buf + OFF_DEPTH_ENC), n_obj = get_u16(buf + OFF_N_OBJECTS);
@@ -495,39 +649,53 @@ drv_frame_err drv_framelink_decode_ex(const uint8_t *buf, size_t len, size_t max
         return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "reserved header field set (a newer sender?)");
     if (depth_enc > WARP_DEPTH_REVERSED)
         return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "unknown depth encoding %d", depth_enc);
-    int w[2], h[2];
+    drv_framelink_layout lay;
+    memset(&lay, 0, sizeof lay);
+    lay.version = version, lay.n_planes = n_planes, lay.depth_encoding = (warp_depth_encoding)depth_enc;
+    int *w = lay.w, *h = lay.h;
     for (int e = 0; e < 2; e++) {
         const uint8_t *p = buf + OFF_EYES + e * EYE_BYTES + EYE_CAM;
         uint32_t cw = get_u32(p), ch = get_u32(p + 4);
         if (cw == 0 || ch == 0 || cw > MAX_DIM || ch > MAX_DIM)
             return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE, "eye %d is %ux%u", e, cw, ch);
         w[e] = (int)cw, h[e] = (int)ch;
+        lay.near_z[e] = get_f64(p + 40);
     }
 
-    /* Plane descriptors: known types in ascending order, each once, formats the type allows, allocated on this
-     * side at the cameras' sizes, packed back to back and adding up to the payload. */
-    plane_desc pd[DRV_FRAMELINK_MAX_PLANES];
+    /* Plane descriptors: known types in ascending order, each once, formats and codecs the type allows, allocated
+     * on this side at the cameras' sizes, packed back to back, each within its bound, adding up to the payload. */
+    drv_framelink_plane *pd = lay.pl;
     unsigned seen = 0;
+    bool coded = false;
     size_t payload = total - hdr - 4, off = 0;
     const uint8_t *dp = buf + DRV_FRAMELINK_FIXED_BYTES + (size_t)n_obj * DRV_FRAMELINK_OBJECT_BYTES;
     for (int i = 0; i < n_planes; i++, dp += DRV_FRAMELINK_PLANE_DESC_BYTES) {
-        plane_desc *d = &pd[i];
+        drv_framelink_plane *d = &pd[i];
         d->type = dp[0], d->format = dp[1], d->param = get_u16(dp + 2);
         d->off = get_u32(dp + 4), d->size = get_u32(dp + 8);
+        d->slices = 1;
         if (d->type >= DRV_FRAMELINK_MAX_PLANES || (seen >> d->type))
             return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "plane %d: type %d out of order or unknown", i,
                                   d->type);
         seen |= 1u << d->type;
-        if (!format_ok(d->type, d->format))
-            return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "plane type %d: format %d not supported",
-                                  d->type, d->format);
+        if (!format_ok(d->type, d->format, version))
+            return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "plane type %d: format %d not supported%s",
+                                  d->type, d->format, version < 2 ? " in version 1" : "");
         if (d->type == 1 && d->format == DRV_FRAMELINK_FMT_UNORM16 && depth_enc == WARP_DEPTH_LINEAR)
             return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "unorm16 depth with linear encoding");
-        if (d->type != 4 && d->param)
-            return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "plane type %d: parameter %d set", d->type,
-                                  d->param);
-        if (get_u32(dp + 12))
-            return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "plane type %d: reserved field set", d->type);
+        if (d->type == 1 && d->format == DRV_FRAMELINK_FMT_INV16 && depth_enc != WARP_DEPTH_LINEAR)
+            return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "inv16 depth needs the linear encoding");
+        if (version < DRV_FRAMELINK_VERSION_2) {
+            if (d->type != 4 && d->param)
+                return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "plane type %d: parameter %u set",
+                                      d->type, d->param);
+            if (get_u32(dp + 12))
+                return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT,
+                                      "plane type %d: reserved field set (codec bytes in a version 1 frame)", d->type);
+        } else {
+            drv_frame_err de = check_desc_v2(d, dp, i, h, hook != NULL, detail, dl);
+            if (de) return de;
+        }
         for (int e = 0; e < 2; e++) {
             int aw, ah;
             bool allocated;
@@ -542,16 +710,27 @@ drv_frame_err drv_framelink_decode_ex(const uint8_t *buf, size_t len, size_t max
         if (d->off != off)
             return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE, "plane type %d at offset %zu, expected %zu",
                                   d->type, d->off, off);
-        if (d->type != 4) {
-            size_t want = ((size_t)w[0] * h[0] + (size_t)w[1] * h[1]) * (size_t)bytes_per_pixel(d->format);
+        if (d->codec == DRV_CODEC_RAW && d->type != 4) {
+            size_t want = raw_plane_bytes(d, w, h);
             if (d->size != want)
                 return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE,
                                       "plane type %d: %zu bytes, %dx%d eyes need %zu", d->type, d->size, w[0], h[0],
                                       want);
+        } else if (d->codec != DRV_CODEC_RAW) {
+            /* A chunk table and a byte a chunk at least, the chunks' bounds at most. */
+            size_t lo = 5 * 2 * (size_t)d->slices, hi = 4 * 2 * (size_t)d->slices;
+            for (int e = 0; e < 2; e++)
+                for (int k = 0; k < d->slices; k++)
+                    hi += drv_framelink_chunk_bound(d, w[e], h[e], k, out->layers[e].max_layers);
+            if (d->size < lo || d->size > hi)
+                return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE,
+                                      "plane type %d (%s): %zu bytes, outside [%zu, %zu]", d->type,
+                                      drv_codec_name((drv_codec_id)d->codec), d->size, lo, hi);
         }
         if (d->size > payload - off)
             return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE, "plane type %d overruns the payload", d->type);
         off += d->size;
+        coded = coded || drv_framelink_plane_coded(d);
     }
     if (seen != planes)
         return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_FORMAT, "plane mask 0x%x but descriptors for 0x%x", planes,
@@ -564,15 +743,21 @@ drv_frame_err drv_framelink_decode_ex(const uint8_t *buf, size_t len, size_t max
     uint32_t want = get_u32(buf + total - 4), got = crc(buf + hdr, payload);
     if (want != got) return drv_frame_fail(detail, dl, DRV_FRAME_ERR_CRC, "payload CRC 0x%08x, computed 0x%08x", want,
                                            got);
-    /* Layers: variable length, checked in full before anything is written. */
+    /* Chunk tables, and RAW layers (variable length): checked in full before anything is written. */
     for (int i = 0; i < n_planes; i++) {
-        if (pd[i].type != 4) continue;
         const uint8_t *p = buf + hdr + pd[i].off;
+        pd[i].data = p;
+        if (pd[i].codec != DRV_CODEC_RAW) {
+            err = check_chunks(&pd[i], p, w, h, out, detail, dl);
+            if (err) return err;
+            continue;
+        }
+        if (pd[i].type != 4) continue;
         size_t left = pd[i].size;
         int deepest = 0;
         for (int e = 0; e < 2; e++) {
             int ml = out->layers[e].max_layers;
-            size_t b = layers_check(p, left, w[e], h[e], ml, &deepest);
+            size_t b = drv_framelink_layers_check(p, left, w[e], h[e], ml, &deepest);
             if (!b)
                 return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE,
                                       "eye %d layers: counts above the %d allocated or fragments overrun the plane", e,
@@ -581,8 +766,8 @@ drv_frame_err drv_framelink_decode_ex(const uint8_t *buf, size_t len, size_t max
         }
         if (left) return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE, "layers plane has %zu bytes left over",
                                         left);
-        if (deepest != pd[i].param)
-            return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE, "layers descriptor says %d deep, counts reach %d",
+        if (deepest != (int)pd[i].param)
+            return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_SIZE, "layers descriptor says %u deep, counts reach %d",
                                   pd[i].param, deepest);
     }
 
@@ -611,7 +796,23 @@ drv_frame_err drv_framelink_decode_ex(const uint8_t *buf, size_t len, size_t max
             return drv_frame_fail(detail, dl, DRV_FRAME_ERR_BAD_POSE,
                                   "object %d pose not finite or not a unit quaternion", i + 1);
 
-    /* All checks passed: write the frame. */
+    /* All container checks passed: the RAW planes, then the codecs' (which may still fail: a corrupt stream; the
+     * pixels are then partly written, never the frame's header fields). */
+    for (int i = 0; i < n_planes; i++) {
+        if (drv_framelink_plane_coded(&pd[i])) continue;
+        const uint8_t *p = buf + hdr + pd[i].off;
+        for (int e = 0; e < 2; e++) {
+            drv_framelink_get_eye(out, pd[i].type, pd[i].format, e, w[e], h[e], lay.near_z[e], p);
+            int deepest = 0;
+            p += pd[i].type == 4
+                     ? drv_framelink_layers_check(p, pd[i].size, w[e], h[e], out->layers[e].max_layers, &deepest)
+                     : (size_t)w[e] * h[e] * (size_t)bytes_per_pixel(pd[i].format);
+        }
+    }
+    if (coded) {
+        err = hook->planes(hook->ctx, &lay, out, detail, dl);
+        if (err) return err;
+    }
     drv_framelink_tx tx;
     tx.pose_sent_ns = (int64_t)get_u64(buf + OFF_POSE_SENT);
     tx.host_pose_rx_ns = (int64_t)get_u64(buf + OFF_HOST_POSE_RX);
@@ -644,21 +845,18 @@ drv_frame_err drv_framelink_decode_ex(const uint8_t *buf, size_t len, size_t max
     out->n_objects = n_obj;
     for (int i = 0; i < n_obj; i++)
         out->object_pose[i] = get_pose(buf + DRV_FRAMELINK_FIXED_BYTES + (size_t)i * DRV_FRAMELINK_OBJECT_BYTES);
-    for (int i = 0; i < n_planes; i++) {
-        const uint8_t *p = buf + hdr + pd[i].off;
-        for (int e = 0; e < 2; e++) {
-            decode_plane(out, &pd[i], e, w[e], h[e], p);
-            int deepest = 0;
-            p += pd[i].type == 4 ? layers_check(p, pd[i].size, w[e], h[e], out->layers[e].max_layers, &deepest)
-                                 : (size_t)w[e] * h[e] * (size_t)bytes_per_pixel(pd[i].format);
-        }
-    }
     if (rx) {
         rx->tx = tx;
         rx->total_bytes = total;
     }
     if (detail && dl > 0) detail[0] = 0;
     return DRV_FRAME_OK;
+}
+
+drv_frame_err drv_framelink_decode_ex(const uint8_t *buf, size_t len, size_t max_frame, drv_frame *out,
+                                      drv_framelink_rx *rx, char *detail, int dl)
+{
+    return drv_framelink_decode_hooked(buf, len, max_frame, out, rx, detail, dl, NULL);
 }
 
 drv_frame_err drv_framelink_decode(const uint8_t *buf, size_t len, size_t max_frame, drv_frame *out)
@@ -669,12 +867,12 @@ drv_frame_err drv_framelink_decode(const uint8_t *buf, size_t len, size_t max_fr
 /* ---- board -> host messages ---- */
 
 /* What every board message shares, checked in this order: magic, version, size, length, CRC (the last 4 bytes). */
-static drv_frame_err msg_envelope(const uint8_t *buf, size_t len, uint32_t magic, uint16_t bytes)
+static drv_frame_err msg_envelope(const uint8_t *buf, size_t len, uint32_t magic, uint16_t bytes, int max_version)
 {
     if (len < 4) return DRV_FRAME_ERR_TRUNCATED;
     if (get_u32(buf) != magic) return DRV_FRAME_ERR_BAD_MAGIC;
     if (len < 8) return DRV_FRAME_ERR_TRUNCATED;
-    if (get_u16(buf + 4) != DRV_FRAMELINK_VERSION) return DRV_FRAME_ERR_BAD_VERSION;
+    if (get_u16(buf + 4) < DRV_FRAMELINK_VERSION || get_u16(buf + 4) > max_version) return DRV_FRAME_ERR_BAD_VERSION;
     if (get_u16(buf + 6) != bytes) return DRV_FRAME_ERR_BAD_SIZE;
     if (len < bytes) return DRV_FRAME_ERR_TRUNCATED;
     if (get_u32(buf + bytes - 4) != crc(buf, bytes - 4u)) return DRV_FRAME_ERR_CRC;
@@ -703,7 +901,8 @@ size_t drv_framelink_pose_encode(const drv_framelink_pose *p, uint8_t *buf, size
 
 drv_frame_err drv_framelink_pose_decode(const uint8_t *buf, size_t len, drv_framelink_pose *out)
 {
-    drv_frame_err env = msg_envelope(buf, len, DRV_FRAMELINK_POSE_MAGIC, DRV_FRAMELINK_POSE_BYTES);
+    drv_frame_err env =
+        msg_envelope(buf, len, DRV_FRAMELINK_POSE_MAGIC, DRV_FRAMELINK_POSE_BYTES, DRV_FRAMELINK_VERSION);
     if (env != DRV_FRAME_OK) return env;
     drv_framelink_pose p;
     p.seq = get_u32(buf + 8);
@@ -725,8 +924,11 @@ size_t drv_framelink_cams_encode(const drv_framelink_cams *c, uint8_t *buf, size
 {
     if (cap < DRV_FRAMELINK_CAMS_BYTES) return 0;
     memset(buf, 0, DRV_FRAMELINK_CAMS_BYTES);
+    /* Version 1 unless the board decodes more than raw, so a version 1 host still reads a raw-only board. */
+    unsigned codecs = c->codecs | DRV_CODEC_BIT(DRV_CODEC_RAW);
+    bool v2 = codecs != DRV_CODEC_BIT(DRV_CODEC_RAW);
     put_u32(buf, DRV_FRAMELINK_CAMS_MAGIC);
-    put_u16(buf + 4, DRV_FRAMELINK_VERSION);
+    put_u16(buf + 4, v2 ? DRV_FRAMELINK_VERSION_2 : DRV_FRAMELINK_VERSION);
     put_u16(buf + 6, DRV_FRAMELINK_CAMS_BYTES);
     put_u32(buf + 8, c->seq);
     put_u32(buf + 16, c->planes);
@@ -736,13 +938,15 @@ size_t drv_framelink_cams_encode(const drv_framelink_cams *c, uint8_t *buf, size
     put_f64(buf + 40, c->pose_rate_hz);
     put_camera(buf + 48, &c->cam[0]);
     put_camera(buf + 104, &c->cam[1]);
+    if (v2) put_u32(buf + 160, codecs);
     put_u32(buf + 164, crc(buf, 164));
     return DRV_FRAMELINK_CAMS_BYTES;
 }
 
 drv_frame_err drv_framelink_cams_decode(const uint8_t *buf, size_t len, drv_framelink_cams *out)
 {
-    drv_frame_err env = msg_envelope(buf, len, DRV_FRAMELINK_CAMS_MAGIC, DRV_FRAMELINK_CAMS_BYTES);
+    drv_frame_err env = msg_envelope(buf, len, DRV_FRAMELINK_CAMS_MAGIC, DRV_FRAMELINK_CAMS_BYTES,
+                                     DRV_FRAMELINK_VERSION_2);
     if (env != DRV_FRAME_OK) return env;
     drv_framelink_cams c;
     memset(&c, 0, sizeof c);
@@ -752,8 +956,17 @@ drv_frame_err drv_framelink_cams_decode(const uint8_t *buf, size_t len, drv_fram
     c.max_frame_bytes = get_u64(buf + 24);
     c.refresh_hz = get_f64(buf + 32);
     c.pose_rate_hz = get_f64(buf + 40);
-    /* Reserved fields are zero in version 1 (docs/framelink.md, Versioning). */
-    if (get_u32(buf + 12) != 0 || get_u32(buf + 160) != 0) return DRV_FRAME_ERR_BAD_FORMAT;
+    /* Reserved fields are zero in version 1 (docs/framelink.md, Versioning); version 2's codecs always include raw,
+     * and bits of codecs this build does not know are dropped (a host only picks what it knows). */
+    if (get_u32(buf + 12) != 0) return DRV_FRAME_ERR_BAD_FORMAT;
+    if (get_u16(buf + 4) == DRV_FRAMELINK_VERSION) {
+        if (get_u32(buf + 160) != 0) return DRV_FRAME_ERR_BAD_FORMAT;
+        c.codecs = DRV_CODEC_BIT(DRV_CODEC_RAW);
+    } else {
+        c.codecs = get_u32(buf + 160);
+        if (!(c.codecs & DRV_CODEC_BIT(DRV_CODEC_RAW))) return DRV_FRAME_ERR_BAD_FORMAT;
+        c.codecs &= DRV_CODEC_BIT(DRV_CODEC_COUNT) - 1u;
+    }
     if (!(c.planes & DRV_PLANE_COLOR) || (c.planes & ~(unsigned)(DRV_PLANE_COLOR | DRV_PLANE_DEPTH | DRV_PLANE_IDS |
                                                                  DRV_PLANE_MOTION | DRV_PLANE_LAYERS)))
         return DRV_FRAME_ERR_BAD_FORMAT;

@@ -13,6 +13,10 @@
 #define DRV_FRAMELINK_MAGIC 0x31465748u      /* "HWF1" as bytes on the wire */
 #define DRV_FRAMELINK_POSE_MAGIC 0x31505748u /* "HWP1" */
 #define DRV_FRAMELINK_VERSION 1
+/* Version 2: a codec per plane (drivers/drv_framelink_codec.h). Receivers read 1 and 2; an all-raw frame is still
+ * sent as version 1. Board messages: the camera message is version 2 when it announces codecs beyond raw. */
+#define DRV_FRAMELINK_VERSION_2 2
+#define DRV_FRAMELINK_VERSION_MAX 2
 /* Fixed part of the frame header (before object poses and plane descriptors) and its CRC'd whole. */
 #define DRV_FRAMELINK_FIXED_BYTES 312
 #define DRV_FRAMELINK_OBJECT_BYTES 56
@@ -47,7 +51,8 @@ typedef struct {
     int64_t host_render_start_ns; /* host clock */
     int64_t host_render_end_ns;   /* host clock */
     int64_t host_send_ns;         /* host clock: when the frame was handed to the transport */
-    int depth_format;             /* 0 or DRV_FRAMELINK_FMT_F32, or DRV_FRAMELINK_FMT_UNORM16 */
+    int depth_format;             /* 0 or DRV_FRAMELINK_FMT_F32, or DRV_FRAMELINK_FMT_UNORM16 (INV16: v2 only,
+                                   * drv_framelink_enc; a receiver reports the format it got) */
 } drv_framelink_tx;
 
 /* What a receiver learns beyond the drv_frame. */
@@ -112,12 +117,14 @@ typedef struct {
     double refresh_hz;                  /* the panel's refresh */
     double pose_rate_hz;                /* pose messages per second */
     warp_camera cam[2];                 /* the eye cameras (size, FOV tangents, near/far) frames must be rendered with */
+    unsigned codecs;                    /* DRV_CODEC_BIT()s the board decodes (v2 message; v1 and 0: raw only) */
 } drv_framelink_cams;
 
-/* Always DRV_FRAMELINK_CAMS_BYTES; returns 0 when cap is too small. */
+/* Always DRV_FRAMELINK_CAMS_BYTES (version 1 when codecs is raw only, else 2); returns 0 when cap is too small. */
 size_t drv_framelink_cams_encode(const drv_framelink_cams *c, uint8_t *buf, size_t cap);
 /* TRUNCATED, BAD_MAGIC, BAD_VERSION, BAD_SIZE (also a non-positive or non-finite rate, max_frame_bytes 0), CRC,
- * BAD_FORMAT (reserved fields not zero, planes without COLOR or unknown bits, unknown depth encoding) or BAD_CAMERA
+ * BAD_FORMAT (reserved fields not zero, v2 codecs without RAW, planes without COLOR or unknown bits, unknown depth
+ * encoding) or BAD_CAMERA
  * (size 0 or above WARP_MAX_SIDE, warp_camera_check fails). */
 drv_frame_err drv_framelink_cams_decode(const uint8_t *buf, size_t len, drv_framelink_cams *out);
 

@@ -54,14 +54,15 @@ typedef struct drv_framelink_dec drv_framelink_dec;
 drv_framelink_dec *drv_framelink_dec_create(int w, int h, unsigned planes, int max_layers, int threads,
                                             const char *video_hw, char *err, int errlen);
 void drv_framelink_dec_destroy(drv_framelink_dec *d);
-/* Decodes a v1 or v2 frame as drv_framelink_decode_ex does (same checks, same errors, *out untouched unless OK),
- * decompressing its planes. A corrupt JPEG or bitstream, a truncated zstd block or a missing video reference is
- * BAD_FORMAT (BAD_SIZE for sizes that disagree) with the reason in detail; a video stream that lost a reference
- * drops frames until its next key frame and sets want_key. */
+/* Decodes a v1 or v2 frame as drv_framelink_decode_ex does (same checks, same errors, *out untouched on any of
+ * them), decompressing its planes. A corrupt JPEG or bitstream, a truncated zstd block or a missing video reference
+ * is BAD_FORMAT (BAD_SIZE for sizes that disagree) with the reason in detail; after such a codec error the pixel
+ * planes may be partly written (never the frame's header fields: receivers decode into a back buffer). A video
+ * stream that lost a reference drops frames until its next key frame and sets want_key. One thread at a time. */
 drv_frame_err drv_framelink_dec_decode(drv_framelink_dec *d, const uint8_t *buf, size_t len, size_t max_frame,
                                        drv_frame *out, drv_framelink_rx *rx, char *detail, int detail_len);
 /* True (once, then cleared) when a video stream needs a key frame: the board sets DRV_FRAMELINK_POSE_WANT_KEY in
- * its next pose message. */
+ * its next pose message. Any thread (the pose thread). */
 bool drv_framelink_dec_take_want_key(drv_framelink_dec *d);
 
 typedef struct {

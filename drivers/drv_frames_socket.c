@@ -16,6 +16,7 @@
 #include <sys/un.h>
 #include <unistd.h>
 
+#include "drivers/drv_link_throttle.h"
 #include "platform/plat_clock.h"
 #include "platform/plat_log.h"
 #include "warp/warp_err.h"
@@ -283,5 +284,10 @@ drv_frames *drv_frames_socket_create(const drv_frames_usb_params *p, const char 
     }
     t->dev = sb.st_dev;
     t->ino = sb.st_ino;
-    return drv_frames_usb_create_on_transport(p, &t->base, "socket", err, errlen);
+    drv_usb_transport *link = drv_link_throttle(&t->base, p->link_mbps); /* [frames] link_mbps */
+    if (!link) {
+        warp_err(err, errlen, "socket frames: out of memory");
+        return NULL;
+    }
+    return drv_frames_usb_create_on_transport(p, link, "socket", err, errlen);
 }

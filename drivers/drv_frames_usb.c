@@ -24,7 +24,9 @@
 #include "drivers/drv_codec.h"
 #include "drivers/drv_framelink.h"
 #include "drivers/drv_framelink_codec.h"
+#include "drivers/drv_usb_speed.h"
 #include "platform/plat_clock.h"
+#include "platform/plat_log.h"
 #include "warp/warp_err.h"
 #include "warp/warp_head.h"
 
@@ -247,7 +249,8 @@ static void send_cams(usb_frames *u, int timeout_ms)
 {
     drv_framelink_cams c = {.seq = ++u->cams_seq, .planes = u->p.planes, .depth_encoding = u->p.depth_encoding,
                             .max_frame_bytes = u->p.max_frame_bytes, .refresh_hz = u->p.refresh_hz,
-                            .pose_rate_hz = u->p.pose_rate_hz, .cam = {u->p.cam[0], u->p.cam[1]}};
+                            .pose_rate_hz = u->p.pose_rate_hz, .cam = {u->p.cam[0], u->p.cam[1]},
+                            .codecs = u->p.codecs};
     uint8_t msg[DRV_FRAMELINK_CAMS_BYTES];
     drv_framelink_cams_encode(&c, msg, sizeof msg);
     ssize_t rc = u->t->write(u->t, msg, sizeof msg, timeout_ms);
@@ -670,6 +673,25 @@ static const char *ffs_event_name(int type)
     return type >= 0 && type < 7 ? names[type] : "unknown";
 }
 
+/* On ENABLE (the host configured us), the speed the host negotiated: in the stats and the log, with a warning when
+ * it is below what the UDC can do (a USB 2 port or cable in front of a USB 3 controller). */
+static void ffs_note_speed(ffs_transport *t)
+{
+    char udc[64];
+    if (!drv_usb_udc_of("", t->owner->p.ffs_dir, udc, sizeof udc)) return;
+    drv_usb_speed cur = drv_usb_udc_speed("", udc, false), max = drv_usb_udc_speed("", udc, true);
+    pthread_mutex_lock(&t->owner->lock);
+    snprintf(t->owner->st.usb_speed, sizeof t->owner->st.usb_speed, "%s", drv_usb_speed_name(cur));
+    pthread_mutex_unlock(&t->owner->lock);
+    if (cur != DRV_USB_SPEED_UNKNOWN && cur < max)
+        plat_log(PLAT_LOG_WARNING, "usb frames: host connected at %s (~%g MB/s) on %s, which does %s: a USB %s port "
+                 "or cable on the way?", drv_usb_speed_name(cur), drv_usb_speed_mbps(cur), udc,
+                 drv_usb_speed_name(max), cur <= DRV_USB_SPEED_HIGH ? "2" : "3 Gen 1");
+    else
+        plat_log(PLAT_LOG_NOTICE, "usb frames: host connected at %s (~%g MB/s) on %s", drv_usb_speed_name(cur),
+                 drv_usb_speed_mbps(cur), udc);
+}
+
 static void *ep0_thread(void *arg)
 {
     ffs_transport *t = arg;
@@ -689,9 +711,15 @@ static void *ep0_thread(void *arg)
             switch (ev[i].type) {
             case FUNCTIONFS_ENABLE:
                 pthread_mutex_lock(&t->lock);
+                if (!t->enabled) { /* a host configured the function: counted as socket hosts are */
+                    pthread_mutex_lock(&t->owner->lock);
+                    t->owner->st.connections++;
+                    pthread_mutex_unlock(&t->owner->lock);
+                }
                 t->enabled = true;
                 pthread_cond_broadcast(&t->cond);
                 pthread_mutex_unlock(&t->lock);
+                ffs_note_speed(t);
                 break;
             case FUNCTIONFS_DISABLE:
             case FUNCTIONFS_UNBIND:
@@ -736,11 +764,28 @@ static void ffs_destroy(drv_usb_transport *bt)
     free(t);
 }
 
-/* Descriptors: one vendor interface, bulk OUT ep1 (frames) and bulk IN ep2 (poses), full and high speed. */
+/* Descriptors: one vendor interface, bulk OUT ep1 (frames) and bulk IN ep2 (poses), at full, high and super speed.
+ * FunctionFS has no SuperSpeedPlus set of its own: it offers the super-speed one at SuperSpeedPlus too (f_fs.c's
+ * _ffs_func_bind, as in Debian 12's 6.1), so a USB 3.1/3.2 controller runs Gen 2 with these. On a USB 3 controller
+ * the composite layer writes the device's bcdUSB (3.2 at super speed, 2.1 below) whatever gadget.sh put in configfs. */
 struct ffs_ep_pair {
     struct usb_interface_descriptor intf;
     struct usb_endpoint_descriptor_no_audio out, in;
 } __attribute__((packed));
+
+/* Super speed adds a companion after each endpoint. */
+struct ffs_ss_set {
+    struct usb_interface_descriptor intf;
+    struct usb_endpoint_descriptor_no_audio out;
+    struct usb_ss_ep_comp_descriptor out_comp;
+    struct usb_endpoint_descriptor_no_audio in;
+    struct usb_ss_ep_comp_descriptor in_comp;
+} __attribute__((packed));
+
+#define FFS_SS_MAXPACKET 1024 /* the only bulk max packet size USB 3 allows */
+#define FFS_SS_OUT_BURST 15   /* frames: 16 packets a burst (the most), so the host streams without a handshake
+                               * every packet; what USB 3 controllers need to pass ~400 MB/s */
+#define FFS_SS_IN_BURST 0     /* poses: one packet holds a pose message */
 
 static struct ffs_ep_pair ep_pair(uint16_t maxpacket)
 {
@@ -761,20 +806,39 @@ static struct ffs_ep_pair ep_pair(uint16_t maxpacket)
     return d;
 }
 
+static struct ffs_ss_set ss_set(void)
+{
+    struct ffs_ep_pair p = ep_pair(FFS_SS_MAXPACKET);
+    struct ffs_ss_set d;
+    memset(&d, 0, sizeof d);
+    d.intf = p.intf;
+    d.out = p.out;
+    d.in = p.in;
+    d.out_comp.bLength = d.in_comp.bLength = USB_DT_SS_EP_COMP_SIZE;
+    d.out_comp.bDescriptorType = d.in_comp.bDescriptorType = USB_DT_SS_ENDPOINT_COMP;
+    d.out_comp.bMaxBurst = FFS_SS_OUT_BURST;
+    d.in_comp.bMaxBurst = FFS_SS_IN_BURST;
+    return d;
+}
+_Static_assert(sizeof(struct usb_ss_ep_comp_descriptor) == USB_DT_SS_EP_COMP_SIZE, "companion descriptor size");
+
 static bool ffs_write_descriptors(int ep0, char *err, int errlen, const char *dir)
 {
     struct {
         struct usb_functionfs_descs_head_v2 head;
-        __le32 fs_count, hs_count;
+        __le32 fs_count, hs_count, ss_count;
         struct ffs_ep_pair fs, hs;
+        struct ffs_ss_set ss;
     } __attribute__((packed)) desc;
     desc.head.magic = htole32(FUNCTIONFS_DESCRIPTORS_MAGIC_V2);
     desc.head.length = htole32(sizeof desc);
-    desc.head.flags = htole32(FUNCTIONFS_HAS_FS_DESC | FUNCTIONFS_HAS_HS_DESC);
+    desc.head.flags = htole32(FUNCTIONFS_HAS_FS_DESC | FUNCTIONFS_HAS_HS_DESC | FUNCTIONFS_HAS_SS_DESC);
     desc.fs_count = htole32(3);
     desc.hs_count = htole32(3);
+    desc.ss_count = htole32(5);
     desc.fs = ep_pair(64);
     desc.hs = ep_pair(512);
+    desc.ss = ss_set();
     if (write(ep0, &desc, sizeof desc) != (ssize_t)sizeof desc)
         return warp_err(err, errlen, "usb frames: %s/ep0: writing the descriptors: %s", dir, strerror(errno));
     static const char name[] = "hmdwarp frames";
@@ -844,12 +908,18 @@ drv_frames *drv_frames_usb_create(const drv_frames_usb_params *p, char *err, int
                  strerror(errno));
         goto fail;
     }
+    /* before the ep0 thread, which sets it when a host enables the function */
+    snprintf(u->st.usb_speed, sizeof u->st.usb_speed, "%s", drv_usb_speed_name(DRV_USB_SPEED_UNKNOWN));
     t->ep0_up = pthread_create(&t->ep0_th, NULL, ep0_thread, t) == 0;
     if (!t->ep0_up) {
         warp_err(err, errlen, "usb frames: cannot start the ep0 thread");
         goto fail;
     }
     if (!board_start(u, err, errlen)) goto fail;
+    char udc[64];
+    if (drv_usb_udc_of("", p->ffs_dir, udc, sizeof udc))
+        plat_log(PLAT_LOG_NOTICE, "usb frames: descriptors written to %s (full, high and super speed); UDC %s does %s",
+                 p->ffs_dir, udc, drv_usb_speed_name(drv_usb_udc_speed("", udc, true)));
     return &u->base;
 fail:
     usb_destroy(&u->base);

@@ -19,6 +19,7 @@ typedef struct {
     unsigned planes;          /* DRV_PLANE_* the caller allocates (drv_frames_planes reports them) */
     drv_pose_source poses;    /* predictions sent to the host */
     double pose_rate_hz;      /* pose messages per second */
+    double link_mbps;         /* mock and socket transports: read at most this many MB/s (10^6 B/s; 0 = unlimited) */
     warp_head head;           /* eye offsets (IPD) for the per-eye poses sent; all zero = warp_head_default() */
     /* What the camera message (HWC1) tells each host to render: sent when a host connects, then once a second. */
     warp_camera cam[2];                 /* the eye cameras frames must be rendered with */
@@ -43,7 +44,8 @@ typedef struct {
     uint64_t discarded_bytes;                   /* oversize frames read into scratch and dropped */
     uint64_t poses_sent, poses_dropped;         /* pose messages written / not taken by the host in time */
     uint64_t disconnects;                       /* endpoint I/O failures and DISABLE/UNBIND events */
-    uint64_t connections, refused;              /* socket: hosts accepted / turned away while one was connected */
+    uint64_t connections, refused;              /* hosts connected (USB: function enabled; socket: accepted) /
+                                                 * turned away while one was connected (socket) */
     uint64_t cams_sent;                         /* camera messages (HWC1) written */
     bool connected;                             /* the host has configured the function (ENABLE) */
     double lead_ms;                             /* current pose lead: measured pose-to-frame latency */
@@ -55,6 +57,8 @@ typedef struct {
     double decode_ms_last;                      /* the last accepted frame's decode (wall time, all threads) */
     unsigned codecs, codecs_seen;               /* DRV_CODEC_BIT()s announced / met in frames */
     char video_decoder[32];                     /* "software", "hevc_v4l2m2m", ... ("" before a video frame) */
+    char usb_speed[24];                         /* usb: the speed the host negotiated ("high-speed", "super-speed",
+                                                 * drv_usb_speed_name; "unknown" before the first); "" on the others */
     char last_error[160];
 } drv_frames_usb_stats;
 

@@ -15,6 +15,7 @@
 #include <unistd.h>
 
 #include "drivers/drv_framelink.h"
+#include "drivers/drv_link_throttle.h"
 #include "platform/plat_clock.h"
 #include "warp/warp_err.h"
 
@@ -203,7 +204,12 @@ drv_frames *drv_frames_usb_create_mock(const drv_frames_sim_params *host, const 
     m->board_out_fd = outp[0], m->out_fd = outp[1];
     m->board_in_fd = inp[0], m->in_fd = inp[1];
     /* The board side first (it checks the parameters); its pose thread's first messages wait in the socket. */
-    drv_frames *fr = drv_frames_usb_create_on_transport(p, &m->base, "usb-mock", err, errlen);
+    drv_usb_transport *link = drv_link_throttle(&m->base, p->link_mbps); /* [frames] link_mbps */
+    if (!link) {
+        warp_err(err, errlen, "usb mock: out of memory");
+        return NULL;
+    }
+    drv_frames *fr = drv_frames_usb_create_on_transport(p, link, "usb-mock", err, errlen);
     if (!fr) return NULL;
     const char *why = "out of memory";
     m->mp = mp ? *mp : (drv_frames_usb_mock_params){0};

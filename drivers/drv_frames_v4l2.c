@@ -66,6 +66,8 @@ static void cap_stop(v4l2_cap *c)
     pthread_mutex_unlock(&c->lock);
 }
 
+static unsigned cap_planes(drv_frames *fr);
+
 static bool cap_start(v4l2_cap *c, char *err, int errlen)
 {
     const char *dev = c->p.device;
@@ -95,9 +97,17 @@ static bool cap_start(v4l2_cap *c, char *err, int errlen)
                  c->want ? drv_v4l2_fourcc_str(c->want, fc) : "YUYV, NV12, XBGR32/BGR32 or RGB24");
         goto fail;
     }
+    memset(&c->g, 0, sizeof c->g);
     if (!drv_v4l2_set_format(c->ops, c->ctx, c->fd, dev, V4L2_BUF_TYPE_VIDEO_CAPTURE, f, c->layout.width,
-                             c->layout.height, &c->g, &c->cs, err, errlen))
+                             c->layout.height, &c->g, &c->cs, err, errlen)) {
+        /* A mode too small for the layout (an HDMI bridge delivers the incoming mode): name what it would hold. */
+        char why[320];
+        drv_v4l2_fit fit;
+        if (c->g.width > 0 && !drv_v4l2_fit_check(c->g.width, c->g.height, c->g.fourcc, c->p.eye_w, c->p.eye_h,
+                                                  cap_planes(&c->base), &fit, why, sizeof why))
+            warp_err(err, errlen, "%s: %s", dev, why);
         goto fail;
+    }
     c->nbuf = drv_v4l2_map_buffers(c->ops, c->ctx, c->fd, dev, V4L2_BUF_TYPE_VIDEO_CAPTURE,
                                    drv_v4l2_image_size(c->g.fourcc, c->g.height, c->g.bytesperline), c->buf, err,
                                    errlen);

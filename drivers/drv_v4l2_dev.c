@@ -139,11 +139,6 @@ bool drv_v4l2_set_format(const drv_v4l2_dev_ops *ops, void *ctx, int fd, const c
                  drv_v4l2_fourcc_str(pf->pixelformat, fc2));
         return false;
     }
-    if ((int)pf->width < w || (int)pf->height < h) {
-        warp_err(err, errlen, "%s: frames are %ux%u, the layout (eyes and band) needs at least %dx%d", dev, pf->width,
-                 pf->height, w, h);
-        return false;
-    }
     if (pf->field != V4L2_FIELD_NONE && pf->field != V4L2_FIELD_ANY) {
         warp_err(err, errlen, "%s: interlaced video (field %u) is not supported", dev, pf->field);
         return false;
@@ -155,6 +150,12 @@ bool drv_v4l2_set_format(const drv_v4l2_dev_ops *ops, void *ctx, int fd, const c
     }
     if (pf->sizeimage > g->size) g->size = pf->sizeimage;
     *cs = colorspace_of(pf);
+    /* Last, with g filled: the caller can then say what the mode would hold (drv_v4l2_fit_check). */
+    if ((int)pf->width < w || (int)pf->height < h) {
+        warp_err(err, errlen, "%s: frames are %ux%u, the layout (eyes and band) needs at least %dx%d", dev, pf->width,
+                 pf->height, w, h);
+        return false;
+    }
     return true;
 }
 

@@ -34,8 +34,8 @@ bool drv_v4l2_parse_format(const char *s, uint32_t *f);
 uint32_t drv_v4l2_choose_format(const drv_v4l2_dev_ops *ops, void *ctx, int fd, uint32_t type, uint32_t want,
                                 char *offered, int offeredlen);
 /* S_FMT for w x h in `fourcc` (BT.601 limited range asked for); checks what the driver made of it: the same format,
- * at least w x h, progressive. Fills the geometry and the Y'CbCr encoding reported. False with a message naming
- * `dev` in err. */
+ * progressive, at least w x h. Fills the geometry and the Y'CbCr encoding reported. False with a message naming
+ * `dev` in err; g is filled (g->width > 0) when the mode is only too small. */
 bool drv_v4l2_set_format(const drv_v4l2_dev_ops *ops, void *ctx, int fd, const char *dev, uint32_t type,
                          uint32_t fourcc, int w, int h, drv_v4l2_geom *g, drv_v4l2_colorspace *cs, char *err,
                          int errlen);

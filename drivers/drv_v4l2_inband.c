@@ -8,6 +8,8 @@
 #include <string.h>
 #include <zlib.h>
 
+#include "warp/warp_err.h"
+
 #define META_BITS (DRV_V4L2_META_BYTES * 8)
 #define CHUNK 512 /* pixels per row piece handled on the stack (unpack never allocates) */
 /* Block means are thresholded halfway between the levels: a block survives any error below ~100 levels. */
@@ -35,6 +37,74 @@ bool drv_v4l2_layout(int eye_w, int eye_h, bool depth, int *img_w, int *img_h)
     if (img_w) *img_w = l.width;
     if (img_h) *img_h = l.height;
     return true;
+}
+
+const drv_v4l2_mode drv_v4l2_common_modes[] = {
+    {"720p", 1280, 720}, {"1080p", 1920, 1080}, {"1200p", 1920, 1200},
+    {"1440p", 2560, 1440}, {"4K UHD", 3840, 2160}, {"DCI 4K", 4096, 2160},
+};
+const int drv_v4l2_common_mode_count = (int)(sizeof drv_v4l2_common_modes / sizeof drv_v4l2_common_modes[0]);
+
+#define MAX_EYE_SIDE 8192 /* drv_v4l2_layout_get's limit (the band's u16 sizes and int pixel indices) */
+
+static size_t frame_bytes(uint32_t fourcc, int w, int h)
+{
+    return drv_v4l2_image_size(fourcc, h, drv_v4l2_min_bytesperline(fourcc, w));
+}
+
+/* The tallest even eye of width w whose layout fits mode_h rows (0 if none). */
+static int max_eye_h(int w, bool depth, int mode_h)
+{
+    drv_v4l2_layout_info l;
+    if (!drv_v4l2_layout_get(w, 2, depth, &l)) return 0;
+    int h = (mode_h - l.band_rows) / (depth ? 3 : 1);
+    h = h > MAX_EYE_SIDE ? MAX_EYE_SIDE : h & ~1;
+    return h >= 2 ? h : 0;
+}
+
+bool drv_v4l2_fit_check(int mode_w, int mode_h, uint32_t fourcc, int eye_w, int eye_h, unsigned planes,
+                        drv_v4l2_fit *fit, char *why, int whylen)
+{
+    memset(fit, 0, sizeof *fit);
+    const bool depth = (planes & DRV_PLANE_DEPTH) != 0;
+    const char *what = depth ? "colour + depth" : "colour";
+    char fc[8];
+    if (!drv_v4l2_fourcc_supported(fourcc))
+        return warp_err(why, whylen, "capture format %s is none of YUYV, NV12, BGR32/XBGR32, RGB24",
+                        drv_v4l2_fourcc_str(fourcc, fc));
+    if (mode_w <= 0 || mode_h <= 0 || mode_w > 1 << 16 || mode_h > 1 << 16)
+        return warp_err(why, whylen, "capture mode %dx%d is no video mode", mode_w, mode_h);
+    fit->have_bytes = frame_bytes(fourcc, mode_w, mode_h);
+    int mw = mode_w / 2 > MAX_EYE_SIDE ? MAX_EYE_SIDE : (mode_w / 2) & ~1;
+    fit->max_eye_w = mw >= DRV_V4L2_MIN_EYE_W ? mw : 0;
+    drv_v4l2_layout_info l;
+    bool has_layout = drv_v4l2_layout_get(eye_w, eye_h, depth, &l);
+    int at_w = has_layout && eye_w < fit->max_eye_w ? eye_w : fit->max_eye_w;
+    fit->max_eye_h = at_w ? max_eye_h(at_w, depth, mode_h) : 0;
+    if (!(planes & DRV_PLANE_COLOR) || (planes & ~(unsigned)(DRV_PLANE_COLOR | DRV_PLANE_DEPTH)))
+        return warp_err(why, whylen, "the V4L2 in-band layout carries colour and optionally depth only (planes 0x%x)",
+                        planes);
+    if (!has_layout)
+        return warp_err(why, whylen,
+                        "eyes %dx%d have no V4L2 in-band layout (even sizes, width %d..%d, height up to %d)", eye_w,
+                        eye_h, DRV_V4L2_MIN_EYE_W, MAX_EYE_SIDE, MAX_EYE_SIDE);
+    fit->need_w = l.width, fit->need_h = l.height;
+    fit->need_bytes = frame_bytes(fourcc, l.width, l.height);
+    fit->fits = l.width <= mode_w && l.height <= mode_h;
+    if (fit->fits) return true;
+    const double mib = 1024.0 * 1024.0;
+    char holds[120];
+    if (!fit->max_eye_h)
+        snprintf(holds, sizeof holds, "it holds no eyes %s", depth ? "with depth" : "at all");
+    else if (depth)
+        snprintf(holds, sizeof holds, "it holds eyes up to %dx%d with depth, %dx%d colour only", at_w,
+                 fit->max_eye_h, at_w, max_eye_h(at_w, false, mode_h));
+    else
+        snprintf(holds, sizeof holds, "it holds eyes up to %dx%d", at_w, fit->max_eye_h);
+    return warp_err(why, whylen,
+                    "eyes %dx%d (%s) need a %dx%d in-band frame (%.1f MiB of %s); the capture mode %dx%d %s has "
+                    "%.1f MiB: %s", eye_w, eye_h, what, l.width, l.height, (double)fit->need_bytes / mib,
+                    drv_v4l2_fourcc_str(fourcc, fc), mode_w, mode_h, fc, (double)fit->have_bytes / mib, holds);
 }
 
 /* ---- serialisation (little endian; doubles as their IEEE bits, so they arrive bit exact) ---- */

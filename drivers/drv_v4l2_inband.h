@@ -33,6 +33,32 @@ typedef struct {
 bool drv_v4l2_layout(int eye_w, int eye_h, bool depth, int *img_w, int *img_h);
 bool drv_v4l2_layout_get(int eye_w, int eye_h, bool depth, drv_v4l2_layout_info *l);
 
+/* Whether a host frame fits a capture mode: the layout of two eye_w x eye_h eyes with `planes` (DRV_PLANE_COLOR,
+ * optionally DRV_PLANE_DEPTH: the layout carries nothing else) in a mode_w x mode_h video mode of `fourcc`. The
+ * layout sits unscaled in the mode's top-left corner, so it fits when both its sides do (bytes alone would not
+ * tell: 3840x1080 holds as many as 1920x2160). Pure: the start-up check, --check-config and the docs' table. */
+typedef struct {
+    bool fits;
+    int need_w, need_h; /* the layout's frame; 0 x 0 when the eye size or planes have no layout */
+    size_t need_bytes;  /* a need_w x need_h frame of fourcc at the minimum stride */
+    size_t have_bytes;  /* a mode_w x mode_h frame of fourcc at the minimum stride */
+    int max_eye_w;      /* the widest eye whose layout the mode holds (even), 0 if none */
+    int max_eye_h;      /* the tallest eye the mode holds at min(eye_w, max_eye_w) wide, same planes; 0 if none */
+} drv_v4l2_fit;
+/* Fills *fit and returns fit->fits; when it does not fit, why (may be NULL) gets one line naming the mode, eye size,
+ * planes, the frame and bytes needed and those available, and the largest eyes that would fit. */
+bool drv_v4l2_fit_check(int mode_w, int mode_h, uint32_t fourcc, int eye_w, int eye_h, unsigned planes,
+                        drv_v4l2_fit *fit, char *why, int whylen);
+
+/* Common HDMI capture modes (720p, 1080p, 1200p, 1440p, 4K UHD, DCI 4K), smallest first, for --check-config and
+ * docs/v4l2-inband.md's table. */
+typedef struct {
+    const char *name;
+    int w, h;
+} drv_v4l2_mode;
+extern const drv_v4l2_mode drv_v4l2_common_modes[];
+extern const int drv_v4l2_common_mode_count;
+
 /* Metadata as carried in the band. */
 typedef struct {
     int version;

@@ -158,6 +158,8 @@ static void store_cams(hmdwarp_host *h, const drv_framelink_cams *c)
                                      c->max_frame_bytes, c->refresh_hz, c->pose_rate_hz,
                                      {host_camera_from_warp(&c->cam[0]), host_camera_from_warp(&c->cam[1])}};
     h->have_cams = h->cams_from_board = true;
+    /* what the board decodes: a version 1 message (codecs 0) means raw only */
+    h->board_codecs = c->codecs ? c->codecs : DRV_CODEC_BIT(DRV_CODEC_RAW);
     h->st.cameras_received++;
     pthread_cond_broadcast(&h->cond);
     pthread_mutex_unlock(&h->lock);

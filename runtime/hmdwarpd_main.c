@@ -12,6 +12,7 @@
 #include "platform/plat_log.h"
 #include "platform/plat_version.h"
 #include "runtime/rt_app.h"
+#include "runtime/rt_link_budget.h"
 #include "runtime/rt_config.h"
 #include "sim/sim_scene.h"
 #include "sim/sim_trace.h"
@@ -163,6 +164,9 @@ int main(int argc, char **argv)
         printf("; %s: valid\n", config ? config : "built-in defaults");
         printf("; allocates about %.0f MiB at start ([render] max_memory_mb = %g)\n",
                (double)rt_config_memory_bytes(&cfg) / (1024.0 * 1024.0), cfg.max_memory_mb);
+        char link[600];
+        bool fits = rt_link_budget_line(&cfg, link, sizeof link);
+        if (link[0]) printf("; %s%s\n", fits ? "" : "warning: ", link);
         rt_config_print(&cfg, stdout);
         return 0;
     }
@@ -184,6 +188,9 @@ int main(int argc, char **argv)
     printf("hmdwarpd: board '%s', scene '%s', trace '%s', method %s, %s\n", cfg.board_name, cfg.scene, cfg.trace,
            rt_method_name(cfg.method),
            cfg.duration_s > 0 ? "running" : "running until Ctrl-C");
+    char link[600]; /* after the devices opened: a USB gadget's UDC is known */
+    if (!rt_link_budget_line(&cfg, link, sizeof link)) plat_log(PLAT_LOG_WARNING, "%s", link);
+    else if (link[0]) printf("hmdwarpd: %s\n", link);
     fflush(stdout);
     /* Devices are open and everything is allocated (for the USB gadget: the descriptors are written, so the UDC
      * can be bound now). No-op outside systemd. */

@@ -18,6 +18,7 @@
 #include "drivers/drv_framelink.h"
 #include "drivers/drv_frames_socket.h"
 #include "warp/warp_err.h"
+#include "drivers/drv_v4l2_inband.h"
 #include "warp/warp_head.h"
 #include "warp/warp_registry.h"
 
@@ -166,6 +167,9 @@ static const keydef keys[] = {
      "usb, socket: threads a frame's compressed planes decode on (eyes and JPEG slices in parallel)"},
     {"frames", "video_decoder", K_CHOICE, F(video_decoder), S(video_decoder), 0, 0, video_decoder_names,
      "usb, socket: H.264/HEVC colour decoder: software (libavcodec) or v4l2m2m (the board's hardware decoder)"},
+    {"frames", "link_mbps", K_DOUBLE, F(link_mbps), 0, 0, 100000, NULL,
+     "mock usb and socket links: the most they carry, MB/s (10^6 bytes), as a real link would (USB 2.0 ~40, USB 3 "
+     "~400; docs/link-budget.md); 0 = unlimited"},
     {"vsync", "backend", K_CHOICE, F(vsync_backend), S(vsync_backend), 0, 0, vsync_names,
      "vsync source: sim (simulated panel), gpio (panel TE line via libgpiod), timer (free running) or kms (the "
      "display controller's vblank times; needs output = kms)"},
@@ -814,6 +818,7 @@ bool rt_config_parse_codecs(const char *s, unsigned *mask, char *err, int errlen
     *mask = m;
     return true;
 }
+static unsigned v4l2_planes(const rt_config *c) { return DRV_PLANE_COLOR | (c->frames_depth ? DRV_PLANE_DEPTH : 0u); }
 
 bool rt_config_validate(const rt_config *c, rt_config_errors *err)
 {
@@ -857,6 +862,12 @@ bool rt_config_validate(const rt_config *c, rt_config_errors *err)
     char cwhy[160];
     if (!rt_config_parse_codecs(c->frames_codecs, &codecs, cwhy, sizeof cwhy))
         add_error(err, "%s = '%s': %s", keys_at(c, "frames.codecs", at, sizeof at), c->frames_codecs, cwhy);
+    /* V4L2 in band: the capture mode is the incoming signal's, known only at start-up (drv_frames_v4l2 checks it
+     * there); an eye size without any layout is known now. */
+    drv_v4l2_fit fit;
+    if (strcmp(c->frames_backend, "v4l2") == 0 &&
+        !drv_v4l2_fit_check(1 << 16, 1 << 16, DRV_V4L2_YUYV, c->eye_w, c->eye_h, v4l2_planes(c), &fit, buf, sizeof buf))
+        add_error(err, "[frames] backend = v4l2: %s; %s", buf, keys_at(c, "eye.width eye.height", at, sizeof at));
     const bool kms = strcmp(c->output, "kms") == 0;
     if (strcmp(c->vsync_backend, "kms") == 0 && !kms)
         add_error(err, "[vsync] backend = kms: needs [display] output = kms (the vblanks come from the KMS output; "
@@ -913,6 +924,21 @@ void rt_config_warnings(const rt_config *c, rt_config_errors *warn)
         strcmp(c->sink, "null") == 0)
         add_error(warn, "board '%s' displays nowhere: [display] output = offscreen and sink = null (set output = kms "
                         "to show the panel)", c->board_name);
+    /* A V4L2 in-band layout larger than every common capture mode (docs/v4l2-inband.md) needs a capture device
+     * with an unusual mode; the start-up check is the final word (the mock delivers the layout's own size). */
+    if (strcmp(c->frames_backend, "v4l2") == 0 && strcmp(c->frames_device, "mock") != 0) {
+        const drv_v4l2_mode *big = &drv_v4l2_common_modes[drv_v4l2_common_mode_count - 1];
+        drv_v4l2_fit fit;
+        bool any = false;
+        for (int i = 0; i < drv_v4l2_common_mode_count; i++)
+            any = any || drv_v4l2_fit_check(drv_v4l2_common_modes[i].w, drv_v4l2_common_modes[i].h, DRV_V4L2_YUYV,
+                                            c->eye_w, c->eye_h, v4l2_planes(c), &fit, NULL, 0);
+        if (!any && fit.need_w > 0)
+            add_error(warn, "[frames] backend = v4l2: eyes %dx%d (%s) need a %dx%d in-band frame, larger than every "
+                            "common capture mode up to %s %dx%d (docs/v4l2-inband.md); the capture device must "
+                            "deliver at least that", c->eye_w, c->eye_h, c->frames_depth ? "colour + depth" : "colour",
+                      fit.need_w, fit.need_h, big->name, big->w, big->h);
+    }
     /* max_memory_mb is the board's budget; this machine may have less (a warning only: a board's configuration is
      * also checked on the host that builds it) */
     long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
@@ -920,6 +946,14 @@ void rt_config_warnings(const rt_config *c, rt_config_errors *warn)
     if (pages > 0 && page > 0 && mem > (uint64_t)pages * (uint64_t)page)
         add_error(warn, "this configuration allocates about %.0f MiB at start, more than this machine's %.0f MiB",
                   (double)mem / (1024.0 * 1024.0), (double)pages * (double)page / (1024.0 * 1024.0));
+    /* only the links that stand in for one are limited: a real link runs at its own rate */
+    const bool limitable = strcmp(c->frames_backend, "socket") == 0 ||
+                           (strcmp(c->frames_backend, "usb") == 0 && strcmp(c->frames_device, "mock") == 0);
+    char at[300];
+    if (c->link_mbps > 0 && !limitable)
+        add_error(warn, "%s = %g: ignored for backend = %s%s (only the mock usb and the socket links are limited)",
+                  keys_at(c, "frames.link_mbps", at, sizeof at), c->link_mbps, c->frames_backend,
+                  strcmp(c->frames_backend, "usb") == 0 ? ", a real link at its bus's rate" : "");
 }
 
 static void format_value(const rt_config *c, const keydef *k, char *buf, size_t len)

@@ -93,6 +93,7 @@ typedef struct {
     char frames_codecs[64];     /* usb, socket: codecs announced to hosts: auto, or a list of raw zstd jpeg h264 hevc */
     int decode_threads;         /* usb, socket: threads a frame's compressed planes decode on */
     char video_decoder[16];     /* software | v4l2m2m */
+    double link_mbps;           /* mock usb and socket links: a token-bucket limit in MB/s (10^6 B/s), 0 = none */
     char vsync_chip[64];        /* gpio: gpiochipN, N, /dev/gpiochipN, or mock */
     int vsync_line;
     int vsync_falling;          /* edge: 0 rising, 1 falling */

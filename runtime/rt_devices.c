@@ -141,6 +141,7 @@ static bool open_frames(rt_devices *d, const rt_config *c, const drv_frames_sim_
         p.planes = sp->planes_wanted;
         p.poses = sp->poses;
         p.pose_rate_hz = c->pose_rate_hz;
+        p.link_mbps = c->link_mbps;
         p.head = sp->head;
         /* what the camera message asks hosts to render: the board's eyes, refresh, and linear depth (the warps'
          * own encoding: nothing to convert) */

@@ -21,9 +21,9 @@ enum {
     R_KMS_API, R_KMS_FORMAT, R_GLES_P50, R_GLES_P99, R_GLES_ERRORS, R_VSYNCS, R_MISSED, R_MISSED_BY, R_NO_FRAME,
     R_NO_BUFFER, R_METHOD, R_WARP_P50, R_WARP_P99, R_STALL, R_M2P_P50, R_M2P_P99, R_AGE_P50, R_AGE_MAX, R_SELECT,
     R_SWITCHES, R_RECEIVED, R_BYTES, R_SHOWN, R_DROPPED, R_REJECTED_BY, R_REJECTED, R_LINK_CONNECTED,
-    R_LINK_CONNECTIONS, R_LINK_REFUSED, R_LINK_DISCONNECTS, R_LINK_POSES, R_LINK_POSES_DROPPED, R_LINK_DECODE_P50,
-    R_LINK_DECODE_P99, R_LINK_COMPRESSED, R_LINK_CODEC_ERRORS, R_LINK_KEY_REQUESTS, R_LINK_WIRE_MB_S,
-    R_LINK_COMPRESSION, R_LINK_VIDEO_DECODER, R_IMU_SAMPLES,
+    R_LINK_CONNECTIONS, R_LINK_REFUSED, R_LINK_DISCONNECTS, R_LINK_POSES, R_LINK_POSES_DROPPED, R_LINK_USB_SPEED,
+    R_LINK_DECODE_P50, R_LINK_DECODE_P99, R_LINK_COMPRESSED, R_LINK_CODEC_ERRORS, R_LINK_KEY_REQUESTS,
+    R_LINK_WIRE_MB_S, R_LINK_COMPRESSION, R_LINK_VIDEO_DECODER, R_IMU_SAMPLES,
     R_IMU_READ_ERRORS, R_IMU_LOST, R_IMU_STALE, R_IMU_REPORTS, R_IMU_BAD, R_IMU_RECONNECTS, R_IMU_CONNECTED,
     R_VS_EDGES, R_VS_SPURIOUS, R_VS_MISSED, R_VS_FALLBACKS, R_VS_ON_TIMER, R_VS_PERIOD, R_VS_JITTER, R_ORIENT_W,
     R_ORIENT_X, R_ORIENT_Y, R_ORIENT_Z, R_ORIENT_ERR, R_PSNR, R_SSIM,
@@ -83,6 +83,7 @@ const rt_summary_row rt_summary_table[] = {
     [R_LINK_DISCONNECTS] = {"frames_link_disconnects", "host link", B, 'u', 0, false},
     [R_LINK_POSES] = {"frames_link_poses_sent", "host link", B, 'u', 0, false},
     [R_LINK_POSES_DROPPED] = {"frames_link_poses_dropped", "host link", B, 'u', 0, false},
+    [R_LINK_USB_SPEED] = {"frames_link_usb_speed", "host link", B, 's', 0, false},
     [R_LINK_DECODE_P50] = {"frames_link_decode_ms_p50", "link decode", B, 'f', 3, false},
     [R_LINK_DECODE_P99] = {"frames_link_decode_ms_p99", "link decode", B, 'f', 3, false},
     [R_LINK_COMPRESSED] = {"frames_link_compressed_frames", "link codecs", B, 'u', 0, false},
@@ -169,6 +170,7 @@ int rt_summary_members(const rt_summary_src *s, int r)
     case R_LINK_COMPRESSION:
     case R_LINK_VIDEO_DECODER:
     case R_LINK_DECODE_MS: return s->has_link_stats;
+    case R_LINK_USB_SPEED: return s->has_link_stats && s->link.usb_speed[0]; /* the USB gadget's only */
     case R_IMU_REPORTS:
     case R_IMU_BAD:
     case R_IMU_RECONNECTS:
@@ -311,6 +313,7 @@ static val value(const rt_summary_src *s, int r, int i)
         break;
     case R_LINK_VIDEO_DECODER: v.s = s->link.video_decoder; break;
     case R_LINK_DECODE_MS: v.h = &t->decode_ms; break;
+    case R_LINK_USB_SPEED: v.s = s->link.usb_speed; break;
     case R_IMU_SAMPLES: v.u = t->imu_samples; break;
     case R_IMU_READ_ERRORS: v.u = t->imu_read_errors; break;
     case R_IMU_LOST: v.u = t->imu_lost; break;
@@ -515,9 +518,10 @@ void rt_summary_print(const rt_summary_src *s, FILE *out)
             fprintf(out, "    %s %-13s %llu\n", L(R_REJECTED_BY), rt_summary_member_label(R_REJECTED_BY, e),
                     UI(R_REJECTED_BY, e));
     if (s->has_link_stats)
-        fprintf(out, "  %-26s %s, hosts %llu (refused %llu), disconnects %llu; poses sent %llu, dropped "
+        fprintf(out, "  %-26s %s%s%s, hosts %llu (refused %llu), disconnects %llu; poses sent %llu, dropped "
                      "%llu%s%s\n", L(R_LINK_CONNECTED), U(R_LINK_CONNECTED) ? "connected" : "NOT connected",
-                U(R_LINK_CONNECTIONS), U(R_LINK_REFUSED), U(R_LINK_DISCONNECTS), U(R_LINK_POSES),
+                s->link.usb_speed[0] ? " at usb " : "", s->link.usb_speed, U(R_LINK_CONNECTIONS), U(R_LINK_REFUSED),
+                U(R_LINK_DISCONNECTS), U(R_LINK_POSES),
                 U(R_LINK_POSES_DROPPED), s->link.last_error[0] ? "; last: " : "", s->link.last_error);
     if (s->has_link_stats) {
         char names[64] = "";

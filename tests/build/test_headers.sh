@@ -8,7 +8,7 @@ set -u
 CC=${CC:-cc}
 FLAGS="-std=gnu11 -I. -D_GNU_SOURCE -Wall -Wextra -Werror -Wshadow -Wstrict-prototypes -Wmissing-prototypes -Wvla"
 # the include paths of the libraries the build uses (libdrm's headers live under /usr/include/libdrm)
-FLAGS="$FLAGS $(pkg-config --cflags $(sed -n 's/^PKGS *:= *//p' Makefile) 2>/dev/null)"
+FLAGS="$FLAGS $(pkg-config --cflags $(sed -n 's/^PKGS *[:+]= *//p' Makefile) 2>/dev/null)"
 [ $# -gt 0 ] || set -- runtime/*.h
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT

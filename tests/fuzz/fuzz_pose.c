@@ -5,6 +5,7 @@
 #include <string.h>
 #include <zlib.h>
 
+#include "drivers/drv_codec.h"
 #include "drivers/drv_framelink.h"
 #include "tests/fuzz/fuzz.h"
 
@@ -16,7 +17,8 @@ static void run_cams(const uint8_t *data, size_t size)
     uint8_t buf[DRV_FRAMELINK_CAMS_BYTES];
     if (drv_framelink_cams_encode(&c, buf, sizeof buf) != sizeof buf) abort();
     if (drv_framelink_cams_decode(buf, sizeof buf, &d) != DRV_FRAME_OK || memcmp(&c.cam, &d.cam, sizeof c.cam) ||
-        c.seq != d.seq || c.planes != d.planes || c.max_frame_bytes != d.max_frame_bytes)
+        c.seq != d.seq || c.planes != d.planes || c.max_frame_bytes != d.max_frame_bytes || c.codecs != d.codecs ||
+        !(c.codecs & DRV_CODEC_BIT(DRV_CODEC_RAW)))
         abort();
 }
 
@@ -73,4 +75,7 @@ void fuzz_write_seeds(void)
     uint8_t cb[DRV_FRAMELINK_CAMS_BYTES];
     drv_framelink_cams_encode(&c, cb, sizeof cb);
     fuzz_seed("cams", cb, sizeof cb);
+    c.codecs = DRV_CODEC_BIT(DRV_CODEC_RAW) | DRV_CODEC_BIT(DRV_CODEC_ZSTD) | DRV_CODEC_BIT(DRV_CODEC_JPEG);
+    drv_framelink_cams_encode(&c, cb, sizeof cb); /* version 2: the board's codecs */
+    fuzz_seed("cams-v2", cb, sizeof cb);
 }

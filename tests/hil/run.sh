@@ -10,8 +10,8 @@
 #        HIL_VERBOSE=1       stream scenario logs   HIL_TIMEOUT=S  whole-VM limit (default 900)
 #        HIL_SOAK_S=S        soak length (04-soak)  HIL_SMP, HIL_MEM  VM CPUs (2) and MiB (1024)
 #        HIL_NOMINAL_S, HIL_PANEL=small|board, HIL_MISSED_MAX, HIL_OWN_MAX, HIL_IMU_RATE_MIN, HIL_HMD_ARGS=--set,k=v,
-#        HIL_STRICT=1 (missed timing targets fail), HIL_OWN_FAIL, HIL_SCHED_QUIET: scenario knobs
-#        passed to the VM (see tests/hil/README.md)
+#        HIL_STRICT=1 (missed timing targets fail), HIL_OWN_FAIL, HIL_SCHED_QUIET, HIL_USB_SPEED=high-speed:
+#        scenario knobs passed to the VM (see tests/hil/README.md)
 #        HIL_KERNEL=vmlinuz  boot the compressed image instead of the extracted vmlinux
 #        HIL_MONITOR=1       qemu's monitor on $BUILD/hil/monitor.sock (a hung VM's registers and stacks)
 #        BUILD=build         build tree (programs from `make all`)
@@ -36,7 +36,7 @@ if [ "${HIL_KERNEL:-vmlinux}" = vmlinuz ]; then kernel=$CACHE/root/boot/vmlinuz-
 # Kernel parameters: NAME=VALUE words without dots become /init's environment.
 append="console=ttyS0 panic=-1 loglevel=4 mitigations=off nokaslr tsc=reliable"
 append="$append HIL_SHELL=${HIL_SHELL:-0} HIL_VERBOSE=${HIL_VERBOSE:-0}"
-for v in HIL_SOAK_S HIL_NOMINAL_S HIL_HMD_ARGS HIL_PANEL HIL_MISSED_MAX HIL_OWN_MAX HIL_IMU_RATE_MIN HIL_KMS HIL_KMS_RENDERERS HIL_VKMS_STRESS HIL_STRICT HIL_OWN_FAIL HIL_SCHED_QUIET HIL_TE_LOCKABLE; do
+for v in HIL_SOAK_S HIL_NOMINAL_S HIL_HMD_ARGS HIL_PANEL HIL_USB_SPEED HIL_MISSED_MAX HIL_OWN_MAX HIL_IMU_RATE_MIN HIL_KMS HIL_KMS_RENDERERS HIL_VKMS_STRESS HIL_STRICT HIL_OWN_FAIL HIL_SCHED_QUIET HIL_TE_LOCKABLE; do
     eval "val=\${$v:-}"
     [ -n "$val" ] && append="$append $v=$val"
 done

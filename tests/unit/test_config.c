@@ -309,6 +309,19 @@ static void test_frame_and_memory_limits(void **state)
     rt_config_errors w2 = {0};
     rt_config_warnings(&c, &w2);
     assert_int_equal(w2.count, 0);
+
+    /* [frames] link_mbps limits the mock usb and socket links only: on any other it is said to do nothing */
+    const char *links[][2] = {{"frames.backend=socket", "frames.device="}, {"frames.backend=usb", "frames.device=mock"},
+                              {"frames.backend=usb", "frames.device=/dev/ffs-hmdwarp"}, {"frames.backend=sim", ""}};
+    for (int i = 0; i < 4; i++) {
+        rt_config_defaults(&c);
+        assert_true(rt_config_set(&c, "frames.link_mbps=40", &e));
+        assert_true(rt_config_set(&c, links[i][0], &e));
+        if (links[i][1][0]) assert_true(rt_config_set(&c, links[i][1], &e));
+        rt_config_errors w3 = {0};
+        rt_config_warnings(&c, &w3);
+        assert_int_equal(has_error(&w3, "[frames] link_mbps (command line, override 1) = 40: ignored"), i >= 2);
+    }
 }
 
 static char tmpdir[64];

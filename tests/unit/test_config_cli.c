@@ -118,6 +118,35 @@ static void test_v4l2_mock_corrupt_every(void **state)
         fail_msg("rejected as bad CRC %ld, as bad magic %ld, shown %ld; want all > 0:\n%s", crc, magic, shown, out);
 }
 
+/* The link budget and [frames] link_mbps: --check-config states what the eyes need on the link, warning when nothing
+ * fits; a mock link too slow for one frame in the run carries none (exit 1), the same link at 1000 MB/s shows
+ * frames. */
+static void test_link_budget_and_limit(void **state)
+{
+    (void)state;
+    expect("--check-config --config board/rpi5/board.ini --set frames.backend=socket --set frames.link_mbps=40", 0,
+           "; link: socket limited to 40 MB/s ([frames] link_mbps); colour+depth 1440x1600x2 @45 Hz: raw needs "
+           "1.66 GB/s, does not fit; coded (");
+    expect("--check-config --config board/rpi5/board.ini --set frames.backend=socket --set frames.link_mbps=1", 0,
+           "; warning: link: socket limited to 1.0 MB/s");
+    char stats[400], args[1024], text[16384];
+    static char out[65536];
+    snprintf(stats, sizeof stats, "%s/link.stats", tmp);
+    /* 320x360 eyes: ~1.8 MB a frame; 0.01 MB/s moves one 16 kB burst and 10 kB a second */
+    const double rates[2] = {0.01, 1000};
+    for (int i = 0; i < 2; i++) {
+        remove(stats);
+        snprintf(args, sizeof args, RUN "--set frames.backend=usb --set frames.device=mock --set frames.link_mbps=%g "
+                 "--stats %s", rates[i], stats);
+        int rc = hmdwarpd(args, out, sizeof out);
+        assert_true(test_slurp(stats, text, sizeof text) > 0);
+        double received = test_kv(text, "frames_received");
+        if (i == 0 && (rc != 1 || received != 0))
+            fail_msg("0.01 MB/s: exit %d, %g frames received:\n%s", rc, received, out);
+        if (i == 1 && (rc != 0 || !(received >= 1))) fail_msg("1000 MB/s: exit %d, %g frames:\n%s", rc, received, out);
+    }
+}
+
 /* Virtual time (HMDWARP_TIME_SLOWDOWN, plat_clock.h) is for the simulated board: a device that stamps its events in
  * real time is refused by name, and a value that is no slow-down is said to be one and ignored. */
 static void test_time_slowdown_refused_for_real_devices(void **state)
@@ -149,6 +178,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_run_that_shows_nothing_fails),
         cmocka_unit_test(test_v4l2_mock_corrupt_every),
         cmocka_unit_test(test_time_slowdown_refused_for_real_devices),
+        cmocka_unit_test(test_link_budget_and_limit),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

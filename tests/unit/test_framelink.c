@@ -324,7 +324,7 @@ static void test_rejections(void **state)
     b[0] ^= 1;
     assert_int_equal(decode_copy(&fx, b, fx.n, 0), DRV_FRAME_ERR_BAD_MAGIC);
     RESET();
-    b[4] = 2; /* version 2: refused before the CRC is even looked at */
+    b[4] = 3; /* version 3 (this build reads 1 and 2): refused before the CRC is even looked at */
     assert_int_equal(decode_copy(&fx, b, fx.n, 0), DRV_FRAME_ERR_BAD_VERSION);
     RESET();
     b[20] ^= 0x10; /* seq: header CRC */

@@ -86,7 +86,7 @@ static int setup(void **state)
     s->vsync_name = "gpio-mock";
     s->has_imu_stats = s->has_vsync_stats = s->kms = s->has_link_stats = true;
     s->link = (drv_frames_usb_stats){.connected = true, .connections = 2, .refused = 1, .disconnects = 1,
-                                     .poses_sent = 500, .poses_dropped = 3};
+                                     .poses_sent = 500, .poses_dropped = 3, .usb_speed = "super-speed"};
     s->imu = (drv_imu_stats){100, 2, 1, 1, true, "bad report"};
     s->vsync = (drv_vsync_stats){180, 1, 2, 1, false, 11111111, 12.5, ""};
     s->kms_stats = (plat_kms_stats){.flips = 180, .failed = 1, .late = 2, .vblanks = 181, .api = "atomic",
@@ -217,7 +217,8 @@ static void test_values_and_formats(void **state)
                           "\norientation_error_deg=0.2500\n",
                           "\ngles_upload_ms_p50=0.505\ngles_upload_ms_p99=0.505\ngles_pyramid_ms_p50=",
                           "\npsnr_none=30.000\nssim_none=0.90000\npsnr_rotation=30.500\n", "\nkms_api=atomic\n",
-                          "\nrenderer=gles\ngl_renderer=Test GPU\n", "\nframes_bytes=1234567\n"};
+                          "\nrenderer=gles\ngl_renderer=Test GPU\n", "\nframes_bytes=1234567\n",
+                          "\nframes_link_poses_dropped=3\nframes_link_usb_speed=super-speed\n"};
     for (size_t i = 0; i < sizeof want / sizeof want[0]; i++)
         if (!strstr(kv, want[i])) fail_msg("--stats lacks '%s':\n%s", want[i], kv);
     const char *lines[] = {
@@ -227,7 +228,8 @@ static void test_values_and_formats(void **state)
         "  KMS output                 Virtual-1 1440x800@90, atomic, XRGB8888: 180 page flips, 1 failed, 2 late\n",
         "  planes rendered            color 0, depth 1, ids 2, motion 3, layers 4 (scene effects: rotation)\n",
         "accuracy vs ground truth     left eye at photon time, before the lens; 2 frames sampled\n",
-        "per-vsync CSV                /tmp/run.csv\n"};
+        "per-vsync CSV                /tmp/run.csv\n",
+        "  host link                  connected at usb super-speed, hosts 2 (refused 1)"};
     for (size_t i = 0; i < sizeof lines / sizeof lines[0]; i++)
         if (!strstr(sum, lines[i])) fail_msg("summary lacks '%s':\n%s", lines[i], sum);
     free(kv);

@@ -50,6 +50,7 @@ hil_expect_stat frames_received '>=' 20 "host frames over USB"
 hil_target frames_received '>=' "$RUN_S * 2" "host frame rate"
 hil_expect_stat frames_rejected '==' 0 "rejected host frames"
 hil_expect_stat frames_shown '>=' 1 "host frames shown"
+hil_expect_usb_speed
 hil_target frames_dropped '<=' "$(hil_stat frames_received) * 0.1 + 1" "frames dropped unseen (newest frame not used)"
 # IMU: samples over hidraw (at most of 1 kHz: a target), no bad reports, no reconnects.
 hil_expect_stat imu_samples '>=' 1000 "IMU samples over hidraw"

@@ -8,6 +8,7 @@
 #   t=9 s   TE edges stop for 1 s, then restart                       -> timer fallback, relock on the edges
 #   always  every 15th USB frame damaged on the wire (payload byte,    -> rejected by reason, resync, the
 #           cut in half, version: hmdwarp-feed --damage-every)            frames around it shown
+#   then    USB unplugged for 1 s (gadget unbound from the UDC)       -> host library reconnects, frames resume
 #   V4L2    20 % dropped buffers, then a fatal streaming error        -> rejected/lost counted, no crash
 # Asserts: no crash, every fault counted and logged, recovery (reconnect, relock, newer frames shown after the
 # stall, from the per-vsync CSV); one present per vsync. Targets (reported, not failed): service back within 1 s
@@ -37,6 +38,15 @@ sleep $((D - 5))
 hil_live_wait 150 frames_received 95 || hil_miss "USB link: $(hil_stat frames_received "$HIL_LIVE") frames received, expected 95 (15 damaged ones among 90 sent and more)"
 # and until the vsync source is back on the TE line (60 s at most)
 hil_live_wait_locked 60
+# USB unplug, as a cable pulled for 1 s: the gadget unbound from its UDC, then bound again. The board's FunctionFS
+# sees the link go and come back; hmdwarp-feed (libhmdwarp-host) loses its device and opens the re-enumerated one
+# (a fresh libusb context per try: no udevd here, so no hot-plug events); frames come again.
+r0=$(hil_stat frames_received "$HIL_LIVE")
+echo "" >/sys/kernel/config/usb_gadget/hmdwarp/UDC && hil_log "USB unplugged (gadget unbound from dummy_udc.0)"
+sleep 1
+echo dummy_udc.0 >/sys/kernel/config/usb_gadget/hmdwarp/UDC && hil_log "USB replugged"
+hil_live_wait 120 frames_received "$((${r0:-0} + 10))" ||
+    hil_miss "USB replug: frames did not come again ($(hil_stat frames_received "$HIL_LIVE") received, ${r0:-none} before the unplug; $(tail -n 1 "$HIL_WORK/feed.log"))"
 hil_hmdwarpd_stop 30
 kill "$HIL_FEED_PID" 2>/dev/null; wait "$HIL_FEED_PID" 2>/dev/null
 hil_gadget_stop
@@ -59,6 +69,9 @@ hil_expect_te vsync_fallbacks '>=' 1 "timer fallback while TE edges stopped"
 hil_expect_locked "relocked on the TE line after its dropout"
 # Host stall: frames before and after (received over the whole run at >= 1 Hz).
 hil_expect_stat frames_received '>=' 20 "host frames (the link resumed after the stall)"
+# USB unplug: the board saw the link go and a host connect again (frames resuming was waited for above).
+hil_expect_stat frames_link_disconnects '>=' 1 "USB unplug seen by the board"
+hil_expect_stat frames_link_connections '>=' 2 "the host connected again after the USB replug"
 # Damaged frames on the USB link: each kind rejected for its reason, and no more than hmdwarp-feed damaged
 # (a cut frame costs only itself: the board resyncs on the next magic).
 dmg=$(sed -n 's/^hmdwarp-feed: \([0-9]*\) damaged.*/\1/p' "$HIL_WORK/feed.log")

@@ -311,9 +311,13 @@ hil_vkms_vblank_stress() {
 
 # --- USB: dummy_hcd + FunctionFS gadget ------------------------------------------------------------------------
 
-# hil_usb_udc: load dummy_hcd (one UDC, dummy_udc.0) and usbfs-visible host side.
+# hil_usb_udc: load dummy_hcd (one UDC, dummy_udc.0) and usbfs-visible host side, at HIL_USB_SPEED: super-speed
+# by default (is_super_speed=1: a USB 3 root hub beside the USB 2 one, so the gadget's SuperSpeed descriptors are
+# the ones used), high-speed as before with HIL_USB_SPEED=high-speed. hil_expect_usb_speed checks what the board saw.
+HIL_USB_SPEED=${HIL_USB_SPEED:-super-speed}
 hil_usb_udc() {
-    hil_modprobe dummy_hcd
+    if [ "$HIL_USB_SPEED" = super-speed ]; then hil_modprobe dummy_hcd is_super_speed=1
+    else hil_modprobe dummy_hcd; fi
     hil_modprobe libcomposite
     hil_modprobe usb_f_fs
     hil_wait_for /sys/class/udc/dummy_udc.0 5 || hil_fail "dummy_hcd loaded but no dummy_udc.0"
@@ -326,7 +330,8 @@ hil_gadget_start() {
     hil_wait_for "$FFS_DIR/ep0" 20 || { cat "$HIL_WORK/gadget.log"; hil_fail "gadget.sh: no FunctionFS ep0 in $FFS_DIR"; }
     hil_hmdwarpd "$@" --set frames.backend=usb --set "frames.device=$FFS_DIR"
     if ! wait "$gpid"; then
-        cat "$HIL_WORK/gadget.log"; hil_fail "gadget.sh start failed: $(tail -n 1 "$HIL_WORK/gadget.log")"
+        cat "$HIL_WORK/gadget.log"; tail -n 20 "$HIL_HMD_LOG" | sed 's/^/  hmdwarpd| /'
+        hil_fail "gadget.sh start failed: $(tail -n 1 "$HIL_WORK/gadget.log")"
     fi
     hil_log "$(tail -n 1 "$HIL_WORK/gadget.log")"
 }
@@ -338,6 +343,13 @@ hil_feed_usb() {
         hil_fail "dummy_hcd host side never enumerated the gadget (no 1d6b:0104 in /sys/bus/usb/devices)"
     hmdwarp-feed --eye "$HIL_EYE" --wait 30 "$@" >"$HIL_WORK/feed.log" 2>&1 &
     HIL_FEED_PID=$!
+}
+# hil_expect_usb_speed: the board's stats name the speed dummy_hcd was loaded for (the speed the host negotiated,
+# read from the UDC's current_speed when the host enabled the function).
+hil_expect_usb_speed() {
+    v=$(hil_stat frames_link_usb_speed)
+    hil_note frames_link_usb_speed "${v:-missing}"
+    [ "$v" = "$HIL_USB_SPEED" ] || hil_miss "stats: frames_link_usb_speed=${v:-missing}, expected $HIL_USB_SPEED"
 }
 hil_gadget_stop() { gadget.sh --ffs-dir "$FFS_DIR" stop >>"$HIL_WORK/gadget.log" 2>&1; }
 

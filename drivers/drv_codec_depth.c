@@ -1,0 +1,181 @@
+/* SPDX-License-Identifier: MIT */
+/* drv_codec_depth: framelink v2's compact depth: quantisation to 16 bits, nearest-keeping downsampling and the
+ * colour-guided upsample on the board (pure functions; docs/framelink.md, Depth). */
+#include "drivers/drv_codec_depth.h"
+
+#include <math.h>
+#include <stdbool.h>
+#include <stdlib.h>
+
+uint16_t drv_depth_to_inv16(float z, double near_z)
+{
+    if (!(z < INFINITY)) return 0; /* +inf and NaN: sky */
+    if (z <= near_z) return 65535;
+    long v = lround(65535.0 * near_z / z);
+    return (uint16_t)(v < 1 ? 1 : v > 65535 ? 65535 : v);
+}
+
+float drv_depth_from_inv16(uint16_t v, double near_z)
+{
+    return v ? (float)(65535.0 * near_z / v) : INFINITY;
+}
+
+uint16_t drv_depth_to_unorm16(float d)
+{
+    double c = d >= 0.0f ? (d <= 1.0f ? d : 1.0) : (d < 0.0f ? 0.0 : 1.0);
+    return (uint16_t)lround(c * 65535.0);
+}
+
+float drv_depth_from_unorm16(uint16_t v) { return (float)(v / 65535.0); }
+
+/* The encoding's far end, and whether a is nearer than b (NaN never is). */
+static float far_value(warp_depth_encoding enc)
+{
+    return enc == WARP_DEPTH_LINEAR ? INFINITY : enc == WARP_DEPTH_REVERSED ? 0.0f : 1.0f;
+}
+static bool nearer(float a, float b, warp_depth_encoding enc)
+{
+    return enc == WARP_DEPTH_REVERSED ? a > b : a < b;
+}
+
+/* A value proportional to inverse depth (0 at infinity): window depth is affine in 1/z, linear depth is z. */
+static double inverse(float d, warp_depth_encoding enc)
+{
+    switch (enc) {
+    case WARP_DEPTH_LINEAR: return d > 0.0f ? 1.0 / d : 0.0;
+    case WARP_DEPTH_STANDARD: return 1.0 - d;
+    default: return d;
+    }
+}
+static float from_inverse(double q, warp_depth_encoding enc)
+{
+    switch (enc) {
+    case WARP_DEPTH_LINEAR: return q > 0.0 ? (float)(1.0 / q) : INFINITY;
+    case WARP_DEPTH_STANDARD: return (float)(1.0 - q);
+    default: return (float)q;
+    }
+}
+
+void drv_depth_downsample(const float *src, int w, int h, size_t stride, int scale, warp_depth_encoding enc,
+                          float *dst)
+{
+    int lw = drv_depth_scaled(w, scale), lh = drv_depth_scaled(h, scale), b = 1 << scale;
+    for (int by = 0; by < lh; by++)
+        for (int bx = 0; bx < lw; bx++) {
+            float best = far_value(enc);
+            double qmin = INFINITY, qmax = -INFINITY, qsum = 0;
+            int n = 0;
+            bool finite = true;
+            for (int y = by * b; y < by * b + b && y < h; y++)
+                for (int x = bx * b; x < bx * b + b && x < w; x++) {
+                    float d = src[(size_t)y * stride + (size_t)x];
+                    if (nearer(d, best, enc)) best = d;
+                    double q = inverse(d, enc);
+                    finite = finite && isfinite(d);
+                    qmin = q < qmin ? q : qmin, qmax = q > qmax ? q : qmax, qsum += q, n++;
+                }
+            /* One surface: its mean in inverse depth (the nearest would shift a slope by up to a block). */
+            if (finite && qmax - qmin <= DRV_DEPTH_EDGE_REL * qmax && qmax > 0) best = from_inverse(qsum / n, enc);
+            dst[(size_t)by * (size_t)lw + (size_t)bx] = best;
+        }
+}
+
+static int colour_dist(warp_rgba8 a, warp_rgba8 b)
+{
+    return abs(a.r - b.r) + abs(a.g - b.g) + abs(a.b - b.b);
+}
+
+size_t drv_depth_upsample_scratch(int lw, int lh) { return (size_t)lw * (size_t)lh * (sizeof(float) + 1); }
+
+/* Whether the samples of block (bx, by) and its 8 neighbours lie on one surface (or are all sky): within
+ * DRV_DEPTH_EDGE_REL of each other in inverse depth (q). A pixel of a block next to an edge is treated as on the
+ * edge even when its 4 nearest samples agree: its own block's sample may be a foreground depth its pixel lacks. */
+static bool one_surface(const float *q, int lw, int lh, int bx, int by)
+{
+    float qmin = INFINITY, qmax = -INFINITY;
+    for (int sy = by - 1; sy <= by + 1; sy++)
+        for (int sx = bx - 1; sx <= bx + 1; sx++) {
+            if (sx < 0 || sy < 0 || sx >= lw || sy >= lh) continue;
+            float v = q[(size_t)sy * (size_t)lw + (size_t)sx];
+            if (isnan(v)) return false;
+            qmin = v < qmin ? v : qmin, qmax = v > qmax ? v : qmax;
+        }
+    return qmax - qmin <= (float)DRV_DEPTH_EDGE_REL * qmax;
+}
+
+void drv_depth_upsample_prepare(const float *lo, int lw, int lh, warp_depth_encoding enc, void *scratch)
+{
+    /* Inverse depth of every sample (sky 0) and whether its block's neighbourhood is one surface, once. */
+    float *q = scratch;
+    uint8_t *flat = (uint8_t *)(q + (size_t)lw * (size_t)lh);
+    for (size_t i = 0, n = (size_t)lw * (size_t)lh; i < n; i++) q[i] = (float)inverse(lo[i], enc);
+    for (int by = 0; by < lh; by++)
+        for (int bx = 0; bx < lw; bx++) flat[(size_t)by * (size_t)lw + (size_t)bx] = one_surface(q, lw, lh, bx, by);
+}
+
+void drv_depth_upsample(const float *lo, int lw, int lh, int scale, warp_depth_encoding enc,
+                        const warp_image_rgba8 *color, float *dst, int w, int h, size_t stride, void *scratch)
+{
+    drv_depth_upsample_prepare(lo, lw, lh, enc, scratch);
+    drv_depth_upsample_rows(lo, lw, lh, scale, enc, color, dst, w, h, stride, 0, h, scratch);
+}
+
+void drv_depth_upsample_rows(const float *lo, int lw, int lh, int scale, warp_depth_encoding enc,
+                             const warp_image_rgba8 *color, float *dst, int w, int h, size_t stride, int row0,
+                             int row1, const void *scratch)
+{
+    const int b = 1 << scale;
+    const float inv_b = 1.0f / (float)b;
+    const float *q = scratch;
+    const uint8_t *flat = (const uint8_t *)(q + (size_t)lw * (size_t)lh);
+    for (int y = row0; y < row1; y++) {
+        /* Low-resolution coordinates of the pixel centre; samples sit at their block centres. */
+        float fy = ((float)y + 0.5f) * inv_b - 0.5f;
+        int y0 = (int)floorf(fy), by = y >> scale;
+        float ty = fy - (float)y0;
+        int ys[2] = {y0 < 0 ? 0 : y0 >= lh ? lh - 1 : y0, y0 + 1 >= lh ? lh - 1 : y0 + 1 < 0 ? 0 : y0 + 1};
+        const float *q0 = q + (size_t)ys[0] * (size_t)lw, *q1 = q + (size_t)ys[1] * (size_t)lw;
+        const uint8_t *frow = flat + (size_t)by * (size_t)lw;
+        float *drow = dst + (size_t)y * stride;
+        for (int x = 0; x < w; x++) {
+            float fx = ((float)x + 0.5f) * inv_b - 0.5f;
+            int x0 = (int)floorf(fx), bx = x >> scale;
+            float tx = fx - (float)x0;
+            int xa = x0 < 0 ? 0 : x0 >= lw ? lw - 1 : x0, xb = x0 + 1 >= lw ? lw - 1 : x0 + 1 < 0 ? 0 : x0 + 1;
+            float a = q0[xa], bq = q0[xb], c = q1[xa], d = q1[xb];
+            bool one = frow[bx];
+            if (!one && !color) {
+                float mn = fminf(fminf(a, bq), fminf(c, d)), mx = fmaxf(fmaxf(a, bq), fmaxf(c, d));
+                one = !isnan(a + bq + c + d) && mx - mn <= (float)DRV_DEPTH_EDGE_REL * mx;
+            }
+            if (one) {
+                /* One surface: bilinear in inverse depth, exact for planes. */
+                float s = (a + (bq - a) * tx) + ((c + (d - c) * tx) - (a + (bq - a) * tx)) * ty;
+                drow[x] = from_inverse(s, enc);
+            } else if (!color) {
+                /* the spatially nearest */
+                drow[x] = lo[(size_t)ys[ty >= 0.5f] * (size_t)lw + (size_t)(tx >= 0.5f ? xb : xa)];
+            } else {
+                /* A depth edge: the sample of the pixel's own block or one of its 8 neighbours (the 4 nearest
+                 * may all lie on the far side of the edge) whose block-centre colour is closest to the pixel's,
+                 * taken as it is. A tie goes to the farther sample: a nearer one sharing the colour took its
+                 * depth from a few foreground pixels of a block whose centre shows the background. */
+                warp_rgba8 px = WARP_AT(color, x, y);
+                int bd = 1 << 30;
+                float best_q = INFINITY, out = lo[(size_t)by * (size_t)lw + (size_t)bx];
+                static const int off[3] = {0, -1, 1}; /* own block first: it wins ties of colour and depth */
+                for (int i = 0; i < 9; i++) {
+                    int sx = bx + off[i % 3], sy = by + off[i / 3];
+                    if (sx < 0 || sy < 0 || sx >= lw || sy >= lh) continue;
+                    int cx = sx * b + b / 2, cy = sy * b + b / 2;
+                    if (cx >= w) cx = w - 1;
+                    if (cy >= h) cy = h - 1;
+                    size_t si = (size_t)sy * (size_t)lw + (size_t)sx;
+                    int dist = colour_dist(px, WARP_AT(color, cx, cy));
+                    if (dist < bd || (dist == bd && q[si] < best_q)) bd = dist, best_q = q[si], out = lo[si];
+                }
+                drow[x] = out;
+            }
+        }
+    }
+}
