@@ -290,14 +290,15 @@ static void *pose_thread(void *arg)
         }
         greeted = hosts;
         drv_framelink_pose m = {.flags = 0};
+        m.board_t_ns = plat_now_ns();
+        m.target_t_ns = m.board_t_ns + atomic_load(&u->lead_ns);
+        if (!u->p.poses.predict(u->p.poses.ctx, m.target_t_ns, &m.head)) continue;
+        /* (the frames thread may set a new count meanwhile: then this one is not spent) */
         int want_key = atomic_load(&u->want_key_poses);
         if (want_key > 0) {
             m.flags |= DRV_FRAMELINK_POSE_WANT_KEY;
             atomic_compare_exchange_strong(&u->want_key_poses, &want_key, want_key - 1);
         }
-        m.board_t_ns = plat_now_ns();
-        m.target_t_ns = m.board_t_ns + atomic_load(&u->lead_ns);
-        if (!u->p.poses.predict(u->p.poses.ctx, m.target_t_ns, &m.head)) continue;
         m.seq = ++u->pose_seq;
         for (int e = 0; e < 2; e++) m.eye[e] = warp_head_eye_pose(&head, m.head, e);
         uint8_t msg[DRV_FRAMELINK_POSE_BYTES];

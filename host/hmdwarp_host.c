@@ -253,6 +253,7 @@ static void *reader_main(void *arg)
             /* A restarted board counts its poses from the start again: a pose_seq from before must not match. */
             h->gen++;
             h->fresh = false;
+            h->want_key = true; /* a restarted board's video decoder starts at a key frame: do not wait to be asked */
             pthread_cond_broadcast(&h->cond);
             pthread_mutex_unlock(&h->lock);
             have = 0;
