@@ -10,7 +10,9 @@
  *   own plane's; their bytes are that plane's share of the frame. Frame rows (colour + depth codec together) are
  *   what a host would send: only they can meet the byte budget for real.
  * - Accuracy after decode: the raytrace warp (what depth is for) from the decoded frame to the head pose one 90 Hz
- *   vsync later, scored against the simulator's ground truth at that pose, minus the same on the raw frame.
+ *   vsync later, scored against the simulator's ground truth at that pose, minus the same on the raw frame. The
+ *   issue's 0.5 dB target is on depth ("within 0.5 dB of raw depth"), so depth's share is measured apart: the same
+ *   raytrace on the decoded colour with the raw depth, against the decoded frame's.
  * - Video streams start with a key frame; their bytes per frame are the mean of the frames after it (steady state,
  *   the key frame's size is in the note), since a stream lives for minutes.
  * - USB 2.0: a model, not a run: the host pipelines render, encode and transfer, so a frame of B bytes leaves at
@@ -88,6 +90,7 @@ typedef struct {
     double psnr_sum;
     int psnr_n;
     double ray_db_sum, ray_delta_sum; /* per scene, last frame, left eye */
+    double ray_depth_sum;             /* of the delta, what the decoded depth costs (decoded colour held) */
     int ray_n;
     double usb2_age_ms_sum, usb2_ray_db_sum, usb2_fps_sum;
     int usb2_n;
@@ -250,7 +253,7 @@ static void run_row(link_row *r, const sim_scene *sc, drv_frame *src, int nf, dr
         return;
     }
     const bool video = r->p.color == DRV_CODEC_H264 || r->p.color == DRV_CODEC_HEVC;
-    double enc_sum = 0, dec_sum = 0, bytes_sum = 0;
+    double bytes_sum = 0;
     for (int k = 0; k < nf && !r->na[0]; k++) {
         size_t need = drv_framelink_enc_bound(enc, &src[k]);
         if (need == 0) {
@@ -283,7 +286,6 @@ static void run_row(link_row *r, const sim_scene *sc, drv_frame *src, int nf, dr
         double ems = (double)(t1 - t0) * 1e-6, dms = (double)(t2 - t1) * 1e-6;
         add(&r->enc_ms, ems);
         add(&r->dec_ms, dms);
-        enc_sum += ems, dec_sum += dms;
         if (video && k == 0) r->key_bytes_sum += (double)n, r->key_n++;
         else r->bytes_sum += (double)n, bytes_sum += (double)n, r->bytes_n++;
         for (int e = 0; e < 2; e++) {
@@ -297,11 +299,22 @@ static void run_row(link_row *r, const sim_scene *sc, drv_frame *src, int nf, dr
         r->ray_db_sum += db;
         r->ray_delta_sum += db - ray_raw_db;
         r->ray_n++;
+        const drv_framelink_enc_params raw = drv_framelink_enc_params_raw();
+        const bool depth_coded = r->p.depth != raw.depth || r->p.depth_scale ||
+                                 (r->p.depth_format && r->p.depth_format != DRV_FRAMELINK_FMT_F32);
+        if (depth_coded) {
+            /* the decoded colour over the raw depth: what is left of the delta is the depth's */
+            drv_frame hy = *out;
+            hy.depth[0] = src[nf - 1].depth[0];
+            hy.depth_encoding = src[nf - 1].depth_encoding;
+            r->ray_depth_sum += db - score_at(s, sc, &hy, src[nf - 1].scene_time + 1.0 / PANEL_HZ);
+        }
         if (r->group == ROW_RAW || r->group == ROW_FRAME) {
             int steady = video ? nf - 1 : nf;
             double bytes = bytes_sum / steady, gap_s = fmax(1.0 / HOST_HZ, bytes / (USB2_MBS * 1e6));
-            double age_s = enc_sum / nf * 1e-3 + bytes / (USB2_MBS * 1e6) + dec_sum / nf * 1e-3 + gap_s / 2 +
-                           0.5 / PANEL_HZ;
+            /* medians: one descheduled frame on a busy machine would otherwise set the age */
+            double age_s = median(&r->enc_ms) * 1e-3 + bytes / (USB2_MBS * 1e6) + median(&r->dec_ms) * 1e-3 +
+                           gap_s / 2 + 0.5 / PANEL_HZ;
             r->usb2_age_ms_sum += age_s * 1e3;
             r->usb2_fps_sum += 1.0 / gap_s;
             r->usb2_ray_db_sum += score_at(s, sc, out, src[nf - 1].scene_time + age_s);
@@ -315,7 +328,7 @@ static void run_row(link_row *r, const sim_scene *sc, drv_frame *src, int nf, dr
 /* ---- output ---- */
 
 typedef struct {
-    double bytes, mbs, enc, dec, psnr, ray, dray;
+    double bytes, mbs, enc, dec, psnr, ray, dray, dray_depth;
     bool fits, colour, ray_ok, dec_ok, enc_ok, all;
 } row_fig;
 
@@ -329,9 +342,10 @@ static row_fig figures(const link_row *r, double other_plane_bytes)
     f.psnr = r->psnr_sum / r->psnr_n;
     f.ray = r->ray_db_sum / r->ray_n;
     f.dray = r->ray_delta_sum / r->ray_n;
+    f.dray_depth = r->ray_depth_sum / r->ray_n;
     f.fits = f.mbs <= BUDGET_MBS;
     f.colour = f.psnr >= TARGET_PSNR_DB;
-    f.ray_ok = f.dray >= -TARGET_RAY_DB;
+    f.ray_ok = f.dray_depth >= -TARGET_RAY_DB;
     f.dec_ok = f.dec <= TARGET_DECODE_MS;
     f.enc_ok = f.enc <= 1000.0 / HOST_HZ;
     f.all = f.fits && f.colour && f.ray_ok && f.dec_ok && f.enc_ok;
@@ -351,14 +365,14 @@ static void misses_str(const row_fig *f, char *b, size_t n)
         snprintf(b, n, "**all**");
         return;
     }
-    snprintf(b, n, "missed:%s%s%s%s%s", f->fits ? "" : " MB/s", f->colour ? "" : " PSNR", f->ray_ok ? "" : " raytrace",
+    snprintf(b, n, "missed:%s%s%s%s%s", f->fits ? "" : " MB/s", f->colour ? "" : " PSNR", f->ray_ok ? "" : " depth",
              f->dec_ok ? "" : " decode", f->enc_ok ? "" : " encode");
 }
 
 static void md_header(FILE *md)
 {
     fprintf(md, "| row | bytes/frame | MB/s at %.0f Hz | encode ms | decode ms | colour PSNR dB | raytrace dB | "
-                "vs raw dB | targets |\n|---|---:|---:|---:|---:|---:|---:|---:|---|\n",
+                "vs raw dB | of it depth dB | targets |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---|\n",
             HOST_HZ);
 }
 
@@ -369,15 +383,15 @@ static void md_row(FILE *md, const link_row *r, double other)
         snprintf(na, sizeof na, "%s", r->na);
         for (char *c = na; *c; c++)
             if (*c == '|') *c = '/';
-        fprintf(md, "| %s | n/a (%s) | | | | | | | |\n", r->name, na);
+        fprintf(md, "| %s | n/a (%s) | | | | | | | | |\n", r->name, na);
         return;
     }
     row_fig f = figures(r, other);
     char p[24], m[80], key[64] = "";
     if (r->key_n) snprintf(key, sizeof key, " (key frame %.2f MB)", r->key_bytes_sum / r->key_n / 1e6);
     misses_str(&f, m, sizeof m);
-    fprintf(md, "| %s | %.3f MB%s | %.1f | %.1f | %.2f | %s | %.2f | %+.2f | %s |\n", r->name, f.bytes / 1e6, key, f.mbs,
-            f.enc, f.dec, db_str(f.psnr, p, sizeof p), f.ray, f.dray, m);
+    fprintf(md, "| %s | %.3f MB%s | %.1f | %.1f | %.2f | %s | %.2f | %+.2f | %+.2f | %s |\n", r->name, f.bytes / 1e6, key,
+            f.mbs, f.enc, f.dec, db_str(f.psnr, p, sizeof p), f.ray, f.dray, f.dray_depth, m);
 }
 
 static bool write_out(const bench_link_opts *o, link_row *rows, int nrows, const char *const *scenes, int nsc, int nf,
@@ -395,7 +409,8 @@ static bool write_out(const bench_link_opts *o, link_row *rows, int nrows, const
         return false;
     }
     fprintf(csv, "group,row,color_codec,depth_codec,bytes_per_frame,key_frame_bytes,mb_s_%.0fhz,encode_ms,decode_ms,"
-                 "color_psnr_db,raytrace_db,raytrace_vs_raw_db,fits_%.0fmbs,psnr_%.0fdb,raytrace_%.1fdb,decode_%.0fms,"
+                 "color_psnr_db,raytrace_db,raytrace_vs_raw_db,raytrace_depth_db,fits_%.0fmbs,psnr_%.0fdb,depth_raytrace_%.1fdb,"
+                 "decode_%.0fms,"
                  "encode_one_frame,all_targets,usb2_fps,usb2_age_ms,usb2_raytrace_db,note\n",
             HOST_HZ, BUDGET_MBS, TARGET_PSNR_DB, TARGET_RAY_DB, TARGET_DECODE_MS);
     /* colour rows send depth raw beside them, depth rows colour: their bytes are the plane's own share */
@@ -407,15 +422,15 @@ static bool write_out(const bench_link_opts *o, link_row *rows, int nrows, const
             snprintf(na, sizeof na, "%s", r->na);
             for (char *c = na; *c; c++)
                 if (*c == ',' || *c == '"') *c = ';';
-            fprintf(csv, "%s,\"%s\",%s,%s,,,,,,,,,,,,,,,,,,n/a (%s)\n", group_name[r->group], r->name,
+            fprintf(csv, "%s,\"%s\",%s,%s,,,,,,,,,,,,,,,,,,,n/a (%s)\n", group_name[r->group], r->name,
                     drv_codec_name(r->p.color), drv_codec_name(r->p.depth), na);
             continue;
         }
         row_fig f = figures(r, other);
-        fprintf(csv, "%s,\"%s\",%s,%s,%.0f,%.0f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%d,%d,%d,%d,%d,%d", group_name[r->group],
-                r->name, drv_codec_name(r->p.color), drv_codec_name(r->p.depth), f.bytes,
+        fprintf(csv, "%s,\"%s\",%s,%s,%.0f,%.0f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%d,%d,%d,%d,%d,%d",
+                group_name[r->group], r->name, drv_codec_name(r->p.color), drv_codec_name(r->p.depth), f.bytes,
                 r->key_n ? r->key_bytes_sum / r->key_n : 0, f.mbs, f.enc, f.dec, isinf(f.psnr) ? 999.0 : f.psnr, f.ray,
-                f.dray, f.fits, f.colour, f.ray_ok, f.dec_ok, f.enc_ok, f.all);
+                f.dray, f.dray_depth, f.fits, f.colour, f.ray_ok, f.dec_ok, f.enc_ok, f.all);
         if (r->usb2_n)
             fprintf(csv, ",%.2f,%.1f,%.3f,\n", r->usb2_fps_sum / r->usb2_n, r->usb2_age_ms_sum / r->usb2_n,
                     r->usb2_ray_db_sum / r->usb2_n);
@@ -436,12 +451,13 @@ static bool write_out(const bench_link_opts *o, link_row *rows, int nrows, const
                 "frames after the stream's key frame); times are medians over all frames; colour PSNR is the decoded "
                 "colour against the raw frame (both eyes, all frames); raytrace dB is the raytrace warp (registry "
                 "defaults) from the decoded last frame's left eye to the pose one %.0f Hz vsync later against the "
-                "simulator's ground truth, and vs raw is its difference to the same on the raw frame (%.2f dB, mean "
-                "over scenes).\n\n",
+                "simulator's ground truth, vs raw is its difference to the same on the raw frame (%.2f dB, mean "
+                "over scenes), and of it depth is the decoded depth's share (the raytrace on the decoded colour with "
+                "the raw depth, against the decoded frame's).\n\n",
             o->reference ? "reference" : "not reference", o->quick ? " BENCH_ARGS=--quick" : "", w, h, nf, sc,
             HOST_HZ, HEAD_YAW_DPS, HEAD_SIDE_MS, threads, PANEL_HZ, ray_raw_db);
-    fprintf(md, "Targets (#19): the frame fits %.0f MB/s (USB 2.0 with margin); colour at least %.0f dB; raytrace "
-                "within %.1f dB of raw; decode of both eyes within %.0f ms on two threads; encode within one host "
+    fprintf(md, "Targets (#19): the frame fits %.0f MB/s (USB 2.0 with margin); colour at least %.0f dB; the "
+                "raytrace with the decoded depth within %.1f dB of raw depth; decode of both eyes within %.0f ms on two threads; encode within one host "
                 "frame (%.1f ms). Colour rows send depth raw F32 beside them and depth rows colour raw, so their PSNR "
                 "and raytrace columns are the plane's own and their bytes are that plane's share of the frame (raw "
                 "colour %.2f MB, raw F32 depth %.2f MB); only frame rows can meet the byte budget for a whole frame.\n\n",
@@ -544,8 +560,8 @@ bool bench_link_run(const bench_link_opts *o)
             row_fig f = figures(r, other);
             char p[24], m[80];
             misses_str(&f, m, sizeof m);
-            printf("  %-34s %8.3f MB %7.1f MB/s enc %7.2f ms dec %6.2f ms PSNR %8s raytrace %+.2f dB  %s\n", r->name,
-                   f.bytes / 1e6, f.mbs, f.enc, f.dec, db_str(f.psnr, p, sizeof p), f.dray, m);
+            printf("  %-34s %8.3f MB %7.1f MB/s enc %7.2f ms dec %6.2f ms PSNR %8s raytrace %+.2f dB (depth %+.2f)  %s\n",
+                   r->name, f.bytes / 1e6, f.mbs, f.enc, f.dec, db_str(f.psnr, p, sizeof p), f.dray, f.dray_depth, m);
         }
         ok = write_out(o, rows, nrows, scenes, nsc, nf, raw_color_bytes, raw_depth_bytes, ray_raw_sum / nsc, threads);
         if (ok) printf("link: %s/link.md, %s/link.csv\n", o->out, o->out);
