@@ -488,12 +488,17 @@ static bool write_out(const bench_link_opts *o, link_row *rows, int nrows, const
                 "encode and transfer, so frames leave at most every bytes / %.0f MB/s (and at most %.0f Hz); a frame "
                 "is shown aged encode + transfer + decode + half the gap to the next frame + half a %.0f Hz vsync on "
                 "average, and the raytrace from it is scored against the truth that much later (head still moving "
-                "as above).\n\n| row | frames/s | mean frame age ms | raytrace dB at that age |\n|---|---:|---:|---:|\n",
+                "as above).\n\n| row | frames/s | mean frame age ms | raytrace dB at that age | vs raw frames dB |\n"
+                "|---|---:|---:|---:|---:|\n",
             USB2_MBS, USB2_MBS, HOST_HZ, PANEL_HZ);
+    /* rows_make puts the raw row first */
+    const double raw_usb2 = rows[0].usb2_n ? rows[0].usb2_ray_db_sum / rows[0].usb2_n : NAN;
     for (int i = 0; i < nrows; i++)
-        if (rows[i].usb2_n)
-            fprintf(md, "| %s | %.1f | %.0f | %.2f |\n", rows[i].name, rows[i].usb2_fps_sum / rows[i].usb2_n,
-                    rows[i].usb2_age_ms_sum / rows[i].usb2_n, rows[i].usb2_ray_db_sum / rows[i].usb2_n);
+        if (rows[i].usb2_n) {
+            double db = rows[i].usb2_ray_db_sum / rows[i].usb2_n;
+            fprintf(md, "| %s | %.1f | %.0f | %.2f | %+.2f |\n", rows[i].name, rows[i].usb2_fps_sum / rows[i].usb2_n,
+                    rows[i].usb2_age_ms_sum / rows[i].usb2_n, db, db - raw_usb2);
+        }
     fclose(md);
     return true;
 }
