@@ -14,7 +14,7 @@
  *   issue's 0.5 dB target is on depth ("within 0.5 dB of raw depth"), so depth's share is measured apart: the same
  *   raytrace on the decoded colour with the raw depth, against the decoded frame's.
  * - Video streams start with a key frame; their bytes per frame are the mean of the frames after it (steady state,
- *   the key frame's size is in the note), since a stream lives for minutes.
+ *   the key frame's size beside it), since a stream lives for minutes.
  * - USB 2.0: a model, not a run: the host pipelines render, encode and transfer, so a frame of B bytes leaves at
  *   most every B / link seconds; its age when shown is encode + transfer + decode + half the gap to the next frame
  *   + half a vsync. The raytrace is then scored at that age. */
@@ -24,6 +24,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "drivers/drv_codec.h"
 #include "drivers/drv_framelink.h"
@@ -40,7 +41,7 @@
 #define HOST_HZ 45.0           /* the rpi5 configuration's host rate */
 #define BUDGET_MBS 30.0        /* USB 2.0 with margin */
 #define TARGET_PSNR_DB 38.0    /* colour after decode against the raw frame */
-#define TARGET_RAY_DB 0.5      /* raytrace after decode at most this far below raw */
+#define TARGET_RAY_DB 0.5      /* the raytrace with decoded depth at most this far below raw depth */
 #define TARGET_DECODE_MS 4.0   /* both eyes on two threads */
 #define USB2_MBS 35.0          /* what a USB 2.0 device port carries in practice (35-40 MB/s) */
 #define PANEL_HZ 90.0
@@ -395,7 +396,7 @@ static void md_row(FILE *md, const link_row *r, double other)
 }
 
 static bool write_out(const bench_link_opts *o, link_row *rows, int nrows, const char *const *scenes, int nsc, int nf,
-                      double raw_color_bytes, double raw_depth_bytes, double ray_raw_db, int threads)
+                      double raw_color_bytes, double raw_depth_bytes, double ray_raw_db, int threads, double load)
 {
     char path[700];
     snprintf(path, sizeof path, "%s/link.csv", o->out);
@@ -453,9 +454,10 @@ static bool write_out(const bench_link_opts *o, link_row *rows, int nrows, const
                 "defaults) from the decoded last frame's left eye to the pose one %.0f Hz vsync later against the "
                 "simulator's ground truth, vs raw is its difference to the same on the raw frame (%.2f dB, mean "
                 "over scenes), and of it depth is the decoded depth's share (the raytrace on the decoded colour with "
-                "the raw depth, against the decoded frame's).\n\n",
+                "the raw depth, against the decoded frame's). Load average %.1f at the start on %ld CPUs: on a busy "
+                "machine the times are the load's, the bytes and dB are not.\n\n",
             o->reference ? "reference" : "not reference", o->quick ? " BENCH_ARGS=--quick" : "", w, h, nf, sc,
-            HOST_HZ, HEAD_YAW_DPS, HEAD_SIDE_MS, threads, PANEL_HZ, ray_raw_db);
+            HOST_HZ, HEAD_YAW_DPS, HEAD_SIDE_MS, threads, PANEL_HZ, ray_raw_db, load, sysconf(_SC_NPROCESSORS_ONLN));
     fprintf(md, "Targets (#19): the frame fits %.0f MB/s (USB 2.0 with margin); colour at least %.0f dB; the "
                 "raytrace with the decoded depth within %.1f dB of raw depth; decode of both eyes within %.0f ms on two threads; encode within one host "
                 "frame (%.1f ms). Colour rows send depth raw F32 beside them and depth rows colour raw, so their PSNR "
@@ -505,6 +507,17 @@ static bool write_out(const bench_link_opts *o, link_row *rows, int nrows, const
 
 /* ---- the section ---- */
 
+/* The 1-minute load average (NAN where unknown): times from a machine shared with other work are the load's, and
+ * link.md says so beside them. */
+static double load_average(void)
+{
+    double l = NAN;
+    FILE *f = fopen("/proc/loadavg", "r");
+    if (f && fscanf(f, "%lf", &l) != 1) l = NAN;
+    if (f) fclose(f);
+    return l;
+}
+
 bool bench_link_run(const bench_link_opts *o)
 {
     static const char *const full_scenes[] = {"near", "hairball", "outdoor"};
@@ -527,6 +540,7 @@ bool bench_link_run(const bench_link_opts *o)
     for (int k = 0; ok && k < nf; k++) ok = drv_frame_alloc(&src[k], w, h, DRV_PLANE_COLOR | DRV_PLANE_DEPTH, 0);
     size_t cap = 0;
     uint8_t *buf = NULL;
+    const double load = load_average();
     double raw_color_bytes = 0, raw_depth_bytes = 0, ray_raw_sum = 0;
     if (ok) {
         /* each plane's raw share: a colour-only v1 frame against the colour + depth one */
@@ -568,7 +582,8 @@ bool bench_link_run(const bench_link_opts *o)
             printf("  %-34s %8.3f MB %7.1f MB/s enc %7.2f ms dec %6.2f ms PSNR %8s raytrace %+.2f dB (depth %+.2f)  %s\n",
                    r->name, f.bytes / 1e6, f.mbs, f.enc, f.dec, db_str(f.psnr, p, sizeof p), f.dray, f.dray_depth, m);
         }
-        ok = write_out(o, rows, nrows, scenes, nsc, nf, raw_color_bytes, raw_depth_bytes, ray_raw_sum / nsc, threads);
+        ok = write_out(o, rows, nrows, scenes, nsc, nf, raw_color_bytes, raw_depth_bytes, ray_raw_sum / nsc, threads,
+                       load);
         if (ok) printf("link: %s/link.md, %s/link.csv\n", o->out, o->out);
     } else {
         fprintf(stderr, "hmdwarp-bench: link: out of memory\n");
