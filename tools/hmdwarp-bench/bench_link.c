@@ -247,7 +247,7 @@ static void run_row(link_row *r, const sim_scene *sc, drv_frame *src, int nf, dr
         snprintf(r->na, sizeof r->na, "encoder: %s", err);
         return;
     }
-    drv_framelink_dec *dec = drv_framelink_dec_create(w, h, DRV_PLANE_COLOR | DRV_PLANE_DEPTH, 0, threads, "software",
+    drv_framelink_dec *dec = drv_framelink_dec_create(w, h, DRV_PLANE_COLOR | DRV_PLANE_DEPTH, 0, threads, NULL,
                                                       err, sizeof err);
     if (!dec) {
         snprintf(r->na, sizeof r->na, "decoder: %s", err);
