@@ -391,7 +391,7 @@ static void md_row(FILE *md, const link_row *r, double other)
     }
     row_fig f = figures(r, other);
     char p[24], m[80], key[64] = "";
-    if (r->key_n) snprintf(key, sizeof key, " (key frame %.2f MB)", r->key_bytes_sum / r->key_n / 1e6);
+    if (r->key_n) snprintf(key, sizeof key, " (key frame %.3f MB)", (r->key_bytes_sum / r->key_n - other) / 1e6);
     misses_str(&f, m, sizeof m);
     fprintf(md, "| %s | %.3f MB%s | %.1f | %.1f | %.2f | %s | %.2f | %+.2f | %+.2f | %s |\n", r->name, f.bytes / 1e6, key,
             f.mbs, f.enc, f.dec, db_str(f.psnr, p, sizeof p), f.ray, f.dray, f.dray_depth, m);
@@ -432,7 +432,7 @@ static bool write_out(const bench_link_opts *o, link_row *rows, int nrows, const
         row_fig f = figures(r, other);
         fprintf(csv, "%s,\"%s\",%s,%s,%.0f,%.0f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%d,%d,%d,%d,%d,%d",
                 group_name[r->group], r->name, drv_codec_name(r->p.color), drv_codec_name(r->p.depth), f.bytes,
-                r->key_n ? r->key_bytes_sum / r->key_n : 0, f.mbs, f.enc, f.dec, isinf(f.psnr) ? 999.0 : f.psnr, f.ray,
+                r->key_n ? r->key_bytes_sum / r->key_n - other : 0, f.mbs, f.enc, f.dec, isinf(f.psnr) ? 999.0 : f.psnr, f.ray,
                 f.dray, f.dray_depth, f.fits, f.colour, f.ray_ok, f.dec_ok, f.enc_ok, f.all);
         if (r->usb2_n)
             fprintf(csv, ",%.2f,%.1f,%.3f,\n", r->usb2_fps_sum / r->usb2_n, r->usb2_age_ms_sum / r->usb2_n,
