@@ -300,8 +300,8 @@ int main(int argc, char **argv)
     opts o = {.out = "docs/bench", .soak_s = -1, .reps = 0, .threads = 2};
     static const struct option lo[] = {{"quick", 0, 0, 'q'}, {"out", 1, 0, 'o'},      {"reps", 1, 0, 'r'},
                                        {"soak", 1, 0, 's'},  {"hmdwarpd", 1, 0, 'd'}, {"threads", 1, 0, 't'},
-                                       {"eye", 1, 0, 'e'},   {"help", 0, 0, 'h'},  {"version", 0, 0, 'V'}, {"link-only", 0, 0, 'L'},
-                                       {0, 0, 0, 0}};
+                                       {"eye", 1, 0, 'e'},   {"help", 0, 0, 'h'},  {"version", 0, 0, 'V'},
+                                       {"link-only", 0, 0, 'L'}, {0, 0, 0, 0}};
     int c;
     while ((c = getopt_long(argc, argv, "h", lo, NULL)) != -1) {
         switch (c) {
