@@ -461,7 +461,8 @@ static bool write_out(const bench_link_opts *o, link_row *rows, int nrows, const
             o->reference ? "reference" : "not reference", o->quick ? " BENCH_ARGS=--quick" : "", w, h, nf, sc,
             HOST_HZ, HEAD_YAW_DPS, HEAD_SIDE_MS, threads, PANEL_HZ, ray_raw_db, load, sysconf(_SC_NPROCESSORS_ONLN));
     fprintf(md, "Targets (#19): the frame fits %.0f MB/s (USB 2.0 with margin); colour at least %.0f dB; the "
-                "raytrace with the decoded depth within %.1f dB of raw depth; decode of both eyes within %.0f ms on two threads; encode within one host "
+                "raytrace with the decoded depth within %.1f dB of raw depth; decode of both eyes within %.0f ms on "
+                "two threads; encode within one host "
                 "frame (%.1f ms). Colour rows send depth raw F32 beside them and depth rows colour raw, so their PSNR "
                 "and raytrace columns are the plane's own and their bytes are that plane's share of the frame (raw "
                 "colour %.2f MB, raw F32 depth %.2f MB); only frame rows can meet the byte budget for a whole frame.\n\n",
@@ -510,7 +511,8 @@ static bool write_out(const bench_link_opts *o, link_row *rows, int nrows, const
     fprintf(md, "\n## On a USB 2.0 link (%.0f MB/s): what the codec buys in frame age and accuracy\n\n"
                 "A model from the measured bytes and times, not a run of the board: host encode, transfer and "
                 "board decode are a pipeline, so frames flow at its slowest stage's rate (transfer: bytes / %.0f MB/s; "
-                "the host renders at most %.0f Hz); a frame is shown aged encode + transfer + decode + half the gap to the next frame + half a %.0f Hz vsync on "
+                "the host renders at most %.0f Hz); a frame is shown aged encode + transfer + decode + half the gap "
+                "to the next frame + half a %.0f Hz vsync on "
                 "average, and the raytrace from it is scored against the truth that much later (head still moving "
                 "as above).\n\n| row | frames/s | mean frame age ms | raytrace dB at that age | vs raw frames dB |\n"
                 "|---|---:|---:|---:|---:|\n",
