@@ -33,6 +33,7 @@ check "link.csv has the raw row, 8 JPEG, 4 video, 5 depth and 6 whole-frame rows
 # every row: either numbers in every measured column, or n/a with a reason
 bad=$(tail -n +2 "$out/link.csv" | awk -F'"' '{
     split($3, f, ",")   # f[1] is empty (the comma after the name): codecs at f[2], f[3], figures from f[4]
+    if (NF != 3 || split($3, g, ",") != 23) { print $2 ": not 24 columns"; next }
     if ($3 ~ /,n\/a \(.+\)$/) next
     for (i = 4; i <= 18; i++) if (f[i] !~ /^-?[0-9]+(\.[0-9]+)?$/) { print $2 ": column " i + 1 " is \"" f[i] "\""; next }
 }' | head -n 3)
@@ -45,6 +46,7 @@ why=$(echo "$raw" | awk -F'"' '{ split($3, f, ",")
     if (f[9] != "999.000") print "raw colour PSNR " f[9] " (lossless is 999)"
     if (f[11] != "0.000") print "raw raytrace vs raw " f[11]
     if (f[12] != "0.000") print "raw depth share of the raytrace " f[12]
+    if (f[22] < 8 || f[22] > 8.1) print "raw bytes per eye pixel " f[22] " (RGBA8 + F32: 8 and the header)"
     if (f[13] != 1) print "a 64x64 raw frame does not fit 30 MB/s at 45 Hz?" }')
 [ -n "$raw" ] || why="no raw row"
 check "the raw row is the lossless v1 frame, its raytrace the reference" "$why"

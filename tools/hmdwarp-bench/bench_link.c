@@ -331,14 +331,15 @@ static void run_row(link_row *r, const sim_scene *sc, drv_frame *src, int nf, dr
 /* ---- output ---- */
 
 typedef struct {
-    double bytes, mbs, enc, dec, psnr, ray, dray, dray_depth;
+    double bytes, bpp, mbs, enc, dec, psnr, ray, dray, dray_depth;
     bool fits, colour, ray_ok, dec_ok, enc_ok, all;
 } row_fig;
 
-static row_fig figures(const link_row *r, double other_plane_bytes)
+static row_fig figures(const link_row *r, double other_plane_bytes, double eye_px)
 {
     row_fig f;
     f.bytes = r->bytes_sum / r->bytes_n - other_plane_bytes;
+    f.bpp = f.bytes / (2 * eye_px);
     f.mbs = f.bytes * HOST_HZ / 1e6;
     f.enc = median(&r->enc_ms);
     f.dec = median(&r->dec_ms);
@@ -374,32 +375,33 @@ static void misses_str(const row_fig *f, char *b, size_t n)
 
 static void md_header(FILE *md)
 {
-    fprintf(md, "| row | bytes/frame | MB/s at %.0f Hz | encode ms | decode ms | colour PSNR dB | raytrace dB | "
-                "vs raw dB | of it depth dB | targets |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---|\n",
+    fprintf(md, "| row | bytes/frame | bytes/px | MB/s at %.0f Hz | encode ms | decode ms | colour PSNR dB | raytrace dB | "
+                "vs raw dB | of it depth dB | targets |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|\n",
             HOST_HZ);
 }
 
-static void md_row(FILE *md, const link_row *r, double other)
+static void md_row(FILE *md, const link_row *r, double other, double eye_px)
 {
     if (r->na[0]) {
         char na[200];
         snprintf(na, sizeof na, "%s", r->na);
         for (char *c = na; *c; c++)
             if (*c == '|') *c = '/';
-        fprintf(md, "| %s | n/a (%s) | | | | | | | | |\n", r->name, na);
+        fprintf(md, "| %s | n/a (%s) | | | | | | | | | |\n", r->name, na);
         return;
     }
-    row_fig f = figures(r, other);
+    row_fig f = figures(r, other, eye_px);
     char p[24], m[80], key[64] = "";
     if (r->key_n) snprintf(key, sizeof key, " (key frame %.3f MB)", (r->key_bytes_sum / r->key_n - other) / 1e6);
     misses_str(&f, m, sizeof m);
-    fprintf(md, "| %s | %.3f MB%s | %.1f | %.1f | %.2f | %s | %.2f | %+.2f | %+.2f | %s |\n", r->name, f.bytes / 1e6, key,
-            f.mbs, f.enc, f.dec, db_str(f.psnr, p, sizeof p), f.ray, f.dray, f.dray_depth, m);
+    fprintf(md, "| %s | %.3f MB%s | %.3f | %.1f | %.1f | %.2f | %s | %.2f | %+.2f | %+.2f | %s |\n", r->name,
+            f.bytes / 1e6, key, f.bpp, f.mbs, f.enc, f.dec, db_str(f.psnr, p, sizeof p), f.ray, f.dray, f.dray_depth, m);
 }
 
 static bool write_out(const bench_link_opts *o, link_row *rows, int nrows, const char *const *scenes, int nsc, int nf,
                       double raw_color_bytes, double raw_depth_bytes, double ray_raw_db, int threads, double load)
 {
+    const double eye_px = (double)o->cam[0].width * o->cam[0].height;
     char path[700];
     snprintf(path, sizeof path, "%s/link.csv", o->out);
     FILE *csv = fopen(path, "w");
@@ -414,7 +416,7 @@ static bool write_out(const bench_link_opts *o, link_row *rows, int nrows, const
     fprintf(csv, "group,row,color_codec,depth_codec,bytes_per_frame,key_frame_bytes,mb_s_%.0fhz,encode_ms,decode_ms,"
                  "color_psnr_db,raytrace_db,raytrace_vs_raw_db,raytrace_depth_db,fits_%.0fmbs,psnr_%.0fdb,depth_raytrace_%.1fdb,"
                  "decode_%.0fms,"
-                 "encode_one_frame,all_targets,usb2_fps,usb2_age_ms,usb2_raytrace_db,note\n",
+                 "encode_one_frame,all_targets,usb2_fps,usb2_age_ms,usb2_raytrace_db,bytes_per_eye_px,note\n",
             HOST_HZ, BUDGET_MBS, TARGET_PSNR_DB, TARGET_RAY_DB, TARGET_DECODE_MS);
     /* colour rows send depth raw beside them, depth rows colour: their bytes are the plane's own share */
     for (int i = 0; i < nrows; i++) {
@@ -425,20 +427,21 @@ static bool write_out(const bench_link_opts *o, link_row *rows, int nrows, const
             snprintf(na, sizeof na, "%s", r->na);
             for (char *c = na; *c; c++)
                 if (*c == ',' || *c == '"') *c = ';';
-            fprintf(csv, "%s,\"%s\",%s,%s,,,,,,,,,,,,,,,,,,,n/a (%s)\n", group_name[r->group], r->name,
+            fprintf(csv, "%s,\"%s\",%s,%s,,,,,,,,,,,,,,,,,,,,n/a (%s)\n", group_name[r->group], r->name,
                     drv_codec_name(r->p.color), drv_codec_name(r->p.depth), na);
             continue;
         }
-        row_fig f = figures(r, other);
+        row_fig f = figures(r, other, eye_px);
         fprintf(csv, "%s,\"%s\",%s,%s,%.0f,%.0f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%d,%d,%d,%d,%d,%d",
                 group_name[r->group], r->name, drv_codec_name(r->p.color), drv_codec_name(r->p.depth), f.bytes,
                 r->key_n ? r->key_bytes_sum / r->key_n - other : 0, f.mbs, f.enc, f.dec, isinf(f.psnr) ? 999.0 : f.psnr, f.ray,
                 f.dray, f.dray_depth, f.fits, f.colour, f.ray_ok, f.dec_ok, f.enc_ok, f.all);
         if (r->usb2_n)
-            fprintf(csv, ",%.2f,%.1f,%.3f,\n", r->usb2_fps_sum / r->usb2_n, r->usb2_age_ms_sum / r->usb2_n,
+            fprintf(csv, ",%.2f,%.1f,%.3f", r->usb2_fps_sum / r->usb2_n, r->usb2_age_ms_sum / r->usb2_n,
                     r->usb2_ray_db_sum / r->usb2_n);
         else
-            fprintf(csv, ",,,,\n");
+            fprintf(csv, ",,,");
+        fprintf(csv, ",%.4f,\n", f.bpp);
     }
     fclose(csv);
 
@@ -451,7 +454,7 @@ static bool write_out(const bench_link_opts *o, link_row *rows, int nrows, const
                 "with the head turning %.0f deg/s and stepping sideways %.1f m/s. Every row goes through "
                 "framelink v2's encoder and decoder (`drv_framelink_enc`/`drv_framelink_dec`, as hmdwarpd and "
                 "libhmdwarp-host run them), the decoder on %d threads. Bytes per frame are means (video: of the "
-                "frames after the stream's key frame); times are medians over all frames; colour PSNR is the decoded "
+                "frames after the stream's key frame), and per pixel of an eye (what drv_link_budget.c estimates); times are medians over all frames; colour PSNR is the decoded "
                 "colour against the raw frame (both eyes, all frames); raytrace dB is the raytrace warp (registry "
                 "defaults) from the decoded last frame's left eye to the pose one %.0f Hz vsync later against the "
                 "simulator's ground truth, vs raw is its difference to the same on the raw frame (%.2f dB, mean "
@@ -472,10 +475,10 @@ static bool write_out(const bench_link_opts *o, link_row *rows, int nrows, const
     fprintf(md, "## Whole frames\n\n<!-- link-table:begin -->\n");
     md_header(md);
     for (int i = 0; i < nrows; i++)
-        if (rows[i].group == ROW_RAW || rows[i].group == ROW_FRAME) md_row(md, &rows[i], 0);
+        if (rows[i].group == ROW_RAW || rows[i].group == ROW_FRAME) md_row(md, &rows[i], 0, eye_px);
     const link_row *best = NULL;
     for (int i = 0; i < nrows; i++)
-        if (rows[i].group == ROW_FRAME && !rows[i].na[0] && figures(&rows[i], 0).all &&
+        if (rows[i].group == ROW_FRAME && !rows[i].na[0] && figures(&rows[i], 0, eye_px).all &&
             (!best || rows[i].bytes_sum / rows[i].bytes_n < best->bytes_sum / best->bytes_n))
             best = &rows[i];
     int measured = 0;
@@ -490,7 +493,7 @@ static bool write_out(const bench_link_opts *o, link_row *rows, int nrows, const
     best = NULL;
     for (int i = 0; i < nrows; i++) {
         if (rows[i].group != ROW_FRAME || rows[i].na[0]) continue;
-        row_fig f = figures(&rows[i], 0);
+        row_fig f = figures(&rows[i], 0, eye_px);
         if (f.fits && f.colour && f.ray_ok && (!best || rows[i].bytes_sum / rows[i].bytes_n <
                                                             best->bytes_sum / best->bytes_n))
             best = &rows[i];
@@ -507,7 +510,8 @@ static bool write_out(const bench_link_opts *o, link_row *rows, int nrows, const
     for (int g = ROW_RAW; g <= ROW_DEPTH; g++)
         for (int i = 0; i < nrows; i++)
             if ((int)rows[i].group == g)
-                md_row(md, &rows[i], g == ROW_COLOUR ? raw_depth_bytes : g == ROW_DEPTH ? raw_color_bytes : 0);
+                md_row(md, &rows[i], g == ROW_COLOUR ? raw_depth_bytes : g == ROW_DEPTH ? raw_color_bytes : 0,
+                       eye_px);
     fprintf(md, "\n## On a USB 2.0 link (%.0f MB/s): what the codec buys in frame age and accuracy\n\n"
                 "A model from the measured bytes and times, not a run of the board: host encode, transfer and "
                 "board decode are a pipeline, so frames flow at its slowest stage's rate (transfer: bytes / %.0f MB/s; "
@@ -548,7 +552,9 @@ bool bench_link_run(const bench_link_opts *o)
     static const char *const quick_scenes[] = {"near", "outdoor"};
     const char *const *scenes = o->quick ? quick_scenes : full_scenes;
     const int nsc = o->quick ? 2 : 3, nf = o->quick ? 3 : 5;
-    const int w = o->cam[0].width, h = o->cam[0].height, threads = o->decode_threads > 0 ? o->decode_threads : 2;
+    const int w = o->cam[0].width, h = o->cam[0].height;
+    const double eye_px = (double)w * h;
+    const int threads = o->decode_threads > 0 ? o->decode_threads : 2;
     static link_row rows[MAX_ROWS];
     const int nrows = rows_make(rows);
 
@@ -600,7 +606,7 @@ bool bench_link_run(const bench_link_opts *o)
                 printf("  %-34s n/a (%s)\n", r->name, r->na);
                 continue;
             }
-            row_fig f = figures(r, other);
+            row_fig f = figures(r, other, eye_px);
             char p[24], m[80];
             misses_str(&f, m, sizeof m);
             printf("  %-34s %8.3f MB %7.1f MB/s enc %7.2f ms dec %6.2f ms PSNR %8s raytrace %+.2f dB (depth %+.2f)  %s\n",
