@@ -8,7 +8,7 @@ BUILD=${BUILD:-build}
 bench=$BUILD/hmdwarp-bench
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-echo "1..7"
+echo "1..8"
 n=0
 ok() { n=$((n + 1)); echo "ok $n - $1"; }
 nok() { n=$((n + 1)); echo "not ok $n - $1"; }
@@ -82,3 +82,11 @@ why=""
 [ "$rc" -ne 0 ] || why="accepted a README without markers"
 grep -q 'needs exactly one' "$tmp/log2" || why="$why no reason given: $(cat "$tmp/log2")"
 check "a README without the markers is refused, naming them" "$why"
+
+cp "$tmp/README.orig" "$tmp/README3.md"
+scripts/bench-link-readme.sh "$tmp/none/link.md" "$tmp/README3.md" >"$tmp/log2" 2>&1
+rc=$?
+why=""
+[ "$rc" -eq 0 ] || why="exit $rc: $(cat "$tmp/log2")"
+cmp -s "$tmp/README3.md" "$tmp/README.orig" || why="$why the README changed"
+check "no link.md (a bench run with --out elsewhere): the README is left alone and make bench goes on" "$why"
