@@ -115,6 +115,8 @@ TEST_BINS += $(FUZZ_REG_BINS)
 TEST_SCRIPTS := tests/flash/test_flash.sh $(wildcard tests/packaging/test_*.sh) tests/build/test_headers.sh
 # The Python binding and the host examples streaming to a stand-in board (TAP from Python; /usr/bin/python3).
 TEST_SCRIPTS += tests/examples/test_python.py
+# hmdwarp-bench's link section on tiny eyes (every row measured or n/a with a reason) and its README table copy.
+TEST_SCRIPTS += tests/bench/test_bench_link.sh
 
 .PHONY: all programs deps run run-socket test test-busy asan install clean results bench stability hil check-cross man install-man \
         have-help2man deb deb-arm64 deb-check fuzz fuzz-build fuzz-bins fuzz-merge soak
@@ -379,11 +381,13 @@ asan: deps
 	@ASAN_OPTIONS=detect_leaks=1:abort_on_error=0 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
 	  tests/run.sh $(ASAN_BUILD)/tests $(patsubst $(BUILD)/%,$(ASAN_BUILD)/%,$(TEST_BINS))
 
-# What accuracy costs in time: CSV, Markdown and plots into docs/bench/ (BENCH_ARGS=--quick for a smoke run).
+# What accuracy costs in time: CSV, Markdown and plots into docs/bench/ (BENCH_ARGS=--quick for a smoke run), and
+# the link section (docs/bench/link.md), whose whole-frame table a reference run copies into the README.
 BENCH_ARGS ?=
 bench: deps
 	@$(MAKE) --no-print-directory $(BUILD)/hmdwarp-bench $(BUILD)/hmdwarpd
 	$(BUILD)/hmdwarp-bench $(BENCH_ARGS)
+	scripts/bench-link-readme.sh docs/bench/link.md README.md
 
 # The table of every warp against ground truth (docs/warp-results.md).
 results: deps

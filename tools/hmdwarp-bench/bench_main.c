@@ -16,6 +16,7 @@
 #include <unistd.h>
 
 #include "bench_display.h"
+#include "bench_link.h"
 #include "bench_opencv.h"
 #include "platform/plat_clock.h"
 #include "platform/plat_egl.h"
@@ -41,6 +42,7 @@ typedef struct {
     double soak_s;
     int reps;
     int threads;
+    bool link_only; /* --link-only: the link section alone */
 } opts;
 
 /* ---- timing samples ---- */
@@ -286,6 +288,7 @@ static void usage(FILE *f)
                "  --threads N      compositor threads (default 2)\n"
                "  --soak S         seconds of hmdwarpd at 90 Hz on the simulated board (default 60, quick 5; 0 = skip)\n"
                "  --hmdwarpd PATH  the hmdwarpd to soak (default: next to this program)\n"
+               "  --link-only      only the link section: every framelink codec and quality step (link.md, link.csv)\n"
                "  -h, --help       this text\n"
                "  --version        print the version and exit\n"
                "Times are wall-clock on a noisy machine: the ratios to memcpy and OpenCV, measured interleaved in the\n"
@@ -297,7 +300,8 @@ int main(int argc, char **argv)
     opts o = {.out = "docs/bench", .soak_s = -1, .reps = 0, .threads = 2};
     static const struct option lo[] = {{"quick", 0, 0, 'q'}, {"out", 1, 0, 'o'},      {"reps", 1, 0, 'r'},
                                        {"soak", 1, 0, 's'},  {"hmdwarpd", 1, 0, 'd'}, {"threads", 1, 0, 't'},
-                                       {"eye", 1, 0, 'e'},   {"help", 0, 0, 'h'},  {"version", 0, 0, 'V'}, {0, 0, 0, 0}};
+                                       {"eye", 1, 0, 'e'},   {"help", 0, 0, 'h'},  {"version", 0, 0, 'V'},
+                                       {"link-only", 0, 0, 'L'}, {0, 0, 0, 0}};
     int c;
     while ((c = getopt_long(argc, argv, "h", lo, NULL)) != -1) {
         switch (c) {
@@ -314,6 +318,7 @@ int main(int argc, char **argv)
         case 's': o.soak_s = atof(optarg); break;
         case 'd': o.hmdwarpd = optarg; break;
         case 't': o.threads = atoi(optarg); break;
+        case 'L': o.link_only = true; break;
         case 'h': usage(stdout); return 0;
         case 'V': printf("hmdwarp-bench %s\n", plat_version()); return 0;
         default: usage(stderr); return 2;
@@ -350,6 +355,11 @@ int main(int argc, char **argv)
         cam[e] = rt_config_eye_camera(&cfg, e);
         lens[e] = rt_config_lens(&cfg, e);
     }
+    /* The link section: rpi5's eyes (the reference panel's), colour + depth at 45 Hz, decoded on the board's two
+     * decode threads. */
+    bench_link_opts lo_link = {.quick = o.quick, .reference = !o.quick && !o.eye_w, .cam = {cam[0], cam[1]},
+                               .decode_threads = 2, .out = o.out};
+    if (o.link_only) return bench_link_run(&lo_link) ? 0 : 1;
     plat_workers *workers = plat_workers_create(o.threads - 1, 0), *workers1 = plat_workers_create(0, 0);
     char err[300] = "out of memory";
     frame_case fc[2];
@@ -820,6 +830,9 @@ int main(int argc, char **argv)
         if (!run_gnuplot(o.out, "plots.gp")) fprintf(stderr, "hmdwarp-bench: gnuplot failed (plots missing)\n");
     }
     printf("results: %s/bench.md, %s/bench.csv, plots %s/*.png\n", o.out, o.out, o.out);
+    fflush(stdout);
+    /* ---- 5. the link: every framelink codec and quality step (bench_link.c) ---- */
+    if (!bench_link_run(&lo_link)) return 1;
 
     for (int e = 0; e < 2; e++) {
         bench_cv_destroy(cv[e]);
