@@ -112,7 +112,7 @@ TEST_BINS += $(FUZZ_REG_BINS)
 # Shell tests printing TAP, run by tests/run.sh like the binaries (after `make all man deb`): make install and
 # board/flash.sh against a fake merged-/usr board root; the version, licence lines and Debian packages; runtime/'s
 # headers self-contained and including only what they use.
-TEST_SCRIPTS := tests/flash/test_flash.sh $(wildcard tests/packaging/test_*.sh) tests/build/test_headers.sh
+TEST_SCRIPTS := tests/flash/test_flash.sh $(wildcard tests/packaging/test_*.sh) tests/build/test_headers.sh tests/build/test_tree.sh
 # The Python binding and the host examples streaming to a stand-in board (TAP from Python; /usr/bin/python3).
 TEST_SCRIPTS += tests/examples/test_python.py
 # hmdwarp-bench's link section on tiny eyes (every row measured or n/a with a reason) and its README table copy.

@@ -245,7 +245,7 @@ static void usb_last_error(drv_frames *fr, char *buf, int len);
 static unsigned usb_planes(drv_frames *fr) { return ((usb_frames *)fr)->p.planes; }
 
 /* The camera message (HWC1): what this board wants rendered, so a host need not be told by hand. */
-static void send_cams(usb_frames *u, int timeout_ms)
+static bool send_cams(usb_frames *u, int timeout_ms)
 {
     drv_framelink_cams c = {.seq = ++u->cams_seq, .planes = u->p.planes, .depth_encoding = u->p.depth_encoding,
                             .max_frame_bytes = u->p.max_frame_bytes, .refresh_hz = u->p.refresh_hz,
@@ -260,6 +260,7 @@ static void send_cams(usb_frames *u, int timeout_ms)
         snprintf(u->st.last_error, sizeof u->st.last_error, "%s frames: camera message (IN): %s", u->base.name,
                  strerror((int)-rc));
     pthread_mutex_unlock(&u->lock);
+    return rc == (ssize_t)sizeof msg;
 }
 
 static void *pose_thread(void *arg)
@@ -281,13 +282,17 @@ static void *pose_thread(void *arg)
             was_up = false;
             continue;
         }
-        /* A new host hears the cameras first, before any pose; every host again once a second. */
+        /* A new host hears the cameras first, before any pose; every host again once a second. A greeting that did
+         * not go out (USB: the host enabled the function but is not reading yet) is sent again before the next
+         * pose, so no pose overtakes it: a host renders its first frame knowing the cameras and the codecs. */
         uint64_t hosts = u->t->connections ? u->t->connections(u->t) : greeted + !was_up;
-        was_up = true;
         if (u->send_cams && (hosts != greeted || plat_now_ns() >= next_cams)) {
-            send_cams(u, timeout_ms);
-            next_cams = plat_now_ns() + PLAT_NS_PER_S;
+            if (send_cams(u, timeout_ms))
+                next_cams = plat_now_ns() + PLAT_NS_PER_S;
+            else if (hosts != greeted)
+                continue; /* not greeted: was_up and greeted stay, so the next period greets again */
         }
+        was_up = true;
         greeted = hosts;
         drv_framelink_pose m = {.flags = 0};
         m.board_t_ns = plat_now_ns();

@@ -13,20 +13,21 @@
 #define SMALLEST_DEPTH_SCALE 2 /* framelink v2's depth scale byte: 0, 1 or 2 (1/4 a side) */
 
 /* Bytes per eye pixel. Raw: framelink v1's formats (RGBA8, float depth, u16 ids, two float motion components, the
- * layers' u8 count with no fragments: the least). Coded: estimates for rendered scenes, to be replaced by what
- * `make bench` measures: JPEG q85 4:2:0 ~1.2 bit/px; H.264 and HEVC low-delay at VR rates (15-125 MB/s for
- * 2-4 Mpx at 72-90 Hz) ~0.5 and ~0.3 bit/px; zstd over byte-shuffled INV16 depth ~0.6 B/px (smooth surfaces, sharp
- * edges); ids and layers mostly runs; motion two floats that vary smoothly. */
+ * layers' u8 count with no fragments: the least). Coded, as `make bench`'s link section measured them on the
+ * simulator's scenes at 1440x1600 (docs/bench/link.md, bytes/px): JPEG q75 4:2:0 (libhmdwarp-host's auto) 0.083,
+ * H.264 and HEVC at quantiser 20 0.020 and 0.011 (frames between key frames), zstd over byte-shuffled INV16 depth
+ * at full resolution (auto) 0.043; ids, motion and layers are estimates (ids and layers mostly runs, motion two
+ * floats that vary smoothly). */
 static const struct {
     unsigned plane;
     double raw, zstd;
 } planes[] = {
-    {DRV_PLANE_COLOR, 4, -1}, {DRV_PLANE_DEPTH, 4, 0.6}, {DRV_PLANE_IDS, 2, 0.05},
+    {DRV_PLANE_COLOR, 4, -1}, {DRV_PLANE_DEPTH, 4, 0.043}, {DRV_PLANE_IDS, 2, 0.05},
     {DRV_PLANE_MOTION, 8, 2.0}, {DRV_PLANE_LAYERS, 1, 0.1},
 };
 static const char *const plane_names[] = {"colour", "depth", "ids", "motion", "layers"};
-static const double colour_coded[DRV_CODEC_COUNT] = {[DRV_CODEC_JPEG] = 0.15, [DRV_CODEC_H264] = 0.06,
-                                                     [DRV_CODEC_HEVC] = 0.04};
+static const double colour_coded[DRV_CODEC_COUNT] = {[DRV_CODEC_JPEG] = 0.083, [DRV_CODEC_H264] = 0.020,
+                                                     [DRV_CODEC_HEVC] = 0.011};
 static const drv_codec_id colour_codecs[DRV_LINK_BUDGET_COLOUR_CODECS] = {DRV_CODEC_JPEG, DRV_CODEC_H264,
                                                                           DRV_CODEC_HEVC};
 
@@ -66,7 +67,7 @@ void drv_link_budget_compute(const drv_link_budget_in *in, drv_link_budget *out)
         raw += planes[i].raw;
         if (p != DRV_PLANE_COLOR)
             rest += drv_link_budget_bytes_per_px(p, zstd ? DRV_CODEC_ZSTD : DRV_CODEC_RAW,
-                                                 p == DRV_PLANE_DEPTH ? SMALLEST_DEPTH_SCALE : 0);
+                                                 0); /* depth at full resolution, as auto sends it */
     }
     out->raw_mbps = raw * px_s / MB;
     out->raw_fits = out->link_mbps <= 0 || out->raw_mbps <= out->link_mbps;
@@ -141,7 +142,7 @@ bool drv_link_budget_line(const drv_link_budget_in *in, char *buf, size_t len)
     if (b.link_mbps > 0) add(buf, len, ", %s", b.raw_fits ? "fits" : "does not fit");
     if (b.n_coded > 0) {
         const bool zstd = (in->codecs & DRV_CODEC_BIT(DRV_CODEC_ZSTD)) != 0;
-        add(buf, len, "; coded (%s, depth at 1/4 res):", zstd ? "other planes zstd" : "other planes raw");
+        add(buf, len, "; coded (%s):", zstd ? "depth and other planes zstd" : "other planes raw");
         for (int k = 0; k < b.n_coded; k++) {
             rate_str(b.coded_mbps[k], r, sizeof r);
             add(buf, len, "%s %s ~%s%s", k ? "," : "", drv_codec_name(b.colour[k]), r,

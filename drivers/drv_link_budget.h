@@ -36,7 +36,7 @@ typedef struct {
     double link_mbps;          /* what the link carries, MB/s (10^6 B/s); 0 = unlimited or unknown */
     double raw_mbps;           /* every plane raw, as framelink v1 sends it */
     /* per announced colour codec (JPEG, H.264, HEVC; RAW when none is announced): colour with it, the other planes
-     * zstd when announced, depth at the smallest scale framelink v2 allows (1/4 a side) */
+     * zstd when announced, depth INV16 at full resolution (what libhmdwarp-host's auto sends) */
     int n_coded;
     drv_codec_id colour[DRV_LINK_BUDGET_COLOUR_CODECS];
     double coded_mbps[DRV_LINK_BUDGET_COLOUR_CODECS];
@@ -51,7 +51,7 @@ double drv_link_budget_bytes_per_px(unsigned plane, drv_codec_id codec, int scal
 void drv_link_budget_compute(const drv_link_budget_in *in, drv_link_budget *out);
 
 /* The start-up line, e.g. "link: usb high-speed ~40 MB/s; colour+depth 1440x1600x2 @45 Hz: raw needs 1.66 GB/s,
- * does not fit; coded (other planes zstd, depth at 1/4 res): jpeg ~39 MB/s fits, hevc ~16 MB/s fits". Returns false
+ * does not fit; coded (depth and other planes zstd): jpeg ~26 MB/s fits, hevc ~5.6 MB/s fits". Returns false
  * when nothing the board announces fits (log it as a warning); true also when the link's rate is not known. */
 bool drv_link_budget_line(const drv_link_budget_in *in, char *buf, size_t len);
 

@@ -290,11 +290,11 @@ typedef enum {
 } hmdwarp_host_wire_depth;
 
 /* The codec per plane. Zero fields take the defaults noted; hmdwarp_host_codec_defaults() sets everything to auto,
- * which means: colour JPEG (quality 85, 4:2:0, 4 slices per eye) when the board decodes JPEG, depth zstd (wire
+ * which means: colour JPEG (quality 75, 4:2:0, 4 slices per eye) when the board decodes JPEG, depth zstd (wire
  * format auto, full resolution) and ids, motion and layers zstd when it decodes zstd, raw otherwise. */
 typedef struct {
     int color;           /* hmdwarp_host_codec: AUTO, RAW, JPEG, H264 or HEVC */
-    int quality;         /* JPEG 1..100 (0: 85); video: quantiser 1..51 when video_kbps is 0 (0: 23) */
+    int quality;         /* JPEG 1..100 (0: 75); video: quantiser 1..51 when video_kbps is 0 (0: 23) */
     int jpeg_subsampling; /* 420 or 444 (0: 420) */
     int slices;          /* JPEG slices per eye 1..16 (0: 4), each decoded on its own thread */
     int video_kbps;      /* video: constant bit rate per eye stream in kbit/s; 0: constant quality */
@@ -307,11 +307,12 @@ typedef struct {
 
 /* Everything auto (the recommended setting). */
 void hmdwarp_host_codec_defaults(hmdwarp_host_codec_options *out);
-/* Sets the codecs of the frames submitted (or encoded) from now on; NULL: all raw, version 1 frames, what a handle
- * sends until this is called. ARG names a field out of range; UNSUPPORTED a codec this library cannot encode. A
- * codec the board did not announce is refused at submit (FORMAT) when the board's camera message says what it
- * decodes. With a video codec each submit or encode is one frame of the stream; a board that lost a reference
- * asks for a key frame (in its pose messages) and the next frame is one. */
+/* Sets the codecs of the frames submitted (or encoded) from now on; NULL: all raw, version 1 frames. A handle
+ * starts with hmdwarp_host_codec_defaults() (auto: what the board's camera message announces, raw before one came).
+ * ARG names a field out of range; UNSUPPORTED a codec this library cannot encode. A codec the board did not
+ * announce is refused at submit (FORMAT) when the board's camera message says what it decodes. With a video codec
+ * each submit or encode is one frame of the stream; a board that lost a reference asks for a key frame (in its
+ * pose messages) and the next frame is one. */
 int hmdwarp_host_set_codec(hmdwarp_host *h, const hmdwarp_host_codec_options *opts);
 
 typedef struct {

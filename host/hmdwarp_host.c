@@ -33,8 +33,11 @@
  * decodes again): one forced key frame answers a run of them, and another only after this long, when the first
  * could have arrived (so a lost key frame is answered again, a quarter-second request not with ten). */
 #define KEY_HOLDOFF_NS 100000000
-/* auto's choices until the lead's measurements set them (docs/host-api.md): JPEG q85 4:2:0 in 4 slices per eye */
-#define AUTO_JPEG_QUALITY 85
+/* auto's choices, measured by `make bench`'s link section (docs/bench/link.md) at the rpi5 size (1440x1600 eyes,
+ * colour + depth, 45 Hz): JPEG q75 4:2:0 is the lowest step above 38 dB colour PSNR (39.0), and with zstd INV16
+ * depth at full resolution (8.9 MB/s, exact to the warps) the frame needs 26 MB/s: USB 2.0 with margin. q85 adds
+ * 1.3 dB and 5.5 MB/s, more than the 30 MB/s budget. */
+#define AUTO_JPEG_QUALITY 75
 #define AUTO_JPEG_SLICES 4
 #define AUTO_VIDEO_QUANTISER 23
 
@@ -289,6 +292,9 @@ API hmdwarp_host *hmdwarp_host_open_ex(const hmdwarp_host_options *opts)
     hmdwarp_host *h = calloc(1, sizeof *h);
     if (!h) return host_fail(HMDWARP_HOST_ERR_NO_MEMORY, "out of memory"), NULL;
     h->opts = *opts;
+    /* Negotiated from the start: auto sends what the board's camera message announces (raw until one came). */
+    hmdwarp_host_codec_defaults(&h->codec);
+    h->codec_set = true;
     if (opts->path && !(h->path = strdup(opts->path))) {
         free(h);
         return host_fail(HMDWARP_HOST_ERR_NO_MEMORY, "out of memory"), NULL;

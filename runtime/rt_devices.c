@@ -150,7 +150,7 @@ static bool open_frames(rt_devices *d, const rt_config *c, const drv_frames_sim_
         p.refresh_hz = c->refresh_hz;
         p.depth_encoding = WARP_DEPTH_LINEAR;
         /* framelink v2: what hosts are told the board decodes, and the decoder's threads (validated already) */
-        if (!rt_config_parse_codecs(c->frames_codecs, &p.codecs, e, sizeof e))
+        if (!rt_config_frames_codecs(c, &p.codecs, e, sizeof e))
             return warp_err(err, errlen, "[frames] codecs = '%s': %s", c->frames_codecs, e);
         p.decode_threads = c->decode_threads;
         p.video_decoder = c->video_decoder;

@@ -41,6 +41,7 @@ bool rt_link_budget_line(const rt_config *c, char *line, size_t len)
                                                  : warp_method_get(rt_method_warp(c->method))->needs;
     in.planes = DRV_PLANE_COLOR | DRV_PLANE_DEPTH | (needs & (WARP_NEEDS_IDS | WARP_NEEDS_LAYERS));
     in.host_hz = c->host_rate_hz;
-    in.codecs = drv_codec_decodable();
+    char e[160];
+    if (!rt_config_frames_codecs(c, &in.codecs, e, sizeof e)) in.codecs = DRV_CODEC_BIT(DRV_CODEC_RAW);
     return drv_link_budget_line(&in, line, len);
 }

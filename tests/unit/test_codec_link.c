@@ -204,15 +204,32 @@ static void test_compressed_frames_counted(void **state)
     rig_stop(&r);
 }
 
-/* Raw frames (no set_codec, and set_codec(NULL)) are version 1 and go through the same decoder uncompressed. */
-static void test_raw_frames_through_the_decoder(void **state)
+/* A handle starts on auto: with no set_codec its frames use what the board announced (JPEG colour, zstd depth). */
+static void test_auto_is_negotiated(void **state)
 {
     (void)state;
     rig_start(&r);
     hmdwarp_host_frame fr = make_frame(1);
     assert_int_equal(hmdwarp_host_submit(r.h, &fr), HMDWARP_HOST_OK);
     assert_int_equal(pump_until_result(&r), 1);
+    assert_close(&r.f, 1);
+    drv_frames_usb_stats st = stats(&r);
+    assert_int_equal(st.frames, 1);
+    assert_int_equal(st.compressed_frames, 1);
+    assert_true(st.codecs_seen & DRV_CODEC_BIT(DRV_CODEC_JPEG));
+    assert_true(st.codecs_seen & DRV_CODEC_BIT(DRV_CODEC_ZSTD));
+    rig_stop(&r);
+}
+
+/* Raw frames (set_codec(NULL)) are version 1 and go through the same decoder uncompressed. */
+static void test_raw_frames_through_the_decoder(void **state)
+{
+    (void)state;
+    rig_start(&r);
+    hmdwarp_host_frame fr = make_frame(1);
     assert_int_equal(hmdwarp_host_set_codec(r.h, NULL), HMDWARP_HOST_OK);
+    assert_int_equal(hmdwarp_host_submit(r.h, &fr), HMDWARP_HOST_OK);
+    assert_int_equal(pump_until_result(&r), 1);
     assert_int_equal(hmdwarp_host_submit(r.h, &fr), HMDWARP_HOST_OK);
     assert_int_equal(pump_until_result(&r), 1);
     for (int e = 0; e < 2; e++)
@@ -371,6 +388,22 @@ static void test_config_codecs(void **state)
     err.count = 0;
     assert_false(rt_config_load_string(&cfg, "[frames]\ndecode_threads = 9\nvideo_decoder = vaapi\n", "t.ini", &err));
     assert_int_equal(err.count, 2);
+    /* what the board announces: auto is every decodable codec on USB and on a socket limited by link_mbps, raw
+     * alone on an unlimited socket; a list is taken as written on any link */
+    rt_config_defaults(&cfg);
+    snprintf(cfg.frames_backend, sizeof cfg.frames_backend, "usb");
+    assert_true(rt_config_frames_codecs(&cfg, &m, why, sizeof why));
+    assert_int_equal(m, drv_codec_decodable());
+    snprintf(cfg.frames_backend, sizeof cfg.frames_backend, "socket");
+    assert_true(rt_config_frames_codecs(&cfg, &m, why, sizeof why));
+    assert_int_equal(m, DRV_CODEC_BIT(DRV_CODEC_RAW));
+    cfg.link_mbps = 35;
+    assert_true(rt_config_frames_codecs(&cfg, &m, why, sizeof why));
+    assert_int_equal(m, drv_codec_decodable());
+    cfg.link_mbps = 0;
+    snprintf(cfg.frames_codecs, sizeof cfg.frames_codecs, "jpeg");
+    assert_true(rt_config_frames_codecs(&cfg, &m, why, sizeof why));
+    assert_int_equal(m, DRV_CODEC_BIT(DRV_CODEC_RAW) | DRV_CODEC_BIT(DRV_CODEC_JPEG));
 }
 
 static int setup(void **state)
@@ -394,6 +427,7 @@ static int teardown(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test_teardown(test_auto_is_negotiated, rig_teardown),
         cmocka_unit_test_teardown(test_raw_frames_through_the_decoder, rig_teardown),
         cmocka_unit_test_teardown(test_compressed_frames_counted, rig_teardown),
         cmocka_unit_test_teardown(test_corrupt_jpeg_rejected_last_frame_stays, rig_teardown),

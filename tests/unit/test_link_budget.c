@@ -234,15 +234,17 @@ static void test_budget_numbers(void **state)
     assert_float_equal(b.raw_mbps, 8.0 * 2 * 1440 * 1600 * 45 / 1e6, 1e-6);
     assert_float_equal(b.link_mbps, 40, 0);
     assert_false(b.raw_fits);
-    /* coded: one row per announced colour codec, in JPEG, H.264, HEVC order; depth zstd at 1/16 the pixels */
+    /* coded: one row per announced colour codec, in JPEG, H.264, HEVC order; depth zstd at full resolution; with
+     * the measured figures JPEG's row is about 26 MB/s on USB 2.0's 40 */
     assert_int_equal(b.n_coded, 2);
     assert_int_equal(b.colour[0], DRV_CODEC_JPEG);
     assert_int_equal(b.colour[1], DRV_CODEC_HEVC);
     const double px_s = 2.0 * 1440 * 1600 * 45;
     assert_float_equal(b.coded_mbps[0],
                        (drv_link_budget_bytes_per_px(DRV_PLANE_COLOR, DRV_CODEC_JPEG, 0) +
-                        drv_link_budget_bytes_per_px(DRV_PLANE_DEPTH, DRV_CODEC_ZSTD, 0) / 16) * px_s / 1e6,
+                        drv_link_budget_bytes_per_px(DRV_PLANE_DEPTH, DRV_CODEC_ZSTD, 0)) * px_s / 1e6,
                        1e-6);
+    assert_true(b.coded_mbps[0] > 20 && b.coded_mbps[0] < 30);
     assert_true(b.coded_mbps[1] < b.coded_mbps[0]);
     assert_true(b.coded_fits);
     /* the table: raw sizes are v1's; pairs that do not exist are -1 */
@@ -267,7 +269,7 @@ static void test_budget_line(void **state)
     drv_link_budget_in in = rpi5();
     assert_true(drv_link_budget_line(&in, line, sizeof line));
     assert_non_null(strstr(line, "link: usb high-speed ~40 MB/s; colour+depth 1440x1600x2 @45 Hz: raw needs "
-                                 "1.66 GB/s, does not fit; coded (other planes zstd, depth at 1/4 res): jpeg ~"));
+                                 "1.66 GB/s, does not fit; coded (depth and other planes zstd): jpeg ~"));
     assert_non_null(strstr(line, "hevc ~"));
     assert_null(strstr(line, "h264"));
     /* full speed: nothing fits, the line says so and asks for the warning */

@@ -97,16 +97,16 @@ static void usage(FILE *f)
             "  --threads N         render threads (default 2)\n"
             "Compression (framelink v2, docs/framelink.md; USB, socket and file output):\n"
             "  --color-codec C     raw, jpeg, h264, hevc or auto (what the board's camera message announces:\n"
-            "                      JPEG when it decodes it); default raw\n"
-            "  --quality N         JPEG quality 1..100 (default 85); video quantiser 1..51 (default 23)\n"
+            "                      JPEG when it decodes it); default auto\n"
+            "  --quality N         JPEG quality 1..100 (default 75); video quantiser 1..51 (default 23)\n"
             "  --jpeg-sub 420|444  JPEG chroma subsampling (default 420)\n"
             "  --slices N          JPEG slices per eye 1..16, decoded in parallel on the board (default 4)\n"
             "  --video-kbps N      H.264/HEVC constant bit rate per eye in kbit/s (default 0: constant quality)\n"
-            "  --depth-codec C     raw, zstd or auto (zstd when the board decodes it); default raw\n"
+            "  --depth-codec C     raw, zstd or auto (zstd when the board decodes it); default auto\n"
             "  --depth-format F    depth on the wire: f32, unorm16 (window depth), inv16 (linear depth as\n"
             "                      65535 * near / z) or auto (inv16/unorm16 with zstd); default auto\n"
             "  --depth-scale 0|1|2 send depth at 1/2^N resolution per axis (the board upsamples; default 0)\n"
-            "  --other-codec C     ids, motion, layers: raw, zstd or auto; default raw\n"
+            "  --other-codec C     ids, motion, layers: raw, zstd or auto; default auto\n"
             "Pacing:\n"
             "  --rate HZ           render at most this often (default 45)\n"
             "  --frames N          stop after N frames (default: run until interrupted)\n"
@@ -180,8 +180,7 @@ static bool parse_opts(int argc, char **argv, feed_opts *o)
         {"other-codec", 1, 0, O_OTHER_CODEC},
         {"version", 0, 0, 'V'}, {0, 0, 0, 0}};
     int c;
-    o->codec = (hmdwarp_host_codec_options){.color = HMDWARP_HOST_CODEC_RAW, .depth = HMDWARP_HOST_CODEC_RAW,
-                                            .other = HMDWARP_HOST_CODEC_RAW};
+    hmdwarp_host_codec_defaults(&o->codec); /* auto: what the board announces, as the library does */
     while ((c = getopt_long(argc, argv, "vh", lo, NULL)) != -1) {
         switch (c) {
         case O_DEVICE:
@@ -697,7 +696,8 @@ int main(int argc, char **argv)
                     win_latency_ms / (double)win_frames, (unsigned long long)st.poses_received,
                     (unsigned long long)st.messages_rejected);
             hmdwarp_host_codec_stats cs;
-            if (h && o.codec_set && hmdwarp_host_get_codec_stats(h, &cs) == HMDWARP_HOST_OK && cs.wire_bytes_last > 0)
+            if (h && hmdwarp_host_get_codec_stats(h, &cs) == HMDWARP_HOST_OK && cs.compressed_frames > 0 &&
+                cs.wire_bytes_last > 0)
                 fprintf(stderr, ", compressed %.1f:1, encode %.1f ms, key frames %llu", cs.plane_bytes_last /
                         cs.wire_bytes_last, cs.encode_ms_last, (unsigned long long)cs.key_frames);
             fputc('\n', stderr);
