@@ -314,6 +314,7 @@ RUN_ARGS ?=
 run_set = $(if $(2),--set $(1)=$(2))
 RUN_OVERRIDES = $(call run_set,sim.scene,$(SCENE)) $(call run_set,sim.trace,$(TRACE)) \
                 $(call run_set,sim.duration_s,$(DURATION)) $(call run_set,warp.method,$(METHOD)) \
+                $(call run_set,frames.link_mbps,$(LINK_MBPS)) \
                 $(call run_set,render.renderer,$(RENDER)) $(if $(filter mock,$(DEVICES)),$(MOCK_DEVICES))
 # DEVICES=mock: the simulated board's devices behind the real backends (HID reports, framelink over the USB
 # backend, TE edges through the GPIO estimator).
@@ -388,6 +389,7 @@ bench: deps
 	@$(MAKE) --no-print-directory $(BUILD)/hmdwarp-bench $(BUILD)/hmdwarpd
 	$(BUILD)/hmdwarp-bench $(BENCH_ARGS)
 	scripts/bench-link-readme.sh docs/bench/link.md README.md
+	scripts/bench-link-board.sh $(BUILD)/hmdwarpd docs/bench/link-board.md
 
 # The table of every warp against ground truth (docs/warp-results.md).
 results: deps

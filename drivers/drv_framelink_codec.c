@@ -96,6 +96,22 @@ drv_framelink_enc_params drv_framelink_enc_params_raw(void)
                                       .other = DRV_CODEC_RAW, .zstd_level = 1, .fps = 45};
 }
 
+drv_framelink_enc_params drv_framelink_enc_params_auto(unsigned codecs, warp_depth_encoding enc)
+{
+    drv_framelink_enc_params p = drv_framelink_enc_params_raw();
+    if (codecs & DRV_CODEC_BIT(DRV_CODEC_JPEG)) {
+        p.color = DRV_CODEC_JPEG;
+        p.quality = DRV_FRAMELINK_AUTO_JPEG_QUALITY;
+        p.jpeg_sub = DRV_JPEG_420;
+        p.slices = DRV_FRAMELINK_AUTO_JPEG_SLICES;
+    }
+    if (codecs & DRV_CODEC_BIT(DRV_CODEC_ZSTD)) {
+        p.depth = p.other = DRV_CODEC_ZSTD;
+        p.depth_format = enc == WARP_DEPTH_LINEAR ? DRV_FRAMELINK_FMT_INV16 : DRV_FRAMELINK_FMT_UNORM16;
+    }
+    return p;
+}
+
 bool drv_framelink_enc_params_check(const drv_framelink_enc_params *p, char *err, int errlen)
 {
     if (p->color != DRV_CODEC_RAW && p->color != DRV_CODEC_JPEG && !is_video(p->color))

@@ -32,6 +32,19 @@ typedef struct {
 
 /* Everything raw: v1 frames. */
 drv_framelink_enc_params drv_framelink_enc_params_raw(void);
+
+/* What a host sends on auto (libhmdwarp-host, the mock USB host), measured by `make bench`'s link section
+ * (docs/bench/link.md) at the rpi5 size (1440x1600 eyes, colour + depth, 45 Hz): JPEG q75 4:2:0 is the lowest
+ * quality step above 38 dB colour PSNR (39.0), and with zstd INV16 depth at full resolution (exact for the warps)
+ * a frame is 0.58 MB, 26 MB/s: USB 2.0 with margin. q85 with full-resolution depth is past 30 MB/s; q85 with depth
+ * at half resolution is as many bytes and 1 dB better for the raytrace, but decodes in twice the time (the
+ * colour-guided upsample), and on the board decode time is frame rate. */
+#define DRV_FRAMELINK_AUTO_JPEG_QUALITY 75
+#define DRV_FRAMELINK_AUTO_JPEG_SLICES 4
+#define DRV_FRAMELINK_AUTO_VIDEO_QUANTISER 23
+/* Auto against a board's announced codecs (DRV_CODEC_BIT()s): JPEG colour when announced, zstd depth (INV16 for
+ * linear depth, UNORM16 for window depth) and zstd ids, motion and layers when zstd is; raw otherwise. */
+drv_framelink_enc_params drv_framelink_enc_params_auto(unsigned codecs, warp_depth_encoding enc);
 /* Checks p (codec per plane allowed, ranges); false with the field named in err. */
 bool drv_framelink_enc_params_check(const drv_framelink_enc_params *p, char *err, int errlen);
 

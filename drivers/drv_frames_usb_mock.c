@@ -15,6 +15,7 @@
 #include <unistd.h>
 
 #include "drivers/drv_framelink.h"
+#include "drivers/drv_framelink_codec.h"
 #include "drivers/drv_link_throttle.h"
 #include "platform/plat_clock.h"
 #include "warp/warp_err.h"
@@ -37,6 +38,9 @@ struct mock_host {
     int64_t t_created;
     uint8_t *buf;
     size_t cap;
+    unsigned board_codecs;   /* what the board's camera message announced (0: none yet) */
+    drv_framelink_enc *enc;  /* auto's encoder for them (NULL: raw, v1 frames) */
+    unsigned enc_codecs;
 };
 
 /* ---- the board's side: socket pairs for the endpoints ---- */
@@ -91,8 +95,13 @@ static void mock_drain_poses(struct mock_host *m)
     uint8_t msg[512];
     ssize_t n;
     while ((n = recv(m->in_fd, msg, sizeof msg, MSG_DONTWAIT)) > 0) {
-        /* Poses only: the camera message repeats what the simulated host was created with. */
-        if (drv_framelink_msg_peek(msg, (size_t)n, NULL) != DRV_FRAMELINK_POSE_MAGIC) continue;
+        /* The camera message repeats what the simulated host was created with, but for the codecs: it encodes as
+         * libhmdwarp-host's auto does with what the board announces. */
+        uint32_t kind = drv_framelink_msg_peek(msg, (size_t)n, NULL);
+        drv_framelink_cams c;
+        if (kind == DRV_FRAMELINK_CAMS_MAGIC && drv_framelink_cams_decode(msg, (size_t)n, &c) == DRV_FRAME_OK)
+            m->board_codecs = c.codecs;
+        if (kind != DRV_FRAMELINK_POSE_MAGIC) continue;
         drv_framelink_pose p;
         if (drv_framelink_pose_decode(msg, (size_t)n, &p) == DRV_FRAME_OK) {
             m->latest = p;
@@ -119,6 +128,28 @@ static bool mock_write_all(struct mock_host *m, const uint8_t *buf, size_t len)
     return len == 0;
 }
 
+/* The frame as a host on auto sends it: v1 while the board announces raw alone, else through auto's encoder (made
+ * again when the announcement changes; the buffer grows to its bound here, on the host's thread). */
+static size_t mock_encode(struct mock_host *m, const drv_framelink_tx *tx)
+{
+    unsigned codecs = m->board_codecs & ~DRV_CODEC_BIT(DRV_CODEC_RAW);
+    if (!codecs) return drv_framelink_encode_ex(&m->frame, tx, m->buf, m->cap);
+    char why[160];
+    if (!m->enc || m->enc_codecs != codecs) {
+        drv_framelink_enc_destroy(m->enc);
+        drv_framelink_enc_params p = drv_framelink_enc_params_auto(codecs, m->frame.depth_encoding);
+        m->enc = drv_framelink_enc_create(&p, m->frame.cam[0].width, m->frame.cam[0].height, why, sizeof why);
+        m->enc_codecs = codecs;
+        if (!m->enc) return drv_framelink_encode_ex(&m->frame, tx, m->buf, m->cap);
+        size_t bound = drv_framelink_enc_bound(m->enc, &m->frame);
+        uint8_t *b = bound > m->cap ? realloc(m->buf, bound) : m->buf;
+        if (!b) return 0;
+        m->buf = b;
+        m->cap = bound > m->cap ? bound : m->cap;
+    }
+    return drv_framelink_enc_encode(m->enc, &m->frame, tx, false, m->buf, m->cap, why, sizeof why);
+}
+
 static void *mock_thread(void *arg)
 {
     struct mock_host *m = arg;
@@ -134,7 +165,7 @@ static void *mock_thread(void *arg)
         drv_framelink_tx tx = {.pose_sent_ns = m->used.board_t_ns, .host_pose_rx_ns = m->used_rx_ns,
                                .host_render_start_ns = start, .host_render_end_ns = plat_now_ns()};
         tx.host_send_ns = plat_now_ns();
-        size_t n = drv_framelink_encode_ex(&m->frame, &tx, m->buf, m->cap);
+        size_t n = mock_encode(m, &tx);
         if (!n) continue;
         k++;
         size_t len = n;
@@ -163,6 +194,7 @@ static void mock_destroy(drv_usb_transport *bt)
     if (m->up) pthread_join(m->th, NULL);
     drv_frames_destroy(m->sim);
     drv_frame_free(&m->frame);
+    drv_framelink_enc_destroy(m->enc);
     if (m->out_fd >= 0) close(m->out_fd);
     if (m->in_fd >= 0) close(m->in_fd);
     if (m->board_out_fd >= 0) close(m->board_out_fd);

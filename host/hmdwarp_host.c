@@ -33,13 +33,10 @@
  * decodes again): one forced key frame answers a run of them, and another only after this long, when the first
  * could have arrived (so a lost key frame is answered again, a quarter-second request not with ten). */
 #define KEY_HOLDOFF_NS 100000000
-/* auto's choices, measured by `make bench`'s link section (docs/bench/link.md) at the rpi5 size (1440x1600 eyes,
- * colour + depth, 45 Hz): JPEG q75 4:2:0 is the lowest step above 38 dB colour PSNR (39.0), and with zstd INV16
- * depth at full resolution (8.9 MB/s, exact to the warps) the frame needs 26 MB/s: USB 2.0 with margin. q85 adds
- * 1.3 dB and 5.5 MB/s, more than the 30 MB/s budget. */
-#define AUTO_JPEG_QUALITY 75
-#define AUTO_JPEG_SLICES 4
-#define AUTO_VIDEO_QUANTISER 23
+/* auto's choices: drv_framelink_codec.h's, measured by `make bench`'s link section (docs/host-api.md). */
+#define AUTO_JPEG_QUALITY DRV_FRAMELINK_AUTO_JPEG_QUALITY
+#define AUTO_JPEG_SLICES DRV_FRAMELINK_AUTO_JPEG_SLICES
+#define AUTO_VIDEO_QUANTISER DRV_FRAMELINK_AUTO_VIDEO_QUANTISER
 
 struct hmdwarp_host {
     hmdwarp_host_options opts;

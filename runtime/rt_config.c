@@ -162,7 +162,8 @@ static const keydef keys[] = {
      "usb, socket: how often the board sends its predicted head pose to the host"},
     {"frames", "codecs", K_STR, F(frames_codecs), S(frames_codecs), 0, 0, NULL,
      "usb, socket: the codecs the board tells hosts it decodes (framelink v2; docs/framelink.md): auto (every one "
-     "this build decodes; raw alone on a socket without link_mbps, where compressing saves nothing) or a list of "
+     "this build decodes; raw alone on a socket or mock link without link_mbps, where compressing saves nothing) or a "
+     "list of "
      "raw, zstd, jpeg, h264, hevc; raw (v1 frames) is always accepted"},
     {"frames", "decode_threads", K_INT, F(decode_threads), 0, 1, 8, NULL,
      "usb, socket: threads a frame's compressed planes decode on (eyes and JPEG slices in parallel)"},
@@ -823,8 +824,10 @@ bool rt_config_parse_codecs(const char *s, unsigned *mask, char *err, int errlen
 bool rt_config_frames_codecs(const rt_config *c, unsigned *mask, char *err, int errlen)
 {
     if (!rt_config_parse_codecs(c->frames_codecs, mask, err, errlen)) return false;
-    if (strcmp(c->frames_codecs, "auto") == 0 && strcmp(c->frames_backend, "socket") == 0 && !(c->link_mbps > 0))
-        *mask = DRV_CODEC_BIT(DRV_CODEC_RAW);
+    bool unlimited = (strcmp(c->frames_backend, "socket") == 0 ||
+                      (strcmp(c->frames_backend, "usb") == 0 && strcmp(c->frames_device, "mock") == 0)) &&
+                     !(c->link_mbps > 0);
+    if (strcmp(c->frames_codecs, "auto") == 0 && unlimited) *mask = DRV_CODEC_BIT(DRV_CODEC_RAW);
     return true;
 }
 static unsigned v4l2_planes(const rt_config *c) { return DRV_PLANE_COLOR | (c->frames_depth ? DRV_PLANE_DEPTH : 0u); }

@@ -162,8 +162,8 @@ bool rt_config_parse_mode(const char *s, int *w, int *h, double *hz);
 /* [frames] codecs as DRV_CODEC_BIT()s (auto: every codec this build decodes; RAW always); false with the first
  * unknown or undecodable name in err. */
 bool rt_config_parse_codecs(const char *s, unsigned *mask, char *err, int errlen);
-/* What this board announces to hosts: [frames] codecs, where auto on an unlimited local socket (backend socket,
- * link_mbps 0) is raw alone: there compressing costs host and board time and saves nothing. */
+/* What this board announces to hosts: [frames] codecs, where auto on an unlimited local link (the socket or the mock
+ * USB link with link_mbps 0) is raw alone: there compressing costs host and board time and saves nothing. */
 bool rt_config_frames_codecs(const rt_config *c, unsigned *mask, char *err, int errlen);
 
 /* Parses a mounting string ("-y +x +z": head axis i = sign[i] * IMU axis map[i]). */

@@ -400,6 +400,13 @@ static void test_config_codecs(void **state)
     cfg.link_mbps = 35;
     assert_true(rt_config_frames_codecs(&cfg, &m, why, sizeof why));
     assert_int_equal(m, drv_codec_decodable());
+    snprintf(cfg.frames_backend, sizeof cfg.frames_backend, "usb");
+    snprintf(cfg.frames_device, sizeof cfg.frames_device, "mock");
+    assert_true(rt_config_frames_codecs(&cfg, &m, why, sizeof why));
+    assert_int_equal(m, drv_codec_decodable());
+    cfg.link_mbps = 0;
+    assert_true(rt_config_frames_codecs(&cfg, &m, why, sizeof why));
+    assert_int_equal(m, DRV_CODEC_BIT(DRV_CODEC_RAW));
     cfg.link_mbps = 0;
     snprintf(cfg.frames_codecs, sizeof cfg.frames_codecs, "jpeg");
     assert_true(rt_config_frames_codecs(&cfg, &m, why, sizeof why));

@@ -162,12 +162,15 @@ static int rows_make(link_row *rows)
         drv_jpeg_sub sub;
         int scale;
     } fr[] = {
+        /* auto: what libhmdwarp-host and the mock host send (drv_framelink_codec.h) */
+        {"auto: JPEG q75 4:2:0 + zstd INV16", DRV_CODEC_JPEG, DRV_FRAMELINK_AUTO_JPEG_QUALITY, DRV_JPEG_420, 0},
         {"JPEG q85 4:2:0 + zstd INV16 1/2", DRV_CODEC_JPEG, 85, DRV_JPEG_420, 1},
         {"JPEG q85 4:2:0 + zstd INV16", DRV_CODEC_JPEG, 85, DRV_JPEG_420, 0},
         {"JPEG q75 4:2:0 + zstd INV16 1/2", DRV_CODEC_JPEG, 75, DRV_JPEG_420, 1},
         {"JPEG q95 4:4:4 + zstd INV16 1/2", DRV_CODEC_JPEG, 95, DRV_JPEG_444, 1},
         {"H.264 QP 20 + zstd INV16 1/2", DRV_CODEC_H264, 20, DRV_JPEG_420, 1},
         {"HEVC QP 20 + zstd INV16 1/2", DRV_CODEC_HEVC, 20, DRV_JPEG_420, 1},
+        {"H.264 QP 20 + zstd INV16", DRV_CODEC_H264, 20, DRV_JPEG_420, 0},
     };
     for (size_t i = 0; i < sizeof fr / sizeof fr[0]; i++) {
         link_row *r = row_add(rows, &n, ROW_FRAME, fr[i].name);
