@@ -136,8 +136,9 @@ static void test_link_budget_and_limit(void **state)
     const double rates[2] = {0.01, 1000};
     for (int i = 0; i < 2; i++) {
         remove(stats);
+        /* raw frames (codecs = raw): a limited mock link announces codecs, and a compressed frame would fit */
         snprintf(args, sizeof args, RUN "--set frames.backend=usb --set frames.device=mock --set frames.link_mbps=%g "
-                 "--stats %s", rates[i], stats);
+                 "--set frames.codecs=raw --stats %s", rates[i], stats);
         int rc = hmdwarpd(args, out, sizeof out);
         assert_true(test_slurp(stats, text, sizeof text) > 0);
         double received = test_kv(text, "frames_received");
