@@ -27,8 +27,8 @@ check "hmdwarp-bench --link-only --eye 64x64 runs and writes link.csv and link.m
 
 # rows: the header, then one line per row; the row name is quoted (it may hold commas)
 rows=$(tail -n +2 "$out/link.csv" 2>/dev/null | wc -l)
-check "link.csv has the raw row, 8 JPEG, 4 video, 5 depth and 6 whole-frame rows" \
-    "$([ "$rows" -eq 24 ] || echo "$rows rows")"
+check "link.csv has the raw row, 8 JPEG, 4 video, 5 depth and 8 whole-frame rows" \
+    "$([ "$rows" -eq 26 ] || echo "$rows rows")"
 
 # every row: either numbers in every measured column, or n/a with a reason
 bad=$(tail -n +2 "$out/link.csv" | awk -F'"' '{
