@@ -225,6 +225,13 @@ int main(int argc, char **argv)
            rt_method_name(cfg.method),
            cfg.duration_s > 0 ? "running" : "running until Ctrl-C");
     printf("hmdwarpd: calibration %s\n", calib_what);
+    if (strcmp(cfg.calibration, RT_CONFIG_CALIBRATION_DEFAULT) == 0) {
+        /* a board's first start: leave a file to find where calibration goes (nothing in it changes a key) */
+        char cerr[300];
+        int made = rt_calib_create_empty(cfg.calibration, cerr, sizeof cerr);
+        if (made > 0) printf("hmdwarpd: created %s for this unit's calibration (empty)\n", cfg.calibration);
+        if (made < 0) plat_log(PLAT_LOG_WARNING, "%s", cerr);
+    }
     char link[600]; /* after the devices opened: a USB gadget's UDC is known */
     if (!rt_link_budget_line(&cfg, link, sizeof link)) plat_log(PLAT_LOG_WARNING, "%s", link);
     else if (link[0]) printf("hmdwarpd: %s\n", link);

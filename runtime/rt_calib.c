@@ -436,6 +436,18 @@ bool rt_calib_write_commit(const char *tmp, const char *path, char *err, int err
     return true;
 }
 
+int rt_calib_create_empty(const char *path, char *err, int errlen)
+{
+    struct stat st;
+    char dirbuf[512];
+    snprintf(dirbuf, sizeof dirbuf, "%s", path);
+    if (lstat(path, &st) == 0 || errno != ENOENT) return 0;
+    if (stat(dirname(dirbuf), &st) != 0 || !S_ISDIR(st.st_mode)) return 0;
+    char tmp[600];
+    if (!rt_calib_write_prepare(path, "imu", NULL, NULL, 0, tmp, sizeof tmp, err, errlen)) return -1;
+    return rt_calib_write_commit(tmp, path, err, errlen) ? 1 : -1;
+}
+
 /* ---- hmdwarpd --calibrate-imu ---- */
 
 int rt_calib_imu_run(const rt_config *c, double seconds, FILE *out)

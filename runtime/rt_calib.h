@@ -72,6 +72,11 @@ bool rt_calib_write_prepare(const char *path, const char *section, const char *c
                             const char *const *values, int n, char *tmp, int tmplen, char *err, int errlen);
 bool rt_calib_write_commit(const char *tmp, const char *path, char *err, int errlen);
 
+/* A board's first start: when path does not exist but its directory does (systemd made the state directory), the
+ * file is created holding only a comment on what it is for, so that there is one to find and edit. 1 created, 0
+ * nothing to do (there is one, or no directory), -1 on an error (in err). */
+int rt_calib_create_empty(const char *path, char *err, int errlen);
+
 /* hmdwarpd --calibrate-imu: opens the configured IMU, measures for `seconds` at rest, reports on out, and writes
  * [imu] gyro_bias and gravity to c->calibration. Returns the exit status (0 written, 1 refused or failed). */
 int rt_calib_imu_run(const rt_config *c, double seconds, FILE *out);

@@ -343,6 +343,21 @@ static void test_write_is_atomic(void **state)
     struct stat sb;
     assert_int_equal(stat(path, &sb), 0);
     assert_int_equal(sb.st_mode & 0777, 0640); /* the file keeps its mode */
+    /* a board's first start leaves a file saying what it is for, that changes no key; once */
+    snprintf(path, sizeof path, "%s/first.ini", dir);
+    assert_int_equal(rt_calib_create_empty(path, err, sizeof err), 1);
+    assert_int_equal(rt_calib_create_empty(path, err, sizeof err), 0);
+    test_slurp(path, now, sizeof now);
+    assert_non_null(strstr(now, "; hmdwarp calibration"));
+    rt_config c0, c1;
+    rt_config_defaults(&c0);
+    rt_config_defaults(&c1);
+    rt_config_errors e = {0};
+    assert_true(rt_config_load_calibration(&c1, path, &e));
+    memset(c1.calib_file, 0, sizeof c1.calib_file);
+    assert_memory_equal(&c0, &c1, sizeof c0);
+    snprintf(path, sizeof path, "%s/no-such-dir/first.ini", dir);
+    assert_int_equal(rt_calib_create_empty(path, err, sizeof err), 0);
     /* a directory that is not there: said, nothing written */
     snprintf(path, sizeof path, "%s/no-such-dir/calibration.ini", dir);
     assert_false(rt_calib_write_prepare(path, "imu", keys, vals, 1, t, sizeof t, err, sizeof err));
