@@ -164,14 +164,23 @@ if [ -e "$TREE/$CONF" ]; then
     fi
     board_name=${board_name:-$name}
 fi
-# The configuration must load: check it with a hmdwarpd that runs here (the tree's own, or this checkout's).
-checker=
+# The configuration must load: check it with a hmdwarpd that runs here: the tree's own (natively, or under
+# Debian's qemu-user-static when it was built for another machine, as a cross build's is), else this checkout's.
+checker='' runner=''
 if [ -n "$bin" ] && "$bin" --help >/dev/null 2>&1; then checker=$bin
+elif [ -n "$bin" ] && [ -n "${tree_arch:-}" ] && command -v "qemu-$tree_arch-static" >/dev/null 2>&1 \
+        && "qemu-$tree_arch-static" "$bin" --help >/dev/null 2>&1; then
+    checker=$bin runner=qemu-$tree_arch-static
+    echo "info    board.ini checked by the tree's hmdwarpd under qemu-$tree_arch-static"
 elif [ -x build/hmdwarpd ]; then checker=build/hmdwarpd
+fi
+if [ -z "$checker" ] && [ -e "$TREE/$CONF" ]; then
+    echo "info    board.ini not checked: no hmdwarpd runs here (the tree's is for ${tree_arch:-another machine}; install qemu-user-static, or make)"
 fi
 if [ -n "$checker" ] && [ -e "$TREE/$CONF" ]; then
     # (this machine's own calibration file, if it has one, is no business of the tree's board.ini)
-    if "$checker" --check-config --config "$TREE/$CONF" --set board.calibration= >/dev/null 2>"${TMPDIR:-/tmp}/flash-check.$$"; then
+    # shellcheck disable=SC2086
+    if $runner "$checker" --check-config --config "$TREE/$CONF" --set board.calibration= >/dev/null 2>"${TMPDIR:-/tmp}/flash-check.$$"; then
         echo "ok      board.ini validates"
     else
         echo "INVALID board.ini:"; sed 's/^/          /' "${TMPDIR:-/tmp}/flash-check.$$"
