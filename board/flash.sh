@@ -178,9 +178,8 @@ if [ -z "$checker" ] && [ -e "$TREE/$CONF" ]; then
     echo "info    board.ini not checked: no hmdwarpd runs here (the tree's is for ${tree_arch:-another machine}; install qemu-user-static, or make)"
 fi
 if [ -n "$checker" ] && [ -e "$TREE/$CONF" ]; then
-    # (this machine's own calibration file, if it has one, is no business of the tree's board.ini)
     # shellcheck disable=SC2086
-    if $runner "$checker" --check-config --config "$TREE/$CONF" --set board.calibration= >/dev/null 2>"${TMPDIR:-/tmp}/flash-check.$$"; then
+    if $runner "$checker" --check-config --config "$TREE/$CONF" >/dev/null 2>"${TMPDIR:-/tmp}/flash-check.$$"; then
         echo "ok      board.ini validates"
     else
         echo "INVALID board.ini:"; sed 's/^/          /' "${TMPDIR:-/tmp}/flash-check.$$"
@@ -295,8 +294,8 @@ if [ -z "$SSH" ]; then
 else
     # One remote command decides about board.ini on the board itself (reading /etc/hmdwarp needs no root).
     remote="if [ -e /$CONF ]; then sudo tar -C / $TAR_X '$TO_DIST' -xzf - && echo \"flash.sh: $KEPT\";"
-    remote="$remote else sudo tar -C / $TAR_X -xzf -; fi;"
-    remote="$remote if [ -e /$CALIB ]; then echo \"flash.sh: $KEPT_CALIB\"; fi"
+    remote="$remote else sudo tar -C / $TAR_X -xzf -; fi &&"
+    remote="$remote { [ ! -e /$CALIB ] || echo \"flash.sh: $KEPT_CALIB\"; }"   # (tar's failure still fails it)
     if [ "$DRY" -eq 1 ]; then
         echo "would run: tar -C $TREE --owner=0 --group=0 -cz . | ssh $SSH \"$remote\""
     else
