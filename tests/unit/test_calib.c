@@ -23,8 +23,8 @@
 
 static char build[256], tmp[300];
 
-/* --calibrate-imu's stated tolerance for the simulated gyro bias: noise 0.005 rad/s rms over >= 1000 samples
- * leaves the mean within 0.0002; 0.001 rad/s (0.06 deg/s) still leaves a drift no one sees in a minute. */
+/* --calibrate-imu's stated tolerance for the simulated gyro bias: noise 0.005 rad/s rms over 1000 samples (1 s)
+ * leaves the mean 0.00016 rad/s rms off, a sixth of it; what remains the tracker's stillness learning takes out. */
 #define BIAS_TOLERANCE 0.001
 
 static void write_file(const char *path, const char *text)
@@ -39,7 +39,7 @@ static int hmdwarpd(const char *args, char *out, size_t cap)
 {
     char cmd[2048];
     int st = -1;
-    snprintf(cmd, sizeof cmd, "timeout 60 %s%s/hmdwarpd %s 2>&1", test_runner(), build, args);
+    snprintf(cmd, sizeof cmd, "timeout 120 %s%s/hmdwarpd %s 2>&1", test_runner(), build, args);
     assert_true(test_capture(cmd, out, cap, &st));
     return st;
 }
@@ -375,8 +375,8 @@ static void test_calibrate_imu_on_sim(void **state)
     const char *first = "; this unit's lens, by hand\n[lens]\nscale = 731.25\n\n[imu]\nmount = rpy 0 0 0\n";
     write_file(cal, first);
     snprintf(args, sizeof args,
-             "--config board/sim/board.ini --calibrate-imu --seconds 1.5 --calibration %s --trace still "
-             "--set sim.gyro_bias=0.02,-0.013,0.006 --set sim.gyro_noise=0.01", cal);
+             "--config board/sim/board.ini --calibrate-imu --seconds 1 --calibration %s --trace still "
+             "--set sim.gyro_bias=0.02,-0.013,0.006", cal);
     int rc = hmdwarpd(args, out, sizeof out);
     if (rc != 0) fail_msg("hmdwarpd %s: exit %d\n%s", args, rc, out);
     assert_non_null(strstr(out, "tilt"));
@@ -399,7 +399,7 @@ static void test_calibrate_imu_on_sim(void **state)
     char before[4096];
     test_slurp(cal, before, sizeof before);
     snprintf(args, sizeof args,
-             "--config board/sim/board.ini --calibrate-imu --seconds 1.5 --calibration %s --trace fast "
+             "--config board/sim/board.ini --calibrate-imu --seconds 1 --calibration %s --trace fast "
              "--set sim.imu_rest_s=0", cal);
     rc = hmdwarpd(args, out, sizeof out);
     if (rc != 1 || !strstr(out, "not at rest") || !strstr(out, "nothing written"))
