@@ -277,9 +277,9 @@ char *rt_calib_update_text(const char *old, const char *section, const char *con
     bool done[16] = {false};
     if (n > 16) return NULL;
     if (!old) {
-        puts_(&b, "; hmdwarp calibration: this unit's lens and IMU, kept apart from board.ini and read after it (its\n"
-                  "; keys win over board.ini's, --set wins over both). hmdwarpd --calibrate-imu updates [imu]; upgrades\n"
-                  "; and board/flash.sh never touch this file.\n");
+        puts_(&b, "; hmdwarp calibration: this unit's lens and IMU, kept apart from board.ini and read after\n"
+                  "; it (its keys win over board.ini's, --set wins over both). hmdwarpd --calibrate-imu updates\n"
+                  "; [imu]; upgrades and board/flash.sh never touch this file.\n");
         old = "";
     }
     bool in = false, seen = false;

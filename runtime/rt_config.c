@@ -152,9 +152,9 @@ static const keydef keys[] = {
      "mounting: the head's x y z axes as signed IMU axes, e.g. '-y +x +z' (head x = IMU -y); [imu] mount "
      "takes any rotation"},
     {"imu", "mount", K_STR, F(imu_mount), S(imu_mount), 0, 0, NULL,
-     "mounting as any rotation (empty = [imu] axes; set, it wins over axes): signed axes '-y +x +z', 'quat W X Y Z' (the IMU's "
-     "orientation in the head frame) or 'rpy ROLL PITCH YAW' (degrees, as mounted on the visor: yaw about head "
-     "+y, then pitch about the turned x, then roll about the turned z); calibration"},
+     "mounting as any rotation (empty = [imu] axes; set, it wins over axes): signed axes '-y +x +z', "
+     "'quat W X Y Z' (the IMU's orientation in the head frame) or 'rpy ROLL PITCH YAW' (degrees, as mounted on the "
+     "visor: yaw about head +y, then pitch about the turned x, then roll about the turned z); calibration"},
     {"imu", "gyro_bias", K_DLIST, F(imu_gyro_bias), 3, -1, 1, NULL,
      "gyro bias x y z in the IMU's own axes, rad/s, subtracted before fusion (hmdwarpd --calibrate-imu "
      "measures it); calibration"},
