@@ -356,12 +356,11 @@ static usb_frames *board_new(const drv_frames_usb_params *p, char *err, int errl
         }
     unsigned decodable = drv_codec_decodable();
     if (p->codecs & ~decodable) {
-        for (int c = 0; c < DRV_CODEC_COUNT; c++)
-            if (p->codecs & ~decodable & DRV_CODEC_BIT(c)) {
-                warp_err(err, errlen, "usb frames: codec %s: not decodable in this build", drv_codec_name(c));
-                return NULL;
-            }
-        warp_err(err, errlen, "usb frames: codecs 0x%x: unknown codec bits", p->codecs);
+        drv_codec_id lack = drv_codec_missing(p->codecs, decodable);
+        if (lack != DRV_CODEC_COUNT)
+            warp_err(err, errlen, "usb frames: codec %s: not decodable in this build", drv_codec_name(lack));
+        else
+            warp_err(err, errlen, "usb frames: codecs 0x%x: unknown codec bits", p->codecs);
         return NULL;
     }
     if (p->decode_threads < 0 || p->decode_threads > 8 || p->max_layers < 0) {

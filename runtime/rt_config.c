@@ -797,6 +797,7 @@ bool rt_config_parse_codecs(const char *s, unsigned *mask, char *err, int errlen
     unsigned m = DRV_CODEC_BIT(DRV_CODEC_RAW);
     const char *p = s;
     bool any = false;
+    char all[64]; /* the codecs' names, for a message */
     while (*p) {
         while (*p == ' ' || *p == '\t' || *p == ',') p++;
         size_t n = strcspn(p, " \t,");
@@ -807,7 +808,8 @@ bool rt_config_parse_codecs(const char *s, unsigned *mask, char *err, int errlen
         if (n == 4 && strncmp(p, "auto", 4) == 0) {
             m |= drv_codec_decodable();
         } else if (n >= sizeof name || !drv_codec_parse(name, &id)) {
-            return warp_err(err, errlen, "'%.*s' is not a codec (raw, zstd, jpeg, h264, hevc or auto)", (int)n, p);
+            return warp_err(err, errlen, "'%.*s' is not a codec (%s or auto)", (int)n, p,
+                            drv_codec_names(DRV_CODEC_ALL, ", ", all, sizeof all));
         } else if (!(drv_codec_decodable() & DRV_CODEC_BIT(id))) {
             return warp_err(err, errlen, "%s: this build cannot decode it", name);
         } else {
@@ -816,7 +818,9 @@ bool rt_config_parse_codecs(const char *s, unsigned *mask, char *err, int errlen
         any = true;
         p += n;
     }
-    if (!any) return warp_err(err, errlen, "empty (auto, or a list of raw, zstd, jpeg, h264, hevc)");
+    if (!any)
+        return warp_err(err, errlen, "empty (auto, or a list of %s)",
+                        drv_codec_names(DRV_CODEC_ALL, ", ", all, sizeof all));
     *mask = m;
     return true;
 }

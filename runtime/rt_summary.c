@@ -524,11 +524,8 @@ void rt_summary_print(const rt_summary_src *s, FILE *out)
                 U(R_LINK_DISCONNECTS), U(R_LINK_POSES),
                 U(R_LINK_POSES_DROPPED), s->link.last_error[0] ? "; last: " : "", s->link.last_error);
     if (s->has_link_stats) {
-        char names[64] = "";
-        for (int k = 0; k < DRV_CODEC_COUNT; k++)
-            if (s->link.codecs & DRV_CODEC_BIT(k))
-                snprintf(names + strlen(names), sizeof names - strlen(names), "%s%s", names[0] ? " " : "",
-                         drv_codec_name((drv_codec_id)k));
+        char names[64];
+        drv_codec_names(s->link.codecs, " ", names, sizeof names);
         fprintf(out, "  %-26s announced %s; %llu frames compressed, %.2f MB/s on the wire (%.1f:1), codec errors "
                      "%llu, key frames asked %llu%s%s\n",
                 L(R_LINK_COMPRESSED), names[0] ? names : "-", U(R_LINK_COMPRESSED), value(s, R_LINK_WIRE_MB_S, 0).f,

@@ -356,6 +356,25 @@ static void test_lost_reference_asks_for_a_key_frame(void **state)
     rig_stop(&r);
 }
 
+/* The codec names and the first codec lacking, as the config's, the host library's and the summary's messages and
+ * the encoder's and the board's checks take them: id order, the separator given, cut to the buffer. */
+static void test_codec_names(void **state)
+{
+    (void)state;
+    const unsigned raw = DRV_CODEC_BIT(DRV_CODEC_RAW), zstd = DRV_CODEC_BIT(DRV_CODEC_ZSTD);
+    const unsigned jpeg = DRV_CODEC_BIT(DRV_CODEC_JPEG), hevc = DRV_CODEC_BIT(DRV_CODEC_HEVC);
+    char b[64];
+    assert_string_equal(drv_codec_names(DRV_CODEC_ALL, ", ", b, sizeof b), "raw, zstd, jpeg, h264, hevc");
+    assert_string_equal(drv_codec_names(hevc | jpeg | raw | 0x100u, " ", b, sizeof b), "raw jpeg hevc");
+    assert_string_equal(drv_codec_names(0, " ", b, sizeof b), "");
+    char small[8];
+    assert_string_equal(drv_codec_names(DRV_CODEC_ALL, " ", small, sizeof small), "raw zst");
+    assert_int_equal(drv_codec_missing(DRV_CODEC_ALL, raw | zstd), DRV_CODEC_JPEG);
+    assert_int_equal(drv_codec_missing(hevc | raw, raw | zstd), DRV_CODEC_HEVC);
+    assert_int_equal(drv_codec_missing(jpeg | raw, DRV_CODEC_ALL), DRV_CODEC_COUNT);
+    assert_int_equal(drv_codec_missing(raw | 0x100u, raw), DRV_CODEC_COUNT); /* no codec's bit: none lacking */
+}
+
 static void test_config_codecs(void **state)
 {
     (void)state;
@@ -440,6 +459,7 @@ int main(void)
         cmocka_unit_test_teardown(test_corrupt_jpeg_rejected_last_frame_stays, rig_teardown),
         cmocka_unit_test_teardown(test_lost_reference_asks_for_a_key_frame, rig_teardown),
         cmocka_unit_test(test_config_codecs),
+        cmocka_unit_test(test_codec_names),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
