@@ -132,14 +132,7 @@ static void decoded(usb_frames *u, drv_frame_err e)
     }
     u->decode_ms = ds.decode_ms_last;
     pthread_mutex_lock(&u->lock);
-    u->st.compressed_frames = ds.compressed_frames;
-    u->st.codec_errors = ds.codec_errors;
-    u->st.key_requests = ds.key_requests;
-    u->st.wire_bytes = ds.wire_bytes;
-    u->st.plane_bytes = ds.plane_bytes;
-    u->st.decode_ms_last = ds.decode_ms_last;
-    u->st.codecs_seen = ds.codecs_seen;
-    snprintf(u->st.video_decoder, sizeof u->st.video_decoder, "%s", ds.video_decoder);
+    u->st.dec = ds;
     pthread_mutex_unlock(&u->lock);
 }
 

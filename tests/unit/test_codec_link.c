@@ -185,10 +185,10 @@ static void test_compressed_frames_counted(void **state)
     }
     drv_frames_usb_stats st = stats(&r);
     assert_int_equal(st.frames, N);
-    assert_int_equal(st.compressed_frames, N);
-    assert_int_equal(st.codec_errors, 0);
-    assert_true(st.codecs_seen & DRV_CODEC_BIT(DRV_CODEC_JPEG));
-    assert_true(st.codecs_seen & DRV_CODEC_BIT(DRV_CODEC_ZSTD));
+    assert_int_equal(st.dec.compressed_frames, N);
+    assert_int_equal(st.dec.codec_errors, 0);
+    assert_true(st.dec.codecs_seen & DRV_CODEC_BIT(DRV_CODEC_JPEG));
+    assert_true(st.dec.codecs_seen & DRV_CODEC_BIT(DRV_CODEC_ZSTD));
     /* what came on the wire is what the host sent, and less than the planes it decoded to */
     hmdwarp_host_codec_stats cs;
     assert_int_equal(hmdwarp_host_get_codec_stats(r.h, &cs), HMDWARP_HOST_OK);
@@ -196,10 +196,10 @@ static void test_compressed_frames_counted(void **state)
     assert_int_equal(cs.compressed_frames, N);
     assert_int_equal(cs.color, HMDWARP_HOST_CODEC_JPEG);
     assert_int_equal(cs.depth, HMDWARP_HOST_CODEC_ZSTD);
-    assert_int_equal(st.wire_bytes, cs.wire_bytes);
-    assert_true(st.wire_bytes < st.plane_bytes);
+    assert_int_equal(st.dec.wire_bytes, cs.wire_bytes);
+    assert_true(st.dec.wire_bytes < st.dec.plane_bytes);
     assert_true(cs.wire_bytes < cs.plane_bytes);
-    assert_true(st.decode_ms_last > 0 && cs.encode_ms_last > 0);
+    assert_true(st.dec.decode_ms_last > 0 && cs.encode_ms_last > 0);
     assert_true(drv_frames_usb_decode_ms(r.fr) > 0);
     rig_stop(&r);
 }
@@ -215,9 +215,9 @@ static void test_auto_is_negotiated(void **state)
     assert_close(&r.f, 1);
     drv_frames_usb_stats st = stats(&r);
     assert_int_equal(st.frames, 1);
-    assert_int_equal(st.compressed_frames, 1);
-    assert_true(st.codecs_seen & DRV_CODEC_BIT(DRV_CODEC_JPEG));
-    assert_true(st.codecs_seen & DRV_CODEC_BIT(DRV_CODEC_ZSTD));
+    assert_int_equal(st.dec.compressed_frames, 1);
+    assert_true(st.dec.codecs_seen & DRV_CODEC_BIT(DRV_CODEC_JPEG));
+    assert_true(st.dec.codecs_seen & DRV_CODEC_BIT(DRV_CODEC_ZSTD));
     rig_stop(&r);
 }
 
@@ -240,17 +240,17 @@ static void test_raw_frames_through_the_decoder(void **state)
             }
     drv_frames_usb_stats st = stats(&r);
     assert_int_equal(st.frames, 2);
-    assert_int_equal(st.compressed_frames, 0);
-    assert_int_equal(st.codec_errors, 0);
+    assert_int_equal(st.dec.compressed_frames, 0);
+    assert_int_equal(st.dec.codec_errors, 0);
     /* raw: nothing saved, the wire carries the pixels and the headers */
-    assert_true(st.wire_bytes >= st.plane_bytes && st.wire_bytes - st.plane_bytes < 2 * 1024);
+    assert_true(st.dec.wire_bytes >= st.dec.plane_bytes && st.dec.wire_bytes - st.dec.plane_bytes < 2 * 1024);
     assert_true(st.codecs & DRV_CODEC_BIT(DRV_CODEC_RAW));
     hmdwarp_host_codec_stats cs;
     assert_int_equal(hmdwarp_host_get_codec_stats(r.h, &cs), HMDWARP_HOST_OK);
     assert_int_equal(cs.frames, 2);
     assert_int_equal(cs.compressed_frames, 0);
     assert_int_equal(cs.color, HMDWARP_HOST_CODEC_RAW);
-    assert_int_equal(cs.wire_bytes, st.wire_bytes);
+    assert_int_equal(cs.wire_bytes, st.dec.wire_bytes);
     rig_stop(&r);
 }
 
@@ -297,7 +297,7 @@ static void test_corrupt_jpeg_rejected_last_frame_stays(void **state)
     assert_true(rc < 0);
     assert_true(-rc == DRV_FRAME_ERR_BAD_FORMAT || -rc == DRV_FRAME_ERR_BAD_SIZE);
     drv_frames_usb_stats st = stats(&r);
-    assert_int_equal(st.codec_errors, 1);
+    assert_int_equal(st.dec.codec_errors, 1);
     assert_int_equal(st.rejected[-rc], 1);
     assert_int_equal(st.frames, 1);
     /* a rejected frame is never handed on as one: its header fields stay the last good frame's (the runtime
@@ -336,8 +336,8 @@ static void test_lost_reference_asks_for_a_key_frame(void **state)
     assert_int_equal(hmdwarp_host_submit(r.h, &fr), HMDWARP_HOST_OK);
     assert_true(pump_until_result(&r) < 0);
     drv_frames_usb_stats st = stats(&r);
-    assert_int_equal(st.codec_errors, 1);
-    assert_true(st.key_requests >= 1);
+    assert_int_equal(st.dec.codec_errors, 1);
+    assert_true(st.dec.key_requests >= 1);
     /* the pose thread's next messages carry WANT_KEY; the host's reader sees them */
     hmdwarp_host_codec_stats cs = {0};
     int64_t until = plat_now_ns() + WAIT_S * PLAT_NS_PER_S;
