@@ -46,6 +46,9 @@
 
 /* ---- the board side (the same on every transport) ---- */
 
+/* software: libavcodec's own decoders (NULL to drv_framelink_dec_create); v4l2m2m: the board's hardware one. */
+const char *const drv_frames_usb_video_decoders[] = {"software", "v4l2m2m", NULL};
+
 typedef struct {
     drv_frames base;
     drv_frames_usb_params p;
@@ -356,13 +359,15 @@ static usb_frames *board_new(const drv_frames_usb_params *p, char *err, int errl
             warp_err(err, errlen, "usb frames: codecs 0x%x: unknown codec bits", p->codecs);
         return NULL;
     }
-    if (p->decode_threads < 0 || p->decode_threads > 8 || p->max_layers < 0) {
-        warp_err(err, errlen, "usb frames: bad parameters (decode_threads %d: want 1..8; max_layers %d)",
-                 p->decode_threads, p->max_layers);
+    if (p->decode_threads < 0 || p->decode_threads > DRV_FRAMES_USB_DECODE_THREADS_MAX || p->max_layers < 0) {
+        warp_err(err, errlen, "usb frames: bad parameters (decode_threads %d: want 1..%d; max_layers %d)",
+                 p->decode_threads, DRV_FRAMES_USB_DECODE_THREADS_MAX, p->max_layers);
         return NULL;
     }
     const char *vdec = p->video_decoder && p->video_decoder[0] ? p->video_decoder : "software";
-    if (strcmp(vdec, "software") != 0 && strcmp(vdec, "v4l2m2m") != 0) {
+    int v = 0;
+    while (drv_frames_usb_video_decoders[v] && strcmp(vdec, drv_frames_usb_video_decoders[v]) != 0) v++;
+    if (!drv_frames_usb_video_decoders[v]) {
         warp_err(err, errlen, "usb frames: video decoder '%s': want software or v4l2m2m", vdec);
         return NULL;
     }

@@ -29,9 +29,14 @@ typedef struct {
     /* framelink v2 (docs/framelink.md): compressed planes are decoded on the receiving thread plus helpers. */
     int max_layers;           /* fragments per pixel the caller's frames hold (DRV_PLANE_LAYERS; 0: 4) */
     unsigned codecs;          /* DRV_CODEC_BIT()s announced to hosts (0: drv_codec_decodable(), every one built) */
-    int decode_threads;       /* threads a frame's chunks decode on, 1..8 (0: 2) */
-    const char *video_decoder; /* "software" or "v4l2m2m" (NULL: software); read at create only */
+    int decode_threads;       /* threads a frame's chunks decode on, 1..DRV_FRAMES_USB_DECODE_THREADS_MAX (0: 2) */
+    const char *video_decoder; /* one of drv_frames_usb_video_decoders (NULL: software); read at create only */
 } drv_frames_usb_params;
+
+/* What decode_threads and video_decoder may be: create checks them, and the board config's keys take these (one
+ * rule, whether a config or a test makes the source). */
+#define DRV_FRAMES_USB_DECODE_THREADS_MAX 8
+extern const char *const drv_frames_usb_video_decoders[]; /* "software", "v4l2m2m", NULL */
 
 /* The real gadget: writes the descriptors and strings to ffs_dir/ep0 (the gadget is bound afterwards, see
  * board/gadget.sh), then serves ep0 events, ep1 (frames) and ep2 (poses). NULL with a message in err on failure. */

@@ -17,6 +17,7 @@
 #include "drivers/drv_codec.h"
 #include "drivers/drv_framelink.h"
 #include "drivers/drv_frames_socket.h"
+#include "drivers/drv_frames_usb.h"
 #include "warp/warp_err.h"
 #include "drivers/drv_v4l2_inband.h"
 #include "warp/warp_head.h"
@@ -38,7 +39,6 @@ static const char *const v4l2_format_names[] = {"auto", "yuyv", "nv12", "bgr32",
 static const char *const bool_names[] = {"false", "true", NULL};
 static const char *const edge_names[] = {"rising", "falling", NULL};
 static const char *const arch_names[] = {"any", "aarch64", "x86_64", "arm", NULL};
-static const char *const video_decoder_names[] = {"software", "v4l2m2m", NULL};
 
 const char *rt_kernel_name(int k)
 {
@@ -165,9 +165,9 @@ static const keydef keys[] = {
      "this build decodes; raw alone on a socket or mock link without link_mbps, where compressing saves nothing) or a "
      "list of "
      "raw, zstd, jpeg, h264, hevc; raw (v1 frames) is always accepted"},
-    {"frames", "decode_threads", K_INT, F(decode_threads), 0, 1, 8, NULL,
+    {"frames", "decode_threads", K_INT, F(decode_threads), 0, 1, DRV_FRAMES_USB_DECODE_THREADS_MAX, NULL,
      "usb, socket: threads a frame's compressed planes decode on (eyes and JPEG slices in parallel)"},
-    {"frames", "video_decoder", K_CHOICE, F(video_decoder), S(video_decoder), 0, 0, video_decoder_names,
+    {"frames", "video_decoder", K_CHOICE, F(video_decoder), S(video_decoder), 0, 0, drv_frames_usb_video_decoders,
      "usb, socket: H.264/HEVC colour decoder: software (libavcodec) or v4l2m2m (the board's hardware decoder)"},
     {"frames", "link_mbps", K_DOUBLE, F(link_mbps), 0, 0, 100000, NULL,
      "mock usb and socket links: the most they carry, MB/s (10^6 bytes), as a real link would (USB 2.0 ~40, USB 3 "

@@ -62,7 +62,8 @@ static int pump_until_result(rig *rg)
     return rc;
 }
 
-static void rig_start(rig *rg)
+/* The board side's parameters: W x H eyes of PLANES, poses from predict (no cameras, no decoder settings). */
+static drv_frames_usb_params board_params(void)
 {
     drv_frames_usb_params p;
     memset(&p, 0, sizeof p);
@@ -71,6 +72,12 @@ static void rig_start(rig *rg)
     p.planes = PLANES;
     p.poses.predict = predict;
     p.pose_rate_hz = 200;
+    return p;
+}
+
+static void rig_start(rig *rg)
+{
+    drv_frames_usb_params p = board_params();
     for (int e = 0; e < 2; e++) p.cam[e] = warp_camera_symmetric(W, H, 100, 90, NEAR_Z, INFINITY);
     p.refresh_hz = 90;
     p.depth_encoding = WARP_DEPTH_LINEAR;
@@ -375,6 +382,39 @@ static void test_codec_names(void **state)
     assert_int_equal(drv_codec_missing(raw | 0x100u, raw), DRV_CODEC_COUNT); /* no codec's bit: none lacking */
 }
 
+/* decode_threads and video_decoder: a board config takes exactly what the USB board side does (its one rule), and
+ * the board side refuses the rest itself when made without a config (tests, the fuzzer). */
+static void test_decoder_settings(void **state)
+{
+    (void)state;
+    drv_frames_usb_params p = board_params();
+    char err[300] = "", ini[160];
+    p.decode_threads = DRV_FRAMES_USB_DECODE_THREADS_MAX + 1;
+    assert_null(drv_frames_usb_create_fed(&p, err, sizeof err));
+    assert_non_null(strstr(err, "decode_threads"));
+    p.decode_threads = 0;
+    p.video_decoder = "vaapi";
+    assert_null(drv_frames_usb_create_fed(&p, err, sizeof err));
+    assert_non_null(strstr(err, "'vaapi'"));
+    rt_config cfg;
+    rt_config_defaults(&cfg);
+    rt_config_errors cerr = {0};
+    snprintf(ini, sizeof ini, "[frames]\ndecode_threads = %d\n", DRV_FRAMES_USB_DECODE_THREADS_MAX + 1);
+    assert_false(rt_config_load_string(&cfg, ini, "t.ini", &cerr));
+    for (int v = 0; drv_frames_usb_video_decoders[v]; v++) {
+        rt_config_defaults(&cfg);
+        cerr.count = 0;
+        snprintf(ini, sizeof ini, "[frames]\nvideo_decoder = %s\ndecode_threads = %d\n",
+                 drv_frames_usb_video_decoders[v], DRV_FRAMES_USB_DECODE_THREADS_MAX);
+        assert_true(rt_config_load_string(&cfg, ini, "t.ini", &cerr));
+        p.video_decoder = cfg.video_decoder;
+        p.decode_threads = cfg.decode_threads;
+        drv_frames *fr = drv_frames_usb_create_fed(&p, err, sizeof err);
+        if (!fr) fail_msg("video_decoder %s: %s", cfg.video_decoder, err);
+        drv_frames_destroy(fr);
+    }
+}
+
 static void test_config_codecs(void **state)
 {
     (void)state;
@@ -460,6 +500,7 @@ int main(void)
         cmocka_unit_test_teardown(test_lost_reference_asks_for_a_key_frame, rig_teardown),
         cmocka_unit_test(test_config_codecs),
         cmocka_unit_test(test_codec_names),
+        cmocka_unit_test(test_decoder_settings),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
