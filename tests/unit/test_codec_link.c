@@ -22,6 +22,7 @@
 #include "platform/plat_clock.h"
 #include "runtime/rt_config.h"
 #include "warp/warp_head.h"
+#include "tests/support/test_util.h"
 
 #define W 64
 #define H 48
@@ -29,7 +30,7 @@
 #define NEAR_Z 0.05
 #define WAIT_S 20 /* a hang guard only (a loaded machine): every wait ends on a count */
 
-static char dir[48], path[100], uri[120];
+static char path[100], uri[120];
 
 static bool predict(void *ctx, int64_t t_ns, warp_pose *head)
 {
@@ -474,20 +475,10 @@ static void test_config_codecs(void **state)
 
 static int setup(void **state)
 {
-    (void)state;
-    snprintf(dir, sizeof dir, "/tmp/test_codec_link_XXXXXX");
-    if (!mkdtemp(dir)) return -1;
-    snprintf(path, sizeof path, "%s/frames.sock", dir);
+    if (test_tmp_setup(state)) return -1;
+    snprintf(path, sizeof path, "%s/frames.sock", test_tmp());
     snprintf(uri, sizeof uri, "socket:%s", path);
     return 0;
-}
-
-static int teardown(void **state)
-{
-    (void)state;
-    char cmd[200];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
-    return system(cmd) == 0 ? 0 : -1;
 }
 
 int main(void)
@@ -502,5 +493,5 @@ int main(void)
         cmocka_unit_test(test_codec_names),
         cmocka_unit_test(test_decoder_settings),
     };
-    return cmocka_run_group_tests(tests, setup, teardown);
+    return cmocka_run_group_tests(tests, setup, test_tmp_teardown);
 }
