@@ -3,6 +3,7 @@
  * (what a board announces in its camera message, what a host may choose). */
 #include "drivers/drv_codec.h"
 
+#include <stdio.h>
 #include <string.h>
 
 #include "drivers/drv_codec_video.h"
@@ -19,6 +20,27 @@ bool drv_codec_parse(const char *name, drv_codec_id *out)
             return true;
         }
     return false;
+}
+
+const char *drv_codec_names(unsigned mask, const char *sep, char *buf, size_t len)
+{
+    if (!len) return buf;
+    buf[0] = 0;
+    size_t at = 0;
+    for (int c = 0; c < DRV_CODEC_COUNT && at < len; c++)
+        if (mask & DRV_CODEC_BIT(c)) {
+            int n = snprintf(buf + at, len - at, "%s%s", at ? sep : "", names[c]);
+            if (n < 0) break;
+            at += (size_t)n;
+        }
+    return buf;
+}
+
+drv_codec_id drv_codec_missing(unsigned mask, unsigned have)
+{
+    int c = 0;
+    while (c < DRV_CODEC_COUNT && !(mask & ~have & DRV_CODEC_BIT(c))) c++;
+    return (drv_codec_id)c;
 }
 
 /* zstd and libturbojpeg are linked into every build; the video codecs depend on what libavcodec has. */

@@ -965,7 +965,7 @@ drv_frame_err drv_framelink_cams_decode(const uint8_t *buf, size_t len, drv_fram
     } else {
         c.codecs = get_u32(buf + 160);
         if (!(c.codecs & DRV_CODEC_BIT(DRV_CODEC_RAW))) return DRV_FRAME_ERR_BAD_FORMAT;
-        c.codecs &= DRV_CODEC_BIT(DRV_CODEC_COUNT) - 1u;
+        c.codecs &= DRV_CODEC_ALL;
     }
     if (!(c.planes & DRV_PLANE_COLOR) || (c.planes & ~(unsigned)(DRV_PLANE_COLOR | DRV_PLANE_DEPTH | DRV_PLANE_IDS |
                                                                  DRV_PLANE_MOTION | DRV_PLANE_LAYERS)))

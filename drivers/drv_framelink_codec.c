@@ -207,12 +207,9 @@ drv_framelink_enc *drv_framelink_enc_create(const drv_framelink_enc_params *p, i
     if (w < 1 || h < 1 || w > WARP_MAX_SIDE || h > WARP_MAX_SIDE)
         return warp_err(err, errlen, "eye %dx%d: outside 1..%d", w, h, WARP_MAX_SIDE), NULL;
     unsigned need = DRV_CODEC_BIT(p->color) | DRV_CODEC_BIT(p->depth) | DRV_CODEC_BIT(p->other);
-    if (need & ~drv_codec_encodable()) {
-        for (int c = 0; c < DRV_CODEC_COUNT; c++)
-            if (need & ~drv_codec_encodable() & DRV_CODEC_BIT(c))
-                return warp_err(err, errlen, "codec %s: this build cannot encode it", drv_codec_name((drv_codec_id)c)),
-                       NULL;
-    }
+    drv_codec_id lack = drv_codec_missing(need, drv_codec_encodable());
+    if (lack != DRV_CODEC_COUNT)
+        return warp_err(err, errlen, "codec %s: this build cannot encode it", drv_codec_name(lack)), NULL;
     drv_framelink_enc *e = calloc(1, sizeof *e);
     if (!e) return warp_err(err, errlen, "out of memory"), NULL;
     e->p = *p, e->w = w, e->h = h, e->need_key = true;

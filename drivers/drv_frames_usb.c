@@ -46,6 +46,9 @@
 
 /* ---- the board side (the same on every transport) ---- */
 
+/* software: libavcodec's own decoders (NULL to drv_framelink_dec_create); v4l2m2m: the board's hardware one. */
+const char *const drv_frames_usb_video_decoders[] = {"software", "v4l2m2m", NULL};
+
 typedef struct {
     drv_frames base;
     drv_frames_usb_params p;
@@ -132,14 +135,7 @@ static void decoded(usb_frames *u, drv_frame_err e)
     }
     u->decode_ms = ds.decode_ms_last;
     pthread_mutex_lock(&u->lock);
-    u->st.compressed_frames = ds.compressed_frames;
-    u->st.codec_errors = ds.codec_errors;
-    u->st.key_requests = ds.key_requests;
-    u->st.wire_bytes = ds.wire_bytes;
-    u->st.plane_bytes = ds.plane_bytes;
-    u->st.decode_ms_last = ds.decode_ms_last;
-    u->st.codecs_seen = ds.codecs_seen;
-    snprintf(u->st.video_decoder, sizeof u->st.video_decoder, "%s", ds.video_decoder);
+    u->st.dec = ds;
     pthread_mutex_unlock(&u->lock);
 }
 
@@ -356,21 +352,22 @@ static usb_frames *board_new(const drv_frames_usb_params *p, char *err, int errl
         }
     unsigned decodable = drv_codec_decodable();
     if (p->codecs & ~decodable) {
-        for (int c = 0; c < DRV_CODEC_COUNT; c++)
-            if (p->codecs & ~decodable & DRV_CODEC_BIT(c)) {
-                warp_err(err, errlen, "usb frames: codec %s: not decodable in this build", drv_codec_name(c));
-                return NULL;
-            }
-        warp_err(err, errlen, "usb frames: codecs 0x%x: unknown codec bits", p->codecs);
+        drv_codec_id lack = drv_codec_missing(p->codecs, decodable);
+        if (lack != DRV_CODEC_COUNT)
+            warp_err(err, errlen, "usb frames: codec %s: not decodable in this build", drv_codec_name(lack));
+        else
+            warp_err(err, errlen, "usb frames: codecs 0x%x: unknown codec bits", p->codecs);
         return NULL;
     }
-    if (p->decode_threads < 0 || p->decode_threads > 8 || p->max_layers < 0) {
-        warp_err(err, errlen, "usb frames: bad parameters (decode_threads %d: want 1..8; max_layers %d)",
-                 p->decode_threads, p->max_layers);
+    if (p->decode_threads < 0 || p->decode_threads > DRV_FRAMES_USB_DECODE_THREADS_MAX || p->max_layers < 0) {
+        warp_err(err, errlen, "usb frames: bad parameters (decode_threads %d: want 1..%d; max_layers %d)",
+                 p->decode_threads, DRV_FRAMES_USB_DECODE_THREADS_MAX, p->max_layers);
         return NULL;
     }
     const char *vdec = p->video_decoder && p->video_decoder[0] ? p->video_decoder : "software";
-    if (strcmp(vdec, "software") != 0 && strcmp(vdec, "v4l2m2m") != 0) {
+    int v = 0;
+    while (drv_frames_usb_video_decoders[v] && strcmp(vdec, drv_frames_usb_video_decoders[v]) != 0) v++;
+    if (!drv_frames_usb_video_decoders[v]) {
         warp_err(err, errlen, "usb frames: video decoder '%s': want software or v4l2m2m", vdec);
         return NULL;
     }

@@ -9,6 +9,7 @@
 #include <stdint.h>
 #include <sys/types.h>
 
+#include "drivers/drv_framelink_codec.h"
 #include "drivers/drv_frames.h"
 #include "warp/warp_head.h"
 
@@ -28,9 +29,14 @@ typedef struct {
     /* framelink v2 (docs/framelink.md): compressed planes are decoded on the receiving thread plus helpers. */
     int max_layers;           /* fragments per pixel the caller's frames hold (DRV_PLANE_LAYERS; 0: 4) */
     unsigned codecs;          /* DRV_CODEC_BIT()s announced to hosts (0: drv_codec_decodable(), every one built) */
-    int decode_threads;       /* threads a frame's chunks decode on, 1..8 (0: 2) */
-    const char *video_decoder; /* "software" or "v4l2m2m" (NULL: software); read at create only */
+    int decode_threads;       /* threads a frame's chunks decode on, 1..DRV_FRAMES_USB_DECODE_THREADS_MAX (0: 2) */
+    const char *video_decoder; /* one of drv_frames_usb_video_decoders (NULL: software); read at create only */
 } drv_frames_usb_params;
+
+/* What decode_threads and video_decoder may be: create checks them, and the board config's keys take these (one
+ * rule, whether a config or a test makes the source). */
+#define DRV_FRAMES_USB_DECODE_THREADS_MAX 8
+extern const char *const drv_frames_usb_video_decoders[]; /* "software", "v4l2m2m", NULL */
 
 /* The real gadget: writes the descriptors and strings to ffs_dir/ep0 (the gadget is bound afterwards, see
  * board/gadget.sh), then serves ep0 events, ep1 (frames) and ep2 (poses). NULL with a message in err on failure. */
@@ -49,14 +55,9 @@ typedef struct {
     uint64_t cams_sent;                         /* camera messages (HWC1) written */
     bool connected;                             /* the host has configured the function (ENABLE) */
     double lead_ms;                             /* current pose lead: measured pose-to-frame latency */
-    /* framelink v2 decoding (drv_framelink_dec_stats) */
-    uint64_t compressed_frames;                 /* accepted frames with at least one plane not RAW */
-    uint64_t codec_errors;                      /* rejected for a codec's reason (also in rejected[]) */
-    uint64_t key_requests;                      /* video key frames asked for (WANT_KEY raised) */
-    uint64_t wire_bytes, plane_bytes;           /* accepted frames: bytes on the wire and what they decoded to */
-    double decode_ms_last;                      /* the last accepted frame's decode (wall time, all threads) */
-    unsigned codecs, codecs_seen;               /* DRV_CODEC_BIT()s announced / met in frames */
-    char video_decoder[32];                     /* "software", "hevc_v4l2m2m", ... ("" before a video frame) */
+    unsigned codecs;                            /* DRV_CODEC_BIT()s announced */
+    drv_framelink_dec_stats dec;                /* framelink v2 decoding, as the decoder counts it (codec errors
+                                                 * are in rejected[] too) */
     char usb_speed[24];                         /* usb: the speed the host negotiated ("high-speed", "super-speed",
                                                  * drv_usb_speed_name; "unknown" before the first); "" on the others */
     char last_error[160];

@@ -517,12 +517,9 @@ static bool enc_params_equal(const drv_framelink_enc_params *a, const drv_framel
 static int announced(const char *field, int c, unsigned board)
 {
     if (!board || (board & DRV_CODEC_BIT(c))) return HMDWARP_HOST_OK;
-    char names[64] = "";
-    for (int k = 0; k < DRV_CODEC_COUNT; k++)
-        if (board & DRV_CODEC_BIT(k))
-            snprintf(names + strlen(names), sizeof names - strlen(names), " %s", drv_codec_name((drv_codec_id)k));
-    return host_fail(HMDWARP_HOST_ERR_FORMAT, "codec.%s: %s: the board does not decode it (it announced:%s)", field,
-                     drv_codec_name((drv_codec_id)c), names);
+    char names[64];
+    return host_fail(HMDWARP_HOST_ERR_FORMAT, "codec.%s: %s: the board does not decode it (it announced: %s)", field,
+                     drv_codec_name((drv_codec_id)c), drv_codec_names(board, " ", names, sizeof names));
 }
 
 /* The encoder's parameters for frame f: the options with auto resolved against the board's codecs (board 0:

@@ -17,6 +17,7 @@
 #include "drivers/drv_codec.h"
 #include "drivers/drv_framelink.h"
 #include "drivers/drv_frames_socket.h"
+#include "drivers/drv_frames_usb.h"
 #include "warp/warp_err.h"
 #include "drivers/drv_v4l2_inband.h"
 #include "runtime/rt_calib.h"
@@ -39,7 +40,6 @@ static const char *const v4l2_format_names[] = {"auto", "yuyv", "nv12", "bgr32",
 static const char *const bool_names[] = {"false", "true", NULL};
 static const char *const edge_names[] = {"rising", "falling", NULL};
 static const char *const arch_names[] = {"any", "aarch64", "x86_64", "arm", NULL};
-static const char *const video_decoder_names[] = {"software", "v4l2m2m", NULL};
 
 const char *rt_kernel_name(int k)
 {
@@ -183,9 +183,9 @@ static const keydef keys[] = {
      "this build decodes; raw alone on a socket or mock link without link_mbps, where compressing saves nothing) or a "
      "list of "
      "raw, zstd, jpeg, h264, hevc; raw (v1 frames) is always accepted"},
-    {"frames", "decode_threads", K_INT, F(decode_threads), 0, 1, 8, NULL,
+    {"frames", "decode_threads", K_INT, F(decode_threads), 0, 1, DRV_FRAMES_USB_DECODE_THREADS_MAX, NULL,
      "usb, socket: threads a frame's compressed planes decode on (eyes and JPEG slices in parallel)"},
-    {"frames", "video_decoder", K_CHOICE, F(video_decoder), S(video_decoder), 0, 0, video_decoder_names,
+    {"frames", "video_decoder", K_CHOICE, F(video_decoder), S(video_decoder), 0, 0, drv_frames_usb_video_decoders,
      "usb, socket: H.264/HEVC colour decoder: software (libavcodec) or v4l2m2m (the board's hardware decoder)"},
     {"frames", "link_mbps", K_DOUBLE, F(link_mbps), 0, 0, 100000, NULL,
      "mock usb and socket links: the most they carry, MB/s (10^6 bytes), as a real link would (USB 2.0 ~40, USB 3 "
@@ -851,6 +851,7 @@ bool rt_config_parse_codecs(const char *s, unsigned *mask, char *err, int errlen
     unsigned m = DRV_CODEC_BIT(DRV_CODEC_RAW);
     const char *p = s;
     bool any = false;
+    char all[64]; /* the codecs' names, for a message */
     while (*p) {
         while (*p == ' ' || *p == '\t' || *p == ',') p++;
         size_t n = strcspn(p, " \t,");
@@ -861,7 +862,8 @@ bool rt_config_parse_codecs(const char *s, unsigned *mask, char *err, int errlen
         if (n == 4 && strncmp(p, "auto", 4) == 0) {
             m |= drv_codec_decodable();
         } else if (n >= sizeof name || !drv_codec_parse(name, &id)) {
-            return warp_err(err, errlen, "'%.*s' is not a codec (raw, zstd, jpeg, h264, hevc or auto)", (int)n, p);
+            return warp_err(err, errlen, "'%.*s' is not a codec (%s or auto)", (int)n, p,
+                            drv_codec_names(DRV_CODEC_ALL, ", ", all, sizeof all));
         } else if (!(drv_codec_decodable() & DRV_CODEC_BIT(id))) {
             return warp_err(err, errlen, "%s: this build cannot decode it", name);
         } else {
@@ -870,7 +872,9 @@ bool rt_config_parse_codecs(const char *s, unsigned *mask, char *err, int errlen
         any = true;
         p += n;
     }
-    if (!any) return warp_err(err, errlen, "empty (auto, or a list of raw, zstd, jpeg, h264, hevc)");
+    if (!any)
+        return warp_err(err, errlen, "empty (auto, or a list of %s)",
+                        drv_codec_names(DRV_CODEC_ALL, ", ", all, sizeof all));
     *mask = m;
     return true;
 }

@@ -302,16 +302,16 @@ static val value(const rt_summary_src *s, int r, int i)
     case R_LINK_POSES_DROPPED: v.u = s->link.poses_dropped; break;
     case R_LINK_DECODE_P50: v.f = rt_hist_pct(&t->decode_ms, 50); break;
     case R_LINK_DECODE_P99: v.f = rt_hist_pct(&t->decode_ms, 99); break;
-    case R_LINK_COMPRESSED: v.u = s->link.compressed_frames; break;
-    case R_LINK_CODEC_ERRORS: v.u = s->link.codec_errors; break;
-    case R_LINK_KEY_REQUESTS: v.u = s->link.key_requests; break;
+    case R_LINK_COMPRESSED: v.u = s->link.dec.compressed_frames; break;
+    case R_LINK_CODEC_ERRORS: v.u = s->link.dec.codec_errors; break;
+    case R_LINK_KEY_REQUESTS: v.u = s->link.dec.key_requests; break;
     /* the accepted frames' bytes on the wire over the run (what the codecs left of plane_bytes) */
-    case R_LINK_WIRE_MB_S: v.f = s->run_s > 0 ? (double)s->link.wire_bytes / s->run_s * 1e-6 : 0; break;
+    case R_LINK_WIRE_MB_S: v.f = s->run_s > 0 ? (double)s->link.dec.wire_bytes / s->run_s * 1e-6 : 0; break;
     /* decoded plane bytes per wire byte: 1 for raw frames, 0 before any frame */
     case R_LINK_COMPRESSION:
-        v.f = s->link.wire_bytes ? (double)s->link.plane_bytes / (double)s->link.wire_bytes : 0;
+        v.f = s->link.dec.wire_bytes ? (double)s->link.dec.plane_bytes / (double)s->link.dec.wire_bytes : 0;
         break;
-    case R_LINK_VIDEO_DECODER: v.s = s->link.video_decoder; break;
+    case R_LINK_VIDEO_DECODER: v.s = s->link.dec.video_decoder; break;
     case R_LINK_DECODE_MS: v.h = &t->decode_ms; break;
     case R_LINK_USB_SPEED: v.s = s->link.usb_speed; break;
     case R_IMU_SAMPLES: v.u = t->imu_samples; break;
@@ -524,11 +524,8 @@ void rt_summary_print(const rt_summary_src *s, FILE *out)
                 U(R_LINK_DISCONNECTS), U(R_LINK_POSES),
                 U(R_LINK_POSES_DROPPED), s->link.last_error[0] ? "; last: " : "", s->link.last_error);
     if (s->has_link_stats) {
-        char names[64] = "";
-        for (int k = 0; k < DRV_CODEC_COUNT; k++)
-            if (s->link.codecs & DRV_CODEC_BIT(k))
-                snprintf(names + strlen(names), sizeof names - strlen(names), "%s%s", names[0] ? " " : "",
-                         drv_codec_name((drv_codec_id)k));
+        char names[64];
+        drv_codec_names(s->link.codecs, " ", names, sizeof names);
         fprintf(out, "  %-26s announced %s; %llu frames compressed, %.2f MB/s on the wire (%.1f:1), codec errors "
                      "%llu, key frames asked %llu%s%s\n",
                 L(R_LINK_COMPRESSED), names[0] ? names : "-", U(R_LINK_COMPRESSED), value(s, R_LINK_WIRE_MB_S, 0).f,

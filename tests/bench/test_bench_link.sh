@@ -15,6 +15,16 @@ nok() { n=$((n + 1)); echo "not ok $n - $1"; }
 check() { # check DESCRIPTION WHY-IF-FAILED (empty: passed)
     if [ -z "$2" ]; then ok "$1"; else nok "$1: $2"; fi
 }
+# readme LINK_MD README: scripts/bench-link-readme.sh on them, its output in $tmp/log2; why says how it failed (its exit
+# status and output), empty when it succeeded
+readme() {
+    scripts/bench-link-readme.sh "$1" "$2" >"$tmp/log2" 2>&1
+    rc=$?
+    why=""
+    [ "$rc" -eq 0 ] || why="exit $rc: $(cat "$tmp/log2")"
+}
+# unchanged README: adds to why when README differs from the original, README.orig
+unchanged() { cmp -s "$1" "$tmp/README.orig" || why="$why the README changed"; }
 
 out=$tmp/out
 mkdir -p "$out"
@@ -54,21 +64,15 @@ check "the raw row is the lossless v1 frame, its raytrace the reference" "$why"
 # the README copy: a --eye run is not a reference, so the README stays as it was
 printf '# R\n\ntext\n<!-- link-table:begin -->\nold table\n<!-- link-table:end -->\nafter\n' >"$tmp/README.md"
 cp "$tmp/README.md" "$tmp/README.orig"
-scripts/bench-link-readme.sh "$out/link.md" "$tmp/README.md" >"$tmp/log2" 2>&1
-rc=$?
-why=""
-[ "$rc" -eq 0 ] || why="exit $rc: $(cat "$tmp/log2")"
-cmp -s "$tmp/README.md" "$tmp/README.orig" || why="$why the README changed"
+readme "$out/link.md" "$tmp/README.md"
+unchanged "$tmp/README.md"
 check "a --eye run's table stays out of the README" "$why"
 
 # a reference run's table replaces what stood between the markers, and nothing else
 sed 's/^<!-- link-run: not reference -->$/<!-- link-run: reference -->/' "$out/link.md" >"$tmp/ref.md"
-scripts/bench-link-readme.sh "$tmp/ref.md" "$tmp/README.md" >"$tmp/log2" 2>&1
-rc=$?
+readme "$tmp/ref.md" "$tmp/README.md"
 sed -n '/^<!-- link-table:begin -->$/,/^<!-- link-table:end -->$/p' "$tmp/ref.md" >"$tmp/want"
 sed -n '/^<!-- link-table:begin -->$/,/^<!-- link-table:end -->$/p' "$tmp/README.md" >"$tmp/got"
-why=""
-[ "$rc" -eq 0 ] || why="exit $rc: $(cat "$tmp/log2")"
 cmp -s "$tmp/want" "$tmp/got" || why="$why the README's table is not link.md's"
 grep -q '^| raw (v1 frame) |' "$tmp/got" || why="$why no raw row in the copied table"
 [ "$(head -n 3 "$tmp/README.md")" = "$(head -n 3 "$tmp/README.orig")" ] && [ "$(tail -n 1 "$tmp/README.md")" = after ] ||
@@ -76,17 +80,13 @@ grep -q '^| raw (v1 frame) |' "$tmp/got" || why="$why no raw row in the copied t
 check "a reference run's whole-frame table replaces the README's, nothing else" "$why"
 
 printf '# R\nno markers\n' >"$tmp/README2.md"
-scripts/bench-link-readme.sh "$tmp/ref.md" "$tmp/README2.md" >"$tmp/log2" 2>&1
-rc=$?
+readme "$tmp/ref.md" "$tmp/README2.md"
 why=""
 [ "$rc" -ne 0 ] || why="accepted a README without markers"
 grep -q 'needs exactly one' "$tmp/log2" || why="$why no reason given: $(cat "$tmp/log2")"
 check "a README without the markers is refused, naming them" "$why"
 
 cp "$tmp/README.orig" "$tmp/README3.md"
-scripts/bench-link-readme.sh "$tmp/none/link.md" "$tmp/README3.md" >"$tmp/log2" 2>&1
-rc=$?
-why=""
-[ "$rc" -eq 0 ] || why="exit $rc: $(cat "$tmp/log2")"
-cmp -s "$tmp/README3.md" "$tmp/README.orig" || why="$why the README changed"
+readme "$tmp/none/link.md" "$tmp/README3.md"
+unchanged "$tmp/README3.md"
 check "no link.md (a bench run with --out elsewhere): the README is left alone and make bench goes on" "$why"

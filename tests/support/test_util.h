@@ -1,10 +1,12 @@
 /* SPDX-License-Identifier: MIT */
-/* test_util: small helpers shared by the test programs (deterministic random numbers, random rotations).
- * Header-only pieces are static inline so each test binary stays self-contained. */
+/* test_util: small helpers shared by the test programs (temporary directories, deterministic random numbers, random
+ * rotations). Header-only pieces are static inline so each test binary stays self-contained. */
 #ifndef TEST_UTIL_H
 #define TEST_UTIL_H
 
 #include <dirent.h>
+#include <errno.h>
+#include <ftw.h>
 #include <libgen.h>
 #include <math.h>
 #include <stdbool.h>
@@ -49,6 +51,45 @@ static inline bool test_build_dirs(const char *argv0, char *build, size_t buildl
     char cmd[600];
     snprintf(cmd, sizeof cmd, "mkdir -p '%s'", tmp);
     return system(cmd) == 0;
+}
+
+/* A new empty directory /tmp/NAME.XXXXXX into dir, for a test's files and sockets (whose paths hold 107 characters:
+ * hence /tmp, not the build tree). False when it cannot be made. */
+static inline bool test_tmpdir_make(char *dir, size_t len, const char *name)
+{
+    int n = snprintf(dir, len, "/tmp/%s.XXXXXX", name);
+    return n > 0 && (size_t)n < len && mkdtemp(dir) != NULL;
+}
+
+static inline int test_tmpdir_remove_one(const char *path, const struct stat *sb, int flag, struct FTW *ftw)
+{
+    (void)sb, (void)flag, (void)ftw;
+    return remove(path);
+}
+
+/* Removes dir and everything in it (links themselves, not what they point at). True when it is gone. */
+static inline bool test_tmpdir_remove(const char *dir)
+{
+    return nftw(dir, test_tmpdir_remove_one, 16, FTW_DEPTH | FTW_PHYS) == 0 || errno == ENOENT;
+}
+
+/* The test program's own temporary directory as a cmocka group setup and teardown: test_tmp_setup makes
+ * /tmp/PROGRAM.XXXXXX (test_tmpdir_make), test_tmp() names it, test_tmp_teardown removes it with all in it. */
+#define TEST_TMP_LEN 64
+static inline char *test_tmp(void)
+{
+    static char dir[TEST_TMP_LEN];
+    return dir;
+}
+static inline int test_tmp_setup(void **state)
+{
+    (void)state;
+    return test_tmpdir_make(test_tmp(), TEST_TMP_LEN, program_invocation_short_name) ? 0 : -1;
+}
+static inline int test_tmp_teardown(void **state)
+{
+    (void)state;
+    return test_tmpdir_remove(test_tmp()) ? 0 : -1;
 }
 
 /* Runs the shell command cmd, its output (what cmd itself redirects) into out, NUL-terminated; *status gets its exit

@@ -255,15 +255,13 @@ int main(int argc, char **argv)
     (void)argc;
     if (!test_build_dirs(argv[0], build, sizeof build, tmp, sizeof tmp, "board_socket")) return 1;
     /* a socket address holds 107 characters: a short directory of its own */
-    snprintf(sock_dir, sizeof sock_dir, "/tmp/test_board_socket_XXXXXX");
-    if (!mkdtemp(sock_dir)) return 1;
+    if (!test_tmpdir_make(sock_dir, sizeof sock_dir, "test_board_socket")) return 1;
     snprintf(sock_path, sizeof sock_path, "%s/frames.sock", sock_dir);
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_board_shows_socket_frames),
         cmocka_unit_test(test_bad_socket_settings),
     };
     int rc = cmocka_run_group_tests(tests, NULL, NULL);
-    unlink(sock_path);
-    rmdir(sock_dir);
+    test_tmpdir_remove(sock_dir);
     return rc;
 }

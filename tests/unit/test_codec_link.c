@@ -22,6 +22,7 @@
 #include "platform/plat_clock.h"
 #include "runtime/rt_config.h"
 #include "warp/warp_head.h"
+#include "tests/support/test_util.h"
 
 #define W 64
 #define H 48
@@ -29,7 +30,7 @@
 #define NEAR_Z 0.05
 #define WAIT_S 20 /* a hang guard only (a loaded machine): every wait ends on a count */
 
-static char dir[48], path[100], uri[120];
+static char path[100], uri[120];
 
 static bool predict(void *ctx, int64_t t_ns, warp_pose *head)
 {
@@ -62,7 +63,8 @@ static int pump_until_result(rig *rg)
     return rc;
 }
 
-static void rig_start(rig *rg)
+/* The board side's parameters: W x H eyes of PLANES, poses from predict (no cameras, no decoder settings). */
+static drv_frames_usb_params board_params(void)
 {
     drv_frames_usb_params p;
     memset(&p, 0, sizeof p);
@@ -71,6 +73,12 @@ static void rig_start(rig *rg)
     p.planes = PLANES;
     p.poses.predict = predict;
     p.pose_rate_hz = 200;
+    return p;
+}
+
+static void rig_start(rig *rg)
+{
+    drv_frames_usb_params p = board_params();
     for (int e = 0; e < 2; e++) p.cam[e] = warp_camera_symmetric(W, H, 100, 90, NEAR_Z, INFINITY);
     p.refresh_hz = 90;
     p.depth_encoding = WARP_DEPTH_LINEAR;
@@ -185,10 +193,10 @@ static void test_compressed_frames_counted(void **state)
     }
     drv_frames_usb_stats st = stats(&r);
     assert_int_equal(st.frames, N);
-    assert_int_equal(st.compressed_frames, N);
-    assert_int_equal(st.codec_errors, 0);
-    assert_true(st.codecs_seen & DRV_CODEC_BIT(DRV_CODEC_JPEG));
-    assert_true(st.codecs_seen & DRV_CODEC_BIT(DRV_CODEC_ZSTD));
+    assert_int_equal(st.dec.compressed_frames, N);
+    assert_int_equal(st.dec.codec_errors, 0);
+    assert_true(st.dec.codecs_seen & DRV_CODEC_BIT(DRV_CODEC_JPEG));
+    assert_true(st.dec.codecs_seen & DRV_CODEC_BIT(DRV_CODEC_ZSTD));
     /* what came on the wire is what the host sent, and less than the planes it decoded to */
     hmdwarp_host_codec_stats cs;
     assert_int_equal(hmdwarp_host_get_codec_stats(r.h, &cs), HMDWARP_HOST_OK);
@@ -196,10 +204,10 @@ static void test_compressed_frames_counted(void **state)
     assert_int_equal(cs.compressed_frames, N);
     assert_int_equal(cs.color, HMDWARP_HOST_CODEC_JPEG);
     assert_int_equal(cs.depth, HMDWARP_HOST_CODEC_ZSTD);
-    assert_int_equal(st.wire_bytes, cs.wire_bytes);
-    assert_true(st.wire_bytes < st.plane_bytes);
+    assert_int_equal(st.dec.wire_bytes, cs.wire_bytes);
+    assert_true(st.dec.wire_bytes < st.dec.plane_bytes);
     assert_true(cs.wire_bytes < cs.plane_bytes);
-    assert_true(st.decode_ms_last > 0 && cs.encode_ms_last > 0);
+    assert_true(st.dec.decode_ms_last > 0 && cs.encode_ms_last > 0);
     assert_true(drv_frames_usb_decode_ms(r.fr) > 0);
     rig_stop(&r);
 }
@@ -215,9 +223,9 @@ static void test_auto_is_negotiated(void **state)
     assert_close(&r.f, 1);
     drv_frames_usb_stats st = stats(&r);
     assert_int_equal(st.frames, 1);
-    assert_int_equal(st.compressed_frames, 1);
-    assert_true(st.codecs_seen & DRV_CODEC_BIT(DRV_CODEC_JPEG));
-    assert_true(st.codecs_seen & DRV_CODEC_BIT(DRV_CODEC_ZSTD));
+    assert_int_equal(st.dec.compressed_frames, 1);
+    assert_true(st.dec.codecs_seen & DRV_CODEC_BIT(DRV_CODEC_JPEG));
+    assert_true(st.dec.codecs_seen & DRV_CODEC_BIT(DRV_CODEC_ZSTD));
     rig_stop(&r);
 }
 
@@ -240,17 +248,17 @@ static void test_raw_frames_through_the_decoder(void **state)
             }
     drv_frames_usb_stats st = stats(&r);
     assert_int_equal(st.frames, 2);
-    assert_int_equal(st.compressed_frames, 0);
-    assert_int_equal(st.codec_errors, 0);
+    assert_int_equal(st.dec.compressed_frames, 0);
+    assert_int_equal(st.dec.codec_errors, 0);
     /* raw: nothing saved, the wire carries the pixels and the headers */
-    assert_true(st.wire_bytes >= st.plane_bytes && st.wire_bytes - st.plane_bytes < 2 * 1024);
+    assert_true(st.dec.wire_bytes >= st.dec.plane_bytes && st.dec.wire_bytes - st.dec.plane_bytes < 2 * 1024);
     assert_true(st.codecs & DRV_CODEC_BIT(DRV_CODEC_RAW));
     hmdwarp_host_codec_stats cs;
     assert_int_equal(hmdwarp_host_get_codec_stats(r.h, &cs), HMDWARP_HOST_OK);
     assert_int_equal(cs.frames, 2);
     assert_int_equal(cs.compressed_frames, 0);
     assert_int_equal(cs.color, HMDWARP_HOST_CODEC_RAW);
-    assert_int_equal(cs.wire_bytes, st.wire_bytes);
+    assert_int_equal(cs.wire_bytes, st.dec.wire_bytes);
     rig_stop(&r);
 }
 
@@ -297,7 +305,7 @@ static void test_corrupt_jpeg_rejected_last_frame_stays(void **state)
     assert_true(rc < 0);
     assert_true(-rc == DRV_FRAME_ERR_BAD_FORMAT || -rc == DRV_FRAME_ERR_BAD_SIZE);
     drv_frames_usb_stats st = stats(&r);
-    assert_int_equal(st.codec_errors, 1);
+    assert_int_equal(st.dec.codec_errors, 1);
     assert_int_equal(st.rejected[-rc], 1);
     assert_int_equal(st.frames, 1);
     /* a rejected frame is never handed on as one: its header fields stay the last good frame's (the runtime
@@ -336,8 +344,8 @@ static void test_lost_reference_asks_for_a_key_frame(void **state)
     assert_int_equal(hmdwarp_host_submit(r.h, &fr), HMDWARP_HOST_OK);
     assert_true(pump_until_result(&r) < 0);
     drv_frames_usb_stats st = stats(&r);
-    assert_int_equal(st.codec_errors, 1);
-    assert_true(st.key_requests >= 1);
+    assert_int_equal(st.dec.codec_errors, 1);
+    assert_true(st.dec.key_requests >= 1);
     /* the pose thread's next messages carry WANT_KEY; the host's reader sees them */
     hmdwarp_host_codec_stats cs = {0};
     int64_t until = plat_now_ns() + WAIT_S * PLAT_NS_PER_S;
@@ -354,6 +362,58 @@ static void test_lost_reference_asks_for_a_key_frame(void **state)
     st = stats(&r);
     assert_int_equal(st.frames, 2);
     rig_stop(&r);
+}
+
+/* The codec names and the first codec lacking, as the config's, the host library's and the summary's messages and
+ * the encoder's and the board's checks take them: id order, the separator given, cut to the buffer. */
+static void test_codec_names(void **state)
+{
+    (void)state;
+    const unsigned raw = DRV_CODEC_BIT(DRV_CODEC_RAW), zstd = DRV_CODEC_BIT(DRV_CODEC_ZSTD);
+    const unsigned jpeg = DRV_CODEC_BIT(DRV_CODEC_JPEG), hevc = DRV_CODEC_BIT(DRV_CODEC_HEVC);
+    char b[64];
+    assert_string_equal(drv_codec_names(DRV_CODEC_ALL, ", ", b, sizeof b), "raw, zstd, jpeg, h264, hevc");
+    assert_string_equal(drv_codec_names(hevc | jpeg | raw | 0x100u, " ", b, sizeof b), "raw jpeg hevc");
+    assert_string_equal(drv_codec_names(0, " ", b, sizeof b), "");
+    char small[8];
+    assert_string_equal(drv_codec_names(DRV_CODEC_ALL, " ", small, sizeof small), "raw zst");
+    assert_int_equal(drv_codec_missing(DRV_CODEC_ALL, raw | zstd), DRV_CODEC_JPEG);
+    assert_int_equal(drv_codec_missing(hevc | raw, raw | zstd), DRV_CODEC_HEVC);
+    assert_int_equal(drv_codec_missing(jpeg | raw, DRV_CODEC_ALL), DRV_CODEC_COUNT);
+    assert_int_equal(drv_codec_missing(raw | 0x100u, raw), DRV_CODEC_COUNT); /* no codec's bit: none lacking */
+}
+
+/* decode_threads and video_decoder: a board config takes exactly what the USB board side does (its one rule), and
+ * the board side refuses the rest itself when made without a config (tests, the fuzzer). */
+static void test_decoder_settings(void **state)
+{
+    (void)state;
+    drv_frames_usb_params p = board_params();
+    char err[300] = "", ini[160];
+    p.decode_threads = DRV_FRAMES_USB_DECODE_THREADS_MAX + 1;
+    assert_null(drv_frames_usb_create_fed(&p, err, sizeof err));
+    assert_non_null(strstr(err, "decode_threads"));
+    p.decode_threads = 0;
+    p.video_decoder = "vaapi";
+    assert_null(drv_frames_usb_create_fed(&p, err, sizeof err));
+    assert_non_null(strstr(err, "'vaapi'"));
+    rt_config cfg;
+    rt_config_defaults(&cfg);
+    rt_config_errors cerr = {0};
+    snprintf(ini, sizeof ini, "[frames]\ndecode_threads = %d\n", DRV_FRAMES_USB_DECODE_THREADS_MAX + 1);
+    assert_false(rt_config_load_string(&cfg, ini, "t.ini", &cerr));
+    for (int v = 0; drv_frames_usb_video_decoders[v]; v++) {
+        rt_config_defaults(&cfg);
+        cerr.count = 0;
+        snprintf(ini, sizeof ini, "[frames]\nvideo_decoder = %s\ndecode_threads = %d\n",
+                 drv_frames_usb_video_decoders[v], DRV_FRAMES_USB_DECODE_THREADS_MAX);
+        assert_true(rt_config_load_string(&cfg, ini, "t.ini", &cerr));
+        p.video_decoder = cfg.video_decoder;
+        p.decode_threads = cfg.decode_threads;
+        drv_frames *fr = drv_frames_usb_create_fed(&p, err, sizeof err);
+        if (!fr) fail_msg("video_decoder %s: %s", cfg.video_decoder, err);
+        drv_frames_destroy(fr);
+    }
 }
 
 static void test_config_codecs(void **state)
@@ -415,20 +475,10 @@ static void test_config_codecs(void **state)
 
 static int setup(void **state)
 {
-    (void)state;
-    snprintf(dir, sizeof dir, "/tmp/test_codec_link_XXXXXX");
-    if (!mkdtemp(dir)) return -1;
-    snprintf(path, sizeof path, "%s/frames.sock", dir);
+    if (test_tmp_setup(state)) return -1;
+    snprintf(path, sizeof path, "%s/frames.sock", test_tmp());
     snprintf(uri, sizeof uri, "socket:%s", path);
     return 0;
-}
-
-static int teardown(void **state)
-{
-    (void)state;
-    char cmd[200];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
-    return system(cmd) == 0 ? 0 : -1;
 }
 
 int main(void)
@@ -440,6 +490,8 @@ int main(void)
         cmocka_unit_test_teardown(test_corrupt_jpeg_rejected_last_frame_stays, rig_teardown),
         cmocka_unit_test_teardown(test_lost_reference_asks_for_a_key_frame, rig_teardown),
         cmocka_unit_test(test_config_codecs),
+        cmocka_unit_test(test_codec_names),
+        cmocka_unit_test(test_decoder_settings),
     };
-    return cmocka_run_group_tests(tests, setup, teardown);
+    return cmocka_run_group_tests(tests, setup, test_tmp_teardown);
 }

@@ -26,11 +26,14 @@ typedef struct {
     uint8_t *src, *dst;
     uint8_t *au;
     size_t cap;
+    drv_video_enc *e; /* of the rig's size (rig_open) */
+    drv_video_dec *d;
 } rig;
 
 static void rig_init(rig *r, int w, int h)
 {
     r->w = w, r->h = h;
+    r->e = NULL, r->d = NULL;
     r->stride = (size_t)w * 4 + 12; /* not tight: strides are honoured */
     r->src = calloc(r->stride * (size_t)h, 1);
     r->dst = calloc(r->stride * (size_t)h, 1);
@@ -41,7 +44,12 @@ static void rig_init(rig *r, int w, int h)
     assert_non_null(r->au);
 }
 
-static void rig_free(rig *r) { free(r->src), free(r->dst), free(r->au); }
+static void rig_free(rig *r)
+{
+    drv_video_dec_destroy(r->d);
+    drv_video_enc_destroy(r->e);
+    free(r->src), free(r->dst), free(r->au);
+}
 
 /* A smooth scene with a bright square moving 3 px a frame and a fine pattern: motion, edges and texture. */
 static void draw(rig *r, int t)
@@ -79,6 +87,17 @@ static drv_video_params params(drv_codec_id c, int w, int h)
     return (drv_video_params){.codec = c, .w = w, .h = h, .fps = 45, .quality = 23};
 }
 
+/* A rig of p's size with an encoder of p and a decoder of p's codec for dw x dh eyes (hw as drv_video_dec_create's). */
+static void rig_open(rig *r, const drv_video_params *p, int dw, int dh, const char *hw)
+{
+    rig_init(r, p->w, p->h);
+    char err[256] = "";
+    r->e = drv_video_enc_create(p, err, sizeof err);
+    if (!r->e) fail_msg("encoder: %s", err);
+    r->d = drv_video_dec_create(p->codec, dw, dh, hw, err, sizeof err);
+    if (!r->d) fail_msg("decoder: %s", err);
+}
+
 /* Whether this machine has codec c both ways; a skip says why. */
 static bool have(drv_codec_id c)
 {
@@ -89,46 +108,49 @@ static bool have(drv_codec_id c)
 }
 
 /* Encodes draw(t) into r->au; returns its length. */
-static size_t enc(drv_video_enc *e, rig *r, int t, bool force, bool *key)
+static size_t enc(rig *r, int t, bool force, bool *key)
 {
     char err[256] = "";
     draw(r, t);
-    size_t n = drv_video_encode(e, r->src, r->stride, force, r->au, r->cap, key, err, sizeof err);
+    size_t n = drv_video_encode(r->e, r->src, r->stride, force, r->au, r->cap, key, err, sizeof err);
     if (!n) fail_msg("encode frame %d: %s", t, err);
     return n;
 }
 
-static drv_frame_err dec(drv_video_dec *d, rig *r, size_t n, char *err, int errlen)
+static drv_frame_err dec(rig *r, size_t n, char *err, int errlen)
 {
-    return drv_video_decode(d, r->au, n, r->dst, r->stride, err, errlen);
+    return drv_video_decode(r->d, r->au, n, r->dst, r->stride, err, errlen);
+}
+
+/* Encodes draw(t) (a key frame when forced) and decodes it, which must succeed (else fails naming what); the PSNR
+ * of the picture decoded. *n, *key: the access unit's length and whether it is a key frame. */
+static double through(rig *r, int t, bool force, size_t *n, bool *key, const char *what)
+{
+    char err[256] = "";
+    *n = enc(r, t, force, key);
+    if (dec(r, *n, err, sizeof err) != DRV_FRAME_OK) fail_msg("%s frame %d: %s", what, t, err);
+    return psnr(r);
 }
 
 static void roundtrip(drv_codec_id c, int w, int h, double min_db)
 {
     rig r;
-    rig_init(&r, w, h);
-    char err[256] = "";
     drv_video_params p = params(c, w, h);
-    drv_video_enc *e = drv_video_enc_create(&p, err, sizeof err);
-    if (!e) fail_msg("%s", err);
-    drv_video_dec *d = drv_video_dec_create(c, w, h, NULL, err, sizeof err);
-    if (!d) fail_msg("%s", err);
-    assert_string_equal(drv_video_dec_name(d), "software");
+    rig_open(&r, &p, w, h, NULL);
+    assert_string_equal(drv_video_dec_name(r.d), "software");
+    char what[64];
+    snprintf(what, sizeof what, "%s %dx%d", drv_codec_name(c), w, h);
     double worst = 99;
     for (int t = 0; t < 10; t++) {
         bool key = true;
-        size_t n = enc(e, &r, t, false, &key);
+        size_t n;
+        double db = through(&r, t, false, &n, &key, what);
         assert_int_equal(key, t == 0); /* gop 0: only the first */
-        if (dec(d, &r, n, err, sizeof err) != DRV_FRAME_OK)
-            fail_msg("%s %dx%d frame %d: %s", drv_codec_name(c), w, h, t, err);
-        double db = psnr(&r);
         if (db < worst) worst = db;
         if (getenv("VIDEO_TEST_VERBOSE")) printf("#   frame %d: %zu bytes %.1f dB\n", t, n, db);
         if (db < min_db) fail_msg("%s %dx%d frame %d: %.1f dB", drv_codec_name(c), w, h, t, db);
     }
     printf("# %s %dx%d: worst %.1f dB\n", drv_codec_name(c), w, h, worst);
-    drv_video_dec_destroy(d);
-    drv_video_enc_destroy(e);
     rig_free(&r);
 }
 
@@ -149,47 +171,33 @@ static void test_keys_and_loss(void **state)
     drv_codec_id c = (drv_codec_id)(intptr_t)*state;
     if (!have(c)) skip();
     rig r;
-    rig_init(&r, 96, 64);
+    drv_video_params p = params(c, 96, 64);
+    rig_open(&r, &p, 96, 64, "");
     char err[256] = "";
-    drv_video_params p = params(c, r.w, r.h);
-    drv_video_enc *e = drv_video_enc_create(&p, err, sizeof err);
-    drv_video_dec *d = drv_video_dec_create(c, r.w, r.h, "", err, sizeof err);
-    assert_non_null(e);
-    assert_non_null(d);
     bool key;
-    for (int t = 0; t < 3; t++) {
-        size_t n = enc(e, &r, t, false, &key);
-        assert_int_equal(dec(d, &r, n, err, sizeof err), DRV_FRAME_OK);
-    }
+    size_t n;
+    for (int t = 0; t < 3; t++) through(&r, t, false, &n, &key, "before the loss");
     /* frame 3 lost on the link; frame 4 refers to it */
-    enc(e, &r, 3, false, &key);
-    size_t n = enc(e, &r, 4, false, &key);
+    enc(&r, 3, false, &key);
+    n = enc(&r, 4, false, &key);
     err[0] = 0;
-    assert_int_equal(dec(d, &r, n, err, sizeof err), DRV_FRAME_ERR_BAD_FORMAT);
+    assert_int_equal(dec(&r, n, err, sizeof err), DRV_FRAME_ERR_BAD_FORMAT);
     assert_non_null(strstr(err, "concealed"));
     printf("# %s: P-frame after a lost one: %s\n", drv_codec_name(c), err);
     /* the caller resets and waits for a key: a P-frame first is refused */
-    drv_video_dec_reset(d);
-    n = enc(e, &r, 5, false, &key);
+    drv_video_dec_reset(r.d);
+    n = enc(&r, 5, false, &key);
     assert_false(key);
     err[0] = 0;
-    assert_int_equal(dec(d, &r, n, err, sizeof err), DRV_FRAME_ERR_BAD_FORMAT);
+    assert_int_equal(dec(&r, n, err, sizeof err), DRV_FRAME_ERR_BAD_FORMAT);
     assert_true(err[0] != 0);
     printf("# %s: P-frame after reset: %s\n", drv_codec_name(c), err);
     /* the board asked; the host forces a key frame; the stream is whole again from it */
-    drv_video_dec_reset(d);
-    n = enc(e, &r, 6, true, &key);
-    assert_true(key);
-    assert_int_equal(dec(d, &r, n, err, sizeof err), DRV_FRAME_OK);
-    assert_true(psnr(&r) > MIN_PSNR_SMALL_DB);
-    for (int t = 7; t < 10; t++) {
-        n = enc(e, &r, t, false, &key);
-        assert_false(key);
-        if (dec(d, &r, n, err, sizeof err) != DRV_FRAME_OK) fail_msg("frame %d after the key: %s", t, err);
-        assert_true(psnr(&r) > MIN_PSNR_SMALL_DB);
+    drv_video_dec_reset(r.d);
+    for (int t = 6; t < 10; t++) {
+        assert_true(through(&r, t, t == 6, &n, &key, "from the forced key") > MIN_PSNR_SMALL_DB);
+        assert_int_equal(key, t == 6);
     }
-    drv_video_dec_destroy(d);
-    drv_video_enc_destroy(e);
     rig_free(&r);
 }
 
@@ -200,14 +208,10 @@ static void test_damage(void **state)
     drv_codec_id c = (drv_codec_id)(intptr_t)*state;
     if (!have(c)) skip();
     rig r;
-    rig_init(&r, 64, 48);
-    char err[256];
-    drv_video_params p = params(c, r.w, r.h);
+    drv_video_params p = params(c, 64, 48);
     p.gop = 4;
-    drv_video_enc *e = drv_video_enc_create(&p, err, sizeof err);
-    drv_video_dec *d = drv_video_dec_create(c, r.w, r.h, NULL, err, sizeof err);
-    assert_non_null(e);
-    assert_non_null(d);
+    rig_open(&r, &p, 64, 48, NULL);
+    char err[256];
     uint8_t *bad = malloc(r.cap);
     assert_non_null(bad);
     unsigned seed = 19;
@@ -220,14 +224,14 @@ static void test_damage(void **state)
     dup2(fileno(cap), 2);
     for (int t = 0; t < 24; t++) {
         bool key;
-        size_t n = enc(e, &r, t, false, &key);
+        size_t n = enc(&r, t, false, &key);
         assert_int_equal(key, t % 4 == 0);
         memcpy(bad, r.au, n);
         size_t m = n;
         if (t % 2)
             m = n / 2 + (size_t)(rand_r(&seed) % (unsigned)(n / 2)); /* truncated */
         for (int k = 0; k < 1 + t % 5; k++) bad[rand_r(&seed) % n] ^= (uint8_t)(1u << (rand_r(&seed) % 8));
-        drv_frame_err fe = drv_video_decode(d, bad, m, r.dst, r.stride, err, sizeof err);
+        drv_frame_err fe = drv_video_decode(r.d, bad, m, r.dst, r.stride, err, sizeof err);
         tries++;
         if (fe != DRV_FRAME_OK) {
             assert_int_equal(fe, DRV_FRAME_ERR_BAD_FORMAT);
@@ -245,17 +249,14 @@ static void test_damage(void **state)
     assert_true(refused > 0);
     /* garbage that is no stream at all, and nothing */
     for (size_t i = 0; i < 4096; i++) bad[i] = (uint8_t)rand_r(&seed);
-    assert_int_not_equal(drv_video_decode(d, bad, 4096, r.dst, r.stride, err, sizeof err), DRV_FRAME_OK);
-    assert_int_equal(drv_video_decode(d, bad, 0, r.dst, r.stride, err, sizeof err), DRV_FRAME_ERR_TRUNCATED);
-    drv_video_dec_reset(d);
+    assert_int_not_equal(drv_video_decode(r.d, bad, 4096, r.dst, r.stride, err, sizeof err), DRV_FRAME_OK);
+    assert_int_equal(drv_video_decode(r.d, bad, 0, r.dst, r.stride, err, sizeof err), DRV_FRAME_ERR_TRUNCATED);
+    drv_video_dec_reset(r.d);
     bool key;
-    size_t n = enc(e, &r, 24, false, &key);
+    size_t n;
+    assert_true(through(&r, 24, false, &n, &key, "key after the damage") > MIN_PSNR_SMALL_DB);
     assert_true(key);
-    if (dec(d, &r, n, err, sizeof err) != DRV_FRAME_OK) fail_msg("key frame after the damage: %s", err);
-    assert_true(psnr(&r) > MIN_PSNR_SMALL_DB);
     free(bad);
-    drv_video_dec_destroy(d);
-    drv_video_enc_destroy(e);
     rig_free(&r);
 }
 
@@ -265,29 +266,23 @@ static void test_wrong_size(void **state)
     drv_codec_id c = (drv_codec_id)(intptr_t)*state;
     if (!have(c)) skip();
     rig r;
-    rig_init(&r, 80, 64);
+    drv_video_params p = params(c, 80, 64);
+    rig_open(&r, &p, 64, 48, NULL);
     char err[256] = "";
-    drv_video_params p = params(c, r.w, r.h);
-    drv_video_enc *e = drv_video_enc_create(&p, err, sizeof err);
-    drv_video_dec *d = drv_video_dec_create(c, 64, 48, NULL, err, sizeof err);
-    assert_non_null(e);
-    assert_non_null(d);
     bool key;
-    size_t n = enc(e, &r, 0, false, &key);
-    assert_int_equal(dec(d, &r, n, err, sizeof err), DRV_FRAME_ERR_BAD_SIZE);
+    size_t n = enc(&r, 0, false, &key);
+    assert_int_equal(dec(&r, n, err, sizeof err), DRV_FRAME_ERR_BAD_SIZE);
     assert_non_null(strstr(err, "80x64"));
     drv_video_dec *d2 = drv_video_dec_create(c, 80, 64, NULL, err, sizeof err);
     assert_non_null(d2);
     assert_int_equal(drv_video_decode(d2, r.au, n, r.dst, 80 * 4 - 4, err, sizeof err), DRV_FRAME_ERR_BAD_SIZE);
     assert_int_equal(drv_video_decode(d2, r.au, n, r.dst, r.stride, err, sizeof err), DRV_FRAME_OK);
     /* an encoder refuses a stride narrower than its eye, and an output that cannot hold the access unit */
-    assert_int_equal(drv_video_encode(e, r.src, 80 * 4 - 4, false, r.au, r.cap, &key, err, sizeof err), 0);
+    assert_int_equal(drv_video_encode(r.e, r.src, 80 * 4 - 4, false, r.au, r.cap, &key, err, sizeof err), 0);
     assert_non_null(strstr(err, "stride"));
-    assert_int_equal(drv_video_encode(e, r.src, r.stride, true, r.au, 16, &key, err, sizeof err), 0);
+    assert_int_equal(drv_video_encode(r.e, r.src, r.stride, true, r.au, 16, &key, err, sizeof err), 0);
     assert_non_null(strstr(err, "room"));
     drv_video_dec_destroy(d2);
-    drv_video_dec_destroy(d);
-    drv_video_enc_destroy(e);
     rig_free(&r);
 }
 
@@ -298,18 +293,14 @@ static void test_intra_refresh(void **state)
     drv_codec_id c = (drv_codec_id)(intptr_t)*state;
     if (!have(c)) skip();
     rig r;
-    rig_init(&r, 640, 320); /* x265 at smaller sizes (5 CTU columns) spends a big frame per period */
-    char err[256] = "";
-    drv_video_params p = params(c, r.w, r.h);
+    drv_video_params p = params(c, 640, 320); /* x265 at smaller sizes (5 CTU columns) spends a big frame per period */
     p.refresh_frames = 8;
-    drv_video_enc *e = drv_video_enc_create(&p, err, sizeof err);
-    if (!e) fail_msg("%s", err);
-    drv_video_dec *d = drv_video_dec_create(c, r.w, r.h, NULL, err, sizeof err);
-    assert_non_null(d);
+    rig_open(&r, &p, p.w, p.h, NULL);
     size_t first = 0, most = 0, least = SIZE_MAX;
     for (int t = 0; t < 24; t++) {
         bool key;
-        size_t n = enc(e, &r, t, false, &key);
+        size_t n;
+        double db = through(&r, t, false, &n, &key, "intra refresh");
         assert_int_equal(key, t == 0);
         if (t == 0)
             first = n;
@@ -317,25 +308,20 @@ static void test_intra_refresh(void **state)
             if (n > most) most = n;
             if (n < least) least = n;
         }
-        if (dec(d, &r, n, err, sizeof err) != DRV_FRAME_OK) fail_msg("frame %d: %s", t, err);
-        if (getenv("VIDEO_TEST_VERBOSE")) printf("#   refresh frame %d: %zu bytes %.1f dB\n", t, n, psnr(&r));
-        assert_true(psnr(&r) > MIN_PSNR_DB);
+        if (getenv("VIDEO_TEST_VERBOSE")) printf("#   refresh frame %d: %zu bytes %.1f dB\n", t, n, db);
+        assert_true(db > MIN_PSNR_DB);
     }
     printf("# %s intra refresh: first %zu bytes, then %zu..%zu\n", drv_codec_name(c), first, least, most);
     assert_true(most < first); /* no second full key frame */
     assert_true(most < 4 * least);
     /* the board lost a reference: a forced key frame is an IDR here too, and a reset decoder resumes from it */
+    drv_video_dec_reset(r.d);
     bool key;
-    size_t n = enc(e, &r, 24, true, &key);
+    size_t n;
+    assert_true(through(&r, 24, true, &n, &key, "forced key") > MIN_PSNR_DB);
     assert_true(key);
-    drv_video_dec_reset(d);
-    if (dec(d, &r, n, err, sizeof err) != DRV_FRAME_OK) fail_msg("forced key frame: %s", err);
-    assert_true(psnr(&r) > MIN_PSNR_DB);
-    n = enc(e, &r, 25, false, &key);
+    through(&r, 25, false, &n, &key, "after the forced key");
     assert_false(key);
-    if (dec(d, &r, n, err, sizeof err) != DRV_FRAME_OK) fail_msg("frame after the forced key: %s", err);
-    drv_video_dec_destroy(d);
-    drv_video_enc_destroy(e);
     rig_free(&r);
 }
 
@@ -376,16 +362,14 @@ static void test_params_and_hw(void **state)
     p = params(c, r.w, r.h);
     p.quality = 0;
     p.bitrate_kbps = 2000;
-    drv_video_enc *e = drv_video_enc_create(&p, err, sizeof err);
-    if (!e) fail_msg("%s", err);
+    if (!(r.e = drv_video_enc_create(&p, err, sizeof err))) fail_msg("%s", err);
     size_t total = 0;
     bool key;
-    for (int t = 0; t < 20; t++) total += t ? enc(e, &r, t, false, &key) : (enc(e, &r, t, false, &key), 0);
+    for (int t = 0; t < 20; t++) total += t ? enc(&r, t, false, &key) : (enc(&r, t, false, &key), 0);
     double per_frame = 2000e3 / 8 / p.fps;
     printf("# %s CBR 2000 kb/s: %.0f bytes a frame after the first (budget %.0f)\n", drv_codec_name(c), total / 19.0,
            per_frame);
     assert_true(total / 19.0 < 2.0 * per_frame);
-    drv_video_enc_destroy(e);
     rig_free(&r);
     assert_false(drv_video_can_encode(DRV_CODEC_JPEG));
     assert_false(drv_video_can_decode(DRV_CODEC_RAW));
@@ -403,28 +387,22 @@ static void test_no_overrun(void **state)
     for (size_t i = 0; i < sizeof widths / sizeof widths[0]; i++) {
         int w = widths[i];
         rig r;
-        rig_init(&r, w, H);
-        char err[256] = "";
         drv_video_params p = params(c, w, H);
-        drv_video_enc *e = drv_video_enc_create(&p, err, sizeof err);
-        drv_video_dec *d = drv_video_dec_create(c, w, H, NULL, err, sizeof err);
-        assert_non_null(e);
-        assert_non_null(d);
+        rig_open(&r, &p, w, H, NULL);
+        char err[256] = "";
         bool key;
-        size_t n = enc(e, &r, 0, false, &key);
+        size_t n = enc(&r, 0, false, &key);
         size_t img = (size_t)w * 4 * H;
         uint8_t *tight = malloc(img + CANARY);
         assert_non_null(tight);
         memset(tight, 0, img);
         memset(tight + img, 0xA5, CANARY);
-        if (drv_video_decode(d, r.au, n, tight, (size_t)w * 4, err, sizeof err) != DRV_FRAME_OK) fail_msg("%s", err);
+        if (drv_video_decode(r.d, r.au, n, tight, (size_t)w * 4, err, sizeof err) != DRV_FRAME_OK) fail_msg("%s", err);
         for (size_t k = 0; k < CANARY; k++)
             if (tight[img + k] != 0xA5) fail_msg("width %d: byte %zu past the image written", w, k);
         for (size_t k = 3; k < img; k += 4)
             if (tight[k] != 255) fail_msg("width %d: alpha %u at pixel %zu", w, tight[k], k / 4);
         free(tight);
-        drv_video_dec_destroy(d);
-        drv_video_enc_destroy(e);
         rig_free(&r);
     }
 }

@@ -17,6 +17,7 @@
 
 #include "runtime/rt_config.h"
 #include "warp/warp_head.h"
+#include "tests/support/test_util.h"
 
 static bool has_error(const rt_config_errors *e, const char *needle)
 {
@@ -324,12 +325,10 @@ static void test_frame_and_memory_limits(void **state)
     }
 }
 
-static char tmpdir[64];
-
 static const char *write_tmp(const char *name, const void *data, size_t len)
 {
     static char path[128];
-    snprintf(path, sizeof path, "%s/%s", tmpdir, name);
+    snprintf(path, sizeof path, "%s/%s", test_tmp(), name);
     FILE *f = fopen(path, "wb");
     assert_non_null(f);
     assert_int_equal(fwrite(data, 1, len, f), len);
@@ -347,7 +346,7 @@ static void test_paths_that_are_no_board_ini(void **state)
     } cases[] = {
         {"/dev/zero", "/dev/zero: not a regular file"},
         {"/dev/null", "/dev/null: not a regular file"},
-        {tmpdir, "a directory"},
+        {test_tmp(), "a directory"},
         {"/nonexistent/board.ini", "cannot open config file"},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
@@ -360,7 +359,7 @@ static void test_paths_that_are_no_board_ini(void **state)
     }
     /* a FIFO: no writer, and the open must not wait for one */
     char fifo[128];
-    snprintf(fifo, sizeof fifo, "%s/fifo", tmpdir);
+    snprintf(fifo, sizeof fifo, "%s/fifo", test_tmp());
     assert_int_equal(mkfifo(fifo, 0600), 0);
     rt_config c;
     rt_config_defaults(&c);
@@ -388,21 +387,6 @@ static void test_paths_that_are_no_board_ini(void **state)
     assert_non_null(strstr(e4.msg[0], "nul.ini:2: a NUL byte"));
 }
 
-static int setup_tmp(void **state)
-{
-    (void)state;
-    snprintf(tmpdir, sizeof tmpdir, "/tmp/hmdwarp-test-config.XXXXXX");
-    return mkdtemp(tmpdir) ? 0 : -1;
-}
-
-static int teardown_tmp(void **state)
-{
-    (void)state;
-    char cmd[128];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", tmpdir);
-    return system(cmd) == 0 ? 0 : -1;
-}
-
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -413,5 +397,5 @@ int main(void)
         cmocka_unit_test(test_unclosed_section_one_error), cmocka_unit_test(test_cross_key_errors_name_origins),
         cmocka_unit_test(test_frame_and_memory_limits), cmocka_unit_test(test_paths_that_are_no_board_ini),
     };
-    return cmocka_run_group_tests(tests, setup_tmp, teardown_tmp);
+    return cmocka_run_group_tests(tests, test_tmp_setup, test_tmp_teardown);
 }

@@ -23,13 +23,14 @@
 #include "platform/plat_clock.h"
 #include "warp/warp_head.h"
 #include "tests/support/test_host_link.h"
+#include "tests/support/test_util.h"
 
 #define W 32
 #define H 24
 #define PLANES (DRV_PLANE_COLOR | DRV_PLANE_DEPTH)
 #define WAIT_S 10 /* the longest any step may take on a loaded machine: a hang guard, never a measurement */
 
-static char dir[48], path[100];
+static char path[100];
 
 static bool predict(void *ctx, int64_t t_ns, warp_pose *head)
 {
@@ -410,16 +411,16 @@ static void test_socket_path(void **state)
     unlink(path);
     /* longer than a socket address holds */
     char longp[200];
-    snprintf(longp, sizeof longp, "%s/%0120d", dir, 7);
+    snprintf(longp, sizeof longp, "%s/%0120d", test_tmp(), 7);
     assert_null(drv_frames_socket_create(&p, longp, err, sizeof err));
     assert_non_null(strstr(err, "at most 107"));
     /* a missing parent is made (as /run/hmdwarp), a missing grandparent is not */
     char sub[160];
-    snprintf(sub, sizeof sub, "%s/run/frames.sock", dir);
+    snprintf(sub, sizeof sub, "%s/run/frames.sock", test_tmp());
     drv_frames *fr = drv_frames_socket_create(&p, sub, err, sizeof err);
     assert_non_null(fr);
     drv_frames_destroy(fr);
-    snprintf(sub, sizeof sub, "%s/no/such/frames.sock", dir);
+    snprintf(sub, sizeof sub, "%s/no/such/frames.sock", test_tmp());
     assert_null(drv_frames_socket_create(&p, sub, err, sizeof err));
     assert_non_null(strstr(err, "cannot make the directory"));
     /* cameras that do not match the eyes are refused before anything listens */
@@ -431,19 +432,9 @@ static void test_socket_path(void **state)
 
 static int setup(void **state)
 {
-    (void)state;
-    snprintf(dir, sizeof dir, "/tmp/test_frames_socket_XXXXXX");
-    if (!mkdtemp(dir)) return -1;
-    snprintf(path, sizeof path, "%s/frames.sock", dir);
+    if (test_tmp_setup(state)) return -1;
+    snprintf(path, sizeof path, "%s/frames.sock", test_tmp());
     return 0;
-}
-
-static int teardown(void **state)
-{
-    (void)state;
-    char cmd[200];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
-    return system(cmd) == 0 ? 0 : -1;
 }
 
 int main(void)
@@ -454,5 +445,5 @@ int main(void)
         cmocka_unit_test(test_second_host_refused),
         cmocka_unit_test(test_socket_path),
     };
-    return cmocka_run_group_tests(tests, setup, teardown);
+    return cmocka_run_group_tests(tests, setup, test_tmp_teardown);
 }

@@ -17,6 +17,7 @@
 #include "drivers/drv_framelink.h"
 #include "platform/plat_clock.h"
 #include "warp/warp_head.h"
+#include "tests/support/test_util.h"
 
 #define EYE_W 64
 #define EYE_H 48
@@ -263,12 +264,12 @@ static void test_missing_ffs(void **state)
     assert_non_null(strstr(err, "No such file"));
     assert_non_null(strstr(err, "gadget.sh"));
     /* A directory that is not a FunctionFS mount. */
-    char dir[] = "/tmp/test_frames_usb_XXXXXX";
-    assert_non_null(mkdtemp(dir));
+    char dir[48];
+    assert_true(test_tmpdir_make(dir, sizeof dir, "test_frames_usb"));
     snprintf(r.p.ffs_dir, sizeof r.p.ffs_dir, "%s", dir);
     assert_null(drv_frames_usb_create(&r.p, err, sizeof err));
     assert_non_null(strstr(err, "ep0"));
-    rmdir(dir);
+    assert_true(test_tmpdir_remove(dir));
     /* The mock refuses a host whose cameras do not match the board's eyes. */
     r.host.cam[1].width = EYE_W * 2;
     assert_null(drv_frames_usb_create_mock(&r.host, &r.p, &r.mp, err, sizeof err));

@@ -131,8 +131,7 @@ static void board_listen(board *b)
 static int setup(void **state)
 {
     board *b = calloc(1, sizeof *b);
-    snprintf(b->dir, sizeof b->dir, "/tmp/test_host.XXXXXX");
-    assert_non_null(mkdtemp(b->dir));
+    assert_true(test_tmpdir_make(b->dir, sizeof b->dir, "test_host"));
     snprintf(b->path, sizeof b->path, "%s/frames.sock", b->dir);
     board_listen(b);
     b->cams = (drv_framelink_cams){.seq = 1, .planes = 0x1f, .depth_encoding = WARP_DEPTH_REVERSED,
@@ -156,8 +155,7 @@ static int teardown(void **state)
     hmdwarp_host_close(b->h);
     if (b->fd >= 0) close(b->fd);
     close(b->listen_fd);
-    unlink(b->path);
-    rmdir(b->dir);
+    test_tmpdir_remove(b->dir);
     free(b);
     return 0;
 }

@@ -18,6 +18,7 @@
 #include "drivers/drv_link_throttle.h"
 #include "drivers/drv_token_bucket.h"
 #include "drivers/drv_usb_speed.h"
+#include "tests/support/test_util.h"
 
 #define NS 1000000000LL
 
@@ -174,8 +175,8 @@ static void put(const char *root, const char *rel, const char *text)
 static void test_udc_walk(void **state)
 {
     (void)state;
-    char root[] = "/tmp/test_link_budget.XXXXXX";
-    assert_non_null(mkdtemp(root));
+    char root[48];
+    assert_true(test_tmpdir_make(root, sizeof root, "test_link_budget"));
     char udc[64];
     /* no mountinfo, no UDC: nothing */
     assert_false(drv_usb_udc_of(root, "/dev/ffs-hmdwarp", udc, sizeof udc));
@@ -206,9 +207,7 @@ static void test_udc_walk(void **state)
     /* a directory that is no FunctionFS mount: the fallback again */
     assert_true(drv_usb_udc_of(root, "/dev/ffs-none", udc, sizeof udc));
     assert_string_equal(udc, "a_udc.0");
-    char cmd[600];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", root);
-    assert_int_equal(system(cmd), 0);
+    assert_true(test_tmpdir_remove(root));
 }
 
 /* ---- the budget ---- */

@@ -87,9 +87,10 @@ static int setup(void **state)
     s->has_imu_stats = s->has_vsync_stats = s->kms = s->has_link_stats = true;
     s->link = (drv_frames_usb_stats){.connected = true, .connections = 2, .refused = 1, .disconnects = 1,
                                      .poses_sent = 500, .poses_dropped = 3, .usb_speed = "super-speed",
-                                     .compressed_frames = 40, .codec_errors = 2, .key_requests = 1,
-                                     .wire_bytes = 1125000, .plane_bytes = 9000000,
-                                     .codecs = 0x7, .video_decoder = "software"};
+                                     .codecs = 0x7,
+                                     .dec = {.compressed_frames = 40, .codec_errors = 2, .key_requests = 1,
+                                             .wire_bytes = 1125000, .plane_bytes = 9000000,
+                                             .video_decoder = "software"}};
     s->imu = (drv_imu_stats){100, 2, 1, 1, true, "bad report"};
     s->vsync = (drv_vsync_stats){180, 1, 2, 1, false, 11111111, 12.5, ""};
     s->kms_stats = (plat_kms_stats){.flips = 180, .failed = 1, .late = 2, .vblanks = 181, .api = "atomic",
