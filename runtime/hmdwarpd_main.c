@@ -167,6 +167,9 @@ int main(int argc, char **argv)
         char link[600];
         bool fits = rt_link_budget_line(&cfg, link, sizeof link);
         if (link[0]) printf("; %s%s\n", fits ? "" : "warning: ", link);
+        char fov[400];
+        rt_config_fov_line(&cfg, fov, sizeof fov);
+        printf("; %s\n", fov);
         rt_config_print(&cfg, stdout);
         return 0;
     }
@@ -188,6 +191,9 @@ int main(int argc, char **argv)
     printf("hmdwarpd: board '%s', scene '%s', trace '%s', method %s, %s\n", cfg.board_name, cfg.scene, cfg.trace,
            rt_method_name(cfg.method),
            cfg.duration_s > 0 ? "running" : "running until Ctrl-C");
+    char fov[400];
+    rt_config_fov_line(&cfg, fov, sizeof fov);
+    printf("hmdwarpd: %s\n", fov);
     char link[600]; /* after the devices opened: a USB gadget's UDC is known */
     if (!rt_link_budget_line(&cfg, link, sizeof link)) plat_log(PLAT_LOG_WARNING, "%s", link);
     else if (link[0]) printf("hmdwarpd: %s\n", link);
