@@ -289,8 +289,9 @@ static val value(const rt_summary_src *s, int r, int i)
     case R_M2P_P99: v.f = rt_hist_pct(&t->m2p_ms, 99); break;
     case R_AGE_P50: v.f = rt_hist_pct(&t->frame_age_ms, 50); break;
     case R_AGE_MAX: v.f = rt_hist_pct(&t->frame_age_ms, 100); break;
-    case R_OUTSIDE_P50: v.f = t->outside_pct.count ? rt_hist_pct(&t->outside_pct, 50) : 0; break;
-    case R_OUTSIDE_P99: v.f = t->outside_pct.count ? rt_hist_pct(&t->outside_pct, 99) : 0; break;
+    /* the lower edge of the percentile's 0.01 % bin, so that frames with nothing outside read 0 */
+    case R_OUTSIDE_P50: v.f = t->outside_pct.count ? fmax(0, rt_hist_pct(&t->outside_pct, 50) - 0.005) : 0; break;
+    case R_OUTSIDE_P99: v.f = t->outside_pct.count ? fmax(0, rt_hist_pct(&t->outside_pct, 99) - 0.005) : 0; break;
     case R_OUTSIDE_PX: v.u = t->outside_px; break;
     case R_VISIBLE_PX: v.u = t->visible_px; break;
     case R_SELECT: v.u = t->select_why[i]; break;
