@@ -18,8 +18,8 @@
 
 /* Largest mask line loop a board announces per eye (docs/framelink.md, Visibility mask message). */
 #define WARP_FOV_MASK_MAX 64
-/* Vertices of the line loop hmdwarpd announces: 1/cos(pi/32) = 1.0048 outward scaling covers the chords. */
-#define WARP_FOV_MASK_VERTICES 32
+/* Vertices of the line loop hmdwarpd announces (a 408-byte message): 1/cos(pi/24) = 1.0086 outward covers the chords. */
+#define WARP_FOV_MASK_VERTICES 24
 
 /* The visible radius in the lens's normalised units: radius_cfg when finite and > 0, else (NAN: auto) the distance
  * from the lens centre to the nearest viewport edge (the largest disc the eye's half of the panel holds); never
