@@ -212,13 +212,13 @@ static void test_fast_trace_guard(void **state)
     rt_config c;
     load_board(&c, "board/sim/board.ini");
     double p99, share = fast_trace_share(&c, &p99);
-    if (getenv("TEST_FOV_VERBOSE")) printf("# guard %.2f deg: %.3f %% over the run, p99 %.2f %%\n",
+    if ((getenv("TEST_FOV_VERBOSE") || getenv("TEST_FOV_SWEEP"))) printf("# guard %.2f deg: %.3f %% over the run, p99 %.2f %%\n",
                                           rt_config_guard_deg(&c), 100 * share, 100 * p99);
     assert_true(share < 0.01);
     rt_config_errors err = {0};
     assert_true(rt_config_set(&c, "eye.guard_deg=0", &err));
     double p99_0, share0 = fast_trace_share(&c, &p99_0);
-    if (getenv("TEST_FOV_VERBOSE")) printf("# guard 0: %.3f %% over the run, p99 %.2f %%\n", 100 * share0, 100 * p99_0);
+    if ((getenv("TEST_FOV_VERBOSE") || getenv("TEST_FOV_SWEEP"))) printf("# guard 0: %.3f %% over the run, p99 %.2f %%\n", 100 * share0, 100 * p99_0);
     assert_true(share0 > share);
     for (int g = 1; getenv("TEST_FOV_SWEEP") && g <= 8; g++) {
         char set[64];
