@@ -354,7 +354,7 @@ PANEL_W, PANEL_H = 2 * EYE_W, EYE_H
 IDENTITY_BOARD = ("eye.width=%d" % EYE_W, "eye.height=%d" % EYE_H, "eye.fov=45 45 36.869898 36.869898",
                   "display.width=%d" % PANEL_W, "display.height=%d" % PANEL_H, "lens.k_red=1 0 0 0",
                   "lens.k_green=1 0 0 0", "lens.k_blue=1 0 0 0", "lens.scale=%d" % (EYE_W // 2),
-                  "lens.center=%d %d" % (EYE_W // 2, EYE_H // 2))
+                  "lens.center=%d %d" % (EYE_W // 2, EYE_H // 2), "lens.visible_radius=100")  # every pixel shown
 
 
 def kv(path):
