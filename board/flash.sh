@@ -11,6 +11,8 @@ BOARD=
 DRY=0
 HERE=$(cd "$(dirname "$0")" && pwd)
 CONF=etc/hmdwarp/board.ini
+# The unit's calibration (hmdwarpd --calibrate-imu, lens fits): state, not configuration; never written or deleted.
+CALIB=var/lib/hmdwarp/calibration.ini
 
 usage() {
     cat <<'USAGE'
@@ -27,7 +29,8 @@ The tree must hold hmdwarpd, its systemd unit, udev rules, sysusers entry and /e
 programs must be built for the board (the root's own programs, `uname -m` over ssh, or board.ini's [board] arch
 say which architecture that is). Everything is unpacked with GNU tar keeping the board's directory symlinks
 (merged /usr: /lib -> usr/lib); a board.ini already on the board is kept and the tree's one goes beside it as
-board.ini.dist. The service is enabled (multi-user.target) and, over ssh, reloaded and started.
+board.ini.dist. The board's calibration (/var/lib/hmdwarp/calibration.ini) is never written or deleted, even if
+the tree holds one. The service is enabled (multi-user.target) and, over ssh, reloaded and started.
 USAGE
 }
 
@@ -161,13 +164,22 @@ if [ -e "$TREE/$CONF" ]; then
     fi
     board_name=${board_name:-$name}
 fi
-# The configuration must load: check it with a hmdwarpd that runs here (the tree's own, or this checkout's).
-checker=
+# The configuration must load: check it with a hmdwarpd that runs here: the tree's own (natively, or under
+# Debian's qemu-user-static when it was built for another machine, as a cross build's is), else this checkout's.
+checker='' runner=''
 if [ -n "$bin" ] && "$bin" --help >/dev/null 2>&1; then checker=$bin
+elif [ -n "$bin" ] && [ -n "${tree_arch:-}" ] && command -v "qemu-$tree_arch-static" >/dev/null 2>&1 \
+        && "qemu-$tree_arch-static" "$bin" --help >/dev/null 2>&1; then
+    checker=$bin runner=qemu-$tree_arch-static
+    echo "info    board.ini checked by the tree's hmdwarpd under qemu-$tree_arch-static"
 elif [ -x build/hmdwarpd ]; then checker=build/hmdwarpd
 fi
+if [ -z "$checker" ] && [ -e "$TREE/$CONF" ]; then
+    echo "info    board.ini not checked: no hmdwarpd runs here (the tree's is for ${tree_arch:-another machine}; install qemu-user-static, or make)"
+fi
 if [ -n "$checker" ] && [ -e "$TREE/$CONF" ]; then
-    if "$checker" --check-config --config "$TREE/$CONF" >/dev/null 2>"${TMPDIR:-/tmp}/flash-check.$$"; then
+    # shellcheck disable=SC2086
+    if $runner "$checker" --check-config --config "$TREE/$CONF" >/dev/null 2>"${TMPDIR:-/tmp}/flash-check.$$"; then
         echo "ok      board.ini validates"
     else
         echo "INVALID board.ini:"; sed 's/^/          /' "${TMPDIR:-/tmp}/flash-check.$$"
@@ -235,9 +247,11 @@ fi
 # GNU tar, not cp -a: --keep-directory-symlink follows the board's directory symlinks (merged /usr) instead of
 # replacing them, --no-overwrite-dir leaves existing directories' owners and modes alone, and the files become
 # root's, not the build user's. A board.ini already there is kept; the tree's is renamed board.ini.dist on the way.
-TAR_X="--keep-directory-symlink --no-overwrite-dir"
+TAR_X="--keep-directory-symlink --no-overwrite-dir --exclude=./$CALIB"
 TO_DIST="--transform=s,^[.]/etc/hmdwarp/board[.]ini\$,./$CONF.dist,"
 KEPT="kept the board's /$CONF; the tree's one is beside it as /$CONF.dist"
+KEPT_CALIB="kept the board's calibration /$CALIB (flashing never writes it)"
+[ ! -e "$TREE/$CALIB" ] || echo "info    the tree holds /$CALIB: not installed (a unit's calibration is its own)"
 wants=etc/systemd/system/multi-user.target.wants
 if [ -z "$SSH" ]; then
     dest=${ROOT:-/ROOT}
@@ -266,6 +280,9 @@ if [ -z "$SSH" ]; then
         if [ "$DRY" -eq 1 ]; then echo "would keep $dest/$CONF (the tree's one beside it as board.ini.dist)"
         else echo "flash.sh: $KEPT"; fi
     fi
+    if [ -e "$dest/$CALIB" ]; then
+        if [ "$DRY" -eq 1 ]; then echo "would keep $dest/$CALIB"; else echo "flash.sh: $KEPT_CALIB"; fi
+    fi
     run mkdir -p "$dest/$wants"
     run ln -sf "/$unit" "$dest/$wants/hmdwarpd.service"
     if [ "$DRY" -eq 1 ]; then
@@ -277,7 +294,8 @@ if [ -z "$SSH" ]; then
 else
     # One remote command decides about board.ini on the board itself (reading /etc/hmdwarp needs no root).
     remote="if [ -e /$CONF ]; then sudo tar -C / $TAR_X '$TO_DIST' -xzf - && echo \"flash.sh: $KEPT\";"
-    remote="$remote else sudo tar -C / $TAR_X -xzf -; fi"
+    remote="$remote else sudo tar -C / $TAR_X -xzf -; fi &&"
+    remote="$remote { [ ! -e /$CALIB ] || echo \"flash.sh: $KEPT_CALIB\"; }"   # (tar's failure still fails it)
     if [ "$DRY" -eq 1 ]; then
         echo "would run: tar -C $TREE --owner=0 --group=0 -cz . | ssh $SSH \"$remote\""
     else

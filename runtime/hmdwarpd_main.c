@@ -12,6 +12,7 @@
 #include "platform/plat_log.h"
 #include "platform/plat_version.h"
 #include "runtime/rt_app.h"
+#include "runtime/rt_calib.h"
 #include "runtime/rt_link_budget.h"
 #include "runtime/rt_config.h"
 #include "sim/sim_scene.h"
@@ -46,6 +47,11 @@ static void usage(FILE *out)
             "\n"
             "options:\n"
             "  --config FILE       board configuration (default: board/sim/board.ini if present)\n"
+            "  --calibration FILE  the calibration file read after the configuration (shorthand for --set\n"
+            "                      board.calibration=FILE; default " RT_CONFIG_CALIBRATION_DEFAULT ")\n"
+            "  --calibrate-imu     measure the IMU at rest (gyro bias, gravity, tilt), write [imu] gyro_bias and\n"
+            "                      gravity into the calibration file, and exit (refused if the headset moved)\n"
+            "  --seconds S         how long --calibrate-imu measures (default 5)\n"
             "  --set SEC.KEY=VAL   override one configuration key (repeatable), e.g. --set warp.method=raytrace\n"
             "  --duration S        shorthand for --set sim.duration_s=S (0 = run until Ctrl-C)\n"
             "  --scene NAME        shorthand for --set sim.scene=NAME\n"
@@ -92,7 +98,8 @@ int main(int argc, char **argv)
     rt_config_defaults(&cfg);
     rt_config_errors err = {0};
     const char *config = NULL;
-    bool check = false;
+    bool check = false, calibrate = false;
+    double calib_seconds = 5;
 
     /* Load the config file first so that command-line overrides apply on top of it, whatever their order. */
     for (int i = 1; i < argc; i++)
@@ -105,6 +112,20 @@ int main(int argc, char **argv)
         }
     }
     if (config) rt_config_load(&cfg, config, &err);
+    /* The calibration file comes after board.ini (it wins) and before the command line's --set (which wins over
+     * both), so which file it is must be known before the overrides are applied: the last one named. */
+    for (int i = 1; i < argc; i++) {
+        if (strcmp(argv[i], "--calibrate-imu") == 0)
+            calibrate = true; /* it creates the file: a named one need not exist yet */
+        else if (i + 1 == argc)
+            break;
+        else if (strcmp(argv[i], "--calibration") == 0)
+            snprintf(cfg.calibration, sizeof cfg.calibration, "%s", argv[++i]);
+        else if (strcmp(argv[i], "--set") == 0 && strncmp(argv[++i], "board.calibration=", 18) == 0)
+            snprintf(cfg.calibration, sizeof cfg.calibration, "%s", argv[i] + 18);
+    }
+    char calib_what[400] = "";
+    if (!err.count) rt_calib_load(&cfg, calibrate, &err, calib_what, sizeof calib_what);
 
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
@@ -124,6 +145,19 @@ int main(int argc, char **argv)
         } else if (strcmp(a, "--check-config") == 0) {
             check = true;
         } else if (strcmp(a, "--config") == 0 && v) {
+            i++;
+        } else if (strcmp(a, "--calibration") == 0 && v) {
+            shorthand(&cfg, "board.calibration", v, &err);
+            i++;
+        } else if (strcmp(a, "--calibrate-imu") == 0) {
+            calibrate = true;
+        } else if (strcmp(a, "--seconds") == 0 && v) {
+            char *end;
+            calib_seconds = strtod(v, &end);
+            if (end == v || *end || !(calib_seconds >= 0.5 && calib_seconds <= 600)) {
+                plat_log(PLAT_LOG_ERR, "--seconds '%s': expected a number of seconds from 0.5 to 600", v);
+                return 2;
+            }
             i++;
         } else if (strcmp(a, "--set") == 0 && v) {
             rt_config_set(&cfg, v, &err);
@@ -160,8 +194,10 @@ int main(int argc, char **argv)
     rt_config_errors warn = {0};
     rt_config_warnings(&cfg, &warn);
     for (int i = 0; i < warn.count && i < 16; i++) plat_log(PLAT_LOG_WARNING, "warning: %s", warn.msg[i]);
+    if (calibrate) return rt_calib_imu_run(&cfg, calib_seconds, stdout);
     if (check) {
         printf("; %s: valid\n", config ? config : "built-in defaults");
+        printf("; calibration: %s\n", calib_what);
         printf("; allocates about %.0f MiB at start ([render] max_memory_mb = %g)\n",
                (double)rt_config_memory_bytes(&cfg) / (1024.0 * 1024.0), cfg.max_memory_mb);
         char link[600];
@@ -194,6 +230,14 @@ int main(int argc, char **argv)
     char fov[400];
     rt_config_fov_line(&cfg, fov, sizeof fov);
     printf("hmdwarpd: %s\n", fov);
+    printf("hmdwarpd: calibration %s\n", calib_what);
+    if (strcmp(cfg.calibration, RT_CONFIG_CALIBRATION_DEFAULT) == 0) {
+        /* a board's first start: leave a file to find where calibration goes (nothing in it changes a key) */
+        char cerr[300];
+        int made = rt_calib_create_empty(cfg.calibration, cerr, sizeof cerr);
+        if (made > 0) printf("hmdwarpd: created %s for this unit's calibration (empty)\n", cfg.calibration);
+        if (made < 0) plat_log(PLAT_LOG_WARNING, "%s", cerr);
+    }
     char link[600]; /* after the devices opened: a USB gadget's UDC is known */
     if (!rt_link_budget_line(&cfg, link, sizeof link)) plat_log(PLAT_LOG_WARNING, "%s", link);
     else if (link[0]) printf("hmdwarpd: %s\n", link);

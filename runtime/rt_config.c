@@ -20,6 +20,7 @@
 #include "warp/warp_err.h"
 #include "warp/warp_fov.h"
 #include "drivers/drv_v4l2_inband.h"
+#include "runtime/rt_calib.h"
 #include "warp/warp_head.h"
 #include "warp/warp_registry.h"
 
@@ -74,6 +75,10 @@ static const keydef keys[] = {
     {"board", "name", K_STR, F(board_name), S(board_name), 0, 0, NULL, "board name shown in the summary"},
     {"board", "arch", K_CHOICE, F(board_arch), S(board_arch), 0, 0, arch_names,
      "the board's CPU architecture (any, aarch64, x86_64, arm): board/flash.sh refuses a tree built for another"},
+    {"board", "calibration", K_STR, F(calibration), S(calibration), 0, 0, NULL,
+     "calibration file read after board.ini ([lens] and [imu] mount, axes, gyro_bias, accel_bias, gravity; "
+     "--set still overrides it; hmdwarpd --calibrate-imu writes it); empty = none. A missing default file is "
+     "fine, a missing named one an error (--calibration PATH names one)"},
     {"display", "width", K_INT, F(panel_w), 0, 16, WARP_MAX_SIDE, NULL,
      "panel width in pixels (both eyes side by side)"},
     {"display", "height", K_INT, F(panel_h), 0, 16, WARP_MAX_SIDE, NULL, "panel height in pixels"},
@@ -156,7 +161,20 @@ static const keydef keys[] = {
     {"imu", "gyro_dps", K_INT, F(imu_gyro_dps), 0, 125, 4000, NULL, "i2c: gyro full scale, degrees/s"},
     {"imu", "accel_g", K_INT, F(imu_accel_g), 0, 2, 32, NULL, "i2c: accelerometer full scale, g"},
     {"imu", "axes", K_STR, F(imu_axes), S(imu_axes), 0, 0, NULL,
-     "mounting: the head's x y z axes as signed IMU axes, e.g. '-y +x +z' (head x = IMU -y)"},
+     "mounting: the head's x y z axes as signed IMU axes, e.g. '-y +x +z' (head x = IMU -y); [imu] mount "
+     "takes any rotation"},
+    {"imu", "mount", K_STR, F(imu_mount), S(imu_mount), 0, 0, NULL,
+     "mounting as any rotation (empty = [imu] axes; set, it wins over axes): signed axes '-y +x +z', "
+     "'quat W X Y Z' (the IMU's orientation in the head frame) or 'rpy ROLL PITCH YAW' (degrees, as mounted on the "
+     "visor: yaw about head +y, then pitch about the turned x, then roll about the turned z); calibration"},
+    {"imu", "gyro_bias", K_DLIST, F(imu_gyro_bias), 3, -1, 1, NULL,
+     "gyro bias x y z in the IMU's own axes, rad/s, subtracted before fusion (hmdwarpd --calibrate-imu "
+     "measures it); calibration"},
+    {"imu", "accel_bias", K_DLIST, F(imu_accel_bias), 3, -5, 5, NULL,
+     "accelerometer bias x y z in the IMU's own axes, m/s^2, subtracted before fusion; calibration"},
+    {"imu", "gravity", K_DOUBLE, F(imu_gravity), 0, 5, 15, NULL,
+     "what the accelerometer reads at rest (m/s^2, after accel_bias): samples are scaled by 9.81 / gravity "
+     "(hmdwarpd --calibrate-imu measures it); calibration"},
     {"imu", "rate_hz", K_DOUBLE, F(imu_rate_hz), 0, 10, 10000, NULL, "IMU sample rate"},
     {"frames", "backend", K_CHOICE, F(frames_backend), S(frames_backend), 0, 0, frames_names,
      "host frame source: sim (simulated host), usb (FunctionFS gadget), v4l2 (HDMI/CSI capture) or socket (a "
@@ -279,6 +297,8 @@ void rt_config_defaults(rt_config *c)
     c->imu_gyro_dps = 2000;
     c->imu_accel_g = 16;
     snprintf(c->imu_axes, sizeof c->imu_axes, "+x +y +z");
+    snprintf(c->calibration, sizeof c->calibration, "%s", RT_CONFIG_CALIBRATION_DEFAULT);
+    c->imu_gravity = 9.81;
     snprintf(c->v4l2_format, sizeof c->v4l2_format, "auto");
     c->max_frame_mb = 64;
     c->pose_rate_hz = 500;
@@ -481,7 +501,20 @@ typedef struct {
     bool after_key;     /* the last line inih parsed was a key: an indented line continues its value */
     bool bad_section;   /* inside an unclosed '[section': its keys would land in the section before it */
     bool ok;
+    bool calib;         /* a calibration file: only calibration keys, origins from RT_CONFIG_ORIGIN_CALIB */
 } parse_ctx;
+
+/* What a calibration file may hold: every [lens] key (whatever the lens models add) and these of [imu]. */
+static const char *const calib_imu_keys[] = {"mount", "axes", "gyro_bias", "accel_bias", "gravity", NULL};
+
+static bool is_calibration_key(const char *section, const char *key)
+{
+    if (strcmp(section, "lens") == 0) return true;
+    if (strcmp(section, "imu") != 0) return false;
+    for (int i = 0; calib_imu_keys[i]; i++)
+        if (strcmp(calib_imu_keys[i], key) == 0) return true;
+    return false;
+}
 
 /* inih's scan for a delimiter that stops at an inline comment (';' after whitespace). */
 static const char *find_chars_or_comment(const char *s, const char *chars)
@@ -560,14 +593,25 @@ static int handler(void *user, const char *section, const char *name, const char
     if (p->bad_section) return 1; /* reported once, at the unclosed header */
     char where[300];
     snprintf(where, sizeof where, "%s:%d", p->name, p->line);
-    if (!set_key(p->c, section, name, value, where, p->line, p->err)) p->ok = false;
+    if (p->calib && !is_calibration_key(section, name)) {
+        /* board.ini's business: a calibration file that could set it would hide what the board runs */
+        add_error(p->err, "%s: [%s] %s: not a calibration key (a calibration file holds [lens] and [imu] mount, "
+                          "axes, gyro_bias, accel_bias, gravity; the rest belongs in board.ini)", where, section, name);
+        p->ok = false;
+        return 1;
+    }
+    if (!set_key(p->c, section, name, value, where, p->calib ? RT_CONFIG_ORIGIN_CALIB + p->line : p->line, p->err))
+        p->ok = false;
     return 1; /* keep going: report every problem of the file at once */
 }
 
-static bool parse(rt_config *c, const char *text, const char *name, rt_config_errors *err)
+static bool parse(rt_config *c, const char *text, const char *name, bool calib, rt_config_errors *err)
 {
-    parse_ctx p = {c, err, name, text, 0, false, false, true};
-    snprintf(c->origin_file, sizeof c->origin_file, "%s", name);
+    parse_ctx p = {c, err, name, text, 0, false, false, true, calib};
+    if (calib)
+        snprintf(c->calib_file, sizeof c->calib_file, "%s", name);
+    else
+        snprintf(c->origin_file, sizeof c->origin_file, "%s", name);
     int r = ini_parse_stream(reader, &p, handler, &p);
     if (r > 0) { /* a case check_line does not know: still reported, with inih's line number */
         add_error(err, "%s:%d: syntax error (expected '[section]' or 'key = value')", name, r);
@@ -579,7 +623,7 @@ static bool parse(rt_config *c, const char *text, const char *name, rt_config_er
     return p.ok;
 }
 
-bool rt_config_load(rt_config *c, const char *path, rt_config_errors *err)
+static bool load_file(rt_config *c, const char *path, bool calib, rt_config_errors *err)
 {
     /* O_NONBLOCK: a FIFO given as the config must not hang the open; nothing but a regular file is read. */
     int fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
@@ -639,14 +683,21 @@ bool rt_config_load(rt_config *c, const char *path, rt_config_errors *err)
         free(text);
         return false;
     }
-    bool ok = parse(c, text, path, err);
+    bool ok = parse(c, text, path, calib, err);
     free(text);
     return ok;
 }
 
+bool rt_config_load(rt_config *c, const char *path, rt_config_errors *err) { return load_file(c, path, false, err); }
+
+bool rt_config_load_calibration(rt_config *c, const char *path, rt_config_errors *err)
+{
+    return load_file(c, path, true, err);
+}
+
 bool rt_config_load_string(rt_config *c, const char *text, const char *name, rt_config_errors *err)
 {
-    return parse(c, text, name, err);
+    return parse(c, text, name, false, err);
 }
 
 bool rt_config_set(rt_config *c, const char *assignment, rt_config_errors *err)
@@ -816,6 +867,9 @@ static const char *keys_at(const rt_config *c, const char *list, char *buf, size
         char one[300];
         if (idx < 0)
             snprintf(one, sizeof one, "%.*s", (int)n, list); /* a typo in this file; shows in the message */
+        else if (c->origin[idx] > RT_CONFIG_ORIGIN_CALIB)
+            snprintf(one, sizeof one, "[%s] %s (%s:%d)", keys[idx].section, keys[idx].key, c->calib_file,
+                     (int)(c->origin[idx] - RT_CONFIG_ORIGIN_CALIB));
         else if (c->origin[idx] > 0)
             snprintf(one, sizeof one, "[%s] %s (%s:%d)", keys[idx].section, keys[idx].key, c->origin_file,
                      (int)c->origin[idx]);
@@ -950,6 +1004,15 @@ static void check_fov(const rt_config *c, rt_config_errors *err)
     }
 }
 
+/* [imu] mount (rt_calib.h): set, it wins over [imu] axes, so a calibration file's mount beats board.ini's axes. */
+static void check_calibration(const rt_config *c, rt_config_errors *err)
+{
+    char at[600], why[200];
+    double m[3][3];
+    if (c->imu_mount[0] && !rt_calib_parse_mount(c->imu_mount, m, why, sizeof why))
+        add_error(err, "%s = '%s': %s", keys_at(c, "imu.mount", at, sizeof at), c->imu_mount, why);
+}
+
 bool rt_config_validate(const rt_config *c, rt_config_errors *err)
 {
     int before = err ? err->count : 0;
@@ -969,6 +1032,7 @@ bool rt_config_validate(const rt_config *c, rt_config_errors *err)
     if (!rt_config_parse_axes(c->imu_axes, map, sign))
         add_error(err, "%s = '%s': expected three signed axes using each of x, y, z once, e.g. '-y +x +z'",
                   keys_at(c, "imu.axes", at, sizeof at), c->imu_axes);
+    check_calibration(c, err);
     if (strcmp(c->imu_backend, "sim") != 0 && !c->imu_device[0])
         add_error(err, "[imu] device: required for backend = %s (a device path%s, or mock); %s", c->imu_backend,
                   strcmp(c->imu_backend, "hid") == 0 ? " or VVVV:PPPP" : "",

@@ -39,10 +39,16 @@ const char *rt_kernel_name(int k);
 #define RT_CONFIG_MAX_KEYS 128
 /* A board.ini is a few KB; anything this large is not one (a device node, a log file given by mistake). */
 #define RT_CONFIG_MAX_FILE_KB 256
+/* rt_config.origin of a key set by the calibration file's line L: RT_CONFIG_ORIGIN_CALIB + L (no file of
+ * RT_CONFIG_MAX_FILE_KB has this many lines). */
+#define RT_CONFIG_ORIGIN_CALIB (1 << 24)
+/* [board] calibration's default: the state directory systemd's StateDirectory=hmdwarp gives the service. */
+#define RT_CONFIG_CALIBRATION_DEFAULT "/var/lib/hmdwarp/calibration.ini"
 
 typedef struct {
     char board_name[64];
     char board_arch[16];        /* any | aarch64 | x86_64 | arm: what board/flash.sh expects of a tree's binaries */
+    char calibration[256];      /* the calibration file read after board.ini ("" = none; rt_calib.h) */
     /* [display] */
     int panel_w, panel_h;       /* whole panel; the left eye gets the left half, the right eye the right half */
     double refresh_hz;
@@ -87,6 +93,11 @@ typedef struct {
     char imu_chip[16];          /* i2c: auto | mpu6050 | mpu9250 | icm42688 */
     int imu_gyro_dps, imu_accel_g;
     char imu_axes[32];          /* mounting: head x y z as signed IMU axes, e.g. "-y +x +z" */
+    /* IMU calibration (rt_calib.h): the mounting as any rotation ("" = imu_axes), biases in the IMU's own frame */
+    char imu_mount[96];
+    double imu_gyro_bias[3];    /* rad/s, subtracted from every gyro sample */
+    double imu_accel_bias[3];   /* m/s^2, subtracted from every accelerometer sample */
+    double imu_gravity;         /* what the accelerometer reads at rest (after accel_bias): samples scaled to 9.81 */
     char frames_device[128];    /* usb: FunctionFS mount; v4l2: /dev/videoN; or mock */
     char v4l2_format[16];       /* auto | yuyv | nv12 | bgr32 | rgb24 */
     int frames_depth;           /* v4l2: a depth plane is packed beside the colour */
@@ -119,10 +130,12 @@ typedef struct {
     char csv[256];
     char stats[256];            /* key=value summary written at exit (tests, hardware-in-the-loop scenarios) */
     /* Where each key was set, so that errors about several keys can name the line of each: indexed like the key
-     * table; 0 = default, > 0 = line in origin_file, < 0 = the -Nth command-line override. */
+     * table; 0 = default, > 0 = line in origin_file (or, from RT_CONFIG_ORIGIN_CALIB up, line - that in
+     * calib_file), < 0 = the -Nth command-line override. */
     int32_t origin[RT_CONFIG_MAX_KEYS];
     int overrides;              /* command-line overrides applied so far */
     char origin_file[256];
+    char calib_file[256];       /* the calibration file read (rt_config_load_calibration), "" = none */
     char live_stats[256];       /* the same key=value set, rewritten each second while running ("" = off, auto) */
     double csv_max_mb;          /* the per-vsync CSV moves to CSV.1 at this size (0 = never) */
 } rt_config;
@@ -139,6 +152,10 @@ typedef struct {
  * reads) is recorded with its line number, in line order; returns true when there were none. A path that is not a
  * regular file, or a file over RT_CONFIG_MAX_FILE_KB, is refused before anything is parsed. */
 bool rt_config_load(rt_config *c, const char *path, rt_config_errors *err);
+/* Parses a calibration file (board.ini's syntax; rt_calib.h): only [lens] and [imu]'s calibration keys (mount,
+ * axes, gyro_bias, accel_bias, gravity) are allowed, every other one is an error naming path:line. Records path
+ * in c->calib_file; errors about its keys name it. Same refusals as rt_config_load. */
+bool rt_config_load_calibration(rt_config *c, const char *path, rt_config_errors *err);
 /* Parses INI text (tests, embedded defaults); `name` is used in messages. */
 bool rt_config_load_string(rt_config *c, const char *text, const char *name, rt_config_errors *err);
 /* Applies one "section.key=value" override from the command line. */

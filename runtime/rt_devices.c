@@ -228,24 +228,21 @@ bool rt_devices_open(rt_devices *d, const rt_config *c, const sim_trace *trace, 
 
 bool rt_devices_mount(rt_devices *d, const rt_config *c, char *err, int errlen)
 {
-    if (!rt_config_parse_axes(c->imu_axes, d->imu_map, d->imu_sign))
-        return warp_err(err, errlen, "[imu] axes = '%s': expected e.g. '-y +x +z'", c->imu_axes);
-    d->imu_remap = strcmp(c->imu_backend, "sim") != 0 &&
-                   !(d->imu_map[0] == 0 && d->imu_map[1] == 1 && d->imu_map[2] == 2 && d->imu_sign[0] > 0 &&
-                     d->imu_sign[1] > 0 && d->imu_sign[2] > 0);
+    if (!rt_calib_imu_from_config(c, strcmp(c->imu_backend, "sim") != 0, &d->imu_cal, err, errlen)) return false;
+    d->imu_remap = !d->imu_cal.identity;
     return true;
 }
 
-void rt_devices_remap(const rt_devices *d, drv_imu_sample *s)
+bool rt_devices_open_imu(rt_devices *d, const rt_config *c, const sim_trace *trace, int64_t t0_ns, char *err,
+                         int errlen)
 {
-    double g[3], ac[3];
-    for (int i = 0; i < 3; i++) {
-        g[i] = d->imu_sign[i] * s->gyro[d->imu_map[i]];
-        ac[i] = d->imu_sign[i] * s->accel[d->imu_map[i]];
-    }
-    memcpy(s->gyro, g, sizeof g);
-    memcpy(s->accel, ac, sizeof ac);
+    drv_frames_sim_params sp;
+    memset(&sp, 0, sizeof sp);
+    sp.t0_ns = t0_ns; /* all a simulated or mock IMU reads of it */
+    return open_imu(d, c, trace, &sp, err, errlen);
 }
+
+void rt_devices_remap(const rt_devices *d, drv_imu_sample *s) { rt_calib_imu_apply(&d->imu_cal, s); }
 
 void rt_devices_close(rt_devices *d)
 {

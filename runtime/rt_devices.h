@@ -14,6 +14,7 @@
 #include "drivers/drv_vsync.h"
 #include "platform/plat_display.h"
 #include "platform/plat_kms.h"
+#include "runtime/rt_calib.h"
 #include "runtime/rt_config.h"
 #include "runtime/rt_frameq.h"
 #include "runtime/rt_fusion.h"
@@ -27,9 +28,9 @@ typedef struct {
     plat_kms *kms;         /* the KMS output (owned by display on the CPU path, by egl on GLES), NULL offscreen */
     bool sim_host;         /* frames come straight from the simulated host (its render statistics are known) */
     bool has_truth;        /* the head motion and the scene are simulated: accuracy can be scored */
-    bool imu_remap;        /* [imu] axes is not the identity */
+    bool imu_remap;        /* the IMU calibration ([imu] mount, biases, gravity) changes samples */
     bool framelink;        /* frames is the framelink board side (usb, its mock, socket): decode times known */
-    int imu_map[3], imu_sign[3];
+    rt_calib_imu imu_cal;  /* raw samples into the head frame */
 } rt_devices;
 
 /* Opens the IMU, frames and vsync backends board.ini names; sp describes the simulated host (its head model and
@@ -38,14 +39,18 @@ typedef struct {
  * with a message naming the key and device in err; rt_devices_close releases what was opened. */
 bool rt_devices_open(rt_devices *d, const rt_config *c, const sim_trace *trace, const drv_frames_sim_params *sp,
                      char *err, int errlen);
-/* [imu] axes: how the IMU's axes map into the head frame (not applied for the simulated IMU, which has none). */
+/* [imu] mount (or axes), gyro_bias, accel_bias, gravity: how raw samples become the head frame's (rt_calib.h; the
+ * mounting is not applied for the simulated IMU, whose samples are the head's, its biases are). */
 bool rt_devices_mount(rt_devices *d, const rt_config *c, char *err, int errlen);
 /* Whether the configuration has the simulator play a device (a sim backend or a mock device). */
 bool rt_devices_simulated(const rt_config *c);
 /* Whether every device follows plat_clock's virtual time (HMDWARP_TIME_SLOWDOWN); *real names the first that
  * does not. */
 bool rt_devices_on_virtual_time(const rt_config *c, const char **real);
-/* Board mounting: one sample's axes into the head frame the tracker works in (when d->imu_remap). */
+/* The IMU alone (hmdwarpd --calibrate-imu): as rt_devices_open opens it, a simulated one with scene time 0 at t0_ns. */
+bool rt_devices_open_imu(rt_devices *d, const rt_config *c, const sim_trace *trace, int64_t t0_ns, char *err,
+                         int errlen);
+/* Board calibration: one sample into the head frame the tracker works in (when d->imu_remap). */
 void rt_devices_remap(const rt_devices *d, drv_imu_sample *s);
 /* What the devices' reading threads feed, and how (rt_devices_imu_thread, rt_devices_frames_thread). */
 typedef struct {

@@ -2,7 +2,7 @@
 # SPDX-License-Identifier: MIT
 # test_flash: `make install` and board/flash.sh against a fake merged-/usr board root (lib -> usr/lib, ...): the
 # root's directory symlinks survive --root and --ssh, a calibrated board.ini is kept with board.ini.dist beside it,
-# and a tree built for another architecture is refused before anything is written. TAP output for tests/run.sh.
+# the board's calibration file (/var/lib/hmdwarp/calibration.ini) is never written or deleted, and a tree built for another architecture is refused before anything is written. TAP output for tests/run.sh.
 # usage: tests/flash/test_flash.sh   (from anywhere; BUILD=build/... names the build tree, as make test sets it;
 #        TEST_FLASH_KEEP=1 keeps the temporary roots and trees, for a look after a failure)
 # shellcheck disable=SC2016 # (the checks are shell code for eval, single-quoted to run later)
@@ -11,7 +11,7 @@ cd "$(dirname "$0")/../.." || exit 1
 BUILD=${BUILD:-build}
 T=$(mktemp -d "${TMPDIR:-/tmp}/test_flash.XXXXXX") || exit 1
 [ -n "${TEST_FLASH_KEEP:-}" ] || trap 'rm -rf "$T"' EXIT
-PLAN=19
+PLAN=22
 echo "1..$PLAN"
 
 n=0
@@ -57,6 +57,9 @@ mkroot() {
     if [ "${2:-}" != noconf ]; then
         sed 's/^scale = .*/scale = 731.25         ; calibrated on this unit/' board/sim/board.ini >"$1/etc/hmdwarp/board.ini"
         cp "$1/etc/hmdwarp/board.ini" "$1.calibrated"
+        mkdir -p "$1/var/lib/hmdwarp"
+        printf '; this unit\n[imu]\ngyro_bias = 0.001 0.002 0.003\n' >"$1/var/lib/hmdwarp/calibration.ini"
+        cp "$1/var/lib/hmdwarp/calibration.ini" "$1.calib"
     fi
 }
 # merged DIR: the merged-/usr symlinks are still symlinks with their targets, and the loader still resolves
@@ -79,6 +82,10 @@ enabled() {   # enabled ROOT: the wants symlink names the unit's place on the bo
 kept() {   # kept ROOT TREE: the calibrated board.ini byte for byte, the tree's beside it, and the line saying so
     cmp "$1/etc/hmdwarp/board.ini" "$1.calibrated" && cmp "$1/etc/hmdwarp/board.ini.dist" "$2/etc/hmdwarp/board.ini" &&
         grep -q "kept the board's .*/etc/hmdwarp/board.ini; the tree's one is beside it as " "$T/step.out"
+}
+calib_kept() {   # calib_kept ROOT: the board's calibration file byte for byte, and the line saying so
+    cmp "$1/var/lib/hmdwarp/calibration.ini" "$1.calib" &&
+        grep -q "kept the board's calibration .*/var/lib/hmdwarp/calibration.ini" "$T/step.out"
 }
 mk_install() { make -s --no-print-directory install BUILD="$BUILD" PREFIX=/usr "$@"; }
 
@@ -103,7 +110,8 @@ flash_ssh() { r=$1; shift; PATH="$T/bin:$PATH" FLASH_TEST_ROOT=$r board/flash.sh
 step mk_install DESTDIR="$T/tree" BOARD=sim
 check "make install: unit in usr/lib/systemd/system, udev rule in usr/lib/udev/rules.d, no real lib/ in the tree" '
     [ -f "$T/tree/usr/lib/systemd/system/hmdwarpd.service" ] && [ -f "$T/tree/usr/lib/udev/rules.d/99-hmdwarp.rules" ] &&
-    [ -f "$T/tree/usr/lib/sysusers.d/hmdwarp.conf" ] && [ ! -e "$T/tree/lib" ]'
+    [ -f "$T/tree/usr/lib/sysusers.d/hmdwarp.conf" ] && [ ! -e "$T/tree/lib" ] &&
+    [ ! -e "$T/tree/var/lib/hmdwarp/calibration.ini" ]'
 mk_install DESTDIR="$T/twice" BOARD=sim >/dev/null 2>&1
 echo '; calibrated' >>"$T/twice/etc/hmdwarp/board.ini"
 cp "$T/twice/etc/hmdwarp/board.ini" "$T/twice.calibrated"
@@ -120,6 +128,18 @@ check "--root: lib, bin, sbin, lib64 are still symlinks into usr/ and the loader
 check "--root: the calibrated board.ini is unchanged, the tree's is beside it as board.ini.dist" 'kept "$T/r1" "$T/tree"'
 check "--root: unit, udev rule, sysusers and programs under usr/, the unit enabled" \
     'installed "$T/r1" "$T/tree" && enabled "$T/r1"'
+check "--root: the board's calibration file is unchanged and flash.sh says it kept it" 'calib_kept "$T/r1"'
+# a tree that holds a calibration file (copied in by hand): neither over the board's nor onto a board without one
+cp -a "$T/tree" "$T/ctree"
+mkdir -p "$T/ctree/var/lib/hmdwarp"
+printf '[imu]\ngyro_bias = 0.5 0.5 0.5\n' >"$T/ctree/var/lib/hmdwarp/calibration.ini"
+mkroot "$T/c1"
+step board/flash.sh --tree "$T/ctree" --root "$T/c1"
+mkroot "$T/c2" noconf
+board/flash.sh --tree "$T/ctree" --root "$T/c2" >"$T/c2.out" 2>&1
+check "--root with a tree holding a calibration file: the board's stays, none is created where there was none" '
+    [ "$rc" = 0 ] && calib_kept "$T/c1" && [ ! -e "$T/c2/var/lib/hmdwarp/calibration.ini" ] &&
+    grep -q "the tree holds /var/lib/hmdwarp/calibration.ini: not installed" "$T/c2.out"'
 mkroot "$T/r2" noconf
 step board/flash.sh --tree "$T/tree" --root "$T/r2"
 check "--root without a board.ini there: installs the tree's, no board.ini.dist" '
@@ -139,6 +159,7 @@ mkroot "$T/s1"
 step flash_ssh "$T/s1" --tree "$T/tree"
 check "--ssh: installs (exit 0); lib, bin, sbin, lib64 still symlinks, the loader resolves" '[ "$rc" = 0 ] && merged "$T/s1"'
 check "--ssh: the calibrated board.ini is unchanged, the tree's is beside it as board.ini.dist" 'kept "$T/s1" "$T/tree"'
+check "--ssh: the board's calibration file is unchanged and flash.sh says it kept it" 'calib_kept "$T/s1"'
 check "--ssh: unit, udev rule, sysusers and programs under usr/; sysusers, udev reload, systemctl enable --now run" '
     installed "$T/s1" "$T/tree" && grep -qx systemd-sysusers "$T/s1.log" &&
     grep -qx "udevadm control --reload" "$T/s1.log" && grep -qx "systemctl enable --now hmdwarpd" "$T/s1.log"'

@@ -1,8 +1,9 @@
 #!/bin/sh
 # SPDX-License-Identifier: MIT
 # Installs the packages `make deb` built into a throwaway root (dpkg --root, an empty dpkg database) and checks
-# what landed: unit enabled, udev rules, system user, conffile, man pages, --version; then that an edited conffile
-# survives a reinstall and that a purge removes it. TAP output. Maintainer scripts run chrootless with
+# what landed: unit enabled, udev rules, system user, conffile, man pages, --version, no calibration file; then that
+# an edited conffile and the board's calibration file (/var/lib/hmdwarp, the unit's state) survive a reinstall and
+# that a purge removes the conffile. TAP output. Maintainer scripts run chrootless with
 # DPKG_ROOT set (the root has no shell; systemd-sysusers and deb-systemd-helper honour DPKG_ROOT), and the
 # packages' library dependencies are not in the root (--force-depends); the programs run with this host's libraries.
 # Not root: under fakeroot. Part of make test (after `make deb`, under a minute here) and of make deb-check.
@@ -22,7 +23,7 @@ version=$(dpkg-parsechangelog -S Version)
 . "$(dirname "$0")/../support/tap.sh"
 check() { d=$1; shift; if "$@" >"$dir/check.out" 2>&1; then ok "$d"; else not_ok "$d" "$(head -n 3 "$dir/check.out")"; fi; }
 dpkg_root() { $fake dpkg --root="$root" --force-script-chrootless --force-depends "$@"; }
-echo "1..18"
+echo "1..20"
 
 rm -rf "$root"
 mkdir -p "$root/var/lib/dpkg/info" "$root/var/lib/dpkg/updates" "$root/etc"
@@ -60,10 +61,19 @@ check "hmdwarp-gadget and the board definitions with the generic board's README"
 check "the project's README in /usr/share/doc/hmdwarpd" \
     sh -c "zcat -f '$root'/usr/share/doc/hmdwarpd/README.md* | head -n 1 | grep -qx '# hmdwarp'"
 
-# An edited conffile survives a reinstall; a purge removes it with the unit's enablement.
+check "the package ships no calibration file (the unit's own, written on the board)" \
+    sh -c "! dpkg-deb -c '$dir'/hmdwarpd_'$version'_*.deb | grep -q calibration && [ ! -e '$root/var/lib/hmdwarp/calibration.ini' ]"
+
+# An edited conffile and the board's calibration survive a reinstall; a purge removes the conffile with the unit's
+# enablement.
 echo "; edited on the board" >>"$root/etc/hmdwarp/board.ini"
+mkdir -p "$root/var/lib/hmdwarp"
+printf '; this unit\n[imu]\ngyro_bias = 0.001 0.002 0.003\n' >"$root/var/lib/hmdwarp/calibration.ini"
+cp "$root/var/lib/hmdwarp/calibration.ini" "$dir/calibration.before"
 dpkg_root -i "$dir"/hmdwarpd_"$version"_*.deb >"$dir/check.out" 2>&1
 check "an edited board.ini survives a reinstall" grep -qx '; edited on the board' "$root/etc/hmdwarp/board.ini"
+check "the board's calibration file survives a reinstall unchanged" \
+    cmp "$dir/calibration.before" "$root/var/lib/hmdwarp/calibration.ini"
 dpkg_root --purge hmdwarpd >"$dir/check.out" 2>&1
 check "a purge removes board.ini and the unit's enablement" sh -c "[ ! -e '$root/etc/hmdwarp/board.ini' ] &&
     [ ! -e '$root/etc/systemd/system/multi-user.target.wants/hmdwarpd.service' ] && [ ! -e '$root/usr/bin/hmdwarpd' ]"
