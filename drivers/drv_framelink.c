@@ -987,11 +987,68 @@ drv_frame_err drv_framelink_cams_decode(const uint8_t *buf, size_t len, drv_fram
     return DRV_FRAME_OK;
 }
 
+/* ---- visibility mask messages ---- */
+
+/* A tangent beyond this is past 89.99 degrees: no camera a host renders reaches it. */
+#define MASK_TAN_MAX 1e4f
+
+size_t drv_framelink_mask_encode(const drv_framelink_mask *m, uint8_t *buf, size_t cap)
+{
+    for (int e = 0; e < 2; e++)
+        if (m->n[e] < 0 || m->n[e] > DRV_FRAMELINK_MASK_MAX || (m->n[e] > 0 && m->n[e] < 3)) return 0;
+    const size_t bytes = DRV_FRAMELINK_MASK_BYTES(m->n[0], m->n[1]);
+    if (cap < bytes) return 0;
+    memset(buf, 0, bytes);
+    put_u32(buf, DRV_FRAMELINK_MASK_MAGIC);
+    put_u16(buf + 4, DRV_FRAMELINK_VERSION);
+    put_u16(buf + 6, (uint16_t)bytes);
+    put_u32(buf + 8, m->seq);
+    put_u16(buf + 16, (uint16_t)m->n[0]);
+    put_u16(buf + 18, (uint16_t)m->n[1]);
+    uint8_t *p = buf + 20;
+    for (int e = 0; e < 2; e++)
+        for (int i = 0; i < 2 * m->n[e]; i++, p += 4) put_f32(p, m->uv[e][i]);
+    put_u32(buf + bytes - 4, crc(buf, bytes - 4u));
+    return bytes;
+}
+
+drv_frame_err drv_framelink_mask_decode(const uint8_t *buf, size_t len, drv_framelink_mask *out)
+{
+    if (len < 4) return DRV_FRAME_ERR_TRUNCATED;
+    if (get_u32(buf) != DRV_FRAMELINK_MASK_MAGIC) return DRV_FRAME_ERR_BAD_MAGIC;
+    if (len < 20) return DRV_FRAME_ERR_TRUNCATED;
+    if (get_u16(buf + 4) != DRV_FRAMELINK_VERSION) return DRV_FRAME_ERR_BAD_VERSION;
+    const int n0 = get_u16(buf + 16), n1 = get_u16(buf + 18);
+    /* the counts bound the size before anything is read past them: at most 24 + 8 * 2 * 65535 bytes */
+    const size_t bytes = DRV_FRAMELINK_MASK_BYTES(n0, n1);
+    if (get_u16(buf + 6) != bytes) return DRV_FRAME_ERR_BAD_SIZE;
+    if (len < bytes) return DRV_FRAME_ERR_TRUNCATED;
+    if (get_u32(buf + bytes - 4) != crc(buf, bytes - 4u)) return DRV_FRAME_ERR_CRC;
+    if (get_u32(buf + 12) != 0) return DRV_FRAME_ERR_BAD_FORMAT;
+    drv_framelink_mask m;
+    memset(&m, 0, sizeof m);
+    m.seq = get_u32(buf + 8);
+    m.n[0] = n0;
+    m.n[1] = n1;
+    for (int e = 0; e < 2; e++)
+        if (m.n[e] > DRV_FRAMELINK_MASK_MAX || (m.n[e] > 0 && m.n[e] < 3)) return DRV_FRAME_ERR_BAD_FORMAT;
+    const uint8_t *p = buf + 20;
+    for (int e = 0; e < 2; e++)
+        for (int i = 0; i < 2 * m.n[e]; i++, p += 4) {
+            float f = get_f32(p);
+            if (!(f >= -MASK_TAN_MAX && f <= MASK_TAN_MAX)) return DRV_FRAME_ERR_BAD_CAMERA;
+            m.uv[e][i] = f;
+        }
+    *out = m;
+    return DRV_FRAME_OK;
+}
+
 uint32_t drv_framelink_msg_peek(const uint8_t *buf, size_t len, size_t *size)
 {
     if (len < 12) return 0;
     uint32_t magic = get_u32(buf);
-    if (magic != DRV_FRAMELINK_POSE_MAGIC && magic != DRV_FRAMELINK_CAMS_MAGIC) return 0;
+    if (magic != DRV_FRAMELINK_POSE_MAGIC && magic != DRV_FRAMELINK_CAMS_MAGIC && magic != DRV_FRAMELINK_MASK_MAGIC)
+        return 0;
     if (size) *size = get_u16(buf + 6);
     return magic;
 }

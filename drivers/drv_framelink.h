@@ -128,8 +128,28 @@ size_t drv_framelink_cams_encode(const drv_framelink_cams *c, uint8_t *buf, size
  * (size 0 or above WARP_MAX_SIDE, warp_camera_check fails). */
 drv_frame_err drv_framelink_cams_decode(const uint8_t *buf, size_t len, drv_framelink_cams *out);
 
-/* Which board -> host message starts buf: DRV_FRAMELINK_POSE_MAGIC, DRV_FRAMELINK_CAMS_MAGIC, or 0 (unknown or
- * fewer than 12 bytes); *size (may be NULL) = its declared size. */
+/* Board -> host: the hidden-area mask (docs/framelink.md, Visibility mask message): per eye a line loop of tangent
+ * space vertices (u = X/-Z, v = Y/-Z, counter-clockwise) outside which the board shows black, so a host may skip
+ * shading there, like OpenXR's XR_KHR_visibility_mask. Sent right after each camera message by a board with a lens
+ * mask; its seq is that camera message's. A new kind: hosts that do not know it skip it by its magic and size. */
+#define DRV_FRAMELINK_MASK_MAGIC 0x31565748u /* "HWV1" */
+#define DRV_FRAMELINK_MASK_MAX 64            /* vertices per eye */
+#define DRV_FRAMELINK_MASK_BYTES(n0, n1) (24 + 8 * ((size_t)(n0) + (size_t)(n1)))
+typedef struct {
+    uint32_t seq;                             /* the camera message it belongs to */
+    int n[2];                                 /* vertices per eye: 0 (no mask: every pixel shown) or 3..MASK_MAX */
+    float uv[2][2 * DRV_FRAMELINK_MASK_MAX];  /* eye e's vertex k: (uv[e][2k], uv[e][2k + 1]) */
+} drv_framelink_mask;
+
+/* DRV_FRAMELINK_MASK_BYTES(n[0], n[1]); 0 when cap is too small or a count is out of range. */
+size_t drv_framelink_mask_encode(const drv_framelink_mask *m, uint8_t *buf, size_t cap);
+/* TRUNCATED, BAD_MAGIC, BAD_VERSION, BAD_SIZE (the declared size is not the counts'), CRC, BAD_FORMAT (flags not
+ * zero, a count of 1, 2 or above DRV_FRAMELINK_MASK_MAX) or BAD_CAMERA (a vertex not finite or beyond |1e4|, i.e.
+ * past 89.99 degrees). */
+drv_frame_err drv_framelink_mask_decode(const uint8_t *buf, size_t len, drv_framelink_mask *out);
+
+/* Which board -> host message starts buf: DRV_FRAMELINK_POSE_MAGIC, DRV_FRAMELINK_CAMS_MAGIC,
+ * DRV_FRAMELINK_MASK_MAGIC, or 0 (unknown or fewer than 12 bytes); *size (may be NULL) = its declared size. */
 uint32_t drv_framelink_msg_peek(const uint8_t *buf, size_t len, size_t *size);
 
 #endif

@@ -256,7 +256,22 @@ static bool send_cams(usb_frames *u, int timeout_ms)
         snprintf(u->st.last_error, sizeof u->st.last_error, "%s frames: camera message (IN): %s", u->base.name,
                  strerror((int)-rc));
     pthread_mutex_unlock(&u->lock);
-    return rc == (ssize_t)sizeof msg;
+    if (rc != (ssize_t)sizeof msg) return false;
+    /* the mask follows its camera message (a host clears the mask it had when a camera message comes) */
+    if (!u->p.mask.n[0] && !u->p.mask.n[1]) return true;
+    drv_framelink_mask m = u->p.mask;
+    m.seq = c.seq;
+    uint8_t mb[DRV_FRAMELINK_MASK_BYTES(DRV_FRAMELINK_MASK_MAX, DRV_FRAMELINK_MASK_MAX)];
+    size_t n = drv_framelink_mask_encode(&m, mb, sizeof mb);
+    if (!n) return true; /* counts out of range: rt_devices never sets such */
+    rc = u->t->write(u->t, mb, n, timeout_ms);
+    pthread_mutex_lock(&u->lock);
+    if (rc == (ssize_t)n) u->st.masks_sent++;
+    if (rc < 0)
+        snprintf(u->st.last_error, sizeof u->st.last_error, "%s frames: visibility mask message (IN): %s",
+                 u->base.name, strerror((int)-rc));
+    pthread_mutex_unlock(&u->lock);
+    return rc == (ssize_t)n;
 }
 
 static void *pose_thread(void *arg)

@@ -10,6 +10,7 @@
 #include <sys/types.h>
 
 #include "drivers/drv_framelink_codec.h"
+#include "drivers/drv_framelink.h"
 #include "drivers/drv_frames.h"
 #include "warp/warp_head.h"
 
@@ -26,6 +27,9 @@ typedef struct {
     warp_camera cam[2];                 /* the eye cameras frames must be rendered with */
     double refresh_hz;                  /* the panel's refresh */
     warp_depth_encoding depth_encoding; /* the depth encoding the board prefers (any is accepted) */
+    /* The visibility mask message (HWV1) sent right after each camera message when a count is not 0 (its seq is
+     * set here): per eye mask.n[e] tangent-space vertices (rt_devices fills it from warp_fov_mask_loop). */
+    drv_framelink_mask mask;
     /* framelink v2 (docs/framelink.md): compressed planes are decoded on the receiving thread plus helpers. */
     int max_layers;           /* fragments per pixel the caller's frames hold (DRV_PLANE_LAYERS; 0: 4) */
     unsigned codecs;          /* DRV_CODEC_BIT()s announced to hosts (0: drv_codec_decodable(), every one built) */
@@ -53,6 +57,7 @@ typedef struct {
     uint64_t connections, refused;              /* hosts connected (USB: function enabled; socket: accepted) /
                                                  * turned away while one was connected (socket) */
     uint64_t cams_sent;                         /* camera messages (HWC1) written */
+    uint64_t masks_sent;                        /* visibility mask messages (HWV1) written */
     bool connected;                             /* the host has configured the function (ENABLE) */
     double lead_ms;                             /* current pose lead: measured pose-to-frame latency */
     unsigned codecs;                            /* DRV_CODEC_BIT()s announced */

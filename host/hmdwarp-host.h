@@ -162,6 +162,19 @@ int hmdwarp_host_wait_cameras(hmdwarp_host *h, int timeout_ms, hmdwarp_host_came
  * a later message from the board replaces them. ARG when a camera is unusable (named). */
 int hmdwarp_host_set_cameras(hmdwarp_host *h, const hmdwarp_host_cameras *cams);
 
+/* ---- board -> host: the hidden-area mask (the visibility mask message) ---- */
+
+#define HMDWARP_HOST_MASK_MAX 64 /* vertices per eye at most */
+
+/* The eye's (0 left, 1 right) visibility mask from the board: a counter-clockwise line loop of n vertices in the eye
+ * camera's tangent space, vertex k at u = uv[2k], v = uv[2k + 1] (u = X/-Z right, v = Y/-Z up), as OpenXR's
+ * XR_KHR_visibility_mask line loop. Outside it the board shows black (beyond the lens's visible disc, guard band
+ * included), so a renderer may skip shading there (stencil it out, or clear those pixels). Copies min(n, max)
+ * vertices into uv (2 * max floats) and returns n: 0 when the board sent no mask for this eye (every pixel is shown)
+ * or none since its latest camera message (it follows each camera message). ARG: a bad eye, or uv NULL with max > 0.
+ * Any thread. */
+int hmdwarp_host_get_visibility_mask(hmdwarp_host *h, int eye, float *uv, int max);
+
 /* ---- host -> board: frames ---- */
 
 typedef enum {

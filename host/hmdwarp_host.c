@@ -71,6 +71,7 @@ struct hmdwarp_host {
     bool fresh;       /* the newest pose has not been returned by wait/poll yet */
     hmdwarp_host_cameras cams;
     bool have_cams, cams_from_board;
+    drv_framelink_mask mask; /* the visibility mask sent after the latest camera message (n 0: none) */
     hmdwarp_host_stats st;
     double send_ms_total;
     int64_t win_start_ns;
@@ -158,10 +159,19 @@ static void store_cams(hmdwarp_host *h, const drv_framelink_cams *c)
                                      c->max_frame_bytes, c->refresh_hz, c->pose_rate_hz,
                                      {host_camera_from_warp(&c->cam[0]), host_camera_from_warp(&c->cam[1])}};
     h->have_cams = h->cams_from_board = true;
+    /* the mask follows its camera message: until it comes (or when the board has none), no mask */
+    h->mask.n[0] = h->mask.n[1] = 0;
     /* what the board decodes: a version 1 message (codecs 0) means raw only */
     h->board_codecs = c->codecs ? c->codecs : DRV_CODEC_BIT(DRV_CODEC_RAW);
     h->st.cameras_received++;
     pthread_cond_broadcast(&h->cond);
+    pthread_mutex_unlock(&h->lock);
+}
+
+static void store_mask(hmdwarp_host *h, const drv_framelink_mask *m)
+{
+    pthread_mutex_lock(&h->lock);
+    h->mask = *m;
     pthread_mutex_unlock(&h->lock);
 }
 
@@ -192,6 +202,12 @@ static size_t parse_messages(hmdwarp_host *h, const uint8_t *buf, size_t len, bo
             drv_framelink_pose p;
             if (drv_framelink_pose_decode(buf + off, size, &p) == DRV_FRAME_OK)
                 store_pose(h, &p);
+            else
+                count_rejected(h);
+        } else if (magic == DRV_FRAMELINK_MASK_MAGIC) {
+            drv_framelink_mask m;
+            if (drv_framelink_mask_decode(buf + off, size, &m) == DRV_FRAME_OK)
+                store_mask(h, &m);
             else
                 count_rejected(h);
         } else {
@@ -443,6 +459,18 @@ API int hmdwarp_host_get_cameras(hmdwarp_host *h, hmdwarp_host_cameras *out)
     if (rc) *out = h->cams;
     pthread_mutex_unlock(&h->lock);
     return rc;
+}
+
+API int hmdwarp_host_get_visibility_mask(hmdwarp_host *h, int eye, float *uv, int max)
+{
+    if (!h) return host_fail(HMDWARP_HOST_ERR_ARG, "handle: NULL");
+    if (eye < 0 || eye > 1) return host_fail(HMDWARP_HOST_ERR_ARG, "eye %d: 0 (left) or 1 (right)", eye);
+    if (max < 0 || (max > 0 && !uv)) return host_fail(HMDWARP_HOST_ERR_ARG, "uv: NULL for %d vertices", max);
+    pthread_mutex_lock(&h->lock);
+    const int n = h->mask.n[eye];
+    if (max > 0) memcpy(uv, h->mask.uv[eye], sizeof(float) * 2 * (size_t)(n < max ? n : max));
+    pthread_mutex_unlock(&h->lock);
+    return n;
 }
 
 API int hmdwarp_host_wait_cameras(hmdwarp_host *h, int timeout_ms, hmdwarp_host_cameras *out)

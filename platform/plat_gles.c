@@ -36,6 +36,8 @@ static const char fs_lens[] =
     "uniform int u_flip_h;    /* 0: window row = panel row; else the window height (GL row 0 at the bottom) */\n"
     "uniform int u_vp_h, u_rows, u_cell_w;\n"
     "uniform vec2 u_src_size;\n"
+    "uniform highp isampler2D u_vis; /* the hidden-area mask: texel (y, 0) = row y's visible [x0, x1) */\n"
+    "uniform int u_has_vis;\n"
     "layout(location = 0) out vec4 o;\n"
     "vec2 pos(int i, int j, int c, float fx, float ty) {\n"
     "    vec2 p00 = texelFetch(u_mesh, ivec2(i * 3 + c, j), 0).xy;\n"
@@ -49,6 +51,10 @@ static const char fs_lens[] =
     "    ivec2 f = ivec2(gl_FragCoord.xy);\n"
     "    int x = f.x - u_vp.x;\n"
     "    int y = (u_flip_h != 0 ? u_flip_h - 1 - f.y : f.y) - u_vp.y;\n"
+    "    if (u_has_vis != 0) {\n"
+    "        ivec2 sp = texelFetch(u_vis, ivec2(y, 0), 0).xy;\n"
+    "        if (x < sp.x || x >= sp.y) { o = vec4(0.0, 0.0, 0.0, 1.0); return; }\n"
+    "    }\n"
     "    float gy = (float(y) + 0.5) * float(u_rows - 1) / float(u_vp_h);\n"
     "    int j = min(int(gy), u_rows - 2);\n"
     "    float ty = gy - float(j);\n"
@@ -252,6 +258,8 @@ typedef struct {
 typedef struct {
     GLuint color, depth;             /* host frame: RGBA8, R32F */
     GLuint mesh;                     /* RG32F vertex source positions */
+    GLuint vis;                      /* RG32I hidden-area mask rows (warp_mesh.visible), uploaded when it changes */
+    const int32_t *vis_from;         /* the mask last uploaded */
     GLuint inter, inter_fbo;         /* raytrace output, RGBA8 */
     GLuint lvl[PLAT_GLES_MAX_LEVELS], lvl_fbo[PLAT_GLES_MAX_LEVELS]; /* pyramid levels (GPU build) */
     GLuint atlas, atlas_fbo;         /* every level side by side: what the raytrace reads */
@@ -262,7 +270,7 @@ typedef struct {
     GLint loc[24];
 } program;
 
-enum { L_SRC, L_MESH, L_VP, L_FLIP, L_VPH, L_ROWS, L_CELLW, L_SRCSIZE };
+enum { L_SRC, L_MESH, L_VP, L_FLIP, L_VPH, L_ROWS, L_CELLW, L_SRCSIZE, L_VIS, L_HASVIS };
 enum { P_IN, P_INSIZE };
 enum { R_COLOR, R_DEPTH, R_PYR, R_H, R_A, R_DRANGE, R_SIZE, R_STEPS, R_REFINE, R_FILL, R_LEVELS, R_JUMP, R_OFF,
        R_COUNT };
@@ -576,8 +584,8 @@ plat_gles *plat_gles_create(plat_egl *egl, const plat_gles_params *p, char *err,
     g->egl = egl;
     g->p = *p;
     g->active = -1;
-    static const char *const lens_u[] = {"u_src", "u_mesh", "u_vp", "u_flip_h", "u_vp_h", "u_rows", "u_cell_w",
-                                         "u_src_size", NULL};
+    static const char *const lens_u[] = {"u_src", "u_mesh", "u_vp",       "u_flip_h",  "u_vp_h", "u_rows",
+                                         "u_cell_w", "u_src_size", "u_vis", "u_has_vis", NULL};
     static const char *const pyr_u[] = {"u_in", "u_in_size", NULL};
     static const char *const rt_u[] = {"u_color", "u_depth", "u_pyr", "u_h", "u_a", "u_drange", "u_size",
                                        "u_max_steps", "u_refine", "u_fill_far", "u_levels", "u_jump", "u_lvl_off",
@@ -621,6 +629,7 @@ plat_gles *plat_gles_create(plat_egl *egl, const plat_gles_params *p, char *err,
         eye_res *r = &g->eye[e];
         r->color = texture(GL_RGBA8, p->src_w, p->src_h, GL_LINEAR);
         r->mesh = texture(GL_RG32F, p->mesh_cols * 3, p->mesh_rows, GL_NEAREST);
+        r->vis = texture(GL_RG32I, p->panel_h, 1, GL_NEAREST);
         if (!p->depth) continue;
         r->depth = texture(GL_R32F, p->src_w, p->src_h, GL_NEAREST);
         r->inter = texture(GL_RGBA8, p->src_w, p->src_h, GL_LINEAR);
@@ -675,9 +684,9 @@ void plat_gles_destroy(plat_gles *g)
     if (g->panel) glDeleteTextures(1, &g->panel);
     for (int e = 0; e < 2; e++) {
         eye_res *r = &g->eye[e];
-        GLuint tex[5] = {r->color, r->depth, r->mesh, r->inter, r->atlas};
+        GLuint tex[6] = {r->color, r->depth, r->mesh, r->inter, r->atlas, r->vis};
         GLuint fbo[2] = {r->inter_fbo, r->atlas_fbo};
-        for (int i = 0; i < 5; i++)
+        for (int i = 0; i < 6; i++)
             if (tex[i]) glDeleteTextures(1, &tex[i]);
         for (int i = 0; i < 2; i++)
             if (fbo[i]) glDeleteFramebuffers(1, &fbo[i]);
@@ -827,6 +836,15 @@ void plat_gles_lens(plat_gles *g, int eye, const warp_mesh *m, bool from_raytrac
     glUniform1i(pr->loc[L_ROWS], m->rows);
     glUniform1i(pr->loc[L_CELLW], m->cell_w);
     glUniform2f(pr->loc[L_SRCSIZE], (GLfloat)g->p.src_w, (GLfloat)g->p.src_h);
+    /* the mask is fixed per lens: uploaded once (the mesh's rows are at most the panel's, the texture's width) */
+    const bool vis = m->visible && m->vp_h <= g->p.panel_h;
+    bind_tex(2, r->vis);
+    if (vis && r->vis_from != m->visible) {
+        glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, m->vp_h, 1, GL_RG_INTEGER, GL_INT, m->visible);
+        r->vis_from = m->visible;
+    }
+    glUniform1i(pr->loc[L_VIS], 2);
+    glUniform1i(pr->loc[L_HASVIS], vis);
     glBindFramebuffer(GL_FRAMEBUFFER, g->p.to_window ? 0 : g->panel_fbo);
     glViewport(m->vp_x, win_y, m->vp_w, m->vp_h);
     glDrawArrays(GL_TRIANGLES, 0, 3);

@@ -203,6 +203,9 @@ int main(int argc, char **argv)
         char link[600];
         bool fits = rt_link_budget_line(&cfg, link, sizeof link);
         if (link[0]) printf("; %s%s\n", fits ? "" : "warning: ", link);
+        char fov[400];
+        rt_config_fov_line(&cfg, fov, sizeof fov);
+        printf("; %s\n", fov);
         rt_config_print(&cfg, stdout);
         return 0;
     }
@@ -224,6 +227,9 @@ int main(int argc, char **argv)
     printf("hmdwarpd: board '%s', scene '%s', trace '%s', method %s, %s\n", cfg.board_name, cfg.scene, cfg.trace,
            rt_method_name(cfg.method),
            cfg.duration_s > 0 ? "running" : "running until Ctrl-C");
+    char fov[400];
+    rt_config_fov_line(&cfg, fov, sizeof fov);
+    printf("hmdwarpd: %s\n", fov);
     printf("hmdwarpd: calibration %s\n", calib_what);
     if (strcmp(cfg.calibration, RT_CONFIG_CALIBRATION_DEFAULT) == 0) {
         /* a board's first start: leave a file to find where calibration goes (nothing in it changes a key) */

@@ -284,6 +284,20 @@ void rt_compositor_run(rt_app *a)
         double age = frame ? (double)(t_photon - frame->f.pose_t_ns) * 1e-6 : NAN;
         if (tracked) rt_hist_add(&tel->m2p_ms, m2p);
         if (frame) rt_hist_add(&tel->frame_age_ms, age);
+        if (frame && idx >= 0) {
+            /* the share of the visible panel that sampled outside the host frame (the fringe, 003 §4.3): read off
+             * the mesh each pass just drew through; the eye-space warps' mesh maps their own output (share 0) */
+            int64_t outside = 0, visible = 0;
+            for (int e = 0; e < 2; e++) {
+                outside += rt_render_cpu_outside(a->render, e, frame->f.cam[e].width, frame->f.cam[e].height);
+                visible += rt_render_cpu_visible(a->render, e);
+            }
+            if (visible > 0) {
+                rt_hist_add(&tel->outside_pct, 100.0 * (double)outside / (double)visible);
+                tel->outside_px += (uint64_t)outside;
+                tel->visible_px += (uint64_t)visible;
+            }
+        }
         if (a->csv.f) {
             rt_csv_row row = {vsync_no, frame ? frame->f.seq : 0, t_vs, (float)warp_ms, (float)m2p, (float)age,
                               (int)used, missed};

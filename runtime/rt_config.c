@@ -19,6 +19,7 @@
 #include "drivers/drv_frames_socket.h"
 #include "drivers/drv_frames_usb.h"
 #include "warp/warp_err.h"
+#include "warp/warp_fov.h"
 #include "drivers/drv_v4l2_inband.h"
 #include "runtime/rt_calib.h"
 #include "warp/warp_head.h"
@@ -40,6 +41,8 @@ static const char *const v4l2_format_names[] = {"auto", "yuyv", "nv12", "bgr32",
 static const char *const bool_names[] = {"false", "true", NULL};
 static const char *const edge_names[] = {"rising", "falling", NULL};
 static const char *const arch_names[] = {"any", "aarch64", "x86_64", "arm", NULL};
+/* K_DOUBLE and K_DLIST keys whose `names` is auto_names also take the word auto, stored as NAN (every element). */
+static const char *const auto_names[] = {"auto", NULL};
 
 const char *rt_kernel_name(int k)
 {
@@ -115,8 +118,13 @@ static const keydef keys[] = {
      "what fits in one period)"},
     {"eye", "width", K_INT, F(eye_w), 0, 16, 8192, NULL, "host eye buffer width"},
     {"eye", "height", K_INT, F(eye_h), 0, 16, 8192, NULL, "host eye buffer height"},
-    {"eye", "fov", K_DLIST, F(fov_deg), 4, 1, 89, NULL,
-     "left eye's half-angles in degrees: left right up down (the right eye is mirrored)"},
+    {"eye", "fov", K_DLIST, F(fov_deg), 4, 1, 89, auto_names,
+     "auto (what the eye's visible panel pixels see through the lens in any colour channel, plus guard_deg on each "
+     "side; --check-config prints it), or the left eye's half-angles in degrees: left right up down (the right eye "
+     "is mirrored)"},
+    {"eye", "guard_deg", K_DOUBLE, F(guard_deg), 0, 0, 45, auto_names,
+     "fov = auto: degrees added on each side of the lens's field so a rotation warp finds rendered pixels during "
+     "head turns (003 4.3); auto: 100 deg/s of head speed over two panel periods plus photon_offset_ms"},
     {"eye", "near", K_DOUBLE, F(near_z), 0, 0.001, 10, NULL, "near plane in metres"},
     {"eye", "ipd", K_DOUBLE, F(ipd), 0, 0.04, 0.09, NULL, "interpupillary distance in metres"},
     {"lens", "mesh", K_INT, F(mesh_n), 0, 2, 1024, NULL, "distortion mesh vertices per side (N x N)"},
@@ -127,6 +135,10 @@ static const keydef keys[] = {
     {"lens", "scale", K_DOUBLE, F(lens_scale), 0, 1, 100000, NULL, "panel pixels per unit of normalised radius"},
     {"lens", "center", K_DLIST, F(lens_center), 2, -100000, 100000, NULL,
      "left eye's lens centre x y in pixels within its half of the panel (mirrored for the right eye)"},
+    {"lens", "visible_radius", K_DOUBLE, F(visible_radius), 0, 0.01, 100, auto_names,
+     "radius of the disc of the panel seen through the lens, in the lens's normalised units (scale pixels); "
+     "pixels outside it are black and left unrendered (the hidden-area mask); auto: the largest disc around the "
+     "lens centre inside the eye's half of the panel"},
     /* the methods themselves are listed from the registry (method_help) */
     {"warp", "method", K_ENUM, F(method), 0, 0, 0, method_names,
      "or auto (per vsync, the cheapest warp whose predicted error stays under pixel_budget; short of time, a warp "
@@ -259,7 +271,8 @@ void rt_config_defaults(rt_config *c)
     c->max_memory_mb = 2048; /* half of a 4 GB board: the OS, the page cache and the USB gadget need the rest */
     c->eye_w = 1440;
     c->eye_h = 1600;
-    c->fov_deg[0] = 52; c->fov_deg[1] = 48; c->fov_deg[2] = 52; c->fov_deg[3] = 52;
+    for (int i = 0; i < 4; i++) c->fov_deg[i] = NAN; /* auto: from the lens (warp_fov) */
+    c->guard_deg = NAN;
     c->near_z = 0.05;
     c->ipd = 0.064;
     c->mesh_n = 64;
@@ -270,6 +283,7 @@ void rt_config_defaults(rt_config *c)
     c->lens_scale = 720;
     c->lens_center[0] = 760; /* slightly towards the nose: lens axes sit closer together than the panel halves */
     c->lens_center[1] = 800;
+    c->visible_radius = NAN;
     c->method = RT_METHOD_ROTATION;
     c->pixel_budget = 0.5;
     c->raytrace_steps = 512;
@@ -394,6 +408,10 @@ static bool set_value(rt_config *c, const keydef *k, const char *section, const 
     }
     case K_DOUBLE: {
         double v;
+        if (k->names == auto_names && strcmp(value, "auto") == 0) {
+            *(double *)base = NAN;
+            return true;
+        }
         if (!parse_double(value, &v) || v < k->lo || v > k->hi) {
             add_error(err, "%s: [%s] %s = '%s': expected a number from %g to %g", where, section, key, value, k->lo,
                       k->hi);
@@ -439,6 +457,10 @@ static bool set_value(rt_config *c, const keydef *k, const char *section, const 
     case K_DLIST: {
         double v[8];
         int n = 0;
+        if (k->names == auto_names && strcmp(value, "auto") == 0) {
+            for (int i = 0; i < k->n; i++) ((double *)base)[i] = NAN;
+            return true;
+        }
         const char *p = value;
         char *end;
         while (*p && n < 8) {
@@ -455,8 +477,8 @@ static bool set_value(rt_config *c, const keydef *k, const char *section, const 
         bool ok = n == k->n;
         for (int i = 0; ok && i < n; i++) ok = v[i] >= k->lo && v[i] <= k->hi;
         if (!ok) {
-            add_error(err, "%s: [%s] %s = '%s': expected %d numbers from %g to %g", where, section, key, value, k->n,
-                      k->lo, k->hi);
+            add_error(err, "%s: [%s] %s = '%s': expected %s%d numbers from %g to %g", where, section, key, value,
+                      k->names == auto_names ? "auto or " : "", k->n, k->lo, k->hi);
             return false;
         }
         memcpy(base, v, sizeof(double) * (size_t)n);
@@ -692,19 +714,90 @@ bool rt_config_set(rt_config *c, const char *assignment, rt_config_errors *err)
     return set_key(c, section, key, eq + 1, "command line", -c->overrides, err);
 }
 
+bool rt_config_fov_auto(const rt_config *c) { return isnan(c->fov_deg[0]); }
+
+double rt_config_guard_deg(const rt_config *c)
+{
+    if (isfinite(c->guard_deg)) return c->guard_deg;
+    /* A frame is shown for up to two periods of a half-rate host (45 Hz on a 90 Hz panel), its photons photon_offset
+     * later: the age a rotation warp reaches over when the pose prediction misses a turn entirely. */
+    const double age_s = 2.0 / c->refresh_hz + c->photon_offset_ms * 1e-3;
+    return warp_fov_default_guard_deg(RT_GUARD_HEAD_DEG_S, age_s);
+}
+
+double rt_config_visible_radius(const rt_config *c, int eye)
+{
+    warp_lens lens = rt_config_lens(c, eye);
+    return warp_fov_visible_radius(&lens, c->visible_radius, c->panel_w / 2, c->panel_h);
+}
+
+const char *rt_config_eye_camera_check(const rt_config *c, int eye, warp_camera *out, char *buf, int buflen)
+{
+    warp_camera cam;
+    cam.width = c->eye_w;
+    cam.height = c->eye_h;
+    cam.near_z = c->near_z;
+    cam.far_z = INFINITY;
+    if (rt_config_fov_auto(c)) {
+        warp_lens lens = rt_config_lens(c, eye);
+        double t[4] = {1, 1, 1, 1};
+        const char *why = warp_fov_tangents(&lens, rt_config_visible_radius(c, eye), c->panel_w / 2, c->panel_h,
+                                            rt_config_guard_deg(c), t, buf, buflen);
+        if (why) return why;
+        cam.tan_left = t[0];
+        cam.tan_right = t[1];
+        cam.tan_up = t[2];
+        cam.tan_down = t[3];
+    } else {
+        double l = tan(c->fov_deg[0] * WARP_PI / 180), r = tan(c->fov_deg[1] * WARP_PI / 180);
+        /* Mirror for the right eye: its temporal side is on the right. */
+        cam.tan_left = eye == WARP_EYE_LEFT ? l : r;
+        cam.tan_right = eye == WARP_EYE_LEFT ? r : l;
+        cam.tan_up = tan(c->fov_deg[2] * WARP_PI / 180);
+        cam.tan_down = tan(c->fov_deg[3] * WARP_PI / 180);
+    }
+    *out = cam;
+    return NULL;
+}
+
+void rt_config_fov_line(const rt_config *c, char *buf, int len)
+{
+    size_t n = (size_t)len, at = 0;
+    buf[0] = 0;
+    at += (size_t)snprintf(buf, n, "field of view (half-angles left right up down, deg):");
+    for (int e = 0; e < 2 && at < n; e++) {
+        warp_camera cam = rt_config_eye_camera(c, e);
+        at += (size_t)snprintf(buf + at, n - at, " %s eye %.1f %.1f %.1f %.1f%s", e ? "right" : "left",
+                               atan(cam.tan_left) * 180 / WARP_PI, atan(cam.tan_right) * 180 / WARP_PI,
+                               atan(cam.tan_up) * 180 / WARP_PI, atan(cam.tan_down) * 180 / WARP_PI, e ? "" : ";");
+    }
+    if (at >= n) return;
+    if (!rt_config_fov_auto(c)) {
+        snprintf(buf + at, n - at, " ([eye] fov as configured)");
+        return;
+    }
+    const int vw = c->panel_w / 2;
+    warp_lens lens = rt_config_lens(c, WARP_EYE_LEFT);
+    const double r = rt_config_visible_radius(c, WARP_EYE_LEFT);
+    int32_t *span = malloc(sizeof *span * 2 * (size_t)c->panel_h);
+    const double shown = span ? (double)warp_fov_spans(&lens, r, vw, c->panel_h, span) / ((double)vw * c->panel_h) : NAN;
+    free(span);
+    snprintf(buf + at, n - at, " (auto: the lens's visible disc, radius %.3f, shows %.1f %% of each eye's panel pixels; "
+             "guard band %.2f deg)", r, 100 * shown, rt_config_guard_deg(c));
+}
+
 warp_camera rt_config_eye_camera(const rt_config *c, int eye)
 {
     warp_camera cam;
-    double l = tan(c->fov_deg[0] * WARP_PI / 180), r = tan(c->fov_deg[1] * WARP_PI / 180);
-    cam.width = c->eye_w;
-    cam.height = c->eye_h;
-    /* Mirror for the right eye: its temporal side is on the right. */
-    cam.tan_left = eye == WARP_EYE_LEFT ? l : r;
-    cam.tan_right = eye == WARP_EYE_LEFT ? r : l;
-    cam.tan_up = tan(c->fov_deg[2] * WARP_PI / 180);
-    cam.tan_down = tan(c->fov_deg[3] * WARP_PI / 180);
-    cam.near_z = c->near_z;
-    cam.far_z = INFINITY;
+    char buf[200];
+    if (rt_config_eye_camera_check(c, eye, &cam, buf, sizeof buf)) {
+        /* rt_config_validate reports why; a caller that skipped it gets a camera warp_camera_check refuses */
+        cam.width = c->eye_w;
+        cam.height = c->eye_h;
+        cam.tan_left = cam.tan_right = cam.tan_up = cam.tan_down = NAN;
+        cam.near_z = c->near_z;
+        cam.far_z = INFINITY;
+    }
     return cam;
 }
 
@@ -890,6 +983,31 @@ bool rt_config_frames_codecs(const rt_config *c, unsigned *mask, char *err, int 
 }
 static unsigned v4l2_planes(const rt_config *c) { return DRV_PLANE_COLOR | (c->frames_depth ? DRV_PLANE_DEPTH : 0u); }
 
+/* [eye] fov, guard_deg and [lens] visible_radius (h-fov's block): each eye's camera, from the lens when auto. */
+static void check_fov(const rt_config *c, rt_config_errors *err)
+{
+    char at[1200], buf[200];
+    const char *which = rt_config_fov_auto(c)
+                           ? "eye.fov eye.guard_deg eye.near eye.width eye.height lens.visible_radius lens.scale "
+                             "lens.center lens.k_red lens.k_green lens.k_blue display.width display.height"
+                           : "eye.fov eye.near eye.width eye.height";
+    if (rt_config_fov_auto(c) && !(rt_config_visible_radius(c, WARP_EYE_LEFT) > 0)) {
+        add_error(err, "[lens]: the lens centre lies outside the eye's half of the panel, or no channel is monotonic "
+                       "there: no visible region for fov = auto; set by %s",
+                  keys_at(c, "lens.center lens.scale eye.fov display.width display.height", at, sizeof at));
+        return;
+    }
+    for (int e = 0; e < 2; e++) {
+        warp_camera cam;
+        const char *why = rt_config_eye_camera_check(c, e, &cam, buf, sizeof buf);
+        if (!why) why = warp_camera_check(&cam);
+        if (why) {
+            add_error(err, "%s eye's camera: %s; set by %s", e ? "right" : "left", why, keys_at(c, which, at, sizeof at));
+            return;
+        }
+    }
+}
+
 /* [imu] mount (rt_calib.h): set, it wins over [imu] axes, so a calibration file's mount beats board.ini's axes. */
 static void check_calibration(const rt_config *c, rt_config_errors *err)
 {
@@ -906,10 +1024,8 @@ bool rt_config_validate(const rt_config *c, rt_config_errors *err)
     if (c->panel_w % 2)
         add_error(err, "%s = %d: must be even (two eyes side by side)", keys_at(c, "display.width", at, sizeof at),
                   c->panel_w);
-    warp_camera cam = rt_config_eye_camera(c, WARP_EYE_LEFT);
-    const char *why = warp_camera_check(&cam);
-    if (why) add_error(err, "%s: %s", keys_at(c, "eye.fov eye.near eye.width eye.height", at, sizeof at), why);
     char buf[200];
+    check_fov(c, err);
     warp_lens lens = rt_config_lens(c, WARP_EYE_LEFT);
     const char *lw = warp_lens_check(&lens, c->panel_w / 2, c->panel_h, buf, sizeof buf);
     if (lw)
@@ -1041,13 +1157,22 @@ static void format_value(const rt_config *c, const keydef *k, char *buf, size_t 
     const char *base = (const char *)c + k->off;
     switch (k->type) {
     case K_INT: snprintf(buf, len, "%d", *(const int *)base); break;
-    case K_DOUBLE: snprintf(buf, len, "%g", *(const double *)base); break;
+    case K_DOUBLE:
+        if (k->names == auto_names && isnan(*(const double *)base))
+            snprintf(buf, len, "auto");
+        else
+            snprintf(buf, len, "%g", *(const double *)base);
+        break;
     case K_U64: snprintf(buf, len, "%llu", (unsigned long long)*(const uint64_t *)base); break;
     case K_STR:
     case K_CHOICE: snprintf(buf, len, "%s", base); break;
     case K_ENUM: snprintf(buf, len, "%s", k->names[*(const int *)base]); break;
     case K_DLIST: {
         buf[0] = 0;
+        if (k->names == auto_names && isnan(*(const double *)base)) {
+            snprintf(buf, len, "auto");
+            break;
+        }
         for (int i = 0; i < k->n; i++) {
             char one[32];
             snprintf(one, sizeof one, "%s%g", i ? " " : "", ((const double *)base)[i]);

@@ -69,7 +69,8 @@ typedef struct {
     double stall_reserve_ms;    /* extra lead before each vsync for the scheduler's stalls (rt_pacer.c) */
     /* [eye]: the host's eye buffers (left eye; the right eye is its mirror image) */
     int eye_w, eye_h;
-    double fov_deg[4];          /* left, right, up, down half-angles in degrees */
+    double fov_deg[4];          /* left, right, up, down half-angles in degrees; NAN: auto (from the lens, warp_fov) */
+    double guard_deg;           /* guard band added to each side of an auto FOV; NAN: auto (rt_config_guard_deg) */
     double near_z;
     double ipd;
     /* [lens] */
@@ -77,6 +78,7 @@ typedef struct {
     double k[3][WARP_LENS_TERMS];
     double lens_scale;          /* panel pixels per unit of normalised radius */
     double lens_center[2];      /* left eye, pixels within its half of the panel; mirrored for the right eye */
+    double visible_radius;      /* the lens's visible disc, normalised radius; NAN: auto (warp_fov_visible_radius) */
     /* [warp] */
     rt_method method;
     double pixel_budget;        /* auto: largest predicted error accepted from a cheaper warp, eye-buffer pixels */
@@ -189,6 +191,20 @@ bool rt_config_parse_axes(const char *s, int map[3], int sign[3]);
 /* Derived objects. eye = WARP_EYE_LEFT / WARP_EYE_RIGHT. */
 warp_camera rt_config_eye_camera(const rt_config *c, int eye);
 warp_lens rt_config_lens(const rt_config *c, int eye);
+/* The FOV from the lens ([eye] fov = auto, the default; warp/warp_fov.h): with auto, rt_config_eye_camera's tangents
+ * are those the eye's visible panel pixels see in any channel, plus the guard band on each side. */
+bool rt_config_fov_auto(const rt_config *c);
+/* [eye] guard_deg, or its default: the head's expected speed RT_GUARD_HEAD_DEG_S over the frame age the board
+ * expects, two panel periods plus photon_offset_ms (003 §4.3; README, "Field of view"). */
+#define RT_GUARD_HEAD_DEG_S 100.0
+double rt_config_guard_deg(const rt_config *c);
+/* [lens] visible_radius for the eye's viewport (auto resolved), normalised lens units; 0 when none. */
+double rt_config_visible_radius(const rt_config *c, int eye);
+/* One line on the eyes' fields for --check-config and the start-up log: the half-angles per eye, and with auto the
+ * visible radius, the guard band and the share of the panel the lens shows. */
+void rt_config_fov_line(const rt_config *c, char *buf, int len);
+/* The eye's camera with its tangents as computed, or NULL; else a message in buf naming what is wrong. */
+const char *rt_config_eye_camera_check(const rt_config *c, int eye, warp_camera *cam, char *buf, int buflen);
 
 /* Writes every key with its default and meaning (for --help and the README). */
 void rt_config_print_keys(FILE *out);

@@ -18,6 +18,7 @@
 #include "platform/plat_log.h"
 #include "runtime/rt_devices.h"
 #include "warp/warp_err.h"
+#include "warp/warp_fov.h"
 
 static bool is_mock(const char *dev) { return strcmp(dev, "mock") == 0; }
 
@@ -149,6 +150,12 @@ static bool open_frames(rt_devices *d, const rt_config *c, const drv_frames_sim_
         p.cam[1] = sp->cam[1];
         p.refresh_hz = c->refresh_hz;
         p.depth_encoding = WARP_DEPTH_LINEAR;
+        /* the hidden-area mask after each camera message: what the lens shows, guard band included (warp_fov) */
+        for (int eye = 0; eye < 2; eye++) {
+            warp_lens lens = rt_config_lens(c, eye);
+            p.mask.n[eye] = warp_fov_mask_loop(&lens, rt_config_visible_radius(c, eye), c->panel_w / 2, c->panel_h,
+                                               rt_config_guard_deg(c), WARP_FOV_MASK_VERTICES, p.mask.uv[eye]);
+        }
         /* framelink v2: what hosts are told the board decodes, and the decoder's threads (validated already) */
         if (!rt_config_frames_codecs(c, &p.codecs, e, sizeof e))
             return warp_err(err, errlen, "[frames] codecs = '%s': %s", c->frames_codecs, e);

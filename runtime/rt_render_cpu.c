@@ -10,6 +10,7 @@
 
 #include "warp/warp_err.h"
 #include "warp/warp_forward.h"
+#include "warp/warp_fov.h"
 #include "warp/warp_grid.h"
 #include "warp/warp_holes.h"
 #include "warp/warp_objects.h"
@@ -56,6 +57,8 @@ struct rt_render_cpu {
     warp_holes_ctx holes[2];
     /* counted on the vsync path, read by the helper thread for the live stats: relaxed atomics */
     _Atomic uint64_t raytrace_fallbacks, plane_fallbacks;
+    int32_t *visible[2];           /* the hidden-area masks the meshes point at (warp_fov_spans), or NULL */
+    warp_fov_weights weights[2];   /* the out-of-source share's per-vertex pixel counts */
 };
 
 rt_render_cpu_params rt_render_cpu_params_from_config(const rt_config *c)
@@ -67,7 +70,10 @@ rt_render_cpu_params rt_render_cpu_params_from_config(const rt_config *c)
     p.eye_w = c->eye_w;
     p.eye_h = c->eye_h;
     p.mesh_n = c->mesh_n;
-    for (int e = 0; e < 2; e++) p.lens[e] = rt_config_lens(c, e);
+    for (int e = 0; e < 2; e++) {
+        p.lens[e] = rt_config_lens(c, e);
+        p.visible_radius[e] = rt_config_visible_radius(c, e);
+    }
     p.raytrace = warp_raytrace_default_params();
     p.raytrace.max_steps = c->raytrace_steps;
     p.raytrace.edge_fill = (warp_edge_fill)c->edge_fill;
@@ -117,6 +123,15 @@ rt_render_cpu *rt_render_cpu_create(const rt_render_cpu_params *p, plat_workers 
     for (int e = 0; e < 2; e++)
         if (!warp_mesh_alloc(&r->mesh[e], p->mesh_n, &r->p.lens[e], e * vw, 0, vw, p->panel_h))
             return fail(r, err, errlen, "[lens] mesh: cannot allocate the distortion mesh");
+    for (int e = 0; e < 2; e++) {
+        if (p->visible_radius[e] > 0) {
+            r->visible[e] = malloc(sizeof *r->visible[e] * 2 * (size_t)p->panel_h);
+            if (!r->visible[e]) return fail(r, err, errlen, "out of memory");
+            warp_fov_spans(&r->p.lens[e], p->visible_radius[e], vw, p->panel_h, r->visible[e]);
+            r->mesh[e].visible = r->visible[e];
+        }
+        if (!warp_fov_weights_alloc(&r->weights[e], &r->mesh[e], r->visible[e])) return fail(r, err, errlen, "out of memory");
+    }
     for (int e = 0; e < 2 && p->depth_warps; e++) {
         bool ok = warp_image_rgba8_alloc(&r->inter[e], p->eye_w, p->eye_h) &&
                   warp_planar3_alloc(&r->inter_planar[e], p->eye_w, p->eye_h) &&
@@ -141,6 +156,8 @@ void rt_render_cpu_destroy(rt_render_cpu **rp)
     if (!r) return;
     for (int e = 0; e < 2; e++) {
         warp_mesh_free(&r->mesh[e]);
+        free(r->visible[e]);
+        warp_fov_weights_free(&r->weights[e]);
         warp_image_free(&r->inter[e]);
         warp_planar3_free(&r->inter_planar[e]);
         warp_image_free(&r->wmask[e]);
@@ -162,6 +179,11 @@ rt_render_cpu_stats rt_render_cpu_stats_get(const rt_render_cpu *r)
     return st;
 }
 warp_mesh *rt_render_cpu_mesh(rt_render_cpu *r, int eye) { return &r->mesh[eye]; }
+int64_t rt_render_cpu_visible(const rt_render_cpu *r, int eye) { return r->weights[eye].visible; }
+int64_t rt_render_cpu_outside(const rt_render_cpu *r, int eye, int src_w, int src_h)
+{
+    return warp_fov_outside(&r->weights[eye], &r->mesh[eye], src_w, src_h);
+}
 const warp_raytrace_params *rt_render_cpu_raytrace_params(const rt_render_cpu *r) { return &r->p.raytrace; }
 
 static void resample_task(void *ctx, int task)

@@ -21,6 +21,7 @@ typedef struct {
     int eye_w, eye_h;       /* the host frame's eye buffers */
     int mesh_n;             /* lens mesh vertices per side */
     warp_lens lens[2];
+    double visible_radius[2]; /* the lens's visible disc per eye (warp_fov); 0: no hidden-area mask */
     warp_raytrace_params raytrace;
     bool depth_warps;       /* the eye-space warps (raytrace, transparency, objects): their eye buffers */
     bool transparency;      /* the A-buffer warp's grid, tree and depth buffer */
@@ -61,5 +62,11 @@ rt_render_cpu_stats rt_render_cpu_stats_get(const rt_render_cpu *r);
  * the accuracy evaluator use the pass's). */
 warp_mesh *rt_render_cpu_mesh(rt_render_cpu *r, int eye);
 const warp_raytrace_params *rt_render_cpu_raytrace_params(const rt_render_cpu *r);
+
+/* The eye's visible panel pixels (the whole viewport without a mask), and how many of them the mesh's current warp
+ * samples outside a src_w x src_h source (warp_fov_outside: per mesh vertex, the pixels nearest it). Allocation-free:
+ * the compositor reads it after each pass. */
+int64_t rt_render_cpu_visible(const rt_render_cpu *r, int eye);
+int64_t rt_render_cpu_outside(const rt_render_cpu *r, int eye, int src_w, int src_h);
 
 #endif

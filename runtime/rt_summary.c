@@ -19,7 +19,8 @@ enum {
     R_VERSION, R_RUNNING, R_RUN_S, R_BOARD, R_IMU_BACKEND, R_FRAMES_BACKEND, R_VSYNC_BACKEND, R_RENDERER,
     R_GL_RENDERER, R_RENDERER_REASON, R_DISPLAY_OUTPUT, R_KMS_FLIPS, R_KMS_FAILED, R_KMS_LATE, R_KMS_VBLANKS,
     R_KMS_API, R_KMS_FORMAT, R_GLES_P50, R_GLES_P99, R_GLES_ERRORS, R_VSYNCS, R_MISSED, R_MISSED_BY, R_NO_FRAME,
-    R_NO_BUFFER, R_METHOD, R_WARP_P50, R_WARP_P99, R_STALL, R_M2P_P50, R_M2P_P99, R_AGE_P50, R_AGE_MAX, R_SELECT,
+    R_NO_BUFFER, R_METHOD, R_WARP_P50, R_WARP_P99, R_STALL, R_M2P_P50, R_M2P_P99, R_AGE_P50, R_AGE_MAX, R_OUTSIDE_P50, R_OUTSIDE_P99,
+    R_OUTSIDE_PX, R_VISIBLE_PX, R_SELECT,
     R_SWITCHES, R_RECEIVED, R_BYTES, R_SHOWN, R_DROPPED, R_REJECTED_BY, R_REJECTED, R_LINK_CONNECTED,
     R_LINK_CONNECTIONS, R_LINK_REFUSED, R_LINK_DISCONNECTS, R_LINK_POSES, R_LINK_POSES_DROPPED, R_LINK_USB_SPEED,
     R_LINK_DECODE_P50, R_LINK_DECODE_P99, R_LINK_COMPRESSED, R_LINK_CODEC_ERRORS, R_LINK_KEY_REQUESTS,
@@ -69,6 +70,10 @@ const rt_summary_row rt_summary_table[] = {
     [R_M2P_P99] = {"m2p_ms_p99", "motion-to-photon", B, 'f', 3, false},
     [R_AGE_P50] = {"frame_age_ms_p50", "frame age at photon time", B, 'f', 3, false},
     [R_AGE_MAX] = {"frame_age_ms_max", "frame age at photon time", B, 'f', 3, false},
+    [R_OUTSIDE_P50] = {"outside_source_pct_p50", "outside the source", B, 'f', 2, false},
+    [R_OUTSIDE_P99] = {"outside_source_pct_p99", "outside the source", B, 'f', 2, false},
+    [R_OUTSIDE_PX] = {"outside_source_px", "outside the source", B, 'u', 0, false},
+    [R_VISIBLE_PX] = {"visible_px", "outside the source", B, 'u', 0, false},
     [R_SELECT] = {"select_%s", "warp selection (auto)", B, 'u', 0, false},
     [R_SWITCHES] = {"method_switches", NULL, K, 'u', 0, false},
     [R_RECEIVED] = {"frames_received", "received", B, 'u', 0, false},
@@ -284,6 +289,11 @@ static val value(const rt_summary_src *s, int r, int i)
     case R_M2P_P99: v.f = rt_hist_pct(&t->m2p_ms, 99); break;
     case R_AGE_P50: v.f = rt_hist_pct(&t->frame_age_ms, 50); break;
     case R_AGE_MAX: v.f = rt_hist_pct(&t->frame_age_ms, 100); break;
+    /* the lower edge of the percentile's 0.01 % bin, so that frames with nothing outside read 0 */
+    case R_OUTSIDE_P50: v.f = t->outside_pct.count ? fmax(0, rt_hist_pct(&t->outside_pct, 50) - 0.005) : 0; break;
+    case R_OUTSIDE_P99: v.f = t->outside_pct.count ? fmax(0, rt_hist_pct(&t->outside_pct, 99) - 0.005) : 0; break;
+    case R_OUTSIDE_PX: v.u = t->outside_px; break;
+    case R_VISIBLE_PX: v.u = t->visible_px; break;
     case R_SELECT: v.u = t->select_why[i]; break;
     case R_SWITCHES: v.u = t->method_switches; break;
     case R_RECEIVED: v.u = t->frames_received; break;
@@ -506,6 +516,14 @@ void rt_summary_print(const rt_summary_src *s, FILE *out)
                      "stall_reserve_ms)%s\n",
                 L(R_STALL), value(s, R_STALL, 0).f, s->gles ? "; on the GLES path only what fits in a period" : "");
     pct_line(out, L(R_AGE), value(s, R_AGE, 0).h);
+    if (!U(R_VISIBLE_PX))
+        fprintf(out, "  %-26s -\n", L(R_OUTSIDE_P50));
+    else
+        fprintf(out, "  %-26s p50 %.2f %%   p99 %.2f %% of the visible panel pixels per frame; %.3f %% over the run "
+                     "(%llu of %llu)\n",
+                L(R_OUTSIDE_P50), value(s, R_OUTSIDE_P50, 0).f, value(s, R_OUTSIDE_P99, 0).f,
+                100.0 * (double)U(R_OUTSIDE_PX) / (double)U(R_VISIBLE_PX), (unsigned long long)U(R_OUTSIDE_PX),
+                (unsigned long long)U(R_VISIBLE_PX));
     fprintf(out, "  %-26s %s\n", L(R_OUTPUT), STR(R_OUTPUT));
 
     fprintf(out, "host frames\n");

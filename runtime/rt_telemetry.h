@@ -81,6 +81,9 @@ typedef struct {
     rt_hist m2p_ms;        /* newest IMU sample used -> photon time */
     rt_hist frame_age_ms;  /* frame's render pose time -> photon time: how far the warp had to reach */
     rt_hist late_ms;       /* warp finish relative to the vsync deadline (negative = early), shifted by +50 ms */
+    rt_hist outside_pct;   /* per shown frame: % of the visible panel pixels sampling outside the source (warp_fov;
+                            * an rt_hist of ms read as percent: 0.01 % bins) */
+    _Atomic uint64_t outside_px, visible_px; /* the same summed over the run: pixels outside, pixels visible */
     _Atomic uint64_t frames_dropped; /* frames that arrived but were replaced before any vsync showed them */
     _Atomic uint64_t imu_stale;      /* vsyncs warped to the last known orientation: no IMU sample for too long */
     _Atomic uint64_t select_why[16]; /* auto: how often each rt_select_why reason decided */

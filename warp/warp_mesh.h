@@ -5,6 +5,7 @@
 #define WARP_MESH_H
 
 #include <stdbool.h>
+#include <stdint.h>
 
 #include "warp/warp_camera.h"
 #include "warp/warp_image.h"
@@ -47,6 +48,11 @@ typedef struct {
     float *lines;
     int line_stride; /* a multiple of 8, with room for 8-wide loads starting at the last cell */
     double *work;    /* scratch of warp_mesh_update (allocated here: the update runs on the vsync path) */
+    /* The hidden-area mask (warp_fov_spans), set by the mesh's owner, who keeps it alive: NULL shows every pixel,
+     * else viewport row y shows pixels [visible[2 y], visible[2 y + 1]) and the resamplers (CPU and GLES) write the
+     * rest opaque black without sampling: outside the lens's visible disc nothing is seen, and a clamped edge smeared
+     * there would show in the periphery whenever the lens lets a little light through. */
+    const int32_t *visible;
     int behind;      /* vertices of the last update that pointed behind the source camera (warp_mesh_update) or
                       * whose ray left the source (warp_mesh_update_raytrace) */
 } warp_mesh;

@@ -576,8 +576,19 @@ void warp_mesh_resample(const warp_mesh *m, const warp_planar3 *src, warp_image_
         const int sx1 = (ia + STRIP_CELLS) * cw < x1 ? (ia + STRIP_CELLS) * cw : x1;
         const int ib = (sx1 - 1) / cw;
         for (int y = y0; y < y1; y++) {
+            warp_rgba8 *row = &WARP_AT(dst, m->vp_x, m->vp_y + y);
+            int lo = sx0, hi = sx1;
+            if (m->visible) {
+                /* the hidden-area mask: black, and not sampled (kernels write exactly [lo, hi)) */
+                const int v0 = m->visible[2 * y], v1 = m->visible[2 * y + 1];
+                lo = v0 > sx0 ? (v0 < sx1 ? v0 : sx1) : sx0;
+                hi = v1 < sx1 ? (v1 > lo ? v1 : lo) : sx1;
+                for (int x = sx0; x < lo; x++) row[x] = (warp_rgba8){0, 0, 0, 255};
+                for (int x = hi; x < sx1; x++) row[x] = (warp_rgba8){0, 0, 0, 255};
+                if (lo >= hi) continue;
+            }
             build(&t, m, y, ia, ib);
-            kernel(src, m, &t, sx0, sx1, &WARP_AT(dst, m->vp_x, m->vp_y + y));
+            kernel(src, m, &t, lo, hi, row);
         }
         sx0 = sx1;
     }

@@ -144,6 +144,11 @@ int main(int argc, char **argv)
     uint8_t cmsg[DRV_FRAMELINK_CAMS_BYTES];
     drv_framelink_cams_encode(&cams, cmsg, sizeof cmsg);
     if (!send_all(cmsg, sizeof cmsg)) return 1;
+    /* and its visibility mask: a square for the left eye, none for the right */
+    drv_framelink_mask mask = {.seq = 1, .n = {4, 0}, .uv = {{0.5f, 0, 0, 0.25f, -0.5f, 0, 0, -0.25f}}};
+    uint8_t mmsg[DRV_FRAMELINK_MASK_BYTES(4, 0)];
+    drv_framelink_mask_encode(&mask, mmsg, sizeof mmsg);
+    if (!send_all(mmsg, sizeof mmsg)) return 1;
     pthread_t pt;
     pthread_create(&pt, NULL, pose_thread, NULL);
 

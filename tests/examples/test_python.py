@@ -222,6 +222,10 @@ def board_gets_cameras_poses_and_exact_planes():
             check(c.planes & hh.PLANE_DEPTH and c.depth_encoding == "linear", "planes/encoding %r" % (c,))
             p = h.wait_pose(10)
             check(p is not None and p.seq > 0, "no pose message")
+            m = h.visibility_mask(0)
+            check(m == [(0.5, 0.0), (0.0, 0.25), (-0.5, 0.0), (0.0, -0.25)] and h.visibility_mask(1) == [],
+                  "visibility masks %r %r" % (m, h.visibility_mask(1)))
+            raises(hh.ERR_ARG, lambda: h.visibility_mask(2), "eye 2")
             color, depth = images()
             start = hh.now_ns()
             h.submit(color, depth, pose=p, render_start_ns=start, render_end_ns=start + 1000)
@@ -354,7 +358,7 @@ PANEL_W, PANEL_H = 2 * EYE_W, EYE_H
 IDENTITY_BOARD = ("eye.width=%d" % EYE_W, "eye.height=%d" % EYE_H, "eye.fov=45 45 36.869898 36.869898",
                   "display.width=%d" % PANEL_W, "display.height=%d" % PANEL_H, "lens.k_red=1 0 0 0",
                   "lens.k_green=1 0 0 0", "lens.k_blue=1 0 0 0", "lens.scale=%d" % (EYE_W // 2),
-                  "lens.center=%d %d" % (EYE_W // 2, EYE_H // 2))
+                  "lens.center=%d %d" % (EYE_W // 2, EYE_H // 2), "lens.visible_radius=100")  # every pixel shown
 
 
 def kv(path):

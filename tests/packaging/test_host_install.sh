@@ -86,7 +86,8 @@ set -- --set frames.backend=socket --set "frames.device=$tmp/hmd.sock" --set sim
     --set sim.eval_every_ms=0 --set render.rt_priority=0 --set eye.width=64 --set eye.height=48 \
     --set "eye.fov=45 45 36.869898 36.869898" --set display.width=128 --set display.height=48 \
     --set "lens.k_red=1 0 0 0" --set "lens.k_green=1 0 0 0" --set "lens.k_blue=1 0 0 0" --set lens.scale=32 \
-    --set "lens.center=32 24" --set display.sink=raw --set display.sink_every=10 --set "display.sink_path=$tmp/panel"
+    --set "lens.center=32 24" --set lens.visible_radius=100 --set display.sink=raw --set display.sink_every=10 \
+    --set "display.sink_path=$tmp/panel"
 mkdir -p "$tmp/panel"
 if ! "$BUILD/hmdwarpd" --config board/sim/board.ini --check-config "$@" >"$tmp/check.log" 2>&1; then
     not_ok "hmdwarpd with the socket backend" "--check-config: $(tail -n 1 "$tmp/check.log")"

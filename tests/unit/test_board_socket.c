@@ -80,7 +80,8 @@ static void host_pose_after(host *h, int64_t after, drv_framelink_pose *m)
     uint8_t msg[512];
     for (;;) {
         int64_t magic = host_next(h, msg, sizeof msg);
-        assert_true(magic == DRV_FRAMELINK_POSE_MAGIC || magic == DRV_FRAMELINK_CAMS_MAGIC);
+        assert_true(magic == DRV_FRAMELINK_POSE_MAGIC || magic == DRV_FRAMELINK_CAMS_MAGIC ||
+                    magic == DRV_FRAMELINK_MASK_MAGIC);
         if (magic != DRV_FRAMELINK_POSE_MAGIC) continue;
         assert_int_equal(drv_framelink_pose_decode(msg, DRV_FRAMELINK_POSE_BYTES, m), DRV_FRAME_OK);
         if (m->board_t_ns > after) return;
@@ -122,6 +123,19 @@ static void test_board_shows_socket_frames(void **state)
     assert_int_equal(c.cam[1].height, EYE_H);
     assert_true(c.planes & DRV_PLANE_COLOR);
     assert_true(c.refresh_hz > 0);
+    /* then the hidden-area mask of its lens (the sim board's disc): each loop within the camera's field, but for the
+     * half pixel from the visible pixels' centres to the disc's rim and the chords' 1/cos(pi/24) */
+    assert_int_equal(host_next(&h, msg, sizeof msg), DRV_FRAMELINK_MASK_MAGIC);
+    drv_framelink_mask mk;
+    assert_int_equal(drv_framelink_mask_decode(msg, DRV_FRAMELINK_MASK_BYTES(24, 24), &mk), DRV_FRAME_OK);
+    assert_int_equal(mk.seq, c.seq);
+    for (int e = 0; e < 2; e++) {
+        assert_int_equal(mk.n[e], 24);
+        for (int k = 0; k < mk.n[e]; k++) {
+            assert_true(mk.uv[e][2 * k] >= -c.cam[e].tan_left * 1.03 && mk.uv[e][2 * k] <= c.cam[e].tan_right * 1.03);
+            assert_true(mk.uv[e][2 * k + 1] >= -c.cam[e].tan_down * 1.03 && mk.uv[e][2 * k + 1] <= c.cam[e].tan_up * 1.03);
+        }
+    }
     drv_frame f;
     assert_true(drv_frame_alloc(&f, EYE_W, EYE_H, DRV_PLANE_COLOR, 0));
     f.planes = DRV_PLANE_COLOR;

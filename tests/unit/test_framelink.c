@@ -682,6 +682,93 @@ static void test_cams_message(void **state)
     assert_int_equal(q.seq, 5); /* untouched by the failures */
 }
 
+static drv_frame_err mask_decode(const uint8_t *b, size_t n)
+{
+    drv_framelink_mask m;
+    return drv_framelink_mask_decode(b, n, &m);
+}
+
+/* The visibility mask message: round trip with exact floats, told apart by peek, every damaged form refused. */
+static void test_mask_message(void **state)
+{
+    (void)state;
+    drv_framelink_mask m = {.seq = 9, .n = {24, 3}};
+    for (int k = 0; k < 24; k++) {
+        m.uv[0][2 * k] = (float)(1.5 * cos(k * 2 * WARP_PI / 24));
+        m.uv[0][2 * k + 1] = (float)(1.4 * sin(k * 2 * WARP_PI / 24));
+    }
+    const float tri[6] = {-1, -1, 1, -1, 0, 1.25f};
+    memcpy(m.uv[1], tri, sizeof tri);
+    const size_t n = DRV_FRAMELINK_MASK_BYTES(24, 3);
+    assert_int_equal(n, 24 + 8 * 27);
+    uint8_t buf[DRV_FRAMELINK_MASK_BYTES(DRV_FRAMELINK_MASK_MAX, DRV_FRAMELINK_MASK_MAX)], b[sizeof buf];
+    assert_int_equal(drv_framelink_mask_encode(&m, buf, n - 1), 0);
+    assert_int_equal(drv_framelink_mask_encode(&m, buf, sizeof buf), n);
+    drv_framelink_mask q;
+    memset(&q, 0, sizeof q);
+    assert_int_equal(drv_framelink_mask_decode(buf, n, &q), DRV_FRAME_OK);
+    assert_int_equal(q.seq, 9);
+    assert_int_equal(q.n[0], 24);
+    assert_int_equal(q.n[1], 3);
+    assert_memory_equal(q.uv[0], m.uv[0], sizeof(float) * 48);
+    assert_memory_equal(q.uv[1], tri, sizeof tri);
+    size_t size = 0;
+    assert_int_equal(drv_framelink_msg_peek(buf, n, &size), DRV_FRAMELINK_MASK_MAGIC);
+    assert_int_equal(size, n);
+    for (size_t len = 0; len < n; len++) assert_int_equal(mask_decode(buf, len), DRV_FRAME_ERR_TRUNCATED);
+    /* counts the encoder refuses */
+    drv_framelink_mask bad = m;
+    bad.n[1] = 2;
+    assert_int_equal(drv_framelink_mask_encode(&bad, b, sizeof b), 0);
+    bad.n[1] = DRV_FRAMELINK_MASK_MAX + 1;
+    assert_int_equal(drv_framelink_mask_encode(&bad, b, sizeof b), 0);
+    /* no mask for one eye is fine */
+    bad.n[1] = 0;
+    size_t n0 = drv_framelink_mask_encode(&bad, b, sizeof b);
+    assert_int_equal(n0, DRV_FRAMELINK_MASK_BYTES(24, 0));
+    assert_int_equal(drv_framelink_mask_decode(b, n0, &q), DRV_FRAME_OK);
+    assert_int_equal(q.n[1], 0);
+    /* damage: magic, version, size, a payload bit (CRC), then fields behind a correct CRC */
+    const struct { int off, x; drv_frame_err want; } env[] = {{1, 1, DRV_FRAME_ERR_BAD_MAGIC},
+                                                             {4, 8, DRV_FRAME_ERR_BAD_VERSION},
+                                                             {6, 1, DRV_FRAME_ERR_BAD_SIZE},
+                                                             {40, 0x10, DRV_FRAME_ERR_CRC}};
+    for (size_t i = 0; i < sizeof env / sizeof env[0]; i++) {
+        memcpy(b, buf, n);
+        b[env[i].off] ^= (uint8_t)env[i].x;
+        assert_int_equal(mask_decode(b, n), env[i].want);
+    }
+    memcpy(b, buf, n);
+    b[12] = 1; /* flags */
+    set_le32(b + n - 4, (uint32_t)crc32_z(0, b, n - 4));
+    assert_int_equal(mask_decode(b, n), DRV_FRAME_ERR_BAD_FORMAT);
+    memcpy(b, buf, n);
+    set_le32(b + 20, 0x7fc00000u); /* a NaN vertex */
+    set_le32(b + n - 4, (uint32_t)crc32_z(0, b, n - 4));
+    assert_int_equal(mask_decode(b, n), DRV_FRAME_ERR_BAD_CAMERA);
+    memcpy(b, buf, n);
+    set_le32(b + 20, 0x4f000000u); /* 2^31: past any tangent */
+    set_le32(b + n - 4, (uint32_t)crc32_z(0, b, n - 4));
+    assert_int_equal(mask_decode(b, n), DRV_FRAME_ERR_BAD_CAMERA);
+    /* counts of 1 or 2 vertices, or above the maximum, with a matching size and CRC */
+    const int counts[][2] = {{1, 0}, {0, 2}, {DRV_FRAMELINK_MASK_MAX + 1, 0}};
+    for (size_t i = 0; i < 3; i++) {
+        size_t nb = DRV_FRAMELINK_MASK_BYTES(counts[i][0], counts[i][1]);
+        uint8_t *d = calloc(1, nb);
+        memcpy(d, buf, 16);
+        d[6] = (uint8_t)nb, d[7] = (uint8_t)(nb >> 8);
+        d[16] = (uint8_t)counts[i][0], d[18] = (uint8_t)counts[i][1];
+        set_le32(d + nb - 4, (uint32_t)crc32_z(0, d, nb - 4));
+        assert_int_equal(mask_decode(d, nb), DRV_FRAME_ERR_BAD_FORMAT);
+        free(d);
+    }
+    /* a declared size that the counts cannot have: 65535 vertices would not fit the u16 size */
+    memcpy(b, buf, n);
+    b[16] = 0xff, b[17] = 0xff;
+    assert_int_equal(mask_decode(b, n), DRV_FRAME_ERR_BAD_SIZE);
+    assert_int_equal(q.seq, 9); /* untouched by the failures */
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -696,6 +783,7 @@ int main(void)
         cmocka_unit_test(test_find_magic),
         cmocka_unit_test(test_pose_message),
         cmocka_unit_test(test_cams_message),
+        cmocka_unit_test(test_mask_message),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

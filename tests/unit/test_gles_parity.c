@@ -13,6 +13,7 @@
 #include "platform/plat_egl.h"
 #include "platform/plat_gles.h"
 #include "sim/sim_scene.h"
+#include "warp/warp_fov.h"
 #include "warp/warp_metrics.h"
 #include "warp/warp_raytrace.h"
 #include "warp/warp_resample.h"
@@ -212,6 +213,38 @@ static void test_rotation_parity(void **state)
     double p = warp_psnr(&F.panel_gpu, &F.panel_cpu, NULL, 0);
     print_message("half a degree off in one eye: %.2f dB\n", p);
     assert_true(p < 40.0);
+}
+
+/* The hidden-area mask (warp_fov): both paths paint the same pixels opaque black, exactly, and sample the rest. */
+static void test_mask_parity(void **state)
+{
+    (void)state;
+    int32_t span[2][2 * H];
+    for (int e = 0; e < 2; e++) {
+        /* eye 1 a smaller disc than eye 0: each eye's own mask reaches the GPU */
+        assert_true(warp_fov_spans(&F.lens, e ? 0.7 : 0.9, W, H, span[e]) > 0);
+        F.mesh[e].visible = span[e];
+    }
+    warp_pose a = test_eye_at(5 * D2R, 2 * D2R, 0, warp_v3(0, 1.6, 0));
+    source("room", a);
+    cpu_lens(warp_quat_from_ypr(3 * D2R, 0, 0), &F.planar);
+    gpu_lens(F.g, false);
+    long black = 0;
+    for (int e = 0; e < 2; e++)
+        for (int y = 0; y < H; y++)
+            for (int x = 0; x < W; x++) {
+                warp_rgba8 c = WARP_AT(&F.panel_cpu, e * W + x, y), g = WARP_AT(&F.panel_gpu, e * W + x, y);
+                if (x >= span[e][2 * y] && x < span[e][2 * y + 1]) continue;
+                black++;
+                assert_int_equal(c.r | c.g | c.b, 0);
+                assert_int_equal(g.r | g.g | g.b, 0);
+                assert_int_equal(g.a, 255);
+            }
+    assert_true(black > W * H / 4);
+    double p = warp_psnr(&F.panel_gpu, &F.panel_cpu, NULL, 0);
+    print_message("masked rotation: GLES vs CPU %.2f dB, %ld masked pixels\n", p, black);
+    assert_true(p >= 45.0);
+    for (int e = 0; e < 2; e++) F.mesh[e].visible = NULL;
 }
 
 /* Raytraces source -> `to` on the CPU (reference, with mask) and on the GPU (both pyramid builds). */
@@ -456,6 +489,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_egl_llvmpipe_detected),
         cmocka_unit_test(test_rotation_parity),
+        cmocka_unit_test(test_mask_parity),
         cmocka_unit_test(test_raytrace_parity),
         cmocka_unit_test(test_pyramid_skips_empty_space),
         cmocka_unit_test(test_raytrace_then_lens_parity),

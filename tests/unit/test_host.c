@@ -216,6 +216,50 @@ static void test_messages(void **state)
     assert_int_equal(st.connected, 1);
 }
 
+/* The visibility mask: none before it comes, then each eye's loop exactly; a new camera message clears it until its
+ * mask follows; a damaged mask is rejected and counted; bad arguments are refused. */
+static void test_visibility_mask(void **state)
+{
+    board *b = *state;
+    float uv[2 * HMDWARP_HOST_MASK_MAX];
+    assert_int_equal(hmdwarp_host_get_visibility_mask(b->h, 0, uv, HMDWARP_HOST_MASK_MAX), 0);
+    drv_framelink_mask m = {.seq = 1, .n = {4, 0}};
+    const float sq[8] = {1.25f, 0, 0, 1.5f, -1.25f, 0, 0, -1.5f};
+    memcpy(m.uv[0], sq, sizeof sq);
+    uint8_t mb[DRV_FRAMELINK_MASK_BYTES(4, 0)];
+    assert_int_equal(drv_framelink_mask_encode(&m, mb, sizeof mb), sizeof mb);
+    hmdwarp_host_pose_msg pm;
+    board_send_cams(b);
+    board_send(b, mb, sizeof mb);
+    board_send_pose(b, 3);
+    assert_int_equal(hmdwarp_host_wait_pose(b->h, 5000, &pm), 1); /* messages are read in order: the mask is in */
+    assert_int_equal(hmdwarp_host_get_visibility_mask(b->h, 0, uv, HMDWARP_HOST_MASK_MAX), 4);
+    assert_memory_equal(uv, sq, sizeof sq);
+    assert_int_equal(hmdwarp_host_get_visibility_mask(b->h, 1, uv, HMDWARP_HOST_MASK_MAX), 0);
+    float two[4] = {9, 9, 9, 9};
+    assert_int_equal(hmdwarp_host_get_visibility_mask(b->h, 0, two, 1), 4); /* n, with only max copied */
+    assert_true(two[0] == 1.25f && two[1] == 0 && two[2] == 9);
+    assert_int_equal(hmdwarp_host_get_visibility_mask(b->h, 0, NULL, 0), 4);
+    assert_int_equal(hmdwarp_host_get_visibility_mask(b->h, 2, uv, 4), HMDWARP_HOST_ERR_ARG);
+    assert_int_equal(hmdwarp_host_get_visibility_mask(b->h, 0, NULL, 4), HMDWARP_HOST_ERR_ARG);
+    assert_int_equal(hmdwarp_host_get_visibility_mask(NULL, 0, uv, 4), HMDWARP_HOST_ERR_ARG);
+    /* a camera message without its mask (a board without one): no mask */
+    board_send_cams(b);
+    board_send_pose(b, 4);
+    assert_int_equal(hmdwarp_host_wait_pose(b->h, 5000, &pm), 1);
+    assert_int_equal(hmdwarp_host_get_visibility_mask(b->h, 0, uv, HMDWARP_HOST_MASK_MAX), 0);
+    /* a damaged mask: rejected, counted */
+    hmdwarp_host_stats st0, st;
+    assert_int_equal(hmdwarp_host_get_stats(b->h, &st0), 0);
+    mb[25] ^= 0x40;
+    board_send(b, mb, sizeof mb);
+    board_send_pose(b, 5);
+    assert_int_equal(hmdwarp_host_wait_pose(b->h, 5000, &pm), 1);
+    assert_int_equal(hmdwarp_host_get_visibility_mask(b->h, 0, uv, HMDWARP_HOST_MASK_MAX), 0);
+    assert_int_equal(hmdwarp_host_get_stats(b->h, &st), 0);
+    assert_int_equal(st.messages_rejected, st0.messages_rejected + 1);
+}
+
 /* Garbage between messages, a message with a bad CRC and one with a size field beyond any message: each rejected
  * and counted, the good messages around them all received, the reader never stuck. */
 static void test_garbage(void **state)
@@ -573,6 +617,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup_teardown(test_messages, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_visibility_mask, setup, teardown),
         cmocka_unit_test_setup_teardown(test_garbage, setup, teardown),
         cmocka_unit_test_setup_teardown(test_conversions, setup, teardown),
         cmocka_unit_test_setup_teardown(test_refusals, setup, teardown),

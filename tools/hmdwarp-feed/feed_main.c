@@ -42,6 +42,7 @@ typedef struct {
     bool synth_poses;          /* synthesise poses instead of reading the board's (implied by --file/--stdout) */
     int eye_w, eye_h;
     double fov[4], near_z;
+    bool fov_set, near_set;    /* --fov / --near given: they override the board's camera message */
     unsigned planes;
     int depth_format;
     double rate_hz, duration_s, synth_rate_hz;
@@ -88,8 +89,9 @@ static void usage(FILE *f)
             "  --sequence-rate R   own: at the manifest's times (the default); board: one frame per pose message\n"
             "  --loop              play the sequence again when it ends (default: once, then stop)\n"
             "  --eye WxH           eye size, must match the board's [eye] (default 720x800)\n"
-            "  --fov L,R,U,D       left-eye half angles in degrees, mirrored for the right eye (default 52,48,52,52)\n"
-            "  --near M            near plane in metres (default 0.05)\n"
+            "  --fov L,R,U,D       left-eye half angles in degrees, mirrored for the right eye (default: the board's\n"
+            "                      camera message, exactly; 52,48,52,52 without a board or when its eyes differ)\n"
+            "  --near M            near plane in metres (default: the board's, else 0.05)\n"
             "  --planes LIST       planes to send when the scene needs them: color,depth,ids,motion,layers\n"
             "                      (default color,depth; the board must allocate them)\n"
             "  --depth f32|unorm16 depth plane format (unorm16 only with window-depth encodings; the simulator\n"
@@ -200,8 +202,12 @@ static bool parse_opts(int argc, char **argv, feed_opts *o)
         case O_FOV:
             if (sscanf(optarg, "%lf,%lf,%lf,%lf", &o->fov[0], &o->fov[1], &o->fov[2], &o->fov[3]) != 4)
                 return fprintf(stderr, "--fov wants L,R,U,D\n"), false;
+            o->fov_set = true;
             break;
-        case O_NEAR: o->near_z = atof(optarg); break;
+        case O_NEAR:
+            o->near_z = atof(optarg);
+            o->near_set = true;
+            break;
         case O_PLANES:
             o->planes = parse_planes(optarg);
             if (!o->planes) return fprintf(stderr, "--planes: unknown plane in '%s'\n", optarg), false;
@@ -422,6 +428,42 @@ static void drop_unaccepted(hmdwarp_host *h, hmdwarp_host_frame *fr, bool *said)
     }
 }
 
+/* Renders exactly the field the board announces (its [eye] fov, from its lens when auto) unless --fov said
+ * otherwise: the tangents and near plane of its camera message, when its eyes are the size allocated (--eye). The
+ * hidden-area mask that follows it is reported; the scene renderer shades every pixel regardless. */
+static void adopt_board_cameras(hmdwarp_host *h, const feed_opts *o, drv_frame *f, host_frame *hf)
+{
+    hmdwarp_host_cameras c;
+    if (hmdwarp_host_wait_cameras(h, 2000, &c) != 1) {
+        fprintf(stderr, "hmdwarp-feed: no camera message from the board: rendering --fov %g,%g,%g,%g\n", o->fov[0],
+                o->fov[1], o->fov[2], o->fov[3]);
+        return;
+    }
+    for (int e = 0; e < 2; e++)
+        if ((int)c.cam[e].width != f->cam[e].width || (int)c.cam[e].height != f->cam[e].height) {
+            fprintf(stderr, "hmdwarp-feed: the board's eyes are %ux%u, --eye %dx%d: rendering --fov\n", c.cam[e].width,
+                    c.cam[e].height, f->cam[e].width, f->cam[e].height);
+            return;
+        }
+    for (int e = 0; e < 2; e++) {
+        warp_camera *w = &f->cam[e];
+        w->tan_left = c.cam[e].tan_left, w->tan_right = c.cam[e].tan_right;
+        w->tan_up = c.cam[e].tan_up, w->tan_down = c.cam[e].tan_down;
+        if (!o->near_set) w->near_z = c.cam[e].near_z;
+        hf->fr.eye[e].camera = (hmdwarp_host_camera){(uint32_t)w->width, (uint32_t)w->height, w->tan_left,
+                                                     w->tan_right, w->tan_up, w->tan_down, w->near_z, w->far_z};
+    }
+    float uv[2 * HMDWARP_HOST_MASK_MAX];
+    const double d = 180 / WARP_PI;
+    /* the mask message comes right behind the camera message */
+    for (int i = 0; i < 10 && hmdwarp_host_get_visibility_mask(h, 0, uv, 0) <= 0; i++) plat_sleep_ns(10 * PLAT_NS_PER_MS);
+    fprintf(stderr, "hmdwarp-feed: rendering the board's field: left eye %.1f %.1f %.1f %.1f deg (left right up down); "
+                    "visibility mask %d + %d vertices\n",
+            atan(c.cam[0].tan_left) * d, atan(c.cam[0].tan_right) * d, atan(c.cam[0].tan_up) * d,
+            atan(c.cam[0].tan_down) * d, hmdwarp_host_get_visibility_mask(h, 0, uv, HMDWARP_HOST_MASK_MAX),
+            hmdwarp_host_get_visibility_mask(h, 1, uv, HMDWARP_HOST_MASK_MAX));
+}
+
 /* Opens the library's connection for the options: --file/--stdout, --socket, or the board over USB. */
 static hmdwarp_host *open_link(const feed_opts *o)
 {
@@ -552,6 +594,7 @@ int main(int argc, char **argv)
         if (!vo) return fprintf(stderr, "hmdwarp-feed: --v4l2 %s: %s\n", o.v4l2_dev, err), 1;
     }
     if ((!o.v4l2_dev || !synth) && !(h = open_link(&o))) return 1;
+    if (h && !seq && !o.fov_set && !o.out_path) adopt_board_cameras(h, &o, &f, &hf);
     const char *sink_name = vo ? "v4l2" : o.out_path ? "file" : o.socket_path ? "socket" : "usb";
     uint8_t *buf = NULL; /* --damage-every: the encoded frame, damaged before it is sent */
     size_t cap = 0;

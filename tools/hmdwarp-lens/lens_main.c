@@ -12,6 +12,7 @@
 #include "platform/plat_png.h"
 #include "platform/plat_version.h"
 #include "runtime/rt_config.h"
+#include "warp/warp_fov.h"
 #include "warp/warp_lens.h"
 #include "warp/warp_mesh.h"
 #include "warp/warp_resample.h"
@@ -112,6 +113,12 @@ int main(int argc, char **argv)
             char m[300];
             if (!plat_png_write(source, &src, true, m, sizeof m)) return fprintf(stderr, "hmdwarp-lens: %s\n", m), 1;
         }
+        /* the hidden-area mask as hmdwarpd applies it: black outside the lens's visible disc */
+        int32_t *span = malloc(sizeof *span * 2 * (size_t)c.panel_h);
+        if (!span) return fprintf(stderr, "out of memory\n"), 1;
+        const double vr = rt_config_visible_radius(&c, e);
+        const int64_t visible = vr > 0 ? warp_fov_spans(&lens, vr, vw, c.panel_h, span) : 0;
+        if (vr > 0) mesh.visible = span;
         warp_planar3_from_rgba_rows(&planar, &src, 0, c.eye_h);
         warp_mesh_update(&mesh, &cam, warp_quat_identity());
         warp_mesh_resample(&mesh, &planar, &panel, 0, 0, vw, c.panel_h);
@@ -122,6 +129,14 @@ int main(int argc, char **argv)
         printf("%s eye: corner sees tangent (%.3f, %.3f); red-blue separation there %.1f eye-buffer px; "
                "monotonic to r = %.3f (green)\n",
                e ? "right" : "left", u[1], v[1], spread, warp_lens_monotonic_radius(&lens, 1));
+        /* what the eye buffer covers and what of the visible disc samples outside it (0 with fov = auto) */
+        const double d = 180 / WARP_PI;
+        printf("  visible disc radius %.3f: %.1f %% of the eye's panel pixels; eye camera %.1f %.1f %.1f %.1f deg "
+               "(left right up down, %s); visible pixels sampling outside it: %lld\n",
+               vr, 100.0 * (double)visible / ((double)vw * c.panel_h), atan(cam.tan_left) * d, atan(cam.tan_right) * d,
+               atan(cam.tan_up) * d, atan(cam.tan_down) * d, rt_config_fov_auto(&c) ? "fov = auto" : "[eye] fov",
+               (long long)warp_fov_outside_exact(&mesh, cam.width, cam.height));
+        free(span);
         warp_mesh_free(&mesh);
         warp_planar3_free(&planar);
         warp_image_free(&src);

@@ -146,8 +146,9 @@ static void screen(FILE *out, const char *path, const kv_set *s, const kv_set *p
     fprintf(out, "latency    motion-to-photon p50 %s ms, p99 %s ms; frame age p50 %s ms, max %s ms\n",
             num(s, "m2p_ms_p50", b[0], 64), num(s, "m2p_ms_p99", b[1], 64), num(s, "frame_age_ms_p50", b[2], 64),
             num(s, "frame_age_ms_max", b[3], 64));
-    fprintf(out, "           warp p50 %s ms, p99 %s ms\n", num(s, "warp_ms_p50", b[0], 64),
-            num(s, "warp_ms_p99", b[1], 64));
+    fprintf(out, "           warp p50 %s ms, p99 %s ms; outside the source p50 %s %%, p99 %s %% of the visible pixels\n",
+            num(s, "warp_ms_p50", b[0], 64), num(s, "warp_ms_p99", b[1], 64), num(s, "outside_source_pct_p50", b[2], 64),
+            num(s, "outside_source_pct_p99", b[3], 64));
     fprintf(out, "host link  %s: %s MB/s, %s frames/s%s; received %s, shown %s, dropped unseen %s, rejected %s\n",
             kv_str(s, "frames_backend") ?: "?", fmt_rate(rate(s, prev, "frames_bytes") / (1024 * 1024), 1, b[6], 64),
             fmt_rate(rate(s, prev, "frames_received"), 1, b[7], 64), avg, num(s, "frames_received", b[0], 64), num(s, "frames_shown", b[1], 64),

@@ -21,7 +21,7 @@ HostError, whose message names the field ("eye[1].depth: NaN at pixel (12, 40)")
 import ctypes
 import dataclasses
 import math
-from typing import Optional, Sequence, Tuple
+from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -35,6 +35,8 @@ __all__ = ["Host", "HostError", "Pose", "PoseMsg", "Camera", "Cameras", "Stats",
 ERR_ARG, ERR_SIZE, ERR_NOT_FINITE, ERR_FORMAT, ERR_NO_CAMERAS = -1, -2, -3, -4, -5
 ERR_NOT_CONNECTED, ERR_DISCONNECTED, ERR_IO, ERR_NO_MEMORY, ERR_UNSUPPORTED = -6, -7, -8, -9, -10
 PLANE_COLOR, PLANE_DEPTH, PLANE_IDS, PLANE_MOTION, PLANE_LAYERS = 1, 2, 4, 8, 16
+
+MASK_MAX = 64  # HMDWARP_HOST_MASK_MAX: vertices per eye at most
 
 _COLOR_FORMATS = {"rgba8": (1, 4), "bgra8": (2, 4), "rgb8": (3, 3), "rgbx8": (4, 4)}
 # depth_format name -> (float32 format, uint16 format or None)
@@ -304,6 +306,16 @@ class Host:
         if rc < 0:
             _fail(rc)
         return Cameras._from_c(c) if rc == 1 else None
+
+    def visibility_mask(self, eye: int) -> List[Tuple[float, float]]:
+        """The eye's hidden-area mask: a counter-clockwise line loop of (u, v) tangents outside which the board shows
+        black (skip shading there); [] when the board sent none (every pixel is shown)."""
+        buf = (ctypes.c_float * (2 * MASK_MAX))()
+        rc = lib.hmdwarp_host_get_visibility_mask(self._handle(), eye, buf, MASK_MAX)
+        if rc < 0:
+            _fail(rc)
+        n = min(rc, MASK_MAX)
+        return [(buf[2 * k], buf[2 * k + 1]) for k in range(n)]
 
     def set_cameras(self, cams: Cameras) -> None:
         """Cameras for a file, or a board that sends none: as if the board had sent them."""

@@ -96,6 +96,8 @@ def _load():
         "hmdwarp_host_get_cameras": (ctypes.c_int, [handle, ctypes.POINTER(Cameras)]),
         "hmdwarp_host_wait_cameras": (ctypes.c_int, [handle, ctypes.c_int, ctypes.POINTER(Cameras)]),
         "hmdwarp_host_set_cameras": (ctypes.c_int, [handle, ctypes.POINTER(Cameras)]),
+        "hmdwarp_host_get_visibility_mask": (ctypes.c_int, [handle, ctypes.c_int, ctypes.POINTER(ctypes.c_float),
+                                                            ctypes.c_int]),
         "hmdwarp_host_submit": (ctypes.c_int, [handle, ctypes.POINTER(Frame)]),
         "hmdwarp_host_encode": (c_int64, [handle, ctypes.POINTER(Frame), ctypes.c_void_p, c_size_t]),
         "hmdwarp_host_send_raw": (ctypes.c_int, [handle, ctypes.c_void_p, c_size_t]),
