@@ -75,6 +75,9 @@ OPENCV_CFLAGS := $(or $(shell $(PKG_CONFIG) --cflags opencv4 2>/dev/null),-I/usr
 OPENCV_LIBS   := $(or $(shell $(PKG_CONFIG) --libs opencv4 2>/dev/null),-lopencv_imgproc -lopencv_core)
 CXX := $(CROSS_COMPILE)g++
 TOOL_LIBS_hmdwarp-bench := $(OPENCV_LIBS) -lstdc++
+# hmdwarp-lens import reads Monado/SteamVR config JSON (json-c) and OpenCV calibration YAML (libyaml).
+LENS_PKGS := json-c yaml-0.1
+TOOL_LIBS_hmdwarp-lens = $(shell $(PKG_CONFIG) --libs $(LENS_PKGS) 2>/dev/null)
 PROGRAMS := $(BUILD)/hmdwarpd $(addprefix $(BUILD)/,$(TOOLS))
 
 # libhmdwarp-host (host/, docs/host-api.md): the host side of the frame link as a shared library with one installed

@@ -12,6 +12,7 @@
 #include "platform/plat_png.h"
 #include "platform/plat_version.h"
 #include "runtime/rt_config.h"
+#include "tools/hmdwarp-lens/lens_cli.h"
 #include "warp/warp_lens.h"
 #include "warp/warp_mesh.h"
 #include "warp/warp_resample.h"
@@ -19,6 +20,8 @@
 static void usage(FILE *f)
 {
     fprintf(f, "Usage: hmdwarp-lens [options]\n"
+               "       hmdwarp-lens import SOURCE [options]   published lens parameters -> [lens] (import --help)\n"
+               "       hmdwarp-lens fit CORR.csv [options]    measured correspondences -> [lens] (fit --help)\n"
                "Renders a calibration pattern through the configured lens distortion and chromatic aberration.\n"
                "  --config FILE      board.ini (default board/sim/board.ini)\n"
                "  --set SEC.KEY=VAL  override a key, e.g. --set lens.k_green=\"1 0.25 0.2 0\" (repeatable)\n"
@@ -52,6 +55,8 @@ static warp_rgba8 pattern_at(const char *kind, int x, int y, int w, int h, int s
 
 int main(int argc, char **argv)
 {
+    if (argc > 1 && strcmp(argv[1], "import") == 0) return lens_import_main(argc - 1, argv + 1);
+    if (argc > 1 && strcmp(argv[1], "fit") == 0) return lens_fit_main(argc - 1, argv + 1);
     const char *config = "board/sim/board.ini", *out = "lens-pattern.png", *source = NULL, *kind = "grid";
     int spacing = 64;
     rt_config c;
