@@ -126,8 +126,8 @@ static const keydef keys[] = {
      "hmdwarp-lens import writes any of them"},
     {"lens", "k_red", K_DLIST, F(k[0]), WARP_LENS_TERMS, -100, 100, NULL,
      "poly: red radial scale polynomial k0 k1 k2 k3: s(r^2) = k0 + k1 r^2 + k2 r^4 + k3 r^6 (the defaults are "
-     "the Oculus Rift DK1's 1.0 0.22 0.24 0 from its SDK's HMDInfo DistortionK, scaled 0.996 / 1.008 for red / "
-     "blue)"},
+     "the Oculus Rift DK1's DistortionK 1 0.22 0.24 0 from the Oculus SDK 0.2 HMDInfo, times 0.996 for red and "
+     "1.008 for blue; that SDK's DK1 ChromaAbCorrection has 0.996 and 1.014)"},
     {"lens", "k_green", K_DLIST, F(k[1]), WARP_LENS_TERMS, -100, 100, NULL, "green polynomial"},
     {"lens", "k_blue", K_DLIST, F(k[2]), WARP_LENS_TERMS, -100, 100, NULL, "blue polynomial"},
     {"lens", "scale", K_DOUBLE, F(lens_scale), 0, 1, 100000, NULL, "panel pixels per unit of normalised radius"},

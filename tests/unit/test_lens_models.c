@@ -8,6 +8,7 @@
 #include <string.h>
 #include <cmocka.h>
 
+#include "runtime/rt_config.h"
 #include "tests/support/test_util.h"
 #include "warp/warp_lens.h"
 #include "warp/warp_lens_models.h"
@@ -82,7 +83,7 @@ static void test_openhmd_cv1(void **state)
                 assert_true(fabs(ou - u) < 1e-9 && fabs(ov - v) < 1e-9);
             }
     /* the lens axis sees straight ahead; blue's wider scale puts the same angle further out than red */
-    double u, v, xr, yr, xb, yb;
+    double u, v, xr = 0, yr, xb = 0, yb;
     warp_lens_distort(&l, 1, l.center_x, l.center_y, &u, &v);
     assert_true(fabs(u) < 1e-12 && fabs(v) < 1e-12);
     assert_true(warp_lens_undistort(&l, 0, 0.5, 0, &xr, &yr) && warp_lens_undistort(&l, 2, 0.5, 0, &xb, &yb));
@@ -340,12 +341,60 @@ static void test_fit_recovers(void **state)
     assert_false(warp_lensfit_radial(WARP_LENS_VIVE, pts, n, 540, 600, 560, &r, err, sizeof err));
 }
 
+/* [lens] model and its keys: rt_config_lens builds the model (mirrored for the right eye); a lens that folds over
+ * the viewport fails validation naming the model's own keys. */
+static void test_config_models(void **state)
+{
+    (void)state;
+    rt_config c;
+    rt_config_defaults(&c);
+    rt_config_errors err = {0};
+    const char *set[] = {"display.width=2160", "display.height=1200", "lens.model=opencv",
+                         "lens.opencv_camera=700 690 545 598", "lens.opencv_dist=-0.21 0.045 0.0012 -0.0008 -0.004"};
+    for (size_t i = 0; i < sizeof set / sizeof *set; i++) assert_true(rt_config_set(&c, set[i], &err));
+    assert_true(rt_config_validate(&c, &err));
+    warp_lens l = rt_config_lens(&c, 0), r = rt_config_lens(&c, 1), want = warp_lens_opencv(&ocv);
+    assert_int_equal(l.model, WARP_LENS_OPENCV);
+    double u, v, uw, vw, ur, vr;
+    warp_lens_distort(&l, 2, 200, 900, &u, &v);
+    warp_lens_distort(&want, 2, 200, 900, &uw, &vw);
+    warp_lens_distort(&r, 2, 1080 - 200, 900, &ur, &vr);
+    assert_true(fabs(u - uw) < 1e-12 && fabs(v - vw) < 1e-12);
+    assert_true(fabs(u + ur) < 1e-9 && fabs(v - vr) < 1e-9); /* the mirror image, tangential terms included */
+    /* every model's defaults are a usable lens on the default panel */
+    const char *const models[] = {"poly", "panotools", "vive", "cardboard", "opencv"};
+    for (int m = 0; m < 5; m++) {
+        rt_config d;
+        rt_config_defaults(&d);
+        char a[64];
+        snprintf(a, sizeof a, "lens.model=%s", models[m]);
+        rt_config_errors e = {0};
+        assert_true(rt_config_set(&d, a, &e));
+        bool ok = rt_config_validate(&d, &e);
+        if (!ok) print_error("%s: %s\n", models[m], e.msg[0]);
+        assert_true(ok);
+    }
+    /* a folding panotools lens names the panotools keys */
+    rt_config_defaults(&c);
+    err.count = 0;
+    assert_true(rt_config_set(&c, "lens.model=panotools", &err));
+    assert_true(rt_config_set(&c, "lens.pano_green=0 -0.6 0 1", &err));
+    assert_false(rt_config_validate(&c, &err));
+    assert_non_null(strstr(err.msg[0], "folds over"));
+    assert_non_null(strstr(err.msg[0], "[lens] pano_green"));
+    assert_non_null(strstr(err.msg[0], "[lens] model"));
+    /* an unknown model is refused with the list */
+    err.count = 0;
+    assert_false(rt_config_set(&c, "lens.model=fisheye", &err));
+    assert_non_null(strstr(err.msg[0], "opencv"));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_openhmd_cv1), cmocka_unit_test(test_vive),         cmocka_unit_test(test_cardboard_v1),
         cmocka_unit_test(test_opencv),      cmocka_unit_test(test_round_trips),  cmocka_unit_test(test_fold_refused),
-        cmocka_unit_test(test_fit_recovers),
+        cmocka_unit_test(test_fit_recovers), cmocka_unit_test(test_config_models),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
