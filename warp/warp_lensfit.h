@@ -30,6 +30,13 @@ typedef struct {
 bool warp_lensfit_radial(warp_lens_model model, const warp_lensfit_point *pts, int n, double cx, double cy,
                          double scale, warp_lensfit_result *out, char *err, int errlen);
 
+/* Also fits the lens centre, shared by the three channels (poly and panotools have one): the centre minimising the
+ * channels' summed tangent residual, by Nelder-Mead from (*cx, *cy) with the coefficients solved exactly at every
+ * trial centre. The scale needs no fit: both bases are closed under scaling (scaling it by s multiplies the
+ * coefficient of q r^j by s^(j+1)), so it only normalises. out[c] as warp_lensfit_radial at the fitted centre. */
+bool warp_lensfit_center(warp_lens_model model, const warp_lensfit_point *const pts[3], const int n[3], double *cx,
+                         double *cy, double scale, warp_lensfit_result out[3], char *err, int errlen);
+
 /* The one-channel lens the fit describes (all three channels alike), for residuals and the caller's checks. */
 warp_lens warp_lensfit_lens(warp_lens_model model, const double k[4], double cx, double cy, double scale);
 

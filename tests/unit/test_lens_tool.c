@@ -255,6 +255,15 @@ static void test_fit(void **state)
     const char *p = strstr(out, "green: 399 points, residual RMS ");
     assert_non_null(p);
     assert_true(atof(p + strlen("green: 399 points, residual RMS ")) < 1.5);
+    /* --fit-center: from a centre 20 pixels off, the lens's own */
+    snprintf(fitboard, sizeof fitboard, "%s[lens]\ncenter = 545 615\nscale = 540\n", board);
+    write_file("offboard.ini", fitboard);
+    snprintf(args, sizeof args, "fit %s --config %s --fit-center", path_of("corr.csv"), path_of("offboard.ini"));
+    assert_int_equal(run(args, out, sizeof out), 0);
+    got = lens_of(out, &c);
+    assert_true(fabs(c.lens_center[0] - 560) < 1e-3 && fabs(c.lens_center[1] - 600) < 1e-3);
+    for (int ch = 0; ch < 3; ch++)
+        for (int i = 0; i < 4; i++) assert_true(fabs(got.ch[ch].k[i] - l.ch[ch].k[i]) < 1e-5);
     /* a bad row names file:line; a channel without rows is named */
     write_file("badrow.csv", "channel,panel_x,panel_y,u,v\nred,1,2,0.1,0.2\ngreen,1,2,zero,0.2\n");
     snprintf(args, sizeof args, "fit %s --config %s", path_of("badrow.csv"), path_of("fitboard.ini"));

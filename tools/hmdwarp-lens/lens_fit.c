@@ -15,7 +15,7 @@
 
 static void usage(FILE *f)
 {
-    fprintf(f, "Usage: hmdwarp-lens fit CORR.csv [--model poly|panotools] [--config FILE] [--out FILE]\n"
+    fprintf(f, "Usage: hmdwarp-lens fit CORR.csv [--model poly|panotools] [--fit-center] [--config FILE] [--out FILE]\n"
                "Fits the lens model per colour channel to measured correspondences and writes a [lens] section.\n"
                "CORR.csv rows: channel,panel_x,panel_y,u,v\n"
                "  channel          red, green or blue (or r, g, b, 0, 1, 2)\n"
@@ -23,7 +23,9 @@ static void usage(FILE *f)
                "  u,v              the tangent of the direction it is seen at (right and up), e.g. from a camera\n"
                "                   at the eye photographing a pattern through the lens\n"
                "  A header line, blank lines and lines starting with # are skipped.\n"
-               "The lens centre and scale are [lens] center and scale of --config (default board/sim/board.ini).\n"
+               "The lens centre and scale are [lens] center and scale of --config (default board/sim/board.ini);\n"
+               "--fit-center fits the centre too, starting there (the scale only normalises: any value near the\n"
+               "viewport's half-width fits the same lens).\n"
                "Prints each channel's RMS and largest residual in panel pixels (also as comments in the section).\n");
 }
 
@@ -107,8 +109,9 @@ static int read_csv(const char *path, warp_lensfit_point *pts[3], int n[3])
 int lens_fit_main(int argc, char **argv)
 {
     const char *config = NULL, *out = NULL, *model_name = "poly";
-    static const struct option lo[] = {{"config", 1, 0, 'c'}, {"out", 1, 0, 'o'}, {"model", 1, 0, 'm'},
-                                       {"help", 0, 0, 'h'},   {0, 0, 0, 0}};
+    static const struct option lo[] = {{"config", 1, 0, 'c'}, {"out", 1, 0, 'o'},        {"model", 1, 0, 'm'},
+                                       {"help", 0, 0, 'h'},   {"fit-center", 0, 0, 'C'}, {0, 0, 0, 0}};
+    bool fit_center = false;
     int o;
     optind = 1;
     while ((o = getopt_long(argc, argv, "h", lo, NULL)) != -1) {
@@ -116,6 +119,7 @@ int lens_fit_main(int argc, char **argv)
         case 'c': config = optarg; break;
         case 'o': out = optarg; break;
         case 'm': model_name = optarg; break;
+        case 'C': fit_center = true; break;
         case 'h': usage(stdout); return 0;
         default: usage(stderr); return 2;
         }
@@ -144,7 +148,16 @@ int lens_fit_main(int argc, char **argv)
             fprintf(stderr, "hmdwarp-lens fit: %s: no rows for %s\n", csv, key[ch]);
             rc = 2;
         }
-    for (int ch = 0; !rc && ch < 3; ch++) {
+    double cx = c.lens_center[0], cy = c.lens_center[1];
+    if (!rc && fit_center) {
+        char err[200];
+        const warp_lensfit_point *const cp[3] = {pts[0], pts[1], pts[2]};
+        if (!warp_lensfit_center(model, cp, n, &cx, &cy, c.lens_scale, r, err, sizeof err)) {
+            fprintf(stderr, "hmdwarp-lens fit: %s: %s\n", csv, err);
+            rc = 2;
+        }
+    }
+    for (int ch = 0; !rc && !fit_center && ch < 3; ch++) {
         char err[200];
         if (!warp_lensfit_radial(model, pts[ch], n[ch], c.lens_center[0], c.lens_center[1], c.lens_scale,
                                         &r[ch], err, sizeof err)) {
@@ -155,7 +168,8 @@ int lens_fit_main(int argc, char **argv)
     for (int ch = 0; ch < 3; ch++) free(pts[ch]);
     if (rc) return rc;
     lens_section s = {.n = 0};
-    lens_section_add(&s, "; fitted by hmdwarp-lens fit from %s (%s model, centre and scale held)", csv, model_name);
+    lens_section_add(&s, "; fitted by hmdwarp-lens fit from %s (%s model, %s)", csv, model_name,
+                     fit_center ? "centre fitted, scale held" : "centre and scale held");
     for (int ch = 0; ch < 3; ch++) {
         char msg[200];
         snprintf(msg, sizeof msg, "%s: %d points, residual RMS %.3f px, max %.3f px%s", key[ch], r[ch].n,
@@ -172,6 +186,6 @@ int lens_fit_main(int argc, char **argv)
         lens_section_add(&s, "pano_tan_scale = 1");
     }
     lens_section_add(&s, "scale = %.10g", c.lens_scale);
-    lens_section_add(&s, "center = %.10g %.10g", c.lens_center[0], c.lens_center[1]);
+    lens_section_add(&s, "center = %.10g %.10g", cx, cy);
     return lens_section_finish(&s, &c, out);
 }
