@@ -124,7 +124,7 @@ static double monotonic_radius_poly(const warp_lens_poly *p)
 
 double warp_lens_monotonic_radius(const warp_lens *lens, int c)
 {
-    if (lens->model != WARP_LENS_POLY) return lens->prepared ? lens->rmono[c] : model_monotonic_radius(lens, c);
+    if (lens->model != WARP_LENS_POLY) return model_monotonic_radius(lens, c);
     return monotonic_radius_poly(&lens->ch[c]);
 }
 
@@ -332,7 +332,7 @@ static double limit_of(const warp_lens *l, int c) { return l->prepared ? l->rmon
 
 static double model_monotonic_radius(const warp_lens *l, int c)
 {
-    double r = native_limit(l, c), f, df;
+    double r = limit_of(l, c), f, df;
     if (l->model != WARP_LENS_OPENCV || !(r > 0) || !isfinite(r)) return r;
     return radial(l, c, r, &f, &df) ? f : 0; /* opencv: the panel-side radius the fold is seen at */
 }

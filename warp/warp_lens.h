@@ -72,7 +72,8 @@ double warp_lens_monotonic_radius(const warp_lens *lens, int c);
  * coefficients are finite. Returns NULL when usable, else a message naming the problem (written to buf). */
 const char *warp_lens_check(const warp_lens *lens, int w, int h, char *buf, int buflen);
 
-/* Caches what the models other than poly need per call (their monotonic radii); their constructors call it. */
+/* Caches what the models other than poly need per call (their monotonic radii); their constructors call it, and
+ * code that changes a built lens's coefficients calls it again. */
 void warp_lens_prepare(warp_lens *lens);
 
 /* The model's name (poly, panotools, vive, cardboard, opencv), or "?". */

@@ -228,6 +228,16 @@ static void test_opencv(void **state)
         warp_lens_distort(&l, i % 3, ox, oy, &bu, &bv); /* the 2-D inverse, tangential terms included */
         assert_true(fabs(bu - u) < 1e-10 && fabs(bv - v) < 1e-10);
     }
+    /* the fold: f(r) = r (1 + k1 r^2 + k2 r^4 + k3 r^6) stops rising at the tangent radius rf, which the panel shows
+     * at radius f(rf) (in fx units): the monotonic radius is that panel-side one */
+    double rf = 0;
+    for (double r = 0; r < 5; r += 1e-5) {
+        double d = 1 + 3 * ocv.k1 * r * r + 5 * ocv.k2 * pow(r, 4) + 7 * ocv.k3 * pow(r, 6);
+        if (d <= 0) break;
+        rf = r;
+    }
+    double want = rf * (1 + ocv.k1 * rf * rf + ocv.k2 * pow(rf, 4) + ocv.k3 * pow(rf, 6));
+    assert_true(fabs(warp_lens_monotonic_radius(&l, 1) - want) < 1e-4);
 }
 
 /* Every model, both eyes: undistort inverts distort over the whole viewport and every channel. */
