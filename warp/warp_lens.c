@@ -203,6 +203,13 @@ static const char *fail(char *buf, int buflen, const char *fmt, ...)
     return buf;
 }
 
+bool warp_lens_in_view(const warp_lens *l, int c, double x, double y)
+{
+    if (l->model != WARP_LENS_VIVE || !(l->rcut > 0)) return true;
+    const warp_lens_channel *m = &l->m[c];
+    return hypot((x - m->cx) / l->scale, (m->cy - y) / l->scale_y) <= l->rcut;
+}
+
 static const char *model_check(const warp_lens *lens, int w, int h, char *buf, int buflen);
 
 const char *warp_lens_check(const warp_lens *lens, int w, int h, char *buf, int buflen)

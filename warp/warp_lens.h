@@ -76,6 +76,11 @@ const char *warp_lens_check(const warp_lens *lens, int w, int h, char *buf, int 
  * code that changes a built lens's coefficients calls it again. */
 void warp_lens_prepare(warp_lens *lens);
 
+/* Whether the lens shows panel pixel (x, y) of channel c at all: false only where a model marks the end of its view
+ * (vive: beyond undistort_r2_cutoff, where its directions are a continuation, not the lens's). For a hidden-area
+ * mask; every model maps every viewport pixel one to one either way. */
+bool warp_lens_in_view(const warp_lens *lens, int c, double x, double y);
+
 /* The model's name (poly, panotools, vive, cardboard, opencv), or "?". */
 const char *warp_lens_model_name(warp_lens_model m);
 

@@ -63,6 +63,7 @@ static void test_openhmd_cv1(void **state)
     (void)state;
     warp_lens l = cv1_lens();
     assert_null(warp_lens_check(&l, 1080, 1200, NULL, 0));
+    assert_true(warp_lens_in_view(&l, 1, 0, 0)); /* only vive marks an end of view */
     /* known angles -> panel position by our inverse; OpenHMD's formula at that position sees the same angle */
     const double deg[] = {0, 5, 15, 30, 40}, az[] = {0, 0.7, 1.6, 3.0, 4.4};
     for (int c = 0; c < 3; c++)
@@ -142,7 +143,9 @@ static void test_vive(void **state)
                 vive_reference(x, y, vw, vh, c, &ou, &ov);
                 double X = 2.0 * x / vw - 1 - vive.center[c][0], Y = (2.0 * y / vh - 1) / vive.aspect_x_over_y -
                                                                      vive.center[c][1];
-                if (X * X + Y * Y < vive.r2_cutoff) /* Monado's formula where the lens shows anything */
+                bool in_view = X * X + Y * Y <= vive.r2_cutoff;
+                assert_true(warp_lens_in_view(&l, c, x, y) == in_view);
+                if (in_view) /* Monado's formula where the lens shows anything */
                     assert_true(fabs(ou - u) < 1e-9 && fabs(ov - v) < 1e-9);
                 else
                     ou = u, ov = v;
