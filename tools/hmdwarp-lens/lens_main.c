@@ -20,9 +20,12 @@
 static void usage(FILE *f)
 {
     fprintf(f, "Usage: hmdwarp-lens [options]\n"
-               "       hmdwarp-lens import SOURCE [options]   published lens parameters -> [lens] (import --help)\n"
-               "       hmdwarp-lens fit CORR.csv [options]    measured correspondences -> [lens] (fit --help)\n"
-               "Renders a calibration pattern through the configured lens distortion and chromatic aberration.\n"
+               "  or:  hmdwarp-lens import SOURCE [options]\n"
+               "  or:  hmdwarp-lens fit CORR.csv [options]\n"
+               "Renders a calibration pattern through the configured lens distortion and chromatic aberration;\n"
+               "import writes a [lens] section from published lens parameters (OpenHMD, Monado/SteamVR JSON,\n"
+               "Cardboard, OpenCV YAML), fit one from measured correspondences (hmdwarp-lens import --help,\n"
+               "hmdwarp-lens fit --help; docs/lens.md).\n"
                "  --config FILE      board.ini (default board/sim/board.ini)\n"
                "  --set SEC.KEY=VAL  override a key, e.g. --set lens.k_green=\"1 0.25 0.2 0\" (repeatable)\n"
                "  --out FILE.png     the panel image (default lens-pattern.png)\n"
