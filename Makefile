@@ -75,6 +75,9 @@ OPENCV_CFLAGS := $(or $(shell $(PKG_CONFIG) --cflags opencv4 2>/dev/null),-I/usr
 OPENCV_LIBS   := $(or $(shell $(PKG_CONFIG) --libs opencv4 2>/dev/null),-lopencv_imgproc -lopencv_core)
 CXX := $(CROSS_COMPILE)g++
 TOOL_LIBS_hmdwarp-bench := $(OPENCV_LIBS) -lstdc++
+# hmdwarp-lens import reads Monado/SteamVR config JSON (json-c) and OpenCV calibration YAML (libyaml).
+LENS_PKGS := json-c yaml-0.1
+TOOL_LIBS_hmdwarp-lens = $(shell $(PKG_CONFIG) --libs $(LENS_PKGS) 2>/dev/null)
 PROGRAMS := $(BUILD)/hmdwarpd $(addprefix $(BUILD)/,$(TOOLS))
 
 # libhmdwarp-host (host/, docs/host-api.md): the host side of the frame link as a shared library with one installed
@@ -458,7 +461,7 @@ MAN_RUNNER ?= $(if $(CROSS_COMPILE),qemu-$(firstword $(subst -, ,$(CROSS_COMPILE
 MAN_DESC_hmdwarpd      := display runtime of an HMD controller board
 MAN_DESC_hmdwarp-feed  := send host frames to an hmdwarp board over USB
 MAN_DESC_hmdwarp-warp  := score hmdwarp's warps on rendered frames or the simulator's scenes
-MAN_DESC_hmdwarp-lens  := render a lens calibration pattern through the board's distortion
+MAN_DESC_hmdwarp-lens  := render a lens calibration pattern through the board's distortion; import or fit lens parameters
 MAN_DESC_hmdwarp-bench := measure what hmdwarp's warp accuracy costs in time
 MAN_DESC_hmdwarp-top   := show a running hmdwarpd's live statistics
 MAN_DESC_hmdwarp-gadget := set up the board's USB gadget for the host frame link

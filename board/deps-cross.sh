@@ -11,7 +11,7 @@ HOST_PKGS="gcc-$TRIPLET g++-$TRIPLET qemu-user-static pkg-config"
 # Keep in step with board/deps.sh (the native list).
 LIBS="libc6-dev libinih-dev libpng-dev zlib1g-dev libhidapi-dev libusb-1.0-0-dev libgpiod-dev libi2c-dev
 libcmocka-dev libopencv-imgproc-dev libegl-dev libgles-dev libgbm-dev libdrm-dev libsystemd-dev
-libturbojpeg0-dev libzstd-dev libavcodec-dev libavutil-dev libswscale-dev"
+libturbojpeg0-dev libzstd-dev libavcodec-dev libavutil-dev libswscale-dev libjson-c-dev libyaml-dev"
 
 . "$(dirname "$0")/deps-lib.sh"
 arch_libs=""

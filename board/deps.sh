@@ -9,6 +9,7 @@ set -eu
 # gnuplot draws the plots). python3-numpy and python3-opengl: the Python binding of libhmdwarp-host and its GLES
 # example (host/python, host/examples; make test runs them). libturbojpeg0-dev, libzstd-dev and FFmpeg's
 # libavcodec-dev, libavutil-dev, libswscale-dev: framelink v2's compressed planes (docs/framelink.md).
+# libjson-c-dev and libyaml-dev: hmdwarp-lens import reads Monado/SteamVR config JSON and OpenCV calibration YAML.
 PKGS="gcc libc6-dev make pkg-config
 libinih-dev libpng-dev zlib1g-dev
 libhidapi-dev libusb-1.0-0-dev libgpiod-dev libi2c-dev linux-libc-dev
@@ -16,6 +17,7 @@ libcmocka-dev
 libegl-dev libgles-dev libgbm-dev libdrm-dev libegl-mesa0 libgl1-mesa-dri
 libsystemd-dev
 libturbojpeg0-dev libzstd-dev libavcodec-dev libavutil-dev libswscale-dev
+libjson-c-dev libyaml-dev
 help2man
 g++ libopencv-imgproc-dev gnuplot-nox
 python3-numpy python3-opengl"

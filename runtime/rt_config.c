@@ -23,6 +23,7 @@
 #include "drivers/drv_v4l2_inband.h"
 #include "runtime/rt_calib.h"
 #include "warp/warp_head.h"
+#include "warp/warp_lens_models.h"
 #include "warp/warp_registry.h"
 
 /* [warp] method: the registry's runtime methods, then auto (RT_METHOD_AUTO, rt_select's choice per vsync). */
@@ -43,6 +44,9 @@ static const char *const edge_names[] = {"rising", "falling", NULL};
 static const char *const arch_names[] = {"any", "aarch64", "x86_64", "arm", NULL};
 /* K_DOUBLE and K_DLIST keys whose `names` is auto_names also take the word auto, stored as NAN (every element). */
 static const char *const auto_names[] = {"auto", NULL};
+/* [lens] model, in warp_lens_model order */
+static const char *const lens_model_names[] = {"poly", "panotools", "vive", "cardboard", "opencv", NULL};
+static const char *const alignment_names[] = {"bottom", "center", "top", NULL};
 
 const char *rt_kernel_name(int k)
 {
@@ -128,8 +132,15 @@ static const keydef keys[] = {
     {"eye", "near", K_DOUBLE, F(near_z), 0, 0.001, 10, NULL, "near plane in metres"},
     {"eye", "ipd", K_DOUBLE, F(ipd), 0, 0.04, 0.09, NULL, "interpupillary distance in metres"},
     {"lens", "mesh", K_INT, F(mesh_n), 0, 2, 1024, NULL, "distortion mesh vertices per side (N x N)"},
+    /* h-lens: the lens models (docs/lens.md); center and scale serve poly and panotools */
+    {"lens", "model", K_ENUM, F(lens_model), 0, 0, 0, lens_model_names,
+     "lens model: poly (k_red/k_green/k_blue), panotools (OpenHMD: pano_*, aberration, pano_tan_scale), vive "
+     "(Monado/SteamVR: vive_*), cardboard (viewer profile: cardboard_*) or opencv (camera YAML: opencv_*); "
+     "hmdwarp-lens import writes any of them"},
     {"lens", "k_red", K_DLIST, F(k[0]), WARP_LENS_TERMS, -100, 100, NULL,
-     "red radial scale polynomial k0 k1 k2 k3: s(r^2) = k0 + k1 r^2 + k2 r^4 + k3 r^6"},
+     "poly: red radial scale polynomial k0 k1 k2 k3: s(r^2) = k0 + k1 r^2 + k2 r^4 + k3 r^6 (the defaults are "
+     "the Oculus Rift DK1's DistortionK 1 0.22 0.24 0 from the Oculus SDK 0.2 HMDInfo, times 0.996 for red and "
+     "1.008 for blue; that SDK's DK1 ChromaAbCorrection has 0.996 and 1.014)"},
     {"lens", "k_green", K_DLIST, F(k[1]), WARP_LENS_TERMS, -100, 100, NULL, "green polynomial"},
     {"lens", "k_blue", K_DLIST, F(k[2]), WARP_LENS_TERMS, -100, 100, NULL, "blue polynomial"},
     {"lens", "scale", K_DOUBLE, F(lens_scale), 0, 1, 100000, NULL, "panel pixels per unit of normalised radius"},
@@ -139,6 +150,43 @@ static const keydef keys[] = {
      "radius of the disc of the panel seen through the lens, in the lens's normalised units (scale pixels); "
      "pixels outside it are black and left unrendered (the hidden-area mask); auto: the largest disc around the "
      "lens centre inside the eye's half of the panel"},
+    {"lens", "pano_red", K_DLIST, F(pano[0]), 4, -100, 100, NULL,
+     "panotools: red a b c d, F(r) = d + c r + b r^2 + a r^3 of the radius r in units of scale (OpenHMD's "
+     "universal_distortion_k)"},
+    {"lens", "pano_green", K_DLIST, F(pano[1]), 4, -100, 100, NULL, "panotools: green a b c d"},
+    {"lens", "pano_blue", K_DLIST, F(pano[2]), 4, -100, 100, NULL, "panotools: blue a b c d"},
+    {"lens", "aberration", K_DLIST, F(pano_aberration), 3, 0.5, 2, NULL,
+     "panotools: red green blue scale of the displaced radius (OpenHMD's universal_aberration_k)"},
+    {"lens", "pano_tan_scale", K_DOUBLE, F(pano_tan_scale), 0, 0.01, 100, NULL,
+     "panotools: view tangent per unit of displaced radius (OpenHMD: WarpScale / eye-to-screen distance)"},
+    {"lens", "vive_red", K_DLIST, F(vive_k[0]), 4, -100, 100, NULL,
+     "vive: red k1 k2 k3 k4, F = 1 / (1 + k1 r^2 + k2 r^4 + k3 r^6) + k4 (the config JSON's distortion_red "
+     "coeffs)"},
+    {"lens", "vive_green", K_DLIST, F(vive_k[1]), 4, -100, 100, NULL, "vive: green k1 k2 k3 k4 (distortion)"},
+    {"lens", "vive_blue", K_DLIST, F(vive_k[2]), 4, -100, 100, NULL, "vive: blue k1 k2 k3 k4 (distortion_blue)"},
+    {"lens", "vive_center_red", K_DLIST, F(vive_center[0]), 2, -10, 10, NULL,
+     "vive: red centre_x centre_y in the JSON's units (2 = the viewport's width; y divided by the aspect)"},
+    {"lens", "vive_center_green", K_DLIST, F(vive_center[1]), 2, -10, 10, NULL, "vive: green centre_x centre_y"},
+    {"lens", "vive_center_blue", K_DLIST, F(vive_center[2]), 2, -10, 10, NULL, "vive: blue centre_x centre_y"},
+    {"lens", "vive_aspect", K_DOUBLE, F(vive_aspect), 0, 0.1, 10, NULL,
+     "vive: physical_aspect_x_over_y of one eye's viewport"},
+    {"lens", "vive_intrinsics", K_DLIST, F(vive_intrinsics), 4, -100, 100, NULL,
+     "vive: the left eye's intrinsics fx cx fy cy (matrix entries [0][0] [0][2] [1][1] [1][2])"},
+    {"lens", "vive_r2_cutoff", K_DOUBLE, F(vive_r2_cutoff), 0, 0, 100, NULL,
+     "vive: undistort_r2_cutoff, where the lens's view ends (beyond it the model continues along its tangent line; "
+     "0 = none)"},
+    {"lens", "cardboard_k", K_DLIST, F(cardboard_k), 2, -100, 100, NULL,
+     "cardboard: k1 k2 of the viewer profile, F = 1 + k1 r^2 + k2 r^4 of the screen tan-angle r"},
+    {"lens", "cardboard_distances", K_DLIST, F(cardboard_distances), 3, 0.001, 1, NULL,
+     "cardboard: screen_to_lens inter_lens tray_to_lens distances, metres"},
+    {"lens", "cardboard_alignment", K_ENUM, F(cardboard_alignment), 0, 0, 0, alignment_names,
+     "cardboard: vertical_alignment (bottom, center, top): where tray_to_lens is measured from"},
+    {"lens", "cardboard_screen", K_DLIST, F(cardboard_screen), 2, 0.001, 10, NULL,
+     "cardboard: the whole panel's width and height, metres"},
+    {"lens", "opencv_camera", K_DLIST, F(opencv_camera), 4, -100000, 100000, NULL,
+     "opencv: the left eye's camera_matrix fx fy cx cy, viewport pixels (view tangent -> panel pixel)"},
+    {"lens", "opencv_dist", K_DLIST, F(opencv_dist), 5, -100, 100, NULL,
+     "opencv: distortion_coefficients k1 k2 p1 p2 k3"},
     /* the methods themselves are listed from the registry (method_help) */
     {"warp", "method", K_ENUM, F(method), 0, 0, 0, method_names,
      "or auto (per vsync, the cheapest warp whose predicted error stays under pixel_budget; short of time, a warp "
@@ -284,6 +332,24 @@ void rt_config_defaults(rt_config *c)
     c->lens_center[0] = 760; /* slightly towards the nose: lens axes sit closer together than the panel halves */
     c->lens_center[1] = 800;
     c->visible_radius = NAN;
+    c->lens_model = WARP_LENS_POLY;
+    for (int ch = 0; ch < 3; ch++) {
+        c->pano[ch][3] = 1; /* a b c d = 0 0 0 1: no distortion */
+        c->pano_aberration[ch] = 1;
+        c->vive_intrinsics[0] = c->vive_intrinsics[2] = 1;
+    }
+    c->pano_tan_scale = 1;
+    c->vive_aspect = 0.9; /* Monado's default (vive_init_defaults) */
+    c->cardboard_distances[0] = 0.042; /* Cardboard v1's profile (sdk/qrcode/cardboard_v1) */
+    c->cardboard_distances[1] = 0.06;
+    c->cardboard_distances[2] = 0.035;
+    c->cardboard_k[0] = 0.441;
+    c->cardboard_k[1] = 0.156;
+    c->cardboard_screen[0] = 0.12096; /* a 5.5" 16:9 phone */
+    c->cardboard_screen[1] = 0.06804;
+    c->opencv_camera[0] = c->opencv_camera[1] = 720;
+    c->opencv_camera[2] = 760;
+    c->opencv_camera[3] = 800;
     c->method = RT_METHOD_ROTATION;
     c->pixel_budget = 0.5;
     c->raytrace_steps = 512;
@@ -803,14 +869,73 @@ warp_camera rt_config_eye_camera(const rt_config *c, int eye)
 
 warp_lens rt_config_lens(const rt_config *c, int eye)
 {
-    warp_lens lens;
-    for (int ch = 0; ch < 3; ch++)
-        for (int i = 0; i < WARP_LENS_TERMS; i++) lens.ch[ch].k[i] = c->k[ch][i];
-    double vw = c->panel_w / 2.0;
-    lens.center_x = eye == WARP_EYE_LEFT ? c->lens_center[0] : vw - c->lens_center[0];
-    lens.center_y = c->lens_center[1];
-    lens.scale = c->lens_scale;
+    warp_lens lens = {.model = WARP_LENS_POLY};
+    int vw = c->panel_w / 2, vh = c->panel_h;
+    switch (c->lens_model) {
+    case WARP_LENS_PANOTOOLS: {
+        warp_lens_panotools_params p = {.center_x = c->lens_center[0], .center_y = c->lens_center[1],
+                                        .scale = c->lens_scale, .tan_scale = c->pano_tan_scale};
+        memcpy(p.abcd, c->pano, sizeof p.abcd);
+        memcpy(p.aberration, c->pano_aberration, sizeof p.aberration);
+        lens = warp_lens_panotools(&p);
+        break;
+    }
+    case WARP_LENS_VIVE: {
+        warp_lens_vive_params p = {.aspect_x_over_y = c->vive_aspect, .r2_cutoff = c->vive_r2_cutoff};
+        memcpy(p.k, c->vive_k, sizeof p.k);
+        memcpy(p.center, c->vive_center, sizeof p.center);
+        memcpy(p.intrinsics, c->vive_intrinsics, sizeof p.intrinsics);
+        lens = warp_lens_vive(&p, vw, vh);
+        break;
+    }
+    case WARP_LENS_CARDBOARD: {
+        warp_lens_cardboard_params p = {.k = {c->cardboard_k[0], c->cardboard_k[1], 0, 0},
+                                        .screen_to_lens = c->cardboard_distances[0],
+                                        .inter_lens = c->cardboard_distances[1],
+                                        .tray_to_lens = c->cardboard_distances[2],
+                                        .alignment = c->cardboard_alignment,
+                                        .screen_w = c->cardboard_screen[0],
+                                        .screen_h = c->cardboard_screen[1]};
+        lens = warp_lens_cardboard(&p, vw, vh);
+        break;
+    }
+    case WARP_LENS_OPENCV: {
+        const double *m = c->opencv_camera, *d = c->opencv_dist;
+        warp_lens_opencv_params p = {m[0], m[1], m[2], m[3], d[0], d[1], d[2], d[3], d[4]};
+        lens = warp_lens_opencv(&p);
+        break;
+    }
+    default:
+        for (int ch = 0; ch < 3; ch++)
+            for (int i = 0; i < WARP_LENS_TERMS; i++) lens.ch[ch].k[i] = c->k[ch][i];
+        lens.center_x = c->lens_center[0];
+        lens.center_y = c->lens_center[1];
+        lens.scale = c->lens_scale;
+        break;
+    }
+    if (eye != WARP_EYE_LEFT) warp_lens_mirror(&lens, c->panel_w / 2.0);
     return lens;
+}
+
+/* The keys that set the configured model's lens (for the cross-key check's message). */
+static const char *lens_model_keys(const rt_config *c)
+{
+    switch (c->lens_model) {
+    case WARP_LENS_PANOTOOLS:
+        return "lens.model lens.pano_red lens.pano_green lens.pano_blue lens.aberration lens.pano_tan_scale lens.scale "
+               "lens.center display.width display.height";
+    case WARP_LENS_VIVE:
+        return "lens.model lens.vive_red lens.vive_green lens.vive_blue lens.vive_center_red lens.vive_center_green "
+               "lens.vive_center_blue lens.vive_aspect lens.vive_intrinsics lens.vive_r2_cutoff display.width "
+               "display.height";
+    case WARP_LENS_CARDBOARD:
+        return "lens.model lens.cardboard_k lens.cardboard_distances lens.cardboard_alignment lens.cardboard_screen "
+               "display.width display.height";
+    case WARP_LENS_OPENCV:
+        return "lens.model lens.opencv_camera lens.opencv_dist display.width display.height";
+    default:
+        return "lens.k_red lens.k_green lens.k_blue lens.scale lens.center display.width display.height";
+    }
 }
 
 bool rt_config_parse_mode(const char *s, int *w, int *h, double *hz)
@@ -1024,14 +1149,13 @@ bool rt_config_validate(const rt_config *c, rt_config_errors *err)
     if (c->panel_w % 2)
         add_error(err, "%s = %d: must be even (two eyes side by side)", keys_at(c, "display.width", at, sizeof at),
                   c->panel_w);
-    char buf[200];
+    char buf[400];
     check_fov(c, err);
     warp_lens lens = rt_config_lens(c, WARP_EYE_LEFT);
     const char *lw = warp_lens_check(&lens, c->panel_w / 2, c->panel_h, buf, sizeof buf);
     if (lw)
         add_error(err, "[lens]: %s; set by %s", lw,
-                  keys_at(c, "lens.k_red lens.k_green lens.k_blue lens.scale lens.center display.width display.height",
-                          at, sizeof at));
+                  keys_at(c, lens_model_keys(c), at, sizeof at));
     int map[3], sign[3];
     if (!rt_config_parse_axes(c->imu_axes, map, sign))
         add_error(err, "%s = '%s': expected three signed axes using each of x, y, z once, e.g. '-y +x +z'",

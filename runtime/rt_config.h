@@ -79,6 +79,21 @@ typedef struct {
     double lens_scale;          /* panel pixels per unit of normalised radius */
     double lens_center[2];      /* left eye, pixels within its half of the panel; mirrored for the right eye */
     double visible_radius;      /* the lens's visible disc, normalised radius; NAN: auto (warp_fov_visible_radius) */
+    int lens_model;             /* warp_lens_model; the keys below belong to one model each (docs/lens.md) */
+    double pano[3][4];          /* panotools: a b c d per channel */
+    double pano_aberration[3];
+    double pano_tan_scale;
+    double vive_k[3][4];        /* vive: k1 k2 k3 k4 per channel */
+    double vive_center[3][2];
+    double vive_aspect;
+    double vive_intrinsics[4];  /* fx cx fy cy */
+    double vive_r2_cutoff;
+    double cardboard_k[2];
+    double cardboard_distances[3]; /* screen-to-lens, inter-lens, tray-to-lens, metres */
+    int cardboard_alignment;    /* 0 bottom, 1 center, 2 top */
+    double cardboard_screen[2]; /* the whole panel, metres */
+    double opencv_camera[4];    /* fx fy cx cy, viewport pixels */
+    double opencv_dist[5];      /* k1 k2 p1 p2 k3 */
     /* [warp] */
     rt_method method;
     double pixel_budget;        /* auto: largest predicted error accepted from a cheaper warp, eye-buffer pixels */

@@ -143,7 +143,7 @@ static inline void test_paced_by_sim(int slowdown)
  * (cx, cy) panel pixels with the given scale. */
 static inline warp_lens test_reference_lens(double cx, double cy, double scale)
 {
-    warp_lens l;
+    warp_lens l = {.model = WARP_LENS_POLY}; /* the rest zero: the even polynomial */
     const double ca[3] = {0.996, 1.0, 1.008};
     for (int c = 0; c < 3; c++) {
         l.ch[c].k[0] = ca[c];

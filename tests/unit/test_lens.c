@@ -15,14 +15,14 @@
 /* A realistic HMD lens: 1440x1600 viewport, barrel-correcting polynomial, blue spread 0.8 % wider than red. */
 static warp_lens realistic_lens(void)
 {
-    warp_lens l = {{{{0.996, 0.22, 0.24, 0.0}}, {{1.0, 0.22, 0.24, 0.0}}, {{1.008, 0.22, 0.24, 0.0}}},
-                   720, 800, 720};
+    warp_lens l = {.ch = {{{0.996, 0.22, 0.24, 0.0}}, {{1.0, 0.22, 0.24, 0.0}}, {{1.008, 0.22, 0.24, 0.0}}},
+                   .center_x = 720, .center_y = 800, .scale = 720};
     return l;
 }
 
 static warp_lens uniform_lens(double k0, double k1, double k2, double k3)
 {
-    warp_lens l;
+    warp_lens l = {.model = WARP_LENS_POLY};
     for (int c = 0; c < 3; c++) {
         l.ch[c].k[0] = k0;
         l.ch[c].k[1] = k1;

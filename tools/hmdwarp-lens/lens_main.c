@@ -13,6 +13,7 @@
 #include "platform/plat_version.h"
 #include "runtime/rt_config.h"
 #include "warp/warp_fov.h"
+#include "tools/hmdwarp-lens/lens_cli.h"
 #include "warp/warp_lens.h"
 #include "warp/warp_mesh.h"
 #include "warp/warp_resample.h"
@@ -20,7 +21,12 @@
 static void usage(FILE *f)
 {
     fprintf(f, "Usage: hmdwarp-lens [options]\n"
-               "Renders a calibration pattern through the configured lens distortion and chromatic aberration.\n"
+               "  or:  hmdwarp-lens import SOURCE [options]\n"
+               "  or:  hmdwarp-lens fit CORR.csv [options]\n"
+               "Renders a calibration pattern through the configured lens distortion and chromatic aberration;\n"
+               "import writes a [lens] section from published lens parameters (OpenHMD, Monado/SteamVR JSON,\n"
+               "Cardboard, OpenCV YAML), fit one from measured correspondences (hmdwarp-lens import --help,\n"
+               "hmdwarp-lens fit --help; docs/lens.md).\n"
                "  --config FILE      board.ini (default board/sim/board.ini)\n"
                "  --set SEC.KEY=VAL  override a key, e.g. --set lens.k_green=\"1 0.25 0.2 0\" (repeatable)\n"
                "  --out FILE.png     the panel image (default lens-pattern.png)\n"
@@ -53,6 +59,8 @@ static warp_rgba8 pattern_at(const char *kind, int x, int y, int w, int h, int s
 
 int main(int argc, char **argv)
 {
+    if (argc > 1 && strcmp(argv[1], "import") == 0) return lens_import_main(argc - 1, argv + 1);
+    if (argc > 1 && strcmp(argv[1], "fit") == 0) return lens_fit_main(argc - 1, argv + 1);
     const char *config = "board/sim/board.ini", *out = "lens-pattern.png", *source = NULL, *kind = "grid";
     int spacing = 64;
     rt_config c;
