@@ -212,8 +212,10 @@ void rt_compositor_run(rt_app *a)
         const bool rolling = scan.rolling && tracked && !stale;
         warp_pose scan_first[2], scan_last[2];
         if (rolling) {
-            warp_pose h0 = warp_head_pose_from_orientation(&a->head, rt_fusion_predict(a->fusion, &st, t_photon + first_ns));
-            warp_pose h1 = warp_head_pose_from_orientation(&a->head, rt_fusion_predict(a->fusion, &st, t_photon + last_ns));
+            const warp_quat q0 = rt_fusion_predict(a->fusion, &st, t_photon + first_ns);
+            const warp_quat q1 = rt_fusion_predict(a->fusion, &st, t_photon + last_ns);
+            const warp_pose h0 = warp_head_pose_from_orientation(&a->head, q0);
+            const warp_pose h1 = warp_head_pose_from_orientation(&a->head, q1);
             for (int e = 0; e < 2; e++) {
                 scan_first[e] = warp_head_eye_pose(&a->head, h0, e);
                 scan_last[e] = warp_head_eye_pose(&a->head, h1, e);
@@ -258,10 +260,12 @@ void rt_compositor_run(rt_app *a)
                 if (!plat_egl_present(a->gl.egl, err, sizeof err)) a->gl.errors++;
             }
         } else if (gles) {
-            used = compose_gles(a, frame, eyes, rolling ? scan_first : NULL, rolling ? scan_last : NULL, want, &a->sc.img[idx]);
+            used = compose_gles(a, frame, eyes, rolling ? scan_first : NULL, rolling ? scan_last : NULL, want,
+                                &a->sc.img[idx]);
         } else {
-            used = rt_render_cpu_frame_scan(a->render, frame, eyes, rolling ? scan_first : NULL, rolling ? scan_last : NULL, want,
-                                            a->obj_two ? a->obj_at : NULL, &a->sc.img[idx]);
+            used = rt_render_cpu_frame_scan(a->render, frame, eyes, rolling ? scan_first : NULL,
+                                            rolling ? scan_last : NULL, want, a->obj_two ? a->obj_at : NULL,
+                                            &a->sc.img[idx]);
         }
         if (used == RT_METHOD_AUTO) used = RT_METHOD_ROTATION; /* no frame: nothing was warped */
         int64_t t_done = plat_now_ns();

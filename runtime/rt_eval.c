@@ -81,6 +81,13 @@ static warp_pose true_eye_at(const rt_eval_inputs *in, double t)
     return warp_head_eye_pose(&in->head, sim_trace_head_pose(in->trace, t), 0);
 }
 
+/* The truth's band of eye-buffer line l (a row, or a column for a horizontal scan). */
+static int line_band(const warp_scan *s, bool by_row, int l)
+{
+    const double f = by_row ? warp_scan_fraction(s, 0.5, l + 0.5) : warp_scan_fraction(s, l + 0.5, 0.5);
+    return warp_scan_band(f, RT_EVAL_SCAN_BANDS);
+}
+
 void rt_eval_truth(rt_eval_work *w, const rt_eval_inputs *in, double photon_scene_time)
 {
     const warp_camera *cam = &in->cam;
@@ -93,13 +100,9 @@ void rt_eval_truth(rt_eval_work *w, const rt_eval_inputs *in, double photon_scen
     const int n = by_row ? cam->height : cam->width;
     /* runs of lines in one band (a band's lines are contiguous whichever way the scan runs) */
     for (int l0 = 0; l0 < n;) {
-        const int b = warp_scan_band(by_row ? warp_scan_fraction(&s, 0.5, l0 + 0.5) : warp_scan_fraction(&s, l0 + 0.5, 0.5),
-                                     RT_EVAL_SCAN_BANDS);
+        const int b = line_band(&s, by_row, l0);
         int l1 = l0 + 1;
-        while (l1 < n && warp_scan_band(by_row ? warp_scan_fraction(&s, 0.5, l1 + 0.5)
-                                               : warp_scan_fraction(&s, l1 + 0.5, 0.5),
-                                        RT_EVAL_SCAN_BANDS) == b)
-            l1++;
+        while (l1 < n && line_band(&s, by_row, l1) == b) l1++;
         const double t = photon_scene_time + warp_scan_offset_s(&s, warp_scan_band_fraction(b, RT_EVAL_SCAN_BANDS));
         const warp_pose eye = true_eye_at(in, t);
         if (by_row) {

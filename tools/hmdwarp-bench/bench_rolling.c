@@ -22,13 +22,14 @@
 #define TURN_DPS 100.0
 #define TRACE_END_S 20.0
 
-static warp_quat predict(const sim_trace *tr, double t_sample, double t)
+/* The left eye's pose at t as the board predicts it from the true state at t_sample. */
+static warp_pose predict_eye(const sim_trace *tr, double t_sample, double t)
 {
+    const warp_vec3 w = sim_trace_angular_velocity(tr, t_sample);
+    const warp_quat step = warp_quat_exp(warp_v3_scale(w, t - t_sample));
     warp_quat q;
-    warp_quat_normalize(warp_quat_mul(sim_trace_orientation(tr, t_sample),
-                                      warp_quat_exp(warp_v3_scale(sim_trace_angular_velocity(tr, t_sample), t - t_sample))),
-                        &q);
-    return q;
+    warp_quat_normalize(warp_quat_mul(sim_trace_orientation(tr, t_sample), step), &q);
+    return warp_head_eye_pose(&tr->head, warp_head_pose_from_orientation(&tr->head, q), 0);
 }
 
 bool bench_rolling_measure(const bench_rolling_opts *o, bench_rolling_result *res)
@@ -70,11 +71,10 @@ bool bench_rolling_measure(const bench_rolling_opts *o, bench_rolling_result *re
         rt_eval_record r = {.vsync_no = (uint64_t)k, .frame_seq = (uint64_t)n, .src_scene_time = tsrc,
                             .photon_scene_time = tp};
         r.src_eye = warp_head_eye_pose(&tr.head, sim_trace_head_pose(&tr, tsrc), 0);
-        const warp_pose mid = warp_head_pose_from_orientation(&tr.head, predict(&tr, ts, tp));
-        r.shown_eye = r.shown_first = r.shown_last = warp_head_eye_pose(&tr.head, mid, 0);
+        r.shown_eye = r.shown_first = r.shown_last = predict_eye(&tr, ts, tp);
         rt_eval_score(&w, &in, &r, res->global, NULL);
-        r.shown_first = warp_head_eye_pose(&tr.head, warp_head_pose_from_orientation(&tr.head, predict(&tr, ts, tp - half)), 0);
-        r.shown_last = warp_head_eye_pose(&tr.head, warp_head_pose_from_orientation(&tr.head, predict(&tr, ts, tp + half)), 0);
+        r.shown_first = predict_eye(&tr, ts, tp - half);
+        r.shown_last = predict_eye(&tr, ts, tp + half);
         rt_eval_score(&w, &in, &r, res->rolling, NULL);
         res->speed_mean_dps += speed;
         n++;
