@@ -275,6 +275,13 @@ $(BUILD)/tests/unit/test_render_cpu: $(BUILD)/obj/tests/unit/test_render_cpu.o \
 	@$(if $(Q),echo "  LD      $@")
 	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_ALL) $(TEST_LIBS)
 
+# test_rolling judges rolling-scan compensation as hmdwarp-bench --rolling-only does (bench_rolling).
+$(BUILD)/tests/accuracy/test_rolling: $(BUILD)/obj/tests/accuracy/test_rolling.o \
+                                      $(BUILD)/obj/tools/hmdwarp-bench/bench_rolling.o $(TEST_SUPPORT_OBJ) $(LIBS)
+	@mkdir -p $(dir $@)
+	@$(if $(Q),echo "  LD      $@")
+	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_ALL) $(TEST_LIBS)
+
 # Fuzz harnesses (tests/fuzz/README.md): linked with the helpers and the hmdwarp-warp file readers they fuzz; as
 # regression runners (standalone.c, any compiler) in make test, with libFuzzer (clang) in make fuzz.
 FUZZ_LINK_OBJ := $(patsubst %.c,$(BUILD)/obj/%.o,tests/fuzz/util.c tools/common/warp_files.c \

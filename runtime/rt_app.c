@@ -271,7 +271,8 @@ void rt_app_run(rt_app *a)
 {
     if (a->sim && a->dev.has_truth && a->cfg.eval_every_ms > 0) {
         rt_eval_inputs in = {.cam = a->eye_cam[0], .head = a->head, .mesh_n = a->cfg.mesh_n,
-                             .rp = *rt_render_cpu_raytrace_params(a->render), .stop = &a->stop};
+                             .rp = *rt_render_cpu_raytrace_params(a->render), .scan = rt_config_scan(&a->cfg),
+                             .stop = &a->stop};
         rt_simboard_eval_start(a->sim, &in);
     }
     a->run_start_ns = plat_now_ns();

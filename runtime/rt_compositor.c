@@ -23,8 +23,8 @@
 /* The CPU pass on the GPU: the frame's planes go to textures once per host frame, then the same warps as the CPU
  * path (same mesh, same raytrace setup) draw the panel, which is read back into `out` (offscreen) or page-flipped
  * onto the panel (KMS). */
-static rt_method compose_gles(rt_app *a, const rt_frame *frame, const warp_pose eyes[2], rt_method method,
-                              warp_image_rgba8 *out)
+static rt_method compose_gles(rt_app *a, const rt_frame *frame, const warp_pose eyes[2], const warp_pose *first,
+                              const warp_pose *last, rt_method method, warp_image_rgba8 *out)
 {
     plat_gles *g = a->gl.renderer;
     char err[200];
@@ -71,7 +71,16 @@ static rt_method compose_gles(rt_app *a, const rt_frame *frame, const warp_pose 
                                          ? warp_quat_mul(warp_quat_conj(frame->f.eye_pose[e].q), eyes[e].q)
                                          : warp_quat_identity();
             warp_mesh *mesh = rt_render_cpu_mesh(a->render, e);
-            warp_mesh_update(mesh, &frame->f.cam[e], src_from_dst);
+            if (method == RT_METHOD_ROTATION && first) {
+                /* rolling scanout: per vertex between the first and last line's poses, as the CPU pass does (the
+                 * GPU's raytrace above is per pixel: it keeps the mid-scan pose) */
+                const warp_quat src_q = warp_quat_conj(frame->f.eye_pose[e].q);
+                const warp_scan scan = rt_config_scan(&a->cfg);
+                warp_mesh_update_rolling(mesh, &frame->f.cam[e], warp_quat_mul(src_q, first[e].q),
+                                         warp_quat_mul(src_q, last[e].q), &scan);
+            } else {
+                warp_mesh_update(mesh, &frame->f.cam[e], src_from_dst);
+            }
             plat_gles_lens(g, e, mesh, false);
         }
     }
@@ -135,6 +144,10 @@ void rt_compositor_run(rt_app *a)
     rt_telemetry *tel = a->tel;
     const rt_config *c = &a->cfg;
     const int64_t photon_ns = (int64_t)(c->photon_offset_ms * 1e6);
+    /* rolling scanout: the first and the last line light this long before and after the mid-scan photon time */
+    const warp_scan scan = rt_config_scan(c);
+    const int64_t first_ns = (int64_t)llround(warp_scan_offset_s(&scan, 0) * 1e9);
+    const int64_t last_ns = (int64_t)llround(warp_scan_offset_s(&scan, 1) * 1e9);
     const int64_t eval_every = (int64_t)(c->eval_every_ms * 1e6);
     /* the simulated board's evaluator, when it scores this run: the records go into its ring */
     rt_eval *eval = a->sim && a->dev.has_truth && eval_every > 0 ? rt_simboard_eval(a->sim) : NULL;
@@ -194,6 +207,20 @@ void rt_compositor_run(rt_app *a)
         warp_quat q = !tracked ? warp_quat_identity() : stale ? st.q : rt_fusion_predict(a->fusion, &st, t_photon);
         warp_pose head = warp_head_pose_from_orientation(&a->head, q);
         warp_pose eyes[2] = {warp_head_eye_pose(&a->head, head, 0), warp_head_eye_pose(&a->head, head, 1)};
+        /* rolling: two more predictions, for the scan's first and last line; the warp slerps between them per mesh
+         * row (ILLIXR's start and end poses). A held (stale) or absent orientation is the same for every line. */
+        const bool rolling = scan.rolling && tracked && !stale;
+        warp_pose scan_first[2], scan_last[2];
+        if (rolling) {
+            const warp_quat q0 = rt_fusion_predict(a->fusion, &st, t_photon + first_ns);
+            const warp_quat q1 = rt_fusion_predict(a->fusion, &st, t_photon + last_ns);
+            const warp_pose h0 = warp_head_pose_from_orientation(&a->head, q0);
+            const warp_pose h1 = warp_head_pose_from_orientation(&a->head, q1);
+            for (int e = 0; e < 2; e++) {
+                scan_first[e] = warp_head_eye_pose(&a->head, h0, e);
+                scan_last[e] = warp_head_eye_pose(&a->head, h1, e);
+            }
+        }
 
         rt_method want = c->method;
         if (want == RT_METHOD_AUTO) {
@@ -233,9 +260,12 @@ void rt_compositor_run(rt_app *a)
                 if (!plat_egl_present(a->gl.egl, err, sizeof err)) a->gl.errors++;
             }
         } else if (gles) {
-            used = compose_gles(a, frame, eyes, want, &a->sc.img[idx]);
+            used = compose_gles(a, frame, eyes, rolling ? scan_first : NULL, rolling ? scan_last : NULL, want,
+                                &a->sc.img[idx]);
         } else {
-            used = rt_render_cpu_frame(a->render, frame, eyes, want, a->obj_two ? a->obj_at : NULL, &a->sc.img[idx]);
+            used = rt_render_cpu_frame_scan(a->render, frame, eyes, rolling ? scan_first : NULL,
+                                            rolling ? scan_last : NULL, want, a->obj_two ? a->obj_at : NULL,
+                                            &a->sc.img[idx]);
         }
         if (used == RT_METHOD_AUTO) used = RT_METHOD_ROTATION; /* no frame: nothing was warped */
         int64_t t_done = plat_now_ns();
@@ -305,7 +335,8 @@ void rt_compositor_run(rt_app *a)
         }
         if (eval && frame && t_vs >= next_eval) {
             rt_eval_record r = {vsync_no, frame->f.seq, frame->f.scene_time,
-                                (double)(t_photon - a->t0_ns) * 1e-9, frame->f.eye_pose[0], eyes[0], (int)used};
+                                (double)(t_photon - a->t0_ns) * 1e-9, frame->f.eye_pose[0], eyes[0], (int)used,
+                                rolling ? scan_first[0] : eyes[0], rolling ? scan_last[0] : eyes[0]};
             rt_ring_push(&eval->ring, &r);
             next_eval += eval_every;
         }

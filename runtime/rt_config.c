@@ -47,6 +47,10 @@ static const char *const auto_names[] = {"auto", NULL};
 /* [lens] model, in warp_lens_model order */
 static const char *const lens_model_names[] = {"poly", "panotools", "vive", "cardboard", "opencv", NULL};
 static const char *const alignment_names[] = {"bottom", "center", "top", NULL};
+/* [display] scanout and scan_direction: indexes are warp_scan's (rolling = true, warp_scan_dir) */
+static const char *const scanout_names[] = {"global", "rolling", NULL};
+static const char *const scan_direction_names[] = {"top_to_bottom", "bottom_to_top", "left_to_right", "right_to_left",
+                                                   NULL};
 
 const char *rt_kernel_name(int k)
 {
@@ -88,7 +92,19 @@ static const keydef keys[] = {
     {"display", "height", K_INT, F(panel_h), 0, 16, WARP_MAX_SIDE, NULL, "panel height in pixels"},
     {"display", "refresh_hz", K_DOUBLE, F(refresh_hz), 0, 10, 500, NULL, "panel refresh rate"},
     {"display", "photon_offset_ms", K_DOUBLE, F(photon_offset_ms), 0, 0, 100, NULL,
-     "time from the vsync edge to when the photons are seen (prediction target)"},
+     "time from the vsync edge to when the photons are seen (prediction target); on a rolling panel when the "
+     "middle of the scan is seen"},
+    /* scanout (#20): how the panel lights its lines */
+    {"display", "scanout", K_ENUM, F(scanout), 0, 0, 0, scanout_names,
+     "global (every pixel lit at once, at photon_offset_ms) or rolling (lines lit one after another over scan_ms "
+     "centred on photon_offset_ms: the warp then predicts the pose per mesh row at each row's photon time)"},
+    {"display", "scan_direction", K_ENUM, F(scan_direction), 0, 0, 0, scan_direction_names,
+     "scanout = rolling: which panel line lights first: top_to_bottom, bottom_to_top, left_to_right or "
+     "right_to_left (a portrait panel mounted sideways scans across the eyes)"},
+    {"display", "scan_ms", K_DOUBLE, F(scan_ms), 0, 0, 1000, NULL,
+     "scanout = rolling: first line lit to last line lit, at most a refresh period; 0 = auto: 90 % of the refresh "
+     "period (a panel lights each line as its data arrives, and the data fills the frame but for the vertical "
+     "blanking, a few to 10 % of the lines)"},
     {"display", "sink", K_CHOICE, F(sink), S(sink), 0, 0, sink_names,
      "where panel images go: null, png (snapshots) or raw (RGBA8 stream)"},
     {"display", "sink_every", K_INT, F(sink_every), 0, 1, 1000000, NULL, "write every Nth vsync (png/raw sinks)"},
@@ -303,6 +319,9 @@ void rt_config_defaults(rt_config *c)
     c->panel_h = 1600;
     c->refresh_hz = 90;
     c->photon_offset_ms = 5.5;
+    c->scanout = 0;        /* global: what every board did before scanout was a key */
+    c->scan_direction = 0; /* top_to_bottom */
+    c->scan_ms = 0;        /* auto (rt_config_scan) */
     snprintf(c->sink, sizeof c->sink, "null");
     c->sink_every = 90;
     snprintf(c->sink_path, sizeof c->sink_path, "build/frames");
@@ -1142,6 +1161,25 @@ static void check_calibration(const rt_config *c, rt_config_errors *err)
         add_error(err, "%s = '%s': %s", keys_at(c, "imu.mount", at, sizeof at), c->imu_mount, why);
 }
 
+/* Rolling scanout: the scan fits in a refresh period (the next frame's scan would start before this one's ended). */
+static void check_scan(const rt_config *c, rt_config_errors *err)
+{
+    char at[300];
+    const warp_scan s = rt_config_scan(c);
+    const char *why = warp_scan_check(&s, 1.0 / c->refresh_hz);
+    if (why)
+        add_error(err, "[display] scan_ms = %g: %s (%.3f ms at %g Hz); %s", c->scan_ms, why, 1000.0 / c->refresh_hz,
+                  c->refresh_hz, keys_at(c, "display.scan_ms display.refresh_hz display.scanout", at, sizeof at));
+}
+
+warp_scan rt_config_scan(const rt_config *c)
+{
+    const double period_ms = 1000.0 / c->refresh_hz;
+    warp_scan s = {c->scanout == 1, (warp_scan_dir)c->scan_direction,
+                   (c->scan_ms > 0 ? c->scan_ms : RT_SCAN_AUTO_SHARE * period_ms) * 1e-3, c->panel_w, c->panel_h};
+    return s;
+}
+
 bool rt_config_validate(const rt_config *c, rt_config_errors *err)
 {
     int before = err ? err->count : 0;
@@ -1156,6 +1194,7 @@ bool rt_config_validate(const rt_config *c, rt_config_errors *err)
     if (lw)
         add_error(err, "[lens]: %s; set by %s", lw,
                   keys_at(c, lens_model_keys(c), at, sizeof at));
+    check_scan(c, err);
     int map[3], sign[3];
     if (!rt_config_parse_axes(c->imu_axes, map, sign))
         add_error(err, "%s = '%s': expected three signed axes using each of x, y, z once, e.g. '-y +x +z'",

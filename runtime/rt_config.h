@@ -11,6 +11,7 @@
 #include "warp/warp_camera.h"
 #include "warp/warp_lens.h"
 #include "warp/warp_registry.h"
+#include "warp/warp_scan.h"
 
 /* The warps the compositor runs; AUTO is not a warp but [warp] method = auto: rt_select picks one per vsync. */
 typedef enum {
@@ -53,6 +54,9 @@ typedef struct {
     int panel_w, panel_h;       /* whole panel; the left eye gets the left half, the right eye the right half */
     double refresh_hz;
     double photon_offset_ms;    /* vsync edge -> photons (e.g. half a frame for mid-scanout) */
+    int scanout;                /* 0 global, 1 rolling (rt_config_scan) */
+    int scan_direction;         /* a warp_scan_dir */
+    double scan_ms;             /* rolling: first to last line lit; 0 = auto (RT_SCAN_AUTO_SHARE of a refresh) */
     char sink[16];              /* null | png | raw */
     int sink_every;
     char sink_path[256];
@@ -220,6 +224,9 @@ double rt_config_visible_radius(const rt_config *c, int eye);
 void rt_config_fov_line(const rt_config *c, char *buf, int len);
 /* The eye's camera with its tangents as computed, or NULL; else a message in buf naming what is wrong. */
 const char *rt_config_eye_camera_check(const rt_config *c, int eye, warp_camera *cam, char *buf, int buflen);
+/* [display] scanout, scan_direction, scan_ms (auto resolved) over the whole panel. */
+#define RT_SCAN_AUTO_SHARE 0.9
+warp_scan rt_config_scan(const rt_config *c);
 
 /* Writes every key with its default and meaning (for --help and the README). */
 void rt_config_print_keys(FILE *out);

@@ -13,7 +13,11 @@
 #include "warp/warp_camera.h"
 #include "warp/warp_head.h"
 #include "warp/warp_math.h"
+#include "sim/sim_scene.h"
+#include "warp/warp_mesh.h"
 #include "warp/warp_raytrace.h"
+#include "warp/warp_resample.h"
+#include "warp/warp_scan.h"
 
 typedef struct sim_scene sim_scene;
 
@@ -25,6 +29,9 @@ typedef struct {
     warp_pose src_eye;         /* left eye pose the frame was rendered with */
     warp_pose shown_eye;       /* left eye pose the compositor warped to (the prediction) */
     int method;
+    /* rolling scanout: the left eye poses the compositor predicted for the scan's first and last line (the mesh
+     * warps slerp between them); shown_eye twice when it did not compensate */
+    warp_pose shown_first, shown_last;
 } rt_eval_record;
 
 /* How far the pose the compositor warped to was from the true pose at photon time: the error no warp can fix. */
@@ -53,6 +60,7 @@ typedef struct {
     warp_head head;
     int mesh_n;                 /* [lens] mesh: raytrace_mesh's vertex grid */
     warp_raytrace_params rp;    /* the CPU pass's raytrace knobs (rt_render_cpu_raytrace_params) */
+    warp_scan scan;             /* the panel's scanout (rt_config_scan): rolling renders the truth per band */
     _Atomic int *stop;          /* the run's: the thread returns once it is set and the ring is empty */
 } rt_eval_inputs;
 
@@ -68,5 +76,32 @@ typedef struct {
 
 /* The accuracy evaluator: processes records until in.stop is set and the ring is empty. arg: the rt_eval. */
 void *rt_eval_thread(void *arg);
+
+/* Bands of the per-band truth on a rolling panel: each rendered at its own photon time and stitched. 16 bands of
+ * a 11 ms scan are 0.7 ms apart, 0.2 deg at 300 deg/s: well under what separates compensated from not. */
+#define RT_EVAL_SCAN_BANDS 16
+
+/* One evaluation's buffers (the thread's, and hmdwarp-bench's rolling section, which scores records it makes). */
+typedef struct {
+    sim_buffers src, truth, band;
+    warp_image_rgba8 out;
+    warp_image_f32 inv;
+    warp_mesh mesh;
+    warp_planar3 planar;
+} rt_eval_work;
+
+/* Allocates w for in's camera and mesh size; false on out of memory (w is then freed). */
+bool rt_eval_work_alloc(rt_eval_work *w, const rt_eval_inputs *in);
+void rt_eval_work_free(rt_eval_work *w);
+/* The truth a left eye sees when the panel's mid-scan photon time is photon_scene_time, into w->truth.color: one
+ * render at the true pose then (global scanout), or on a rolling panel RT_EVAL_SCAN_BANDS bands along the scan
+ * direction, each rendered at its own photon time with the true pose then (the eye buffer standing for the left
+ * eye's viewport, the lens left out as in every score here). */
+void rt_eval_truth(rt_eval_work *w, const rt_eval_inputs *in, double photon_scene_time);
+/* Scores record r into acc (and its pose error into pose, when not NULL): the truth, then no warp, rotation,
+ * raytrace and raytrace_mesh. On a rolling panel rotation and raytrace_mesh run as the display's lens mesh does
+ * (per vertex from r's first- to last-line pose, through an eye mesh of in.mesh_n), raytrace at r's mid-scan pose. */
+void rt_eval_score(rt_eval_work *w, const rt_eval_inputs *in, const rt_eval_record *r, rt_eval_acc acc[RT_EVAL_METHODS],
+                   rt_eval_pose *pose);
 
 #endif

@@ -36,6 +36,12 @@ typedef struct {
     warp_pose eyes[2];
     const warp_pose *objects_at; /* depth_task: the objects at photon time, NULL = as the frame saw them */
     warp_quat src_from_dst[2]; /* mesh_task */
+    /* rolling scanout (rt_render_cpu_frame_scan): the eye poses at the scan's first and last line, NULL on a global
+     * panel; mesh_task and mesh_raytrace_task then warp each vertex at its own line's time */
+    const warp_pose *first, *last;
+    bool mesh_rolling;                 /* mesh_task: src_from_dst_last set, not a lens-only pass */
+    warp_quat src_from_dst_last[2];    /* mesh_task: src_from_dst is then the first line's */
+    warp_raytrace_setup rts_last[2];   /* mesh_raytrace_task: rts is then the first line's */
 } job;
 
 struct rt_render_cpu {
@@ -81,6 +87,7 @@ rt_render_cpu_params rt_render_cpu_params_from_config(const rt_config *c)
     p.depth_warps = c->method != RT_METHOD_NONE && c->method != RT_METHOD_ROTATION;
     p.transparency = c->method == RT_METHOD_TRANSPARENCY || c->method == RT_METHOD_AUTO;
     p.objects = c->method == RT_METHOD_OBJECTS || c->method == RT_METHOD_AUTO;
+    p.scan = rt_config_scan(c);
     return p;
 }
 
@@ -233,14 +240,22 @@ static void planar_task(void *ctx, int task)
 static void mesh_task(void *ctx, int e)
 {
     job *j = ctx;
-    warp_mesh_update(&j->r->mesh[e], &j->frame->f.cam[e], j->src_from_dst[e]);
+    if (j->mesh_rolling)
+        warp_mesh_update_rolling(&j->r->mesh[e], &j->frame->f.cam[e], j->src_from_dst[e], j->src_from_dst_last[e],
+                                 &j->r->p.scan);
+    else
+        warp_mesh_update(&j->r->mesh[e], &j->frame->f.cam[e], j->src_from_dst[e]);
 }
 
 /* raytrace_mesh: one eye's rays, at its lens mesh's vertices (the resample then reads the frame). */
 static void mesh_raytrace_task(void *ctx, int e)
 {
     job *j = ctx;
-    warp_mesh_update_raytrace(&j->r->mesh[e], &j->frame->f.cam[e], &j->rts[e]);
+    if (j->first)
+        warp_mesh_update_raytrace_rolling(&j->r->mesh[e], &j->frame->f.cam[e], &j->rts[e], &j->rts_last[e],
+                                          &j->r->p.scan);
+    else
+        warp_mesh_update_raytrace(&j->r->mesh[e], &j->frame->f.cam[e], &j->rts[e]);
 }
 
 /* The warps that need a whole eye at once (they rasterise or splat): one task per eye, into eye space, holes
@@ -304,6 +319,7 @@ static void lens_pass_eye_space(rt_render_cpu *r, job *j)
         j->src_from_dst[e] = warp_quat_identity();
         j->src[e] = &r->inter_planar[e];
     }
+    j->mesh_rolling = false; /* the warp is done: the lens alone */
     lens_pass(r, j);
 }
 
@@ -311,11 +327,15 @@ static void lens_pass_eye_space(rt_render_cpu *r, job *j)
 static rt_method pass_lens(rt_render_cpu *r, job *j, const rt_frame *frame, const warp_pose eyes[2],
                            rt_method method)
 {
+    /* on a rolling panel the rotation runs from the first line's pose to the last's per vertex */
+    j->mesh_rolling = method == RT_METHOD_ROTATION && j->first;
     for (int e = 0; e < 2; e++) {
         /* 003 §3.4: only orientations matter; NONE shows the frame as rendered, through the lens. */
-        j->src_from_dst[e] = method == RT_METHOD_ROTATION
-                                 ? warp_quat_mul(warp_quat_conj(frame->f.eye_pose[e].q), eyes[e].q)
-                                 : warp_quat_identity();
+        const warp_quat src_q = warp_quat_conj(frame->f.eye_pose[e].q);
+        j->src_from_dst[e] = method != RT_METHOD_ROTATION ? warp_quat_identity()
+                             : j->mesh_rolling            ? warp_quat_mul(src_q, j->first[e].q)
+                                                          : warp_quat_mul(src_q, eyes[e].q);
+        if (j->mesh_rolling) j->src_from_dst_last[e] = warp_quat_mul(src_q, j->last[e].q);
         j->src[e] = &frame->planar[e];
     }
     lens_pass(r, j);
@@ -332,6 +352,20 @@ static rt_method pass_raytrace(rt_render_cpu *r, job *j, const rt_frame *frame, 
         j->views[e] = rt_frame_view(frame, e);
         ok = warp_raytrace_prepare(&j->rts[e], &j->views[e], &frame->f.cam[e], eyes[e], &r->p.raytrace) == NULL;
         if (ok) warp_raytrace_use_blockmax(&j->rts[e], &frame->blockmax[e], RT_BLOCK);
+    }
+    if (ok && method == RT_METHOD_RAYTRACE_MESH && j->first) {
+        /* rolling: the mesh traces each vertex at the first and the last line's pose (the per-pixel raytrace keeps
+         * the mid-scan pose: a setup per pixel row would cost its prepare per band) */
+        for (int e = 0; e < 2 && ok; e++) {
+            ok = warp_raytrace_prepare(&j->rts[e], &j->views[e], &frame->f.cam[e], j->first[e], &r->p.raytrace) ==
+                     NULL &&
+                 warp_raytrace_prepare(&j->rts_last[e], &j->views[e], &frame->f.cam[e], j->last[e], &r->p.raytrace) ==
+                     NULL;
+            if (ok) {
+                warp_raytrace_use_blockmax(&j->rts[e], &frame->blockmax[e], RT_BLOCK);
+                warp_raytrace_use_blockmax(&j->rts_last[e], &frame->blockmax[e], RT_BLOCK);
+            }
+        }
     }
     if (!ok) return pass_lens(r, j, frame, eyes, RT_METHOD_ROTATION);
     if (method == RT_METHOD_RAYTRACE_MESH) {
@@ -410,7 +444,17 @@ rt_method rt_render_cpu_usable(rt_render_cpu *r, const rt_frame *frame, rt_metho
 rt_method rt_render_cpu_frame(rt_render_cpu *r, const rt_frame *frame, const warp_pose eyes[2], rt_method method,
                               const warp_pose *objects_at, warp_image_rgba8 *out)
 {
+    return rt_render_cpu_frame_scan(r, frame, eyes, NULL, NULL, method, objects_at, out);
+}
+
+rt_method rt_render_cpu_frame_scan(rt_render_cpu *r, const rt_frame *frame, const warp_pose eyes[2],
+                                   const warp_pose first[2], const warp_pose last[2], rt_method method,
+                                   const warp_pose *objects_at, warp_image_rgba8 *out)
+{
     job *j = &r->j;
+    const bool rolling = r->p.scan.rolling && first && last;
+    j->first = rolling ? first : NULL;
+    j->last = rolling ? last : NULL;
     j->frame = frame;
     j->out = out;
     j->objects_at = objects_at;

@@ -26,6 +26,7 @@ typedef struct {
     bool depth_warps;       /* the eye-space warps (raytrace, transparency, objects): their eye buffers */
     bool transparency;      /* the A-buffer warp's grid, tree and depth buffer */
     bool objects;           /* the per-object warp's splat and hole-filling scratch */
+    warp_scan scan;         /* how the panel lights its lines ([display] scanout) */
 } rt_render_cpu_params;
 
 /* The pass as hmdwarpd configures it from c ([display], [lens], [warp]); the bench and the tests use this too, so
@@ -50,6 +51,15 @@ rt_method rt_render_cpu_usable(rt_render_cpu *r, const rt_frame *frame, rt_metho
  * them). Returns the method actually run. Allocation-, lock- and I/O-free: the vsync path. */
 rt_method rt_render_cpu_frame(rt_render_cpu *r, const rt_frame *frame, const warp_pose eyes[2], rt_method method,
                               const warp_pose *objects_at, warp_image_rgba8 *out);
+
+/* The same on a rolling-scan panel (params.scan.rolling): first and last are the eye poses predicted for the scan's
+ * first and last lit line, eyes for its middle. rotation and raytrace_mesh warp each lens mesh vertex at its own
+ * line's pose (warp_mesh_update_rolling, warp_mesh_update_raytrace_rolling: nothing extra per pixel); the
+ * per-pixel warps (raytrace, transparency, objects) use the mid-scan eyes. first/last NULL or a global panel:
+ * rt_render_cpu_frame exactly. Allocation-, lock- and I/O-free: the vsync path. */
+rt_method rt_render_cpu_frame_scan(rt_render_cpu *r, const rt_frame *frame, const warp_pose eyes[2],
+                                   const warp_pose first[2], const warp_pose last[2], rt_method method,
+                                   const warp_pose *objects_at, warp_image_rgba8 *out);
 
 typedef struct {
     uint64_t raytrace_fallbacks; /* a depth warp requested, but the frame had no depth */

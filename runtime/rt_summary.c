@@ -448,8 +448,13 @@ void rt_summary_print(const rt_summary_src *s, FILE *out)
                 s->realtime ? (s->memory_locked ? ", memory locked" : ", memory not locked") : "",
                 rt_method_name(c->method));
     fprintf(out, "  %-26s %s\n", L(R_RENDERER_REASON), STR(R_RENDERER_REASON));
-    fprintf(out, "  %-26s %dx%d at %.0f Hz, eye buffers %dx%d, lens mesh %dx%d\n", L(R_PANEL), c->panel_w,
-            c->panel_h, c->refresh_hz, c->eye_w, c->eye_h, c->mesh_n, c->mesh_n);
+    const warp_scan scan = rt_config_scan(c);
+    static const char *const scan_dirs[] = {"top to bottom", "bottom to top", "left to right", "right to left"};
+    char scan_txt[96] = "";
+    if (scan.rolling && scan.dir >= 0 && scan.dir <= WARP_SCAN_RIGHT_TO_LEFT)
+        snprintf(scan_txt, sizeof scan_txt, ", rolling scan %s over %.1f ms", scan_dirs[scan.dir], scan.scan_s * 1e3);
+    fprintf(out, "  %-26s %dx%d at %.0f Hz, eye buffers %dx%d, lens mesh %dx%d%s\n", L(R_PANEL), c->panel_w,
+            c->panel_h, c->refresh_hz, c->eye_w, c->eye_h, c->mesh_n, c->mesh_n, scan_txt);
 
     fprintf(out, "display\n");
     const uint64_t vsyncs = U(R_VSYNCS), missed = U(R_MISSED);
@@ -582,7 +587,8 @@ void rt_summary_print(const rt_summary_src *s, FILE *out)
                 value(s, R_ORIENT_ERR, 0).f, b.x, b.y, b.z);
     }
     if (rt_summary_members(s, R_EVAL_N)) {
-        fprintf(out, "%-28s left eye at photon time, before the lens; %d frames sampled\n", L(R_EVAL_N),
+        fprintf(out, "%-28s left eye at photon time, before the lens%s; %d frames sampled\n", L(R_EVAL_N),
+                scan.rolling ? " (rolling panel: the truth per band at each band's photon time)" : "",
                 (int)U(R_EVAL_N));
         const rt_eval_pose *pe = s->eval_pose;
         if (pe && pe->n)

@@ -128,33 +128,92 @@ static void finish_update(warp_mesh *m, int behind)
     for (int j = 0; j < m->rows - 1; j++) band_lines(m, j);
 }
 
-void warp_mesh_update(warp_mesh *m, const warp_camera *src_cam, warp_quat src_from_dst)
+/* Far outside the source but small enough for float-to-int conversion: the resampler clamps it to the border like
+ * every other fringe position. */
+#define FAR_OUT (-65536.0)
+
+/* Source position of tangent direction t under the homography h = K_src * src_from_dst; false (and FAR_OUT) when
+ * it points behind the source camera. */
+static bool rotate_tan(const warp_mat3 *h, warp_vec2f t, double *xo, double *yo)
+{
+    double u = t.x, v = t.y;
+    double x = h->m[0][0] * u + h->m[0][1] * v - h->m[0][2];
+    double y = h->m[1][0] * u + h->m[1][1] * v - h->m[1][2];
+    double w = h->m[2][0] * u + h->m[2][1] * v - h->m[2][2];
+    if (w > 1e-6) {
+        double iw = 1.0 / w;
+        *xo = x * iw;
+        *yo = y * iw;
+        return true;
+    }
+    *xo = *yo = FAR_OUT;
+    return false;
+}
+
+/* One vertex's three channels under h. */
+static int rotate_vertex(warp_mesh *m, const warp_mat3 *h, int j, int i)
+{
+    int behind = 0;
+    for (int c = 0; c < 3; c++) {
+        double x, y;
+        behind += !rotate_tan(h, m->tan[((size_t)j * m->cols + i) * 3 + c], &x, &y);
+        set_vertex(m, j, i, c, x, y);
+    }
+    return behind;
+}
+
+static warp_mat3 rotation_homography(const warp_camera *src_cam, warp_quat src_from_dst)
 {
     warp_mat3 k = warp_camera_K(src_cam), r = warp_quat_to_mat3(src_from_dst);
-    warp_mat3 h = warp_mat3_mul(&k, &r);
-    /* Far outside the source but small enough for float-to-int conversion: the resampler clamps it to the
-     * border like every other fringe position. */
-    const double far_out = -65536.0;
+    return warp_mat3_mul(&k, &r);
+}
+
+void warp_mesh_update(warp_mesh *m, const warp_camera *src_cam, warp_quat src_from_dst)
+{
+    const warp_mat3 h = rotation_homography(src_cam, src_from_dst);
     int behind = 0;
     for (int j = 0; j < m->rows; j++)
-        for (int i = 0; i < m->cols; i++)
-            for (int c = 0; c < 3; c++) {
-                const warp_vec2f t = m->tan[((size_t)j * m->cols + i) * 3 + c];
-                double u = t.x, v = t.y;
-                double x = h.m[0][0] * u + h.m[0][1] * v - h.m[0][2];
-                double y = h.m[1][0] * u + h.m[1][1] * v - h.m[1][2];
-                double w = h.m[2][0] * u + h.m[2][1] * v - h.m[2][2];
-                if (w > 1e-6) {
-                    double iw = 1.0 / w;
-                    x *= iw;
-                    y *= iw;
-                } else {
-                    x = y = far_out;
-                    behind++;
-                }
-                set_vertex(m, j, i, c, x, y);
-            }
+        for (int i = 0; i < m->cols; i++) behind += rotate_vertex(m, &h, j, i);
     finish_update(m, behind);
+}
+
+/* Scan fraction of vertex (i, j) on the panel (its viewport's offset added). */
+static double vertex_fraction(const warp_mesh *m, const warp_scan *scan, int i, int j)
+{
+    double x, y;
+    vertex_xy(m, i, j, &x, &y);
+    return warp_scan_fraction(scan, m->vp_x + x, m->vp_y + y);
+}
+
+void warp_mesh_update_rolling(warp_mesh *m, const warp_camera *src_cam, warp_quat first, warp_quat last,
+                              const warp_scan *scan)
+{
+    int behind = 0;
+    /* a vertical scan lights a vertex row at once, a horizontal one a vertex column: one homography each (a few
+     * dozen slerps per eye and vsync, nothing per pixel) */
+    const bool by_row = scan->dir == WARP_SCAN_TOP_TO_BOTTOM || scan->dir == WARP_SCAN_BOTTOM_TO_TOP;
+    warp_mat3 h = rotation_homography(src_cam, first);
+    for (int j = 0; j < m->rows; j++) {
+        if (by_row) h = rotation_homography(src_cam, warp_scan_slerp(first, last, vertex_fraction(m, scan, 0, j)));
+        for (int i = 0; i < m->cols; i++) {
+            if (!by_row)
+                h = rotation_homography(src_cam, warp_scan_slerp(first, last, vertex_fraction(m, scan, i, j)));
+            behind += rotate_vertex(m, &h, j, i);
+        }
+    }
+    finish_update(m, behind);
+}
+
+/* The source position the raytrace under s gives tangent direction t of the target eye; true when the ray left
+ * the source. */
+static bool trace_tan(const warp_camera *dst_cam, const warp_raytrace_setup *s, warp_vec2f t, double *x, double *y)
+{
+    /* where the per-pixel raytrace would meet this direction in the target eye buffer (continuous: a lens vertex
+     * rarely sits on a pixel centre, and may lie beyond the buffer's edge, where the ray is still traced: the
+     * rows' fringe rules apply to it as to any ray) */
+    double tx, ty;
+    warp_camera_tan_to_pixel(dst_cam, t.x, t.y, &tx, &ty);
+    return warp_raytrace_point(s, tx, ty, x, y, NULL) == WARP_MASK_FRINGE;
 }
 
 void warp_mesh_update_raytrace(warp_mesh *m, const warp_camera *dst_cam, const warp_raytrace_setup *s)
@@ -163,14 +222,38 @@ void warp_mesh_update_raytrace(warp_mesh *m, const warp_camera *dst_cam, const w
     for (int j = 0; j < m->rows; j++)
         for (int i = 0; i < m->cols; i++)
             for (int c = 0; c < 3; c++) {
-                const warp_vec2f t = m->tan[((size_t)j * m->cols + i) * 3 + c];
-                /* where the per-pixel raytrace would meet this direction in the target eye buffer (continuous:
-                 * a lens vertex rarely sits on a pixel centre, and may lie beyond the buffer's edge, where the
-                 * ray is still traced: the rows' fringe rules apply to it as to any ray) */
-                double tx, ty, x, y;
-                warp_camera_tan_to_pixel(dst_cam, t.x, t.y, &tx, &ty);
-                left += warp_raytrace_point(s, tx, ty, &x, &y, NULL) == WARP_MASK_FRINGE;
+                double x, y;
+                left += trace_tan(dst_cam, s, m->tan[((size_t)j * m->cols + i) * 3 + c], &x, &y);
                 set_vertex(m, j, i, c, x, y);
             }
+    finish_update(m, left);
+}
+
+void warp_mesh_update_raytrace_rolling(warp_mesh *m, const warp_camera *dst_cam, const warp_raytrace_setup *first,
+                                       const warp_raytrace_setup *last, const warp_scan *scan)
+{
+    int left = 0;
+    for (int j = 0; j < m->rows; j++)
+        for (int i = 0; i < m->cols; i++) {
+            const double f = vertex_fraction(m, scan, i, j);
+            for (int c = 0; c < 3; c++) {
+                const warp_vec2f t = m->tan[((size_t)j * m->cols + i) * 3 + c];
+                double x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+                bool out = false;
+                /* an endpoint's trace only where it has weight: the first and last vertex lines cost one */
+                if (f < 1) out |= trace_tan(dst_cam, first, t, &x0, &y0);
+                if (f > 0) out |= trace_tan(dst_cam, last, t, &x1, &y1);
+                if (f <= 0) {
+                    x1 = x0;
+                    y1 = y0;
+                } else if (f >= 1) {
+                    x0 = x1;
+                    y0 = y1;
+                }
+                left += out;
+                /* equal endpoints give x0 exactly (a still head: the global mesh bit for bit) */
+                set_vertex(m, j, i, c, x0 + (x1 - x0) * f, y0 + (y1 - y0) * f);
+            }
+        }
     finish_update(m, left);
 }

@@ -11,6 +11,7 @@
 #include "warp/warp_image.h"
 #include "warp/warp_lens.h"
 #include "warp/warp_raytrace.h"
+#include "warp/warp_scan.h"
 
 /* Values per mesh cell in `lines`: for each channel c (R, G, B) and axis a (x, y) an offset p and a slope q, at
  * index WARP_MESH_LINE(c, a, 0) and WARP_MESH_LINE(c, a, 1). */
@@ -70,6 +71,12 @@ void warp_mesh_free(warp_mesh *m);
  * samples the source at K_src * src_from_dst * (t, -1). Identity rotation = distortion only (e.g. after a
  * depth warp has already produced the target view). Allocation-free: safe on the vsync path. */
 void warp_mesh_update(warp_mesh *m, const warp_camera *src_cam, warp_quat src_from_dst);
+/* The same on a rolling-scan panel (warp_scan.h): each vertex is warped with the rotation at its own scan
+ * fraction, slerped between `first` (src_from_dst for the pose at the scan's first line) and `last` (its last
+ * line), per vertex row (vertical scans) or column (horizontal ones), so rolling-scan compensation costs nothing per
+ * pixel. first == last gives warp_mesh_update's mesh bit for bit. Allocation-free: safe on the vsync path. */
+void warp_mesh_update_rolling(warp_mesh *m, const warp_camera *src_cam, warp_quat first, warp_quat last,
+                              const warp_scan *scan);
 
 /* Rebuilds the source positions for a depth warp traced at the vertices only (a grid variant of the raytrace,
  * cf. 000's adaptive grid): a vertex seeing tangent direction t of the target eye takes the source position of
@@ -79,5 +86,11 @@ void warp_mesh_update(warp_mesh *m, const warp_camera *src_cam, warp_quat src_fr
  * (a rubber sheet) where the per-pixel raytrace keeps them sharp. Vertices whose ray leaves the source sample
  * where the fringe fill does (clamped to the border). Allocation-free: safe on the vsync path. */
 void warp_mesh_update_raytrace(warp_mesh *m, const warp_camera *dst_cam, const warp_raytrace_setup *s);
+/* The same on a rolling-scan panel: each vertex traced under `first` (prepared for the pose at the scan's first
+ * line) and `last` (its last line) and its source position interpolated by the vertex's scan fraction (ILLIXR
+ * interpolates the warp between a start and an end pose the same way). Setups for one pose give
+ * warp_mesh_update_raytrace's mesh bit for bit. Allocation-free: safe on the vsync path. */
+void warp_mesh_update_raytrace_rolling(warp_mesh *m, const warp_camera *dst_cam, const warp_raytrace_setup *first,
+                                       const warp_raytrace_setup *last, const warp_scan *scan);
 
 #endif

@@ -227,12 +227,67 @@ static void test_bad_params(void **state)
     plat_workers_destroy(w);
 }
 
+/* Rolling scanout (#20): with the first and last line's poses equal to the mid-scan ones the pass draws the global
+ * pass's bytes; apart, the mesh warps (rotation, raytrace_mesh) move and the per-pixel raytrace keeps the mid-scan
+ * pose; a global panel ignores them. */
+static void test_rolling_scan(void **state)
+{
+    (void)state;
+    rt_config c;
+    config(&c);
+    plat_workers *w = plat_workers_create(1, 0);
+    assert_non_null(w);
+    char err[400] = "";
+    bench_display d;
+    if (!bench_display_init(&d, &c, w, NULL, err, sizeof err)) fail_msg("bench_display_init: %s", err);
+    warp_pose eyes[2], first[2], last[2];
+    host_frame(&d, &c, eyes);
+    /* a turn: 1.5 degrees of yaw either side of mid-scan */
+    for (int e = 0; e < 2; e++) {
+        first[e] = last[e] = eyes[e];
+        first[e].q = warp_quat_mul(eyes[e].q, warp_quat_from_ypr(-1.5 * WARP_PI / 180, 0, 0));
+        last[e].q = warp_quat_mul(eyes[e].q, warp_quat_from_ypr(1.5 * WARP_PI / 180, 0, 0));
+    }
+    rt_render_cpu_params p = rt_render_cpu_params_from_config(&c);
+    assert_false(p.scan.rolling); /* the default */
+    rt_render_cpu *global = rt_render_cpu_create(&p, w, err, sizeof err);
+    p.scan = (warp_scan){true, WARP_SCAN_TOP_TO_BOTTOM, 0.01, c.panel_w, c.panel_h};
+    rt_render_cpu *rolling = rt_render_cpu_create(&p, w, err, sizeof err);
+    assert_non_null(global);
+    assert_non_null(rolling);
+    warp_image_rgba8 g, r;
+    assert_true(warp_image_rgba8_alloc(&g, c.panel_w, c.panel_h));
+    assert_true(warp_image_rgba8_alloc(&r, c.panel_w, c.panel_h));
+    static const rt_method methods[] = {RT_METHOD_ROTATION, RT_METHOD_RAYTRACE, RT_METHOD_RAYTRACE_MESH};
+    for (size_t i = 0; i < sizeof methods / sizeof methods[0]; i++) {
+        rt_method m = methods[i];
+        assert_int_equal(rt_render_cpu_frame(global, &d.frame, eyes, m, NULL, &g), m);
+        assert_int_equal(rt_render_cpu_frame_scan(rolling, &d.frame, eyes, eyes, eyes, m, NULL, &r), m);
+        if (!same_image(&g, &r)) fail_msg("%s: a still head on a rolling panel differs from global", rt_method_name(m));
+        assert_int_equal(rt_render_cpu_frame_scan(global, &d.frame, eyes, first, last, m, NULL, &r), m);
+        if (!same_image(&g, &r)) fail_msg("%s: a global panel used the scan's poses", rt_method_name(m));
+        assert_int_equal(rt_render_cpu_frame_scan(rolling, &d.frame, eyes, first, last, m, NULL, &r), m);
+        if (m == RT_METHOD_RAYTRACE) {
+            if (!same_image(&g, &r)) fail_msg("raytrace: the per-pixel raytrace left the mid-scan pose");
+        } else if (same_image(&g, &r)) {
+            fail_msg("%s: the scan's poses were not used", rt_method_name(m));
+        }
+    }
+    warp_image_free(&g);
+    warp_image_free(&r);
+    rt_render_cpu_destroy(&global);
+    rt_render_cpu_destroy(&rolling);
+    bench_display_free(&d);
+    plat_workers_destroy(w);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_bench_shows_what_the_daemon_shows),
         cmocka_unit_test(test_frame_lacking_planes_falls_back),
         cmocka_unit_test(test_bad_params),
+        cmocka_unit_test(test_rolling_scan),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

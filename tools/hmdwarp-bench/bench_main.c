@@ -27,6 +27,7 @@
 #include "runtime/rt_render_cpu.h"
 #include "sim/sim_scene.h"
 #include "tools/common/cat_warps.h"
+#include "tools/hmdwarp-bench/bench_rolling.h"
 #include "warp/warp_metrics.h"
 #include "warp/warp_mesh.h"
 #include "warp/warp_raytrace.h"
@@ -43,6 +44,7 @@ typedef struct {
     int reps;
     int threads;
     bool link_only; /* --link-only: the link section alone */
+    bool rolling_only; /* --rolling-only: the rolling-scan section alone */
 } opts;
 
 /* ---- timing samples ---- */
@@ -289,6 +291,8 @@ static void usage(FILE *f)
                "  --soak S         seconds of hmdwarpd at 90 Hz on the simulated board (default 60, quick 5; 0 = skip)\n"
                "  --hmdwarpd PATH  the hmdwarpd to soak (default: next to this program)\n"
                "  --link-only      only the link section: every framelink codec and quality step (link.md, link.csv)\n"
+               "  --rolling-only   only the rolling-scan section: compensation against global prediction on the fast\n"
+               "                   trace, against per-band truth (rolling.md; deterministic, about a minute)\n"
                "  -h, --help       this text\n"
                "  --version        print the version and exit\n"
                "Times are wall-clock on a noisy machine: the ratios to memcpy and OpenCV, measured interleaved in the\n"
@@ -301,7 +305,7 @@ int main(int argc, char **argv)
     static const struct option lo[] = {{"quick", 0, 0, 'q'}, {"out", 1, 0, 'o'},      {"reps", 1, 0, 'r'},
                                        {"soak", 1, 0, 's'},  {"hmdwarpd", 1, 0, 'd'}, {"threads", 1, 0, 't'},
                                        {"eye", 1, 0, 'e'},   {"help", 0, 0, 'h'},  {"version", 0, 0, 'V'},
-                                       {"link-only", 0, 0, 'L'}, {0, 0, 0, 0}};
+                                       {"link-only", 0, 0, 'L'}, {"rolling-only", 0, 0, 'R'}, {0, 0, 0, 0}};
     int c;
     while ((c = getopt_long(argc, argv, "h", lo, NULL)) != -1) {
         switch (c) {
@@ -319,6 +323,7 @@ int main(int argc, char **argv)
         case 'd': o.hmdwarpd = optarg; break;
         case 't': o.threads = atoi(optarg); break;
         case 'L': o.link_only = true; break;
+        case 'R': o.rolling_only = true; break;
         case 'h': usage(stdout); return 0;
         case 'V': printf("hmdwarp-bench %s\n", plat_version()); return 0;
         default: usage(stderr); return 2;
@@ -360,6 +365,8 @@ int main(int argc, char **argv)
     bench_link_opts lo_link = {.quick = o.quick, .reference = !o.quick && !o.eye_w, .cam = {cam[0], cam[1]},
                                .decode_threads = 2, .out = o.out};
     if (o.link_only) return bench_link_run(&lo_link) ? 0 : 1;
+    const bench_rolling_opts ro = {.out = o.out};
+    if (o.rolling_only) return bench_rolling_run(&ro) ? 0 : 1;
     plat_workers *workers = plat_workers_create(o.threads - 1, 0), *workers1 = plat_workers_create(0, 0);
     char err[300] = "out of memory";
     frame_case fc[2];
@@ -833,6 +840,8 @@ int main(int argc, char **argv)
     fflush(stdout);
     /* ---- 5. the link: every framelink codec and quality step (bench_link.c) ---- */
     if (!bench_link_run(&lo_link)) return 1;
+    /* ---- 6. rolling scanout: what compensation buys (bench_rolling.c) ---- */
+    if (!bench_rolling_run(&ro)) return 1;
 
     for (int e = 0; e < 2; e++) {
         bench_cv_destroy(cv[e]);
