@@ -41,6 +41,10 @@ bool bench_rolling_measure(const bench_rolling_opts *o, bench_rolling_result *re
     c.eye_h = o->eye_h > 0 ? o->eye_h : 400;
     c.panel_w = 2 * c.eye_w;
     c.panel_h = c.eye_h;
+    /* the eye buffer is scored before the lens, so its field is fixed here (fov = auto would derive it from a lens
+     * sized for the default panel, not this one) */
+    const double fov[4] = {52, 48, 52, 52};
+    for (int i = 0; i < 4; i++) c.fov_deg[i] = fov[i];
     c.refresh_hz = REFRESH_HZ;
     c.scanout = 1;
     c.scan_direction = WARP_SCAN_TOP_TO_BOTTOM;
