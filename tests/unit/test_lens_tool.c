@@ -255,6 +255,18 @@ static void test_fit(void **state)
     const char *p = strstr(out, "green: 399 points, residual RMS ");
     assert_non_null(p);
     assert_true(atof(p + strlen("green: 399 points, residual RMS ")) < 1.5);
+    /* --out into a board's calibration file: its [lens] keys are set, its IMU calibration and comments kept */
+    write_file("cal.ini", "; this unit's calibration\n[imu]\ngyro_bias = 0.01 -0.002 0.003\n[lens]\nk_red = 9 9 9 9\n");
+    snprintf(args, sizeof args, "fit %s --config %s --model poly --out %s", path_of("corr.csv"),
+             path_of("fitboard.ini"), path_of("cal.ini"));
+    assert_int_equal(run(args, out, sizeof out), 0);
+    static char cal[8000];
+    assert_true(test_slurp(path_of("cal.ini"), cal, sizeof cal));
+    assert_non_null(strstr(cal, "; this unit's calibration\n[imu]\ngyro_bias = 0.01 -0.002 0.003\n"));
+    assert_null(strstr(cal, "9 9 9 9"));
+    got = lens_of(cal, &c);
+    for (int ch = 0; ch < 3; ch++)
+        for (int i = 0; i < 4; i++) assert_true(fabs(got.ch[ch].k[i] - l.ch[ch].k[i]) < 1e-8);
     /* --fit-center: from a centre 20 pixels off, the lens's own */
     snprintf(fitboard, sizeof fitboard, "%s[lens]\ncenter = 545 615\nscale = 540\n", board);
     write_file("offboard.ini", fitboard);
