@@ -27,6 +27,28 @@ static void config(rt_config *c, const char *const *extra, size_t n_extra)
 }
 
 static rt_app app;
+/* Whether app holds a running board: a failed assert returns from the test without its rt_app_free, and the next
+ * test's rt_app_init over a live app would crash the whole binary; the teardown frees what is left. */
+static bool app_live;
+
+static bool app_init(const rt_config *c, char *err, int errlen)
+{
+    app_live = rt_app_init(&app, c, err, errlen);
+    return app_live;
+}
+
+static void app_free(void)
+{
+    if (app_live) rt_app_free(&app);
+    app_live = false;
+}
+
+static int teardown(void **state)
+{
+    (void)state;
+    app_free();
+    return 0;
+}
 
 /* The runs last until they have their data (support/test_run.h), at least 1.5 s (the fault timeline's end), at
  * most 60 s: a loaded machine serves fewer vsyncs a second, and what must hold is judged on counts. */
@@ -46,7 +68,7 @@ static void run(const char *const *extra, size_t n)
     rt_config c;
     config(&c, extra, n);
     char err[400];
-    if (!rt_app_init(&app, &c, err, sizeof err)) fail_msg("init: %s", err);
+    if (!app_init(&c, err, sizeof err)) fail_msg("init: %s", err);
     bool enough = test_run_until(&app, nominal_enough, RUN_CAP_S);
     rt_app_summary(&app, stdout);
     if (!enough) fail_msg("no nominal run's counts within %.0f s", RUN_CAP_S);
@@ -102,7 +124,7 @@ static void test_hid_usb_gpio(void **state)
     drv_vsync_stats vs;
     assert_true(drv_vsync_stats_get(app.dev.vsync, &vs));
     assert_true(vs.edges >= 120 && !vs.on_timer);
-    rt_app_free(&app);
+    app_free();
 }
 
 static void test_i2c_v4l2_timer(void **state)
@@ -112,7 +134,7 @@ static void test_i2c_v4l2_timer(void **state)
         "frames.format=yuyv", "frames.depth=true", "vsync.backend=timer");
     assert_nominal();
     assert_int_equal(rejected(), 0);
-    rt_app_free(&app);
+    app_free();
 }
 
 static void test_faults_keep_the_display_going(void **state)
@@ -140,7 +162,7 @@ static void test_faults_keep_the_display_going(void **state)
     drv_vsync_stats vs;
     assert_true(drv_vsync_stats_get(app.dev.vsync, &vs));
     assert_true(vs.fallbacks >= 1 && !vs.on_timer);
-    rt_app_free(&app);
+    app_free();
 }
 
 /* 0.4 s's worth of data, however long it takes */
@@ -174,7 +196,7 @@ static void test_every_combination(void **state)
                 rt_config c;
                 config(&c, sets, sizeof sets / sizeof sets[0]);
                 char err[400];
-                if (!rt_app_init(&app, &c, err, sizeof err)) fail_msg("%s %s %s: %s", imu[i][0], frames[f][0], vsync[v][0], err);
+                if (!app_init(&c, err, sizeof err)) fail_msg("%s %s %s: %s", imu[i][0], frames[f][0], vsync[v][0], err);
                 bool enough = test_run_until(&app, combination_enough, RUN_CAP_S);
                 rt_telemetry *t = app.tel;
                 print_message("%-16s %-19s %-18s vsyncs %3llu frames %3llu imu %4llu\n", imu[i][0], frames[f][0],
@@ -187,7 +209,7 @@ static void test_every_combination(void **state)
                 assert_true(t->imu_samples >= 300);
                 assert_true(t->method_count[RT_METHOD_ROTATION] >= 20);
                 assert_int_equal(rejected(), 0);
-                rt_app_free(&app);
+                app_free();
             }
 }
 
@@ -227,11 +249,11 @@ int main(void)
 {
     test_paced_by_sim(TEST_EMULATOR_SLOWDOWN);
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_hid_usb_gpio),
-        cmocka_unit_test(test_i2c_v4l2_timer),
-        cmocka_unit_test(test_faults_keep_the_display_going),
-        cmocka_unit_test(test_every_combination),
-        cmocka_unit_test(test_missing_devices_named),
+        cmocka_unit_test_teardown(test_hid_usb_gpio, teardown),
+        cmocka_unit_test_teardown(test_i2c_v4l2_timer, teardown),
+        cmocka_unit_test_teardown(test_faults_keep_the_display_going, teardown),
+        cmocka_unit_test_teardown(test_every_combination, teardown),
+        cmocka_unit_test_teardown(test_missing_devices_named, teardown),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
