@@ -15,6 +15,20 @@
 /* warp_err's message, returned as the message */
 #define FAIL(...) (warp_err(buf, buflen, __VA_ARGS__), (const char *)buf)
 
+/* Whether the whole circle of normalised radius r around the lens centre lies where every channel's lens still
+ * shows the panel (warp_lens_in_view: a Vive-class lens's undistort_r2_cutoff; every other model, everywhere). */
+static bool circle_in_view(const warp_lens *lens, double r)
+{
+    enum { POINTS = 64 };
+    for (int i = 0; i < POINTS; i++) {
+        const double a = 2 * 3.14159265358979323846 * i / POINTS;
+        const double x = lens->center_x + r * lens->scale * cos(a), y = lens->center_y + r * lens->scale * sin(a);
+        for (int c = 0; c < 3; c++)
+            if (!warp_lens_in_view(lens, c, x, y)) return false;
+    }
+    return true;
+}
+
 double warp_fov_visible_radius(const warp_lens *lens, double radius_cfg, int vp_w, int vp_h)
 {
     const double cx = lens->center_x, cy = lens->center_y, s = lens->scale;
@@ -25,6 +39,17 @@ double warp_fov_visible_radius(const warp_lens *lens, double radius_cfg, int vp_
         double mr = warp_lens_monotonic_radius(lens, c);
         if (!(mr > 0)) return 0;
         r = fmin(r, 0.999 * mr);
+    }
+    /* auto stops where the lens's own view ends (the model's cutoff), found by bisection; a configured radius is
+     * the user's to choose */
+    if (!(isfinite(radius_cfg) && radius_cfg > 0) && !circle_in_view(lens, r)) {
+        double lo = 0, hi = r;
+        for (int i = 0; i < 40; i++) {
+            const double mid = 0.5 * (lo + hi);
+            if (circle_in_view(lens, mid)) lo = mid;
+            else hi = mid;
+        }
+        r = lo;
     }
     return r;
 }

@@ -24,7 +24,8 @@
 /* The visible radius in the lens's normalised units: radius_cfg when finite and > 0, else (NAN: auto) the distance
  * from the lens centre to the nearest viewport edge (the largest disc the eye's half of the panel holds); never
  * beyond 0.999 of the smallest monotonic radius of the three channels (past the fold the lens shows nothing an
- * inverse could place). 0 when the lens centre lies outside the viewport or the lens is unusable. */
+ * inverse could place), and with auto never past where the lens's own view ends (warp_lens_in_view: a Vive-class
+ * lens's cutoff). 0 when the lens centre lies outside the viewport or the lens is unusable. */
 double warp_fov_visible_radius(const warp_lens *lens, double radius_cfg, int vp_w, int vp_h);
 
 /* Whether pixel (x, y)'s centre lies within `radius` (normalised) of the lens centre and inside the viewport. */

@@ -17,6 +17,7 @@
 #include "sim/sim_trace.h"
 #include "tests/support/test_util.h"
 #include "warp/warp_fov.h"
+#include "warp/warp_lens_models.h"
 #include "warp/warp_math.h"
 #include "warp/warp_resample.h"
 
@@ -336,6 +337,36 @@ static void run_sim(const char *trace, double secs, char *text, size_t cap)
 
 /* The summary's counts: at rest nothing visible samples outside the source; on the fast trace with the default
  * guard band fewer than 1 % of the visible pixels do over the run. */
+/* A Vive-class lens ends its view at undistort_r2_cutoff: the auto disc stops there, so no pixel it shows lies
+ * beyond it in any channel, while without the cutoff the disc is the eye's half's own. */
+static void test_vive_cutoff_bounds_disc(void **state)
+{
+    (void)state;
+    const int vw = 1080, vh = 1200;
+    warp_lens_vive_params p = {
+        .k = {{-0.022, -0.049, -0.079, 0}, {-0.188, -0.221, -0.254, 0}, {-0.073, -0.023, 0.025, 0}},
+        .center = {{0.089, -0.009}, {0.089, -0.009}, {0.089, -0.009}},
+        .aspect_x_over_y = 0.9,
+        .intrinsics = {0.92, -0.06, 1.02, 0.01},
+        .r2_cutoff = 0,
+    };
+    warp_lens open = warp_lens_vive(&p, vw, vh);
+    const double r_open = warp_fov_visible_radius(&open, NAN, vw, vh);
+    p.r2_cutoff = 0.5;
+    warp_lens cut = warp_lens_vive(&p, vw, vh);
+    const double r_cut = warp_fov_visible_radius(&cut, NAN, vw, vh);
+    print_message("vive disc: %.4f without the cutoff, %.4f with r2_cutoff 0.5\n", r_open, r_cut);
+    assert_true(r_cut > 0 && r_cut < r_open);
+    static int32_t span[2 * 1200];
+    int64_t shown = warp_fov_spans(&cut, r_cut, vw, vh, span), checked = 0;
+    for (int y = 0; y < vh; y++)
+        for (int x = span[2 * y]; x < span[2 * y + 1]; x++, checked++)
+            for (int c = 0; c < 3; c++) assert_true(warp_lens_in_view(&cut, c, x + 0.5, y + 0.5));
+    assert_true(shown > 0 && checked == shown);
+    /* a configured radius is the user's: kept as given */
+    assert_float_equal(warp_fov_visible_radius(&cut, 0.3, vw, vh), 0.3, 1e-12);
+}
+
 static void test_hmdwarpd_outside_share(void **state)
 {
     (void)state;
@@ -360,7 +391,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_sim_board_at_rest), cmocka_unit_test(test_rpi5_board_at_rest),
         cmocka_unit_test(test_fixed_fov_overreaches), cmocka_unit_test(test_mask_black),
         cmocka_unit_test(test_fast_trace_guard), cmocka_unit_test(test_auto_fov_config),
-        cmocka_unit_test(test_mask_loop),
+        cmocka_unit_test(test_mask_loop), cmocka_unit_test(test_vive_cutoff_bounds_disc),
         cmocka_unit_test(test_hmdwarpd_outside_share),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
