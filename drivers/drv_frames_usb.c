@@ -256,15 +256,20 @@ static bool send_cams(usb_frames *u, int timeout_ms)
         snprintf(u->st.last_error, sizeof u->st.last_error, "%s frames: camera message (IN): %s", u->base.name,
                  strerror((int)-rc));
     pthread_mutex_unlock(&u->lock);
-    if (rc != (ssize_t)sizeof msg) return false;
-    /* the mask follows its camera message (a host clears the mask it had when a camera message comes) */
-    if (!u->p.mask.n[0] && !u->p.mask.n[1]) return true;
+    return rc == (ssize_t)sizeof msg;
+}
+
+/* The visibility mask (HWV1) that follows each camera message (a host clears the mask it had when a camera message
+ * comes). Sent on its own, retried before later poses: on USB the host may not have its next read out within a pose
+ * period (TCG in the HIL takes longer), and a greeting held back until the mask went out would hold every pose. */
+static bool send_mask(usb_frames *u, int timeout_ms)
+{
     drv_framelink_mask m = u->p.mask;
-    m.seq = c.seq;
+    m.seq = u->cams_seq;
     uint8_t mb[DRV_FRAMELINK_MASK_BYTES(DRV_FRAMELINK_MASK_MAX, DRV_FRAMELINK_MASK_MAX)];
     size_t n = drv_framelink_mask_encode(&m, mb, sizeof mb);
     if (!n) return true; /* counts out of range: rt_devices never sets such */
-    rc = u->t->write(u->t, mb, n, timeout_ms);
+    ssize_t rc = u->t->write(u->t, mb, n, timeout_ms);
     pthread_mutex_lock(&u->lock);
     if (rc == (ssize_t)n) u->st.masks_sent++;
     if (rc < 0)
@@ -282,6 +287,7 @@ static void *pose_thread(void *arg)
     int64_t period = (int64_t)(1e9 / u->p.pose_rate_hz), next = plat_now_ns(), next_cams = 0;
     int timeout_ms = (int)(period / PLAT_NS_PER_MS) + 1;
     uint64_t greeted = 0; /* the hosts greeted with the camera message so far */
+    bool mask_due = false; /* the visibility mask has not followed the latest camera message yet */
     bool was_up = false;
     while (!atomic_load(&u->stop)) {
         next += period;
@@ -298,11 +304,14 @@ static void *pose_thread(void *arg)
          * pose, so no pose overtakes it: a host renders its first frame knowing the cameras and the codecs. */
         uint64_t hosts = u->t->connections ? u->t->connections(u->t) : greeted + !was_up;
         if (u->send_cams && (hosts != greeted || plat_now_ns() >= next_cams)) {
-            if (send_cams(u, timeout_ms))
+            if (send_cams(u, timeout_ms)) {
                 next_cams = plat_now_ns() + PLAT_NS_PER_S;
-            else if (hosts != greeted)
+                mask_due = u->p.mask.n[0] || u->p.mask.n[1];
+            } else if (hosts != greeted) {
                 continue; /* not greeted: was_up and greeted stay, so the next period greets again */
+            }
         }
+        if (mask_due && send_mask(u, timeout_ms)) mask_due = false;
         was_up = true;
         greeted = hosts;
         drv_framelink_pose m = {.flags = 0};
