@@ -32,6 +32,13 @@
 
 #define CHUNK (256 * 1024)        /* bytes per receive step: a multiple of every bulk max packet size */
 #define FFS_READ (64 * 1024)      /* bytes per FunctionFS read request (the kernel allocates it contiguously) */
+/* The IN endpoint's one write buffer holds the largest message the board sends: a pose, the camera message or a
+ * full visibility mask (the mask is five times a pose; a buffer sized for poses dropped every mask unsent). */
+#define FFS_WRITE_MAX                                                                                                  \
+    (DRV_FRAMELINK_MASK_BYTES(DRV_FRAMELINK_MASK_MAX, DRV_FRAMELINK_MASK_MAX) > DRV_FRAMELINK_POSE_BYTES               \
+         ? DRV_FRAMELINK_MASK_BYTES(DRV_FRAMELINK_MASK_MAX, DRV_FRAMELINK_MASK_MAX)                                    \
+         : DRV_FRAMELINK_POSE_BYTES)
+_Static_assert(FFS_WRITE_MAX >= DRV_FRAMELINK_CAMS_BYTES, "the camera message fits the IN buffer");
 #define LEAD_START_MS 20.0
 #define LEAD_MIN_MS 2.0
 #define LEAD_MAX_MS 200.0
@@ -240,6 +247,24 @@ static void usb_last_error(drv_frames *fr, char *buf, int len);
 
 static unsigned usb_planes(drv_frames *fr) { return ((usb_frames *)fr)->p.planes; }
 
+/* One message to the host on the IN endpoint: counted as sent (or as dropped, where the caller counts those), a
+ * failed link named in last_error. What every board-to-host message does, so the counters cannot drift apart. */
+static bool send_msg(usb_frames *u, const uint8_t *msg, size_t n, int timeout_ms, uint64_t *sent, uint64_t *dropped,
+                     const char *what)
+{
+    ssize_t rc = u->t->write(u->t, msg, n, timeout_ms);
+    pthread_mutex_lock(&u->lock);
+    if (rc == (ssize_t)n)
+        (*sent)++;
+    else if (dropped)
+        (*dropped)++;
+    if (rc < 0)
+        snprintf(u->st.last_error, sizeof u->st.last_error, "%s frames: %s (IN): %s", u->base.name, what,
+                 strerror((int)-rc));
+    pthread_mutex_unlock(&u->lock);
+    return rc == (ssize_t)n;
+}
+
 /* The camera message (HWC1): what this board wants rendered, so a host need not be told by hand. */
 static bool send_cams(usb_frames *u, int timeout_ms)
 {
@@ -249,14 +274,7 @@ static bool send_cams(usb_frames *u, int timeout_ms)
                             .codecs = u->p.codecs};
     uint8_t msg[DRV_FRAMELINK_CAMS_BYTES];
     drv_framelink_cams_encode(&c, msg, sizeof msg);
-    ssize_t rc = u->t->write(u->t, msg, sizeof msg, timeout_ms);
-    pthread_mutex_lock(&u->lock);
-    if (rc == (ssize_t)sizeof msg) u->st.cams_sent++;
-    if (rc < 0)
-        snprintf(u->st.last_error, sizeof u->st.last_error, "%s frames: camera message (IN): %s", u->base.name,
-                 strerror((int)-rc));
-    pthread_mutex_unlock(&u->lock);
-    return rc == (ssize_t)sizeof msg;
+    return send_msg(u, msg, sizeof msg, timeout_ms, &u->st.cams_sent, NULL, "camera message");
 }
 
 /* The visibility mask (HWV1) that follows each camera message (a host clears the mask it had when a camera message
@@ -269,14 +287,7 @@ static bool send_mask(usb_frames *u, int timeout_ms)
     uint8_t mb[DRV_FRAMELINK_MASK_BYTES(DRV_FRAMELINK_MASK_MAX, DRV_FRAMELINK_MASK_MAX)];
     size_t n = drv_framelink_mask_encode(&m, mb, sizeof mb);
     if (!n) return true; /* counts out of range: rt_devices never sets such */
-    ssize_t rc = u->t->write(u->t, mb, n, timeout_ms);
-    pthread_mutex_lock(&u->lock);
-    if (rc == (ssize_t)n) u->st.masks_sent++;
-    if (rc < 0)
-        snprintf(u->st.last_error, sizeof u->st.last_error, "%s frames: visibility mask message (IN): %s",
-                 u->base.name, strerror((int)-rc));
-    pthread_mutex_unlock(&u->lock);
-    return rc == (ssize_t)n;
+    return send_msg(u, mb, n, timeout_ms, &u->st.masks_sent, NULL, "visibility mask message");
 }
 
 static void *pose_thread(void *arg)
@@ -328,16 +339,7 @@ static void *pose_thread(void *arg)
         for (int e = 0; e < 2; e++) m.eye[e] = warp_head_eye_pose(&head, m.head, e);
         uint8_t msg[DRV_FRAMELINK_POSE_BYTES];
         drv_framelink_pose_encode(&m, msg, sizeof msg);
-        ssize_t rc = u->t->write(u->t, msg, sizeof msg, timeout_ms);
-        pthread_mutex_lock(&u->lock);
-        if (rc == (ssize_t)sizeof msg)
-            u->st.poses_sent++;
-        else
-            u->st.poses_dropped++;
-        if (rc < 0)
-            snprintf(u->st.last_error, sizeof u->st.last_error, "%s frames: pose messages (IN): %s", u->base.name,
-                     strerror((int)-rc));
-        pthread_mutex_unlock(&u->lock);
+        send_msg(u, msg, sizeof msg, timeout_ms, &u->st.poses_sent, &u->st.poses_dropped, "pose messages");
     }
     return NULL;
 }
@@ -684,7 +686,8 @@ static ssize_t ffs_write(drv_usb_transport *bt, const uint8_t *buf, size_t len, 
     aio_ep *a = &t->in;
     if (a->pending && aio_ep_wait(a, 0) == -EINPROGRESS) aio_ep_cancel(a); /* a fresher pose replaces it */
     if (a->pending) return 0;
-    if (!ffs_wait_enabled(t, 0) || len > DRV_FRAMELINK_POSE_BYTES) return 0;
+    if (!ffs_wait_enabled(t, 0)) return 0;
+    if (len > FFS_WRITE_MAX) return -EMSGSIZE; /* a message this driver never builds: said, not retried silently */
     memcpy(a->buf, buf, len);
     if (!aio_ep_submit(a, IOCB_CMD_PWRITE, len)) return -errno;
     long r = aio_ep_wait(a, timeout_ms);
@@ -929,7 +932,7 @@ drv_frames *drv_frames_usb_create(const drv_frames_usb_params *p, char *err, int
     int out_fd = open(path, O_RDWR | O_CLOEXEC);
     snprintf(path, sizeof path, "%s/ep2", p->ffs_dir);
     int in_fd = open(path, O_RDWR | O_CLOEXEC);
-    bool ok_out = aio_ep_init(&t->out, out_fd, FFS_READ), ok_in = aio_ep_init(&t->in, in_fd, DRV_FRAMELINK_POSE_BYTES);
+    bool ok_out = aio_ep_init(&t->out, out_fd, FFS_READ), ok_in = aio_ep_init(&t->in, in_fd, FFS_WRITE_MAX);
     if (out_fd < 0 || in_fd < 0 || !ok_out || !ok_in) {
         warp_err(err, errlen, "usb frames: %s: cannot open ep1/ep2 for asynchronous I/O: %s", p->ffs_dir,
                  strerror(errno));
