@@ -22,7 +22,8 @@ enum {
     R_NO_BUFFER, R_METHOD, R_WARP_P50, R_WARP_P99, R_STALL, R_M2P_P50, R_M2P_P99, R_AGE_P50, R_AGE_MAX, R_OUTSIDE_P50, R_OUTSIDE_P99,
     R_OUTSIDE_PX, R_VISIBLE_PX, R_SELECT,
     R_SWITCHES, R_RECEIVED, R_BYTES, R_SHOWN, R_DROPPED, R_REJECTED_BY, R_REJECTED, R_LINK_CONNECTED,
-    R_LINK_CONNECTIONS, R_LINK_REFUSED, R_LINK_DISCONNECTS, R_LINK_POSES, R_LINK_POSES_DROPPED, R_LINK_USB_SPEED,
+    R_LINK_CONNECTIONS, R_LINK_REFUSED, R_LINK_DISCONNECTS, R_LINK_POSES, R_LINK_POSES_DROPPED, R_LINK_CAMS, R_LINK_MASKS,
+    R_LINK_USB_SPEED,
     R_LINK_DECODE_P50, R_LINK_DECODE_P99, R_LINK_COMPRESSED, R_LINK_CODEC_ERRORS, R_LINK_KEY_REQUESTS,
     R_LINK_WIRE_MB_S, R_LINK_COMPRESSION, R_LINK_VIDEO_DECODER, R_IMU_SAMPLES,
     R_IMU_READ_ERRORS, R_IMU_LOST, R_IMU_STALE, R_IMU_REPORTS, R_IMU_BAD, R_IMU_RECONNECTS, R_IMU_CONNECTED,
@@ -88,6 +89,8 @@ const rt_summary_row rt_summary_table[] = {
     [R_LINK_DISCONNECTS] = {"frames_link_disconnects", "host link", B, 'u', 0, false},
     [R_LINK_POSES] = {"frames_link_poses_sent", "host link", B, 'u', 0, false},
     [R_LINK_POSES_DROPPED] = {"frames_link_poses_dropped", "host link", B, 'u', 0, false},
+    [R_LINK_CAMS] = {"frames_link_cams_sent", "host link", B, 'u', 0, false},
+    [R_LINK_MASKS] = {"frames_link_masks_sent", "host link", B, 'u', 0, false},
     [R_LINK_USB_SPEED] = {"frames_link_usb_speed", "host link", B, 's', 0, false},
     [R_LINK_DECODE_P50] = {"frames_link_decode_ms_p50", "link decode", B, 'f', 3, false},
     [R_LINK_DECODE_P99] = {"frames_link_decode_ms_p99", "link decode", B, 'f', 3, false},
@@ -166,6 +169,8 @@ int rt_summary_members(const rt_summary_src *s, int r)
     case R_LINK_DISCONNECTS:
     case R_LINK_POSES:
     case R_LINK_POSES_DROPPED:
+    case R_LINK_CAMS:
+    case R_LINK_MASKS:
     case R_LINK_DECODE_P50:
     case R_LINK_DECODE_P99:
     case R_LINK_COMPRESSED:
@@ -310,6 +315,8 @@ static val value(const rt_summary_src *s, int r, int i)
     case R_LINK_DISCONNECTS: v.u = s->link.disconnects; break;
     case R_LINK_POSES: v.u = s->link.poses_sent; break;
     case R_LINK_POSES_DROPPED: v.u = s->link.poses_dropped; break;
+    case R_LINK_CAMS: v.u = s->link.cams_sent; break;
+    case R_LINK_MASKS: v.u = s->link.masks_sent; break;
     case R_LINK_DECODE_P50: v.f = rt_hist_pct(&t->decode_ms, 50); break;
     case R_LINK_DECODE_P99: v.f = rt_hist_pct(&t->decode_ms, 99); break;
     case R_LINK_COMPRESSED: v.u = s->link.dec.compressed_frames; break;
@@ -542,10 +549,11 @@ void rt_summary_print(const rt_summary_src *s, FILE *out)
                     UI(R_REJECTED_BY, e));
     if (s->has_link_stats)
         fprintf(out, "  %-26s %s%s%s, hosts %llu (refused %llu), disconnects %llu; poses sent %llu, dropped "
-                     "%llu%s%s\n", L(R_LINK_CONNECTED), U(R_LINK_CONNECTED) ? "connected" : "NOT connected",
-                s->link.usb_speed[0] ? " at usb " : "", s->link.usb_speed, U(R_LINK_CONNECTIONS), U(R_LINK_REFUSED),
-                U(R_LINK_DISCONNECTS), U(R_LINK_POSES),
-                U(R_LINK_POSES_DROPPED), s->link.last_error[0] ? "; last: " : "", s->link.last_error);
+                     "%llu; camera messages %llu, visibility masks %llu%s%s\n", L(R_LINK_CONNECTED),
+                U(R_LINK_CONNECTED) ? "connected" : "NOT connected", s->link.usb_speed[0] ? " at usb " : "",
+                s->link.usb_speed, U(R_LINK_CONNECTIONS), U(R_LINK_REFUSED), U(R_LINK_DISCONNECTS), U(R_LINK_POSES),
+                U(R_LINK_POSES_DROPPED), U(R_LINK_CAMS), U(R_LINK_MASKS), s->link.last_error[0] ? "; last: " : "",
+                s->link.last_error);
     if (s->has_link_stats) {
         char names[64];
         drv_codec_names(s->link.codecs, " ", names, sizeof names);

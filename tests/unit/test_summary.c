@@ -86,7 +86,8 @@ static int setup(void **state)
     s->vsync_name = "gpio-mock";
     s->has_imu_stats = s->has_vsync_stats = s->kms = s->has_link_stats = true;
     s->link = (drv_frames_usb_stats){.connected = true, .connections = 2, .refused = 1, .disconnects = 1,
-                                     .poses_sent = 500, .poses_dropped = 3, .usb_speed = "super-speed",
+                                     .poses_sent = 500, .poses_dropped = 3, .cams_sent = 4, .masks_sent = 3,
+                                     .usb_speed = "super-speed",
                                      .codecs = 0x7,
                                      .dec = {.compressed_frames = 40, .codec_errors = 2, .key_requests = 1,
                                              .wire_bytes = 1125000, .plane_bytes = 9000000,
@@ -222,7 +223,8 @@ static void test_values_and_formats(void **state)
                           "\ngles_upload_ms_p50=0.505\ngles_upload_ms_p99=0.505\ngles_pyramid_ms_p50=",
                           "\npsnr_none=30.000\nssim_none=0.90000\npsnr_rotation=30.500\n", "\nkms_api=atomic\n",
                           "\nrenderer=gles\ngl_renderer=Test GPU\n", "\nframes_bytes=1234567\n",
-                          "\nframes_link_poses_dropped=3\nframes_link_usb_speed=super-speed\n",
+                          "\nframes_link_poses_dropped=3\nframes_link_cams_sent=4\nframes_link_masks_sent=3\n"
+                          "frames_link_usb_speed=super-speed\n",
                           /* 1.125 MB in run_s 2.25 s; 9 MB of planes from 1.125 MB on the wire */
                           "\nframes_link_compressed_frames=40\n", "\nframes_link_codec_errors=2\n",
                           "\nframes_link_key_requests=1\n", "\nframes_link_wire_mb_s=0.50\n",
@@ -237,7 +239,8 @@ static void test_values_and_formats(void **state)
         "  planes rendered            color 0, depth 1, ids 2, motion 3, layers 4 (scene effects: rotation)\n",
         "accuracy vs ground truth     left eye at photon time, before the lens; 2 frames sampled\n",
         "per-vsync CSV                /tmp/run.csv\n",
-        "  host link                  connected at usb super-speed, hosts 2 (refused 1)",
+        ("  host link                  connected at usb super-speed, hosts 2 (refused 1), disconnects 1; poses sent "
+         "500, dropped 3; camera messages 4, visibility masks 3"),
         ("  link codecs                announced raw zstd jpeg; 40 frames compressed, 0.50 MB/s on the wire (8.0:1), "
          "codec errors 2, key frames asked 1; video decoder software\n")};
     for (size_t i = 0; i < sizeof lines / sizeof lines[0]; i++)

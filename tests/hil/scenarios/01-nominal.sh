@@ -127,5 +127,10 @@ hil_expect_stat frames_rejected '==' 0 "compressed: rejected host frames"
 hil_expect_stat frames_link_codec_errors '==' 0 "compressed: codec errors"
 hil_expect_stat frames_shown '>=' 1 "compressed: host frames shown"
 hil_expect_stat frames_link_compression '>' 1 "compressed: plane bytes per wire byte"
+# The hidden-area mask (issue #20) crosses the real FunctionFS link behind the camera message, and the host library
+# hands it to the feed, which says how many vertices per eye it received.
+hil_expect_stat frames_link_masks_sent '>=' 1 "visibility mask messages sent"
+grep -q "visibility mask [1-9][0-9]* + [1-9][0-9]* vertices" "$HIL_WORK/feed.log" ||
+    hil_miss "the feed received no visibility mask: $(grep 'visibility mask' "$HIL_WORK/feed.log")"
 hil_note compressed_decode_ms_p50 "$(hil_stat frames_link_decode_ms_p50)"
 hil_pass
