@@ -66,23 +66,10 @@ static rt_method compose_gles(rt_app *a, const rt_frame *frame, const warp_pose 
     }
     if (!drawn) {
         if (method == RT_METHOD_RAYTRACE) method = RT_METHOD_ROTATION;
-        for (int e = 0; e < 2; e++) {
-            warp_quat src_from_dst = method == RT_METHOD_ROTATION
-                                         ? warp_quat_mul(warp_quat_conj(frame->f.eye_pose[e].q), eyes[e].q)
-                                         : warp_quat_identity();
-            warp_mesh *mesh = rt_render_cpu_mesh(a->render, e);
-            if (method == RT_METHOD_ROTATION && first) {
-                /* rolling scanout: per vertex between the first and last line's poses, as the CPU pass does (the
-                 * GPU's raytrace above is per pixel: it keeps the mid-scan pose) */
-                const warp_quat src_q = warp_quat_conj(frame->f.eye_pose[e].q);
-                const warp_scan scan = rt_config_scan(&a->cfg);
-                warp_mesh_update_rolling(mesh, &frame->f.cam[e], warp_quat_mul(src_q, first[e].q),
-                                         warp_quat_mul(src_q, last[e].q), &scan);
-            } else {
-                warp_mesh_update(mesh, &frame->f.cam[e], src_from_dst);
-            }
-            plat_gles_lens(g, e, mesh, false);
-        }
+        /* rolling scanout: per vertex between the first and last line's poses, as the CPU pass does (the GPU's
+         * raytrace above is per pixel: it keeps the mid-scan pose) */
+        for (int e = 0; e < 2; e++)
+            plat_gles_lens(g, e, rt_render_cpu_mesh_for(a->render, frame, e, method, eyes[e], first, last), false);
     }
     a->gl.submit_ns = plat_now_ns();
     bool ok = plat_egl_is_kms(a->gl.egl) ? plat_egl_present(a->gl.egl, err, sizeof err)

@@ -235,16 +235,47 @@ static void planar_task(void *ctx, int task)
     warp_planar3_from_rgba_rows(&j->r->inter_planar[e], &j->r->inter[e], y0, y1);
 }
 
+/* The rotation each eye's mesh applies, source from display (003 §3.4: only orientations matter; NONE and a
+ * lens-only pass show the frame as rendered): the first line's into *from and the last line's into *from_last on a
+ * rolling panel (true), else the one for eye_pose (false). The CPU pass and the GLES renderer both ask here. */
+static bool mesh_rotation(const rt_render_cpu *r, const rt_frame *frame, int e, rt_method method, warp_pose eye_pose,
+                          const warp_pose *first, const warp_pose *last, warp_quat *from, warp_quat *from_last)
+{
+    if (method != RT_METHOD_ROTATION) {
+        *from = *from_last = warp_quat_identity();
+        return false;
+    }
+    const warp_quat src_q = warp_quat_conj(frame->f.eye_pose[e].q);
+    const bool rolling = r->p.scan.rolling && first && last;
+    *from = warp_quat_mul(src_q, rolling ? first[e].q : eye_pose.q);
+    *from_last = rolling ? warp_quat_mul(src_q, last[e].q) : *from;
+    return rolling;
+}
+
+static void mesh_update(rt_render_cpu *r, const rt_frame *frame, int e, bool rolling, warp_quat from,
+                        warp_quat from_last)
+{
+    if (rolling)
+        warp_mesh_update_rolling(&r->mesh[e], &frame->f.cam[e], from, from_last, &r->p.scan);
+    else
+        warp_mesh_update(&r->mesh[e], &frame->f.cam[e], from);
+}
+
+warp_mesh *rt_render_cpu_mesh_for(rt_render_cpu *r, const rt_frame *frame, int e, rt_method method,
+                                  warp_pose eye_pose, const warp_pose *first, const warp_pose *last)
+{
+    warp_quat from, from_last;
+    const bool rolling = mesh_rotation(r, frame, e, method, eye_pose, first, last, &from, &from_last);
+    mesh_update(r, frame, e, rolling, from, from_last);
+    return &r->mesh[e];
+}
+
 /* One eye's distortion mesh for a rotation (both eyes at once: done in turn they took a sixth of the pass while
  * the other thread waited). */
 static void mesh_task(void *ctx, int e)
 {
     job *j = ctx;
-    if (j->mesh_rolling)
-        warp_mesh_update_rolling(&j->r->mesh[e], &j->frame->f.cam[e], j->src_from_dst[e], j->src_from_dst_last[e],
-                                 &j->r->p.scan);
-    else
-        warp_mesh_update(&j->r->mesh[e], &j->frame->f.cam[e], j->src_from_dst[e]);
+    mesh_update(j->r, j->frame, e, j->mesh_rolling, j->src_from_dst[e], j->src_from_dst_last[e]);
 }
 
 /* raytrace_mesh: one eye's rays, at its lens mesh's vertices (the resample then reads the frame). */
@@ -328,14 +359,9 @@ static rt_method pass_lens(rt_render_cpu *r, job *j, const rt_frame *frame, cons
                            rt_method method)
 {
     /* on a rolling panel the rotation runs from the first line's pose to the last's per vertex */
-    j->mesh_rolling = method == RT_METHOD_ROTATION && j->first;
     for (int e = 0; e < 2; e++) {
-        /* 003 §3.4: only orientations matter; NONE shows the frame as rendered, through the lens. */
-        const warp_quat src_q = warp_quat_conj(frame->f.eye_pose[e].q);
-        j->src_from_dst[e] = method != RT_METHOD_ROTATION ? warp_quat_identity()
-                             : j->mesh_rolling            ? warp_quat_mul(src_q, j->first[e].q)
-                                                          : warp_quat_mul(src_q, eyes[e].q);
-        if (j->mesh_rolling) j->src_from_dst_last[e] = warp_quat_mul(src_q, j->last[e].q);
+        j->mesh_rolling = mesh_rotation(r, frame, e, method, eyes[e], j->first, j->last, &j->src_from_dst[e],
+                                        &j->src_from_dst_last[e]);
         j->src[e] = &frame->planar[e];
     }
     lens_pass(r, j);

@@ -71,6 +71,11 @@ rt_render_cpu_stats rt_render_cpu_stats_get(const rt_render_cpu *r);
 /* The lens meshes (the GLES renderer draws through the same ones) and the raytrace's knobs (the GLES raytrace and
  * the accuracy evaluator use the pass's). */
 warp_mesh *rt_render_cpu_mesh(rt_render_cpu *r, int eye);
+/* Eye e's lens mesh updated for `method` (rotation; anything else draws the frame as rendered) from frame to
+ * eye_pose, or per vertex between the scan's first and last line's poses when the panel scans out rolling and both
+ * are given, exactly as the CPU pass does: the GLES renderer draws through it. */
+warp_mesh *rt_render_cpu_mesh_for(rt_render_cpu *r, const rt_frame *frame, int e, rt_method method,
+                                  warp_pose eye_pose, const warp_pose *first, const warp_pose *last);
 const warp_raytrace_params *rt_render_cpu_raytrace_params(const rt_render_cpu *r);
 
 /* The eye's visible panel pixels (the whole viewport without a mask), and how many of them the mesh's current warp

@@ -6,6 +6,7 @@
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <cmocka.h>
 
@@ -267,6 +268,20 @@ static void test_rolling_scan(void **state)
         assert_int_equal(rt_render_cpu_frame_scan(global, &d.frame, eyes, first, last, m, NULL, &r), m);
         if (!same_image(&g, &r)) fail_msg("%s: a global panel used the scan's poses", rt_method_name(m));
         assert_int_equal(rt_render_cpu_frame_scan(rolling, &d.frame, eyes, first, last, m, NULL, &r), m);
+        if (m == RT_METHOD_ROTATION) /* what the GLES renderer draws through: the CPU pass's very mesh */
+            for (int e = 0; e < 2; e++) {
+                warp_mesh *cpu = rt_render_cpu_mesh(rolling, e);
+                const size_t n = (size_t)cpu->rows * (size_t)cpu->cols * 3;
+                warp_vec2f *was = malloc(n * sizeof *was);
+                assert_non_null(was);
+                memcpy(was, cpu->src, n * sizeof *was);
+                /* a global update in between, so the call below must redo the rolling one to match */
+                rt_render_cpu_mesh_for(rolling, &d.frame, e, m, eyes[e], NULL, NULL);
+                assert_true(memcmp(was, cpu->src, n * sizeof *was) != 0);
+                assert_ptr_equal(rt_render_cpu_mesh_for(rolling, &d.frame, e, m, eyes[e], first, last), cpu);
+                assert_memory_equal(was, cpu->src, n * sizeof *was);
+                free(was);
+            }
         if (m == RT_METHOD_RAYTRACE) {
             if (!same_image(&g, &r)) fail_msg("raytrace: the per-pixel raytrace left the mid-scan pose");
         } else if (same_image(&g, &r)) {
