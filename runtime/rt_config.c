@@ -953,7 +953,7 @@ static const char *lens_model_keys(const rt_config *c)
     case WARP_LENS_OPENCV:
         return "lens.model lens.opencv_camera lens.opencv_dist display.width display.height";
     default:
-        return "lens.k_red lens.k_green lens.k_blue lens.scale lens.center display.width display.height";
+        return "lens.center lens.scale lens.k_red lens.k_green lens.k_blue display.width display.height";
     }
 }
 
@@ -1130,15 +1130,18 @@ static unsigned v4l2_planes(const rt_config *c) { return DRV_PLANE_COLOR | (c->f
 /* [eye] fov, guard_deg and [lens] visible_radius (h-fov's block): each eye's camera, from the lens when auto. */
 static void check_fov(const rt_config *c, rt_config_errors *err)
 {
-    char at[1200], buf[200];
-    const char *which = rt_config_fov_auto(c)
-                           ? "eye.fov eye.guard_deg eye.near eye.width eye.height lens.visible_radius lens.scale "
-                             "lens.center lens.k_red lens.k_green lens.k_blue display.width display.height"
-                           : "eye.fov eye.near eye.width eye.height";
+    char at[1200], buf[200], which[600], region[400];
+    /* an automatic field follows from the lens: the configured model's own keys set it */
+    if (rt_config_fov_auto(c))
+        snprintf(which, sizeof which, "eye.fov eye.guard_deg eye.near eye.width eye.height lens.visible_radius %s",
+                 lens_model_keys(c));
+    else
+        snprintf(which, sizeof which, "eye.fov eye.near eye.width eye.height");
+    snprintf(region, sizeof region, "%s lens.visible_radius eye.fov", lens_model_keys(c));
     if (rt_config_fov_auto(c) && !(rt_config_visible_radius(c, WARP_EYE_LEFT) > 0)) {
         add_error(err, "[lens]: the lens centre lies outside the eye's half of the panel, or no channel is monotonic "
                        "there: no visible region for fov = auto; set by %s",
-                  keys_at(c, "lens.center lens.scale eye.fov display.width display.height", at, sizeof at));
+                  keys_at(c, region, at, sizeof at));
         return;
     }
     for (int e = 0; e < 2; e++) {

@@ -278,7 +278,7 @@ static void test_auto_fov_config(void **state)
     rt_config_errors e2 = {0};
     assert_true(rt_config_set(&bad, "lens.center=-10 400", &e2));
     assert_false(rt_config_validate(&bad, &e2));
-    assert_non_null(strstr(e2.msg[0], "[lens] center (command line"));
+    if (!strstr(e2.msg[0], "[lens] center (command line")) fail_msg("%s", e2.msg[0]);
     char line[400];
     rt_config_fov_line(&c, line, sizeof line);
     assert_non_null(strstr(line, "left eye"));
