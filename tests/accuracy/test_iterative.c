@@ -433,6 +433,25 @@ static void test_large_translation(void **state)
     assert_true(psnr > 14.8);
 }
 
+/* The adaptive budget: with the cap at 32 steps, seeds that converge run as long as they contract and the
+ * non-convergent ones (across the disocclusions) stop after a few steps, so a large cap costs little. */
+static void test_adaptive_budget(void **state)
+{
+    (void)state;
+    render_pair("near", *near_a(), 0.0, test_eye_at(0, -3 * D2R, 0, warp_v3(0.16, 1.6, -0.12)), 0.0);
+    warp_iter_params p = warp_iter_default_params();
+    p.iters = 32;
+    warp_iter_stats st = run(&p, NULL, &F.p.out, &F.p.mask);
+    double per_seed = (double)st.iterations / (double)st.seeds;
+    print_stats("translate 20 cm, T cap 32", &st, psnr_excl(&F.p.out, &F.p.mask, WARP_MASK_FRINGE));
+    assert_true(pct(st.converged, st.pixels) > 84.0);
+    assert_true(per_seed < 5.5);
+    /* the same search with a small cap converges less: the budget is what it converged with */
+    p.iters = 4;
+    warp_iter_stats s4 = run(&p, NULL, &F.p.out, &F.p.mask);
+    assert_true(s4.converged * 100 < st.converged * 95);
+}
+
 /* A 45 degree head turn (about a neck 10 cm behind the eyes): half the target is outside the source; where it is
  * inside, the rotation scales the image by up to 2x, where the plain fixed point does not converge at all. */
 static void test_45_degree_turn(void **state)
@@ -600,6 +619,7 @@ int main(void)
         cmocka_unit_test(test_large_rotation),
         cmocka_unit_test(test_large_translation),
         cmocka_unit_test(test_45_degree_turn),
+        cmocka_unit_test(test_adaptive_budget),
         cmocka_unit_test(test_movers_object_motion),
         cmocka_unit_test(test_mip_bound_is_conservative),
         cmocka_unit_test(test_bad_input_is_rejected),
