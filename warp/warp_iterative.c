@@ -93,8 +93,8 @@ static inline bool through(const warp_mat3 *g, double x, double y, double *ox, d
 /* Re-expresses a layer's motions in the rotation-compensated frame: u(q) = G(q + v(q)) - q, with G the rotation
  * homography target -> source. The fixed point q = G(p) - u(q) has the same solutions as q = p - v(q), but the
  * head's rotation, however large, is solved exactly before the iteration starts: u is zero for any rotation and
- * holds only the parallax of the translation and the objects' own motion. Its Jacobian is then small, where
- * v's is I - J_rotation, up to a 2x scaling at a 45 degree turn, which the plain iteration cannot contract
+ * holds only the parallax of the translation and the objects' own motion. The map's Jacobian is then -du/dq,
+ * small, where the plain map's is I - J_rotation, with J up to a 2x scaling at a 45 degree turn: no contraction
  * (001 §3.2 names the Jacobian as what guarantees convergence; the rotation's part of it is known exactly). */
 static void derotate_motion(warp_motion_buffer *m, const warp_mat3 *g)
 {
