@@ -8,6 +8,14 @@
 #include <string.h>
 
 #include "warp/warp_rand.h"
+#include "warp/warp_reproject.h"
+
+/* The convergence test of the adaptive iteration budget: a step must shrink the previous one to this fraction or
+ * less to count as contracting; ITER_STALLS steps in a row that do not end the seed. A contracting seed runs on up
+ * to the cap T, so slow convergence (strong motion, 001 §4.2 Fig. 11: "more than T = 8") costs only where it
+ * occurs, and non-convergent seeds (disocclusions) stop after a few steps instead of using the whole cap. */
+#define ITER_CONTRACT 0.8
+#define ITER_STALLS 2
 
 /* Scratch bits per target pixel for the dilation. */
 enum { ST_HOLE = 1, ST_APPROX = 2, ST_NEW = 4 };
@@ -16,7 +24,7 @@ warp_iter_params warp_iter_default_params(void)
 {
     warp_iter_params p = {
         .seeds = 8,
-        .iters = 4,
+        .iters = 32,
         .layers = 1,
         .bound = WARP_ITER_BOUND_PCA,
         .bound_iters = 3,
@@ -27,6 +35,7 @@ warp_iter_params warp_iter_default_params(void)
         .dilate_radius = 2,
         .approximate = false,
         .pca_samples = 64,
+        .derotate = true,
     };
     return p;
 }
@@ -68,6 +77,42 @@ void warp_iter_free(warp_iter_ctx *c)
     warp_image_free(&c->dst_depth);
     warp_image_free(&c->scratch);
     memset(c, 0, sizeof *c);
+}
+
+/* Target pixel (x, y) through the homography g; false when it lies in a direction at or behind the source
+ * camera's image plane (no source pixel there). */
+static inline bool through(const warp_mat3 *g, double x, double y, double *ox, double *oy)
+{
+    double hw = g->m[2][0] * x + g->m[2][1] * y + g->m[2][2];
+    if (!(hw > 1e-9)) return false;
+    *ox = (g->m[0][0] * x + g->m[0][1] * y + g->m[0][2]) / hw;
+    *oy = (g->m[1][0] * x + g->m[1][1] * y + g->m[1][2]) / hw;
+    return true;
+}
+
+/* Re-expresses a layer's motions in the rotation-compensated frame: u(q) = G(q + v(q)) - q, with G the rotation
+ * homography target -> source. The fixed point q = G(p) - u(q) has the same solutions as q = p - v(q), but the
+ * head's rotation, however large, is solved exactly before the iteration starts: u is zero for any rotation and
+ * holds only the parallax of the translation and the objects' own motion. The map's Jacobian is then -du/dq,
+ * small, where the plain map's is I - J_rotation, with J up to a 2x scaling at a 45 degree turn: no contraction
+ * (001 §3.2 names the Jacobian as what guarantees convergence; the rotation's part of it is known exactly). */
+static void derotate_motion(warp_motion_buffer *m, const warp_mat3 *g)
+{
+    for (int y = 0; y < m->h; y++)
+        for (int x = 0; x < m->w; x++) {
+            warp_motion_texel *t = &m->px[(size_t)y * (size_t)m->w + (size_t)x];
+            if (!(t->d >= 0)) continue;
+            const double qx = x + 0.5, qy = y + 0.5;
+            double sx, sy;
+            /* seen from the target in a direction the source does not face: no target pixel can reach it in this
+             * frame (those pixels are fringe), so it is left out of the bounds */
+            if (!through(g, qx + t->x, qy + t->y, &sx, &sy) || !(fabs(sx - qx) < 1e6 && fabs(sy - qy) < 1e6)) {
+                *t = (warp_motion_texel){0, 0, -1};
+                continue;
+            }
+            t->x = (float)(sx - qx);
+            t->y = (float)(sy - qy);
+        }
 }
 
 static bool same_size_f32(const warp_image_f32 *a, int w, int h) { return a && a->w == w && a->h == h; }
@@ -115,6 +160,8 @@ const char *warp_iter_prepare(warp_iter_ctx *c, const warp_view *src, const warp
         .src_object_pose = dst->object_pose ? src->object_pose : NULL,
         .dst_object_pose = src->object_pose ? dst->object_pose : NULL,
     };
+    c->src_from_dst = (warp_mat3){{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}};
+    if (p->derotate) c->src_from_dst = warp_reproject_homography(src, &dst->cam, dst->pose.q);
     const warp_motion_buffer *upper[WARP_ITER_MAX_LAYERS];
     for (int l = 0; l < c->layers; l++) {
         const warp_image_f32 *d = l ? extra[l - 1].inv_depth : src->inv_depth;
@@ -122,6 +169,7 @@ const char *warp_iter_prepare(warp_iter_ctx *c, const warp_view *src, const warp
         const warp_image_vec2f *mo = l ? extra[l - 1].motion : src->motion;
         c->color[l] = l ? extra[l - 1].color : src->color;
         warp_motion_compute_rows(&c->motion[l], &ms, d, ids, mo, 0, h);
+        if (p->derotate) derotate_motion(&c->motion[l], &c->src_from_dst);
         double theta = p->bound == WARP_ITER_BOUND_PCA ? warp_motion_pca(&c->motion[l], p->pca_samples) : 0.0;
         /* the layers above, nearest to this one first (001 Fig. 6 walks j = layer-1 .. 0) */
         int nu = 0;
@@ -306,13 +354,14 @@ void warp_iter_rows(warp_iter_ctx *c, warp_image_rgba8 *dst, warp_image_u8 *mask
         uint8_t *m = mask ? &WARP_AT(mask, 0, y) : NULL;
         float *dd = &WARP_AT(&c->dst_depth, 0, y);
         uint8_t *sc = &WARP_AT(&c->scratch, 0, y);
-        const double py = y + 0.5;
         for (int x = 0; x < c->dst_w; x++) {
-            const double px = x + 0.5;
+            /* the pixel the search solves for: p, or G(p) in the rotation-compensated frame */
+            double px = x + 0.5, py = y + 0.5;
+            const bool behind = p->derotate && !through(&c->src_from_dst, x + 0.5, y + 0.5, &px, &py);
             candidate in = {0}, out_c = {0};
             warp_motion_box b0 = {{0, 0}, {0, 0}};
             bool b0_valid = false;
-            for (int l = 0; l < c->layers; l++) {
+            for (int l = 0; l < c->layers && !behind; l++) {
                 const warp_motion_mip *mip = &c->mip[l];
                 warp_motion_box b = search_bound(c, l, px, py, &lookups);
                 if (l == 0) {
@@ -344,7 +393,8 @@ void warp_iter_rows(warp_iter_ctx *c, warp_image_rgba8 *dst, warp_image_u8 *mask
                     double sa = a0 + ua * ea, sb = b0r + ub * eb;
                     double qx = mip->c * sa - mip->s * sb, qy = mip->s * sa + mip->c * sb;
                     seeds++;
-                    int empties = 0;
+                    int empties = 0, stalls = 0;
+                    double prev2 = INFINITY;
                     for (int t = 0; t < T; t++) {
                         lookup lk;
                         iters++;
@@ -360,11 +410,20 @@ void warp_iter_rows(warp_iter_ctx *c, warp_image_rgba8 *dst, warp_image_u8 *mask
                         double ddx = wx - qx, ddy = wy - qy;
                         qx = wx;
                         qy = wy;
-                        if (ddx * ddx + ddy * ddy < tol2) {
+                        const double r2 = ddx * ddx + ddy * ddy;
+                        if (r2 < tol2) {
                             if (inside_src(c, qx, qy)) keep_nearest(&in, qx, qy, lk.d, lk.layer);
                             else keep_nearest(&out_c, qx, qy, lk.d, lk.layer);
                             break;
                         }
+                        /* the adaptive budget: a seed goes on while the map contracts and stops after
+                         * ITER_STALLS steps that do not (bouncing across a depth edge, or diverging) */
+                        if (r2 > ITER_CONTRACT * ITER_CONTRACT * prev2) {
+                            if (++stalls >= ITER_STALLS) break;
+                        } else {
+                            stalls = 0;
+                        }
+                        prev2 = r2;
                     }
                 }
             }
@@ -374,6 +433,16 @@ void warp_iter_rows(warp_iter_ctx *c, warp_image_rgba8 *dst, warp_image_u8 *mask
                 dd[x] = in.d;
                 converged++;
                 conv_layer[in.layer]++;
+            } else if (behind) {
+                /* no source pixel in that direction: the nearest border colour, as the rotation warp (003 §4.3) */
+                const warp_mat3 *g = &c->src_from_dst;
+                double hx = g->m[0][0] * (x + 0.5) + g->m[0][1] * (y + 0.5) + g->m[0][2];
+                double hy = g->m[1][0] * (x + 0.5) + g->m[1][1] * (y + 0.5) + g->m[1][2];
+                out[x] = warp_sample_bilinear(c->color[0], hx > 0 ? (float)c->src_w : 0.0f,
+                                              hy > 0 ? (float)c->src_h : 0.0f);
+                dd[x] = 0;
+                flag = WARP_MASK_FRINGE;
+                fringe++;
             } else if (out_c.found) {
                 /* the solution lies outside the source: clamped, as the rotation warp's fringe (003 §4.3) */
                 out[x] = warp_sample_bilinear(c->color[0], (float)out_c.qx, (float)out_c.qy);

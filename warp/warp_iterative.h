@@ -35,7 +35,7 @@ typedef enum {
 
 typedef struct {
     int seeds;          /* N: stratified seeds per pixel and layer (001 §3.2) */
-    int iters;          /* T: fixed-point steps per seed */
+    int iters;          /* T: fixed-point steps per seed at most (a seed stops earlier once converged or stalled) */
     int layers;         /* L: depth layers searched (1 = the view only; at most 1 + the extra layers given) */
     warp_iter_bound bound;
     int bound_iters;    /* tightening steps of 001 Fig. 5 ("two to three such narrowing steps suffice") */
@@ -46,10 +46,13 @@ typedef struct {
     int dilate_radius;  /* ... up to this many pixels from a converged pixel */
     bool approximate;   /* AWOC of 001 §5: fill non-convergent pixels from the search bound's extreme motions */
     int pca_samples;    /* motion vectors sampled for the PCA (001 §3.3: 64) */
+    bool derotate;      /* search in the rotation-compensated frame: seeds around the rotation-only reprojection G(p)
+                         * of the target pixel, motions as u(q) = G(q + v(q)) - q (warp_iterative.c) */
 } warp_iter_params;
 
-/* N 8, T 4, L 1, PCA bound with 3 tightening steps, tol 0.05 px, early exit, cross-layer seeding, no dilation
- * (radius 2 when turned on), no approximate fill, 64 PCA samples. */
+/* N 8, T 32 (a cap: seeds stop when converged or no longer contracting), L 1, PCA bound with 3 tightening steps,
+ * tol 0.05 px, early exit, cross-layer seeding, no dilation (radius 2 when turned on), no approximate fill, 64 PCA
+ * samples, derotated search. */
 warp_iter_params warp_iter_default_params(void);
 
 typedef struct {
@@ -71,7 +74,7 @@ typedef struct {
  * mipmaps, scratch. Allocate once per image size; prepare per frame; rows and finish per frame. */
 typedef struct {
     int src_w, src_h, dst_w, dst_h, max_layers;
-    warp_motion_buffer motion[WARP_ITER_MAX_LAYERS];
+    warp_motion_buffer motion[WARP_ITER_MAX_LAYERS]; /* v, or u when p.derotate */
     warp_motion_mip mip[WARP_ITER_MAX_LAYERS];
     warp_image_f32 dst_depth;   /* target inverse depth of the chosen solution (dilation picks by it) */
     warp_image_u8 scratch;      /* dilation bookkeeping */
@@ -80,6 +83,7 @@ typedef struct {
     const warp_image_rgba8 *color[WARP_ITER_MAX_LAYERS];
     warp_iter_params p;
     int layers;
+    warp_mat3 src_from_dst;     /* the rotation homography target -> source pixel when p.derotate, else identity */
 } warp_iter_ctx;
 
 /* Allocates for sources of src_w x src_h, targets of dst_w x dst_h and up to max_layers layers. */

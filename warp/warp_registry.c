@@ -48,7 +48,7 @@ static const warp_method_info methods[WARP_METHOD_COUNT] = {
                                    {I("mesh", 2, 1024, 64, "vertices per side ([lens] mesh)")}},
     [WARP_METHOD_ITERATIVE] = {"iterative", "001 §3", "backward warp by fixed-point iteration", WARP_NEEDS_DEPTH,
                                WARP_METHOD_ROTATION, 5, false, WARP_METHOD_COUNT, 6,
-                               {I("seeds", 1, 64, 8, NULL), I("iters", 0, 64, 4, NULL),
+                               {I("seeds", 1, 64, 8, NULL), I("iters", 0, 64, 32, "steps per seed at most"),
                                 I("bound", 0, 2, 2, "0 global, 1 tight, 2 PCA"), I("dilate", 0, 1, 0, NULL),
                                 I("awoc", 0, 1, 0, NULL), FILL}},
     [WARP_METHOD_GRID] = {"grid", "000 §4.1", "adaptive grid warp", WARP_NEEDS_DEPTH, WARP_METHOD_ROTATION, 5, false,

@@ -379,6 +379,96 @@ static void test_dilation_and_approximate_fill(void **state)
     assert_int_equal(sb.dilated + sb.approximated, sb.holes);
 }
 
+/* ---- large motion: the defaults must hold across the head motions the runtime meets ---- */
+
+/* Runs the defaults on the current pair and scores them on the pixels visible in both views: those the rotation
+ * warp does not put in its fringe (independent of the warp under test, which may fail to find even the fringe).
+ * valid: the share of them a search converged for inside the source; psnr: against the truth, holes left in. */
+static void large_motion(const char *what, double *valid, double *psnr)
+{
+    warp_iter_params p = warp_iter_default_params();
+    warp_iter_stats st = run(&p, NULL, &F.p.out, &F.p.mask);
+    warp_mat3 hm = warp_reproject_homography(&F.p.v, &F.cam, F.tgt.pose.q);
+    warp_reproject_rows(&F.p.v, &hm, &F.p.out2, &F.p.mask2, 0, H);
+    long visible = 0, ok = 0;
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            if (WARP_AT(&F.p.mask2, x, y) & WARP_MASK_FRINGE) continue;
+            visible++;
+            ok += WARP_AT(&F.p.mask, x, y) == 0;
+        }
+    assert_true(visible > (long)W * H / 4);
+    *valid = pct(ok, visible);
+    *psnr = psnr_excl(&F.p.out, &F.p.mask2, WARP_MASK_FRINGE);
+    print_stats(what, &st, *psnr);
+    print_message("  %s: %.2f %% of the visible pixels valid, %.2f dB\n", what, *valid, *psnr);
+}
+
+/* A 12 degree turn with 4 degrees of pitch: the motion field varies by tens of pixels across the image, which the
+ * plain fixed point q <- p - v(q) reduces by only |1 - dv/dq| per step. */
+static void test_large_rotation(void **state)
+{
+    (void)state;
+    warp_pose a = test_eye_at(0.1, -0.05, 0, warp_v3(0.05, 1.55, 0.1));
+    warp_pose b = test_eye_at(0.1 + 12 * D2R, -0.05 + 4 * D2R, 0, a.p);
+    render_pair("near", a, 0.0, b, 0.0);
+    double valid, psnr;
+    large_motion("yaw 12 pitch 4", &valid, &psnr);
+    assert_true(valid > 99.0);
+    assert_true(psnr > 32.0);
+}
+
+/* 20 cm of head translation with the near scene's objects 0.4-1.5 m away: up to ~50 px of parallax. */
+static void test_large_translation(void **state)
+{
+    (void)state;
+    warp_pose a = *near_a();
+    warp_pose b = test_eye_at(0, -3 * D2R, 0, warp_v3(0.16, 1.6, -0.12));
+    render_pair("near", a, 0.0, b, 0.0);
+    double valid, psnr;
+    large_motion("translate 20 cm", &valid, &psnr);
+    /* what the near objects uncover stays holes in a single layer (~14 %: a background layer converges 98.6 %),
+     * and they are black in the PSNR */
+    assert_true(valid > 84.0);
+    assert_true(psnr > 14.8);
+}
+
+/* The adaptive budget: with the cap at 32 steps, seeds that converge run as long as they contract and the
+ * non-convergent ones (across the disocclusions) stop after a few steps, so a large cap costs little. */
+static void test_adaptive_budget(void **state)
+{
+    (void)state;
+    render_pair("near", *near_a(), 0.0, test_eye_at(0, -3 * D2R, 0, warp_v3(0.16, 1.6, -0.12)), 0.0);
+    warp_iter_params p = warp_iter_default_params();
+    p.iters = 32;
+    warp_iter_stats st = run(&p, NULL, &F.p.out, &F.p.mask);
+    double per_seed = (double)st.iterations / (double)st.seeds;
+    print_stats("translate 20 cm, T cap 32", &st, psnr_excl(&F.p.out, &F.p.mask, WARP_MASK_FRINGE));
+    assert_true(pct(st.converged, st.pixels) > 84.0);
+    assert_true(per_seed < 5.5);
+    /* the same search with a small cap converges less: the budget is what it converged with */
+    p.iters = 4;
+    warp_iter_stats s4 = run(&p, NULL, &F.p.out, &F.p.mask);
+    assert_true(s4.converged * 100 < st.converged * 95);
+}
+
+/* A 45 degree head turn (about a neck 10 cm behind the eyes): half the target is outside the source; where it is
+ * inside, the rotation scales the image by up to 2x, where the plain fixed point does not converge at all. */
+static void test_45_degree_turn(void **state)
+{
+    (void)state;
+    const warp_vec3 neck = warp_v3(0, 1.5, 0.1);
+    warp_pose a = test_eye_at(0, 0, 0, warp_v3(0, 1.6, 0));
+    warp_pose b = test_eye_at(45 * D2R, 0, 0, a.p);
+    b.p = warp_v3_add(neck, warp_quat_rotate(b.q, warp_v3_sub(a.p, neck)));
+    render_pair("near", a, 0.0, b, 0.0);
+    double valid, psnr;
+    large_motion("yaw 45", &valid, &psnr);
+    /* the neck swings the eyes ~9 cm past objects 0.4 m away: their disocclusions stay holes (~6 %) */
+    assert_true(valid > 90.0);
+    assert_true(psnr > 19.0);
+}
+
 /* ---- movers: object motion ---- */
 
 /* Scores the pixels of the translating sphere (id 7) and the slowly spinning box (id 8) in the truth, away from
@@ -526,6 +616,10 @@ int main(void)
         cmocka_unit_test(test_tight_bound_beats_global_at_small_n),
         cmocka_unit_test(test_more_iterations_converge_more),
         cmocka_unit_test(test_dilation_and_approximate_fill),
+        cmocka_unit_test(test_large_rotation),
+        cmocka_unit_test(test_large_translation),
+        cmocka_unit_test(test_45_degree_turn),
+        cmocka_unit_test(test_adaptive_budget),
         cmocka_unit_test(test_movers_object_motion),
         cmocka_unit_test(test_mip_bound_is_conservative),
         cmocka_unit_test(test_bad_input_is_rejected),
