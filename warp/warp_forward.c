@@ -97,6 +97,7 @@ void warp_fwd_scratch_free(warp_fwd_scratch *s)
     free(s->order);
     free(s->zbuf);
     free(s->rank);
+    free(s->near2);
     free(s->bin_of);
     free(s->binned);
     free(s->bin_start);
@@ -128,9 +129,10 @@ bool warp_fwd_scratch_alloc(warp_fwd_scratch *s, int src_w, int src_h, int dst_w
     s->bin_key = malloc(ns * sizeof *s->bin_key);
     s->zbuf = malloc(nd * sizeof *s->zbuf);
     s->rank = malloc(nd * sizeof *s->rank);
+    s->near2 = malloc(nd * sizeof *s->near2);
     s->bin_of = malloc(nd * sizeof *s->bin_of);
     if (!s->x2 || !s->y2 || !s->d2 || !s->jac || !s->order || !s->binned || !s->bin_start || !s->bin_fill ||
-        !s->bin_key || !s->zbuf || !s->rank || !s->bin_of) {
+        !s->bin_key || !s->zbuf || !s->rank || !s->near2 || !s->bin_of) {
         warp_fwd_scratch_free(s);
         return false;
     }

@@ -91,7 +91,7 @@ typedef struct {
 
 /* Per-frame working memory, allocated once per image size (no allocation on the warp path). Per source pixel: the
  * mapped target position and inverse depth (x = NAN: dropped) and the 2x2 Jacobian d(x2, y2)/d(x1, y1); the
- * traversal order; per target pixel: depth (or written flag) and the writer's rank; two-pass bins. */
+ * traversal order; per target pixel: depth (or written flag), the writer's rank and distance; two-pass bins. */
 typedef struct {
     int src_w, src_h, dst_w, dst_h;
     float *x2, *y2, *d2;
@@ -99,6 +99,8 @@ typedef struct {
     int32_t *order;      /* source pixel indices y * src_w + x in traversal order */
     float *zbuf;         /* per target pixel: inverse depth of the sample shown, < 0 = not written */
     int32_t *rank;       /* per target pixel: order position of the writer (two-pass seams) */
+    float *near2;        /* per target pixel: squared distance from its centre to the writer's warped position (point
+                          * splats: of overlapping splats of one surface the nearest wins) */
     int32_t *bin_of;     /* per target pixel: bin of the writer (two-pass) */
     int32_t *binned;     /* order positions sorted by bin, stable */
     int32_t *bin_start;  /* n_bins + 1 */
