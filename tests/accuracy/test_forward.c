@@ -448,9 +448,9 @@ static void test_point_splats_centred(void **state)
             assert_true(cov > 0.9);
         }
     /* Against the truth on rendered scenes (2 deg yaw, 2 cm sideways, 4 cm closer): displaced, point splats were
-     * 5 dB under quad splats here. */
+     * 5 dB under quad splats here; centred, 2-3 dB; with the rounded-up part only padding, 0.5-1.6 dB. */
     const char *scenes[] = {"room", "near"};
-    const double floor_db[] = {31.5, 29.8};
+    const double floor_db[] = {33.0, 31.0};
     for (int sc = 0; sc < 2; sc++) {
         warp_pose a = test_eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
         warp_pose b = test_eye_at(2 * D2R, -3 * D2R, 0, warp_v3(0.02, 1.6, -0.04));
