@@ -97,6 +97,7 @@ void warp_fwd_scratch_free(warp_fwd_scratch *s)
     free(s->order);
     free(s->zbuf);
     free(s->rank);
+    free(s->near2);
     free(s->bin_of);
     free(s->binned);
     free(s->bin_start);
@@ -128,9 +129,10 @@ bool warp_fwd_scratch_alloc(warp_fwd_scratch *s, int src_w, int src_h, int dst_w
     s->bin_key = malloc(ns * sizeof *s->bin_key);
     s->zbuf = malloc(nd * sizeof *s->zbuf);
     s->rank = malloc(nd * sizeof *s->rank);
+    s->near2 = malloc(nd * sizeof *s->near2);
     s->bin_of = malloc(nd * sizeof *s->bin_of);
     if (!s->x2 || !s->y2 || !s->d2 || !s->jac || !s->order || !s->binned || !s->bin_start || !s->bin_fill ||
-        !s->bin_key || !s->zbuf || !s->rank || !s->bin_of) {
+        !s->bin_key || !s->zbuf || !s->rank || !s->near2 || !s->bin_of) {
         warp_fwd_scratch_free(s);
         return false;
     }
@@ -141,7 +143,7 @@ bool warp_fwd_scratch_alloc(warp_fwd_scratch *s, int src_w, int src_h, int dst_w
 
 warp_forward_params warp_forward_default_params(void)
 {
-    warp_forward_params p = {WARP_FWD_SHEETS8, false, 16, 0.1f};
+    warp_forward_params p = {WARP_FWD_SHEETS8, false, 16, 0.1f, true};
     return p;
 }
 
@@ -383,10 +385,91 @@ static inline bool target_of(const warp_fwd_scratch *sc, int32_t k, int32_t *t)
     return true;
 }
 
-static inline void put(const warp_view *v, warp_image_rgba8 *dst, const warp_fwd_scratch *sc, int32_t k, int32_t t)
+/* Footprints are grown by this factor: each is the linearisation at its own sample, so neighbours' parallelograms
+ * on a curving warp (a rotation's homography) leave slivers between them, and a pixel centre in one is a crack. */
+#define FOOTPRINT_GROW 1.1
+/* Largest footprint side (pixels): a larger Jacobian belongs to a surface seen almost edge-on, or to a depth slope
+ * across an edge the one-sided differences missed; drawing it would smear one colour over a wide area. */
+#define FOOTPRINT_MAX 4.0
+/* Pixels one footprint can cover: at most (FOOTPRINT_MAX + 1)^2 centres in its box, plus the pixel it lands in. */
+#define FOOTPRINT_PIXELS 26
+
+/* Pixels whose centres lie in [lo, hi) (the half-open rule keeps abutting footprints from sharing pixels). */
+static inline void span(double lo, double hi, int n, int *a, int *b)
 {
-    int w = v->color->w;
-    WARP_AT(dst, t % sc->dst_w, t / sc->dst_w) = WARP_AT(v->color, k % w, k / w);
+    double fa = ceil(lo - 0.5), fb = ceil(hi - 0.5);
+    *a = fa < 0 ? 0 : (fa > n ? n : (int)fa);
+    *b = fb < 0 ? 0 : (fb > n ? n : (int)fb);
+}
+
+/* The target pixels sample k covers: the one it lands in first (a minified sample still shows, as a point would),
+ * then, with footprints, the other pixel centres inside its grown parallelogram. Returns their count. */
+static int footprint(const warp_fwd_setup *s, const warp_fwd_scratch *sc, int32_t k, int32_t *t)
+{
+    int n = 0;
+    int32_t home = -1;
+    if (target_of(sc, k, &home)) t[n++] = home;
+    if (!s->p.footprint) return n;
+    const float *j = &sc->jac[4 * k];
+    double g = 0.5 * FOOTPRINT_GROW, lim = 0.5 * FOOTPRINT_MAX;
+    double ax = g * j[0], ay = g * j[2], bx = g * j[1], by = g * j[3];
+    double ex = fabs(ax) + fabs(bx), ey = fabs(ay) + fabs(by);
+    if (!(ex <= lim && ey <= lim)) {
+        double f = lim / fmax(ex, ey);
+        if (!isfinite(f)) return n;
+        ax *= f, ay *= f, bx *= f, by *= f, ex *= f, ey *= f;
+    }
+    double det = ax * by - bx * ay, cx = sc->x2[k], cy = sc->y2[k];
+    if (!(fabs(det) > 1e-6) || !(cx > -lim && cy > -lim && cx < sc->dst_w + lim && cy < sc->dst_h + lim)) return n;
+    int x0, x1, y0, y1;
+    span(cx - ex, cx + ex, sc->dst_w, &x0, &x1);
+    span(cy - ey, cy + ey, sc->dst_h, &y0, &y1);
+    for (int y = y0; y < y1; y++) {
+        double dy = y + 0.5 - cy;
+        for (int x = x0; x < x1; x++) {
+            double dx = x + 0.5 - cx;
+            /* coordinates in the (a, b) frame of the parallelogram: inside when both are in [-1, 1) */
+            double al = (by * dx - bx * dy) / det, be = (ax * dy - ay * dx) / det;
+            int32_t i = y * sc->dst_w + x;
+            if (al >= -1 && al < 1 && be >= -1 && be < 1 && i != home) t[n++] = i;
+        }
+    }
+    return n;
+}
+
+/* The colour of target pixel t drawn by sample k: with footprints, the source resampled bilinearly at the point
+ * J^-1 maps t's centre back to (at most a pixel from the sample, the linearisation's reach). Bilinear across depth
+ * edges too, as the backward warps resample: a pure rotation then gives exactly their image. */
+static warp_rgba8 sample_colour(const warp_fwd_setup *s, const warp_fwd_scratch *sc, int32_t k, int32_t t)
+{
+    const warp_view *v = s->src;
+    const int w = v->color->w, h = v->color->h, kx = k % w, ky = k / w;
+    if (!s->p.footprint) return WARP_AT(v->color, kx, ky);
+    const float *j = &sc->jac[4 * k];
+    double det = (double)j[0] * j[3] - (double)j[1] * j[2];
+    double px = t % sc->dst_w + 0.5 - sc->x2[k], py = t / sc->dst_w + 0.5 - sc->y2[k];
+    double u = (j[3] * px - j[1] * py) / det, vv = (j[0] * py - j[2] * px) / det;
+    if (!(fabs(det) > 1e-6) || !isfinite(u) || !isfinite(vv)) return WARP_AT(v->color, kx, ky);
+    /* taps around source position (kx + 0.5 + u, ky + 0.5 + vv), clamped to the image */
+    double sx = kx + fmin(1, fmax(-1, u)), sy = ky + fmin(1, fmax(-1, vv));
+    int x0 = (int)floor(sx), y0 = (int)floor(sy);
+    double fx = sx - x0, fy = sy - y0;
+    int xa = x0 < 0 ? 0 : x0, ya = y0 < 0 ? 0 : y0;
+    int xb = x0 + 1 >= w ? w - 1 : x0 + 1, yb = y0 + 1 >= h ? h - 1 : y0 + 1;
+    warp_rgba8 c00 = WARP_AT(v->color, xa, ya), c10 = WARP_AT(v->color, xb, ya);
+    warp_rgba8 c01 = WARP_AT(v->color, xa, yb), c11 = WARP_AT(v->color, xb, yb);
+    double w00 = (1 - fx) * (1 - fy), w10 = fx * (1 - fy), w01 = (1 - fx) * fy, w11 = fx * fy;
+    warp_rgba8 c;
+    c.r = (uint8_t)(w00 * c00.r + w10 * c10.r + w01 * c01.r + w11 * c11.r + 0.5);
+    c.g = (uint8_t)(w00 * c00.g + w10 * c10.g + w01 * c01.g + w11 * c11.g + 0.5);
+    c.b = (uint8_t)(w00 * c00.b + w10 * c10.b + w01 * c01.b + w11 * c11.b + 0.5);
+    c.a = (uint8_t)(w00 * c00.a + w10 * c10.a + w01 * c01.a + w11 * c11.a + 0.5);
+    return c;
+}
+
+static inline void put(const warp_fwd_setup *s, warp_image_rgba8 *dst, warp_fwd_scratch *sc, int32_t k, int32_t t)
+{
+    WARP_AT(dst, t % sc->dst_w, t / sc->dst_w) = sample_colour(s, sc, k, t);
     sc->zbuf[t] = sc->d2[k];
 }
 
@@ -420,19 +503,22 @@ static void draw_two_pass(const warp_fwd_setup *s, warp_fwd_scratch *sc, warp_im
     long writes = 0, seams = 0;
     for (int bi = 0; bi < nb; bi++)
         for (int q = start[bi]; q < start[bi + 1]; q++) {
-            int32_t k = sc->binned[q], idx = sc->order[k], t;
-            if (!target_of(sc, idx, &t)) continue;
-            /* Within a bin later means later in the occlusion-compatible order. Where two bins meet (samples of
-             * one output pixel straddling a bin border) the order positions decide, so the result is exactly the
-             * single-pass one. */
-            if (sc->bin_of[t] >= 0 && sc->bin_of[t] != bi) {
-                seams++;
-                if (k < sc->rank[t]) continue;
+            int32_t k = sc->binned[q], idx = sc->order[k], ts[FOOTPRINT_PIXELS];
+            int nt = footprint(s, sc, idx, ts);
+            for (int f = 0; f < nt; f++) {
+                int32_t t = ts[f];
+                /* Within a bin later means later in the occlusion-compatible order. Where two bins meet (samples
+                 * of one output pixel straddling a bin border) the order positions decide, so the result is
+                 * exactly the single-pass one. */
+                if (sc->bin_of[t] >= 0 && sc->bin_of[t] != bi) {
+                    seams++;
+                    if (k < sc->rank[t]) continue;
+                }
+                put(s, dst, sc, idx, t);
+                sc->rank[t] = k;
+                sc->bin_of[t] = bi;
+                writes++;
             }
-            put(v, dst, sc, idx, t);
-            sc->rank[t] = k;
-            sc->bin_of[t] = bi;
-            writes++;
         }
     if (st) {
         st->writes += writes;
@@ -453,15 +539,18 @@ void warp_forward_draw_points(const warp_fwd_setup *s, warp_fwd_scratch *sc, war
     const bool zt = s->p.vis == WARP_FWD_ZBUFFER;
     long writes = 0, rejects = 0;
     for (int k = 0; k < n; k++) {
-        int32_t idx = sc->order[k], t;
-        if (!target_of(sc, idx, &t)) continue;
-        /* Ties go to the later sample, as in the painter's order. */
-        if (zt && sc->d2[idx] < sc->zbuf[t]) {
-            rejects++;
-            continue;
+        int32_t idx = sc->order[k], ts[FOOTPRINT_PIXELS];
+        int nt = footprint(s, sc, idx, ts);
+        for (int f = 0; f < nt; f++) {
+            int32_t t = ts[f];
+            /* Ties go to the later sample, as in the painter's order. */
+            if (zt && sc->d2[idx] < sc->zbuf[t]) {
+                rejects++;
+                continue;
+            }
+            put(s, dst, sc, idx, t);
+            writes++;
         }
-        put(v, dst, sc, idx, t);
-        writes++;
     }
     if (st) {
         st->writes += writes;
@@ -522,7 +611,7 @@ const char *warp_forward_run(const warp_view *src, const warp_camera *dst_cam, w
     if (err) return err;
     warp_forward_stats local;
     memset(&local, 0, sizeof local);
-    warp_forward_map_rows(&s, sc, false, 0, src->color->h, &local);
+    warp_forward_map_rows(&s, sc, p->footprint, 0, src->color->h, &local);
     local.sheets = warp_forward_order(&s, p->vis, sc);
     warp_forward_clear(sc);
     warp_forward_draw_points(&s, sc, dst, &local);

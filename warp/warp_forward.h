@@ -68,9 +68,12 @@ typedef struct {
     bool two_pass;  /* 004 §5: bin samples by post-translation pre-rotation x, then warp bin by bin (sheets only) */
     int bin_width;  /* b of 004 eq. 8, source pixels */
     float edge_jump; /* relative inverse-depth jump between neighbours that counts as a depth edge (splat sizes) */
+    /* true: each sample covers its Jacobian footprint and colours it by resampling the source (see
+     * warp_forward_draw_points); false: 1-pixel points, as 004 draws them (they crack wherever the warp stretches) */
+    bool footprint;
 } warp_forward_params;
 
-/* SHEETS8, single pass, bin width 16, edge_jump 0.1. */
+/* SHEETS8, single pass, bin width 16, edge_jump 0.1, footprints. */
 warp_forward_params warp_forward_default_params(void);
 
 typedef struct {
@@ -88,7 +91,7 @@ typedef struct {
 
 /* Per-frame working memory, allocated once per image size (no allocation on the warp path). Per source pixel: the
  * mapped target position and inverse depth (x = NAN: dropped) and the 2x2 Jacobian d(x2, y2)/d(x1, y1); the
- * traversal order; per target pixel: depth (or written flag) and the writer's rank; two-pass bins. */
+ * traversal order; per target pixel: depth (or written flag), the writer's rank and distance; two-pass bins. */
 typedef struct {
     int src_w, src_h, dst_w, dst_h;
     float *x2, *y2, *d2;
@@ -96,6 +99,8 @@ typedef struct {
     int32_t *order;      /* source pixel indices y * src_w + x in traversal order */
     float *zbuf;         /* per target pixel: inverse depth of the sample shown, < 0 = not written */
     int32_t *rank;       /* per target pixel: order position of the writer (two-pass seams) */
+    float *near2;        /* per target pixel: squared distance from its centre to the writer's warped position (point
+                          * splats: of overlapping splats of one surface the nearest wins) */
     int32_t *bin_of;     /* per target pixel: bin of the writer (two-pass) */
     int32_t *binned;     /* order positions sorted by bin, stable */
     int32_t *bin_start;  /* n_bins + 1 */
@@ -144,8 +149,13 @@ int warp_forward_order_into(const warp_fwd_setup *s, warp_fwd_visibility vis, in
 /* Clears the target buffers before drawing. */
 void warp_forward_clear(warp_fwd_scratch *sc);
 
-/* Pass 2 for 1-pixel point reconstruction: draws the mapped samples into dst in the order of sc->order (painter's
- * algorithm, or depth-tested for the z-buffer), or bin by bin when two_pass. */
+/* Pass 2: draws the mapped samples into dst in the order of sc->order (painter's algorithm, or depth-tested for the
+ * z-buffer), or bin by bin when two_pass. With p.footprint (needs the Jacobian from pass 1) a sample covers the
+ * pixels whose centres lie in its footprint, the parallelogram J [-1/2, 1/2]^2 around its warped position (002
+ * §3.3; grown 10 %, at most 4 pixels a side), and always the pixel it lands in; each such pixel is coloured from the
+ * source, bilinearly, at the point the footprint's linearisation maps the pixel centre back to. So abutting
+ * footprints tile a stretched surface without cracks, the colour sits where the warp puts it rather than where the
+ * sample's centre rounds to, and a pure rotation gives the backward rotation warp's image. Without: 1-pixel points. */
 void warp_forward_draw_points(const warp_fwd_setup *s, warp_fwd_scratch *sc, warp_image_rgba8 *dst,
                               warp_forward_stats *st);
 
@@ -154,8 +164,9 @@ void warp_forward_draw_points(const warp_fwd_setup *s, warp_fwd_scratch *sc, war
 void warp_forward_finish_rows(const warp_fwd_setup *s, const warp_fwd_scratch *sc, warp_image_rgba8 *dst,
                               warp_image_u8 *mask, int y0, int y1, warp_forward_stats *st);
 
-/* The entry point: prepare, map, order, draw 1-pixel points, finish. dst and mask (may be NULL) are dst_cam's size;
- * st (may be NULL) receives this warp's counts. Returns NULL on success, else what was wrong (dst untouched). */
+/* The entry point: prepare, map (with the Jacobian for footprints), order, draw, finish. dst and mask (may be NULL)
+ * are dst_cam's size; st (may be NULL) receives this warp's counts. Returns NULL on success, else what was wrong
+ * (dst untouched). */
 const char *warp_forward_run(const warp_view *src, const warp_camera *dst_cam, warp_pose dst_pose,
                              const warp_forward_params *p, warp_fwd_scratch *sc, warp_image_rgba8 *dst,
                              warp_image_u8 *mask, warp_forward_stats *st);

@@ -44,6 +44,40 @@ static inline void span(double lo, double hi, int n, int *a, int *b)
     *b = fb < 0 ? 0 : (fb > n ? n : (int)fb);
 }
 
+/* A point splat's own pixels are those within its true footprint's box (the unrounded sides |J11| + |J12| and
+ * |J21| + |J22|, grown by this factor, at least min_size); the rest of the rounded-up square only pads: it fills
+ * what no splat's own pixels cover, so rounding up does not widen a near surface over the one behind it. */
+#define POINT_CORE_GROW 1.1
+/* Added to a padding fragment's squared distance: larger than any own one (sides are at most a few pixels). */
+#define POINT_PAD 1e4f
+
+/* A point splat's fragment. Splat sides are rounded up so that splats never crack (002 §3.3), so neighbouring splats
+ * overlap; when the later one simply won, every overlap went the way of the drawing order and the image shifted by
+ * up to half a splat (0.5 px for the 2x2 splats of a slight magnification, against raster order). So between
+ * fragments of one surface (inverse depths within edge_jump) the one whose warped position is nearer the pixel
+ * centre wins (ties: the later), and every pixel shows its nearest sample. Across surfaces a splat's own pixel beats
+ * another's padding, and otherwise the z-buffer or the painter's order decides as for the other kinds. r2 carries
+ * POINT_PAD for padding. */
+static inline void point_fragment(draw_ctx *c, int i, int j, float d, float r2, float jump, warp_rgba8 col)
+{
+    int32_t t = j * c->sc->dst_w + i;
+    float z = c->sc->zbuf[t], o = c->sc->near2[t];
+    c->fragments++;
+    if (z >= 0) {
+        bool pad = r2 >= POINT_PAD, opad = o >= POINT_PAD;
+        if (fabsf(d - z) <= jump * fmaxf(d, z) || pad != opad) {
+            if (r2 > o) return;
+        } else if (c->ztest && d < z) {
+            c->rejects++;
+            return;
+        }
+    }
+    WARP_AT(c->dst, i, j) = col;
+    c->sc->zbuf[t] = d;
+    c->sc->near2[t] = r2;
+    c->writes++;
+}
+
 static void point_splat(draw_ctx *c, const warp_splat_params *p, int32_t k)
 {
     const float *j = &c->sc->jac[4 * k];
@@ -53,13 +87,23 @@ static void point_splat(draw_ctx *c, const warp_splat_params *p, int32_t k)
     if (sz < p->min_size) sz = p->min_size;
     if (sz > p->max_size) sz = p->max_size;
     double cx = c->sc->x2[k], cy = c->sc->y2[k];
+    double hx = 0.5 * fmax(POINT_CORE_GROW * (fabs(j[0]) + fabs(j[1])), p->min_size);
+    double hy = 0.5 * fmax(POINT_CORE_GROW * (fabs(j[2]) + fabs(j[3])), p->min_size);
     int x0, x1, y0, y1;
+    /* the sz x sz pixels nearest the warped position: centred on it to within half a pixel */
     span(cx - sz * 0.5, cx + sz * 0.5, c->sc->dst_w, &x0, &x1);
     span(cy - sz * 0.5, cy + sz * 0.5, c->sc->dst_h, &y0, &y1);
     warp_rgba8 col = WARP_AT(c->v->color, k % c->v->color->w, k / c->v->color->w);
     float d = c->sc->d2[k];
-    for (int y = y0; y < y1; y++)
-        for (int x = x0; x < x1; x++) fragment(c, x, y, d, col);
+    for (int y = y0; y < y1; y++) {
+        double dy = y + 0.5 - cy;
+        for (int x = x0; x < x1; x++) {
+            double dx = x + 0.5 - cx;
+            float r2 = (float)(dx * dx + dy * dy);
+            if (!(fabs(dx) <= hx && fabs(dy) <= hy)) r2 += POINT_PAD;
+            point_fragment(c, x, y, d, r2, p->edge_jump, col);
+        }
+    }
 }
 
 /* Returns false when the quad degenerated and a 1-pixel point was drawn instead. */
