@@ -182,30 +182,25 @@ static inline __attribute__((always_inline)) void mesh_triangle(draw_ctx *c, con
     }
 }
 
-/* Whether source samples k0 and k1 lie on one surface: both mapped, one object, no depth edge between them. */
-static inline bool joined(const draw_ctx *c, const warp_splat_params *p, int32_t k0, int32_t k1)
+/* Whether source samples (x, y) and (u, v) lie on one surface: both mapped, one object, no depth edge between. */
+static inline bool joined(const draw_ctx *c, const warp_splat_params *p, int x, int y, int u, int v)
 {
     const warp_fwd_scratch *sc = c->sc;
-    if (!(sc->x2[k0] == sc->x2[k0]) || !(sc->x2[k1] == sc->x2[k1])) return false;
-    int w = c->v->color->w;
-    float d0 = WARP_AT(c->v->inv_depth, k0 % w, k0 / w), d1 = WARP_AT(c->v->inv_depth, k1 % w, k1 / w);
-    if (fabsf(d0 - d1) > p->edge_jump * fmaxf(d0, d1)) return false;
-    return !c->v->ids || WARP_AT(c->v->ids, k0 % w, k0 / w) == WARP_AT(c->v->ids, k1 % w, k1 / w);
+    const int w = c->v->color->w;
+    if (!(sc->x2[v * w + u] == sc->x2[v * w + u])) return false;
+    float d0 = WARP_AT(c->v->inv_depth, x, y), d1 = WARP_AT(c->v->inv_depth, u, v);
+    if (fabsf(d0 - d1) > p->edge_jump * (d0 > d1 ? d0 : d1)) return false;
+    return !c->v->ids || WARP_AT(c->v->ids, x, y) == WARP_AT(c->v->ids, u, v);
 }
 
-/* The mesh's triangles end at the centres of a surface's outermost samples, so every silhouette loses half a
- * pixel to whatever lies behind it: on a moving object's leading edge that is the background it moved over. A
- * sample at a cut (a neighbour on another surface) therefore also draws its pixel's footprint, the parallelogram
- * spanned by half the warped steps to its neighbours on its own surface (the quad splat of 002 §3.3, from finite
- * differences), but only over pixels that hold nothing or a surface farther by more than a depth edge: its own
- * surface's interpolated triangles stay, what it occludes gives way. */
-static void mesh_skirt(draw_ctx *c, const warp_splat_params *p, int32_t k)
+static void mesh_skirt(draw_ctx *c, const warp_splat_params *p, int x, int y)
 {
     const warp_fwd_scratch *sc = c->sc;
-    const int w = c->v->color->w, h = c->v->color->h, x = k % w, y = k / w;
+    const int w = c->v->color->w, h = c->v->color->h;
+    const int32_t k = y * w + x;
     if (!(sc->x2[k] == sc->x2[k])) return;
-    bool l = x > 0 && joined(c, p, k, k - 1), r = x + 1 < w && joined(c, p, k, k + 1);
-    bool u = y > 0 && joined(c, p, k, k - w), d = y + 1 < h && joined(c, p, k, k + w);
+    bool l = x > 0 && joined(c, p, x, y, x - 1, y), r = x + 1 < w && joined(c, p, x, y, x + 1, y);
+    bool u = y > 0 && joined(c, p, x, y, x, y - 1), d = y + 1 < h && joined(c, p, x, y, x, y + 1);
     if ((l || x == 0) && (r || x + 1 == w) && (u || y == 0) && (d || y + 1 == h)) return; /* inside a surface */
     if (!(l || r) || !(u || d)) return; /* a sliver: no footprint to span; the point pass below draws it */
     int32_t xa = r ? k + 1 : k, xb = r ? k : k - 1, ya = d ? k + w : k, yb = d ? k : k - w;
@@ -260,7 +255,9 @@ void warp_splat_draw(const warp_fwd_setup *s, warp_fwd_scratch *sc, const warp_s
         }
     }
     if (p->kind == WARP_SPLAT_MESH) {
-        for (int q = 0; q < n; q++) mesh_skirt(&c, p, sc->order[q]);
+        /* raster order: a footprint only writes over a surface farther by a depth edge, so order hardly matters */
+        for (int y = 0; y < h; y++)
+            for (int x = 0; x < w; x++) mesh_skirt(&c, p, x, y);
         /* Samples cut off from every triangle (slivers between depth edges, the last column and row) still show
          * as points where nothing else landed, as a 1-pixel forward warp would draw them. */
         for (int q = 0; q < n; q++) {

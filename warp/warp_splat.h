@@ -10,7 +10,8 @@
 typedef enum {
     WARP_SPLAT_POINT = 0, /* S x S square, S = ceil(max(|J11| + |J12|, |J21| + |J22|)) clamped (002 §3.3) */
     WARP_SPLAT_QUAD = 1,  /* the parallelogram J * [-1/2, 1/2]^2 around the warped centre */
-    WARP_SPLAT_MESH = 2,  /* two triangles per 2x2 block of source pixels, colour and depth interpolated */
+    WARP_SPLAT_MESH = 2,  /* two triangles per 2x2 block of source pixels, colour and depth interpolated; samples
+                           * at a cut also draw their pixel's footprint over what lies behind them */
 } warp_splat_kind;
 
 typedef struct {
