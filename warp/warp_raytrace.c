@@ -86,8 +86,11 @@ static float region_max(const warp_raytrace_setup *s, double px, double py, doub
     return m;
 }
 
-/* Bilinear inverse depth at continuous position (x, y), clamped to the image like the colour fringe fill. */
-static inline float inv_at(const warp_image_f32 *d, float x, float y)
+/* Inverse depth of the height map at continuous position (x, y), clamped to the image like the colour fringe
+ * fill: bilinear on a surface, but in a cell whose four texels span a depth edge (a relative jump over `jump`) the
+ * nearest texel's. The map then has a vertical wall halfway between a near and a far texel instead of a slope one
+ * pixel wide, which rays grazing a near object's silhouette passed over: each texel keeps its own half pixel. */
+static inline float inv_at(const warp_image_f32 *d, float x, float y, float jump)
 {
     float fx = x - 0.5f, fy = y - 0.5f;
     fx = fx < 0 ? 0 : (fx > (float)(d->w - 1) ? (float)(d->w - 1) : fx);
@@ -96,9 +99,39 @@ static inline float inv_at(const warp_image_f32 *d, float x, float y)
     int x1 = x0 + (x0 + 1 < d->w), y1 = y0 + (y0 + 1 < d->h);
     float ax = fx - (float)x0, ay = fy - (float)y0;
     const float *r0 = &WARP_AT(d, 0, y0), *r1 = &WARP_AT(d, 0, y1);
-    float top = r0[x0] + (r0[x1] - r0[x0]) * ax;
-    float bot = r1[x0] + (r1[x1] - r1[x0]) * ax;
+    float d00 = r0[x0], d10 = r0[x1], d01 = r1[x0], d11 = r1[x1];
+    /* ternaries, not fmaxf: they compile to maxss/minss, where fmaxf's NaN rules cost a call per sample */
+    float m0 = d00 > d10 ? d00 : d10, m1 = d01 > d11 ? d01 : d11, n0 = d00 < d10 ? d00 : d10, n1 = d01 < d11 ? d01 : d11;
+    float mx = m0 > m1 ? m0 : m1, mn = n0 < n1 ? n0 : n1;
+    if (mx - mn > jump * mx) return (ay < 0.5f ? r0 : r1)[ax < 0.5f ? x0 : x1];
+    float top = d00 + (d10 - d00) * ax;
+    float bot = d01 + (d11 - d01) * ax;
     return top + (bot - top) * ay;
+}
+
+/* Nearest and farthest of the four texels a bilinear sample at (x, y) reads, into *near_d and *far_d. */
+static inline void cell_range(const warp_image_f32 *d, float x, float y, float *near_d, float *far_d)
+{
+    int x0 = (int)floorf(x - 0.5f), y0 = (int)floorf(y - 0.5f);
+    for (int j = 0; j < 2; j++)
+        for (int i = 0; i < 2; i++) {
+            int xi = x0 + i < 0 ? 0 : (x0 + i >= d->w ? d->w - 1 : x0 + i);
+            int yj = y0 + j < 0 ? 0 : (y0 + j >= d->h ? d->h - 1 : y0 + j);
+            float v = WARP_AT(d, xi, yj);
+            *near_d = v > *near_d ? v : *near_d;
+            *far_d = v < *far_d ? v : *far_d;
+        }
+}
+
+/* Inverse depth of the texel whose pixel contains (x, y) (clamped), and its centre into (*cx, *cy). */
+static inline float texel_at(const warp_image_f32 *d, double x, double y, float *cx, float *cy)
+{
+    int tx = (int)floor(x), ty = (int)floor(y);
+    tx = tx < 0 ? 0 : (tx >= d->w ? d->w - 1 : tx);
+    ty = ty < 0 ? 0 : (ty >= d->h ? d->h - 1 : ty);
+    *cx = (float)tx + 0.5f;
+    *cy = (float)ty + 0.5f;
+    return WARP_AT(d, tx, ty);
 }
 
 /* The farthest of the four texels around (x, y), into (*tx, *ty): the far side of an edge without near-side
@@ -209,9 +242,10 @@ static inline __attribute__((always_inline)) uint8_t trace_ray(const ray_ctx *c,
     double dd = (hi - lo) / n;
 
     double da = hi, fa;
-    float sa = inv_at(dimg, (float)(pix + da * ex), (float)(piy + da * ey));
+    float sa = inv_at(dimg, (float)(pix + da * ex), (float)(piy + da * ey), jump);
     fa = sa - da;
     double db = da, fb = fa;
+    double dfront = da; /* the last search sample in front of the surface */
     float sb = sa;
     int k = 0;
     if (fa >= 0) {
@@ -229,7 +263,7 @@ static inline __attribute__((always_inline)) uint8_t trace_ray(const ray_ctx *c,
                 if (region_max(s, pix + d0 * ex, piy + d0 * ey, pix + dlast * ex, piy + dlast * ey) < dlast) {
                     k += chunk - 1;
                     da = dlast;
-                    sa = inv_at(dimg, (float)(pix + da * ex), (float)(piy + da * ey));
+                    sa = inv_at(dimg, (float)(pix + da * ex), (float)(piy + da * ey), jump);
                     fa = sa - da;
                     (*samples)++;
                     continue;
@@ -237,7 +271,7 @@ static inline __attribute__((always_inline)) uint8_t trace_ray(const ray_ctx *c,
             }
             db = hi - dd * k;
             if (k == n) db = lo;
-            sb = inv_at(dimg, (float)(pix + db * ex), (float)(piy + db * ey));
+            sb = inv_at(dimg, (float)(pix + db * ex), (float)(piy + db * ey), jump);
             (*samples)++;
             fb = sb - db;
             if (fb >= 0) break;
@@ -251,6 +285,7 @@ static inline __attribute__((always_inline)) uint8_t trace_ray(const ray_ctx *c,
             flag = WARP_MASK_FRINGE;
             da = db;
         } else {
+            dfront = da;
             /* Regula falsi (Illinois) between the last sample in front of the surface and the first one
              * behind it: the hit lands between samples, not on the step grid. */
             int side = 0;
@@ -259,7 +294,7 @@ static inline __attribute__((always_inline)) uint8_t trace_ray(const ray_ctx *c,
             const double epx = sqrt(ex * ex + ey * ey);
             for (int it = 0; it < s->p.refine_iters && fabs(db - da) * epx > 1.0 / 64; it++) {
                 double dm = da + (db - da) * (-fa) / (fb - fa);
-                float sm = inv_at(dimg, (float)(pix + dm * ex), (float)(piy + dm * ey));
+                float sm = inv_at(dimg, (float)(pix + dm * ex), (float)(piy + dm * ey), jump);
                 double fm = sm - dm;
                 if (fm < 0) {
                     da = dm;
@@ -282,14 +317,25 @@ static inline __attribute__((always_inline)) uint8_t trace_ray(const ray_ctx *c,
     }
     *hx = (float)(pix + da * ex);
     *hy = (float)(piy + da * ey);
-    /* Edge fills (003 §4.4): a large jump of the surface's inverse depth across the bracketing step means
-     * the ray went down the steep wall the height map draws between a near and a far surface. A hit in
-     * the wall's upper half is the near object's silhouette; lower, it is a disocclusion gap. */
-    if (!flag) {
-        float near_d = sa > sb ? sa : sb, far_d = sa > sb ? sb : sa;
+    /* Edge fills (003 §4.4), decided on texels rather than on the two search samples bracketing the hit, which
+     * fall anywhere on a wall (so neighbouring rays flipped between the sides: comb-like streaks). Where the hit's
+     * cell or that of the last sample in front of it spans a depth edge, the ray belongs to the near surface when,
+     * at that surface's depth, it passes through a near texel's own pixel: the near side keeps exactly its half
+     * pixel, unblended. Else it sees the far surface: its own texel where the hit's pixel is one, otherwise it is a
+     * disocclusion. Without translation (the ray is one source point) there are no disocclusions: bilinear. */
+    if (!flag && len * 64 > 1) {
+        float near_d = 0, far_d = INFINITY, cx, cy;
+        cell_range(dimg, *hx, *hy, &near_d, &far_d);
+        cell_range(dimg, (float)(pix + dfront * ex), (float)(piy + dfront * ey), &near_d, &far_d);
         if (near_d - far_d > jump * near_d) {
-            double alpha = (da - far_d) / (near_d - far_d);
-            if (alpha < 0.5) flag = WARP_MASK_EDGE;
+            const float near_lo = near_d * (1 - jump);
+            if (texel_at(dimg, pix + near_d * ex, piy + near_d * ey, &cx, &cy) < near_lo &&
+                texel_at(dimg, *hx, *hy, &cx, &cy) >= near_lo)
+                flag = WARP_MASK_EDGE;
+            else {
+                *hx = cx;
+                *hy = cy;
+            }
         }
     }
     return flag;

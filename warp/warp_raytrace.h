@@ -18,7 +18,8 @@ typedef struct {
     int refine_iters;   /* regula-falsi iterations after the bracketing step: makes the hit sub-pixel accurate;
                          * 0 = the plain linear search of 003 eq. 10 (hit at the first sample behind) */
     warp_edge_fill edge_fill;
-    float edge_jump;    /* relative inverse-depth jump across one step that counts as an occlusion edge */
+    float edge_jump;    /* relative inverse-depth jump between the texels of a cell that counts as an occlusion
+                         * edge: the height map has a vertical wall there and the edge fills decide */
 } warp_raytrace_params;
 
 /* max_steps 512, refine_iters 4, far-side fill, edge_jump 0.1. */
@@ -62,8 +63,8 @@ void warp_raytrace_rows(const warp_raytrace_setup *s, warp_image_rgba8 *dst, war
 
 /* Traces one ray, through the continuous target position (tx, ty) (pixel (x, y) of warp_raytrace_rows is the ray
  * through (x + 0.5, y + 0.5)), with the same search, refinement, edge fill and fringe rules. Writes the source
- * position whose bilinear sample is the ray's colour: the hit; the far texel's centre for an edge under the
- * far-side fill; for a ray that leaves the source, the position the fringe fill samples (possibly outside the
+ * position whose bilinear sample is the ray's colour: the hit; at a depth edge the centre of the texel the ray
+ * sees (the near side's or the far side's); the far texel's centre for an edge under the far-side fill; for a ray that leaves the source, the position the fringe fill samples (possibly outside the
  * image: samplers clamp it to the border). Returns 0, WARP_MASK_EDGE or WARP_MASK_FRINGE (what rows writes into
  * the mask); adds to *st (may be NULL). For meshes that trace only at their vertices (warp_mesh_update_raytrace). */
 int warp_raytrace_point(const warp_raytrace_setup *s, double tx, double ty, double *sx, double *sy,

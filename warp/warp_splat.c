@@ -226,6 +226,50 @@ static inline __attribute__((always_inline)) void mesh_triangle(draw_ctx *c, con
     }
 }
 
+/* Whether source samples (x, y) and (u, v) lie on one surface: both mapped, one object, no depth edge between. */
+static inline bool joined(const draw_ctx *c, const warp_splat_params *p, int x, int y, int u, int v)
+{
+    const warp_fwd_scratch *sc = c->sc;
+    const int w = c->v->color->w;
+    if (!(sc->x2[v * w + u] == sc->x2[v * w + u])) return false;
+    float d0 = WARP_AT(c->v->inv_depth, x, y), d1 = WARP_AT(c->v->inv_depth, u, v);
+    if (fabsf(d0 - d1) > p->edge_jump * (d0 > d1 ? d0 : d1)) return false;
+    return !c->v->ids || WARP_AT(c->v->ids, x, y) == WARP_AT(c->v->ids, u, v);
+}
+
+static void mesh_skirt(draw_ctx *c, const warp_splat_params *p, int x, int y)
+{
+    const warp_fwd_scratch *sc = c->sc;
+    const int w = c->v->color->w, h = c->v->color->h;
+    const int32_t k = y * w + x;
+    if (!(sc->x2[k] == sc->x2[k])) return;
+    bool l = x > 0 && joined(c, p, x, y, x - 1, y), r = x + 1 < w && joined(c, p, x, y, x + 1, y);
+    bool u = y > 0 && joined(c, p, x, y, x, y - 1), d = y + 1 < h && joined(c, p, x, y, x, y + 1);
+    if ((l || x == 0) && (r || x + 1 == w) && (u || y == 0) && (d || y + 1 == h)) return; /* inside a surface */
+    if (!(l || r) || !(u || d)) return; /* a sliver: no footprint to span; the point pass below draws it */
+    int32_t xa = r ? k + 1 : k, xb = r ? k : k - 1, ya = d ? k + w : k, yb = d ? k : k - w;
+    double ax = 0.5 * (sc->x2[xa] - sc->x2[xb]), ay = 0.5 * (sc->y2[xa] - sc->y2[xb]);
+    double bx = 0.5 * (sc->x2[ya] - sc->x2[yb]), by = 0.5 * (sc->y2[ya] - sc->y2[yb]);
+    double ex = fabs(ax) + fabs(bx), ey = fabs(ay) + fabs(by), det = ax * by - bx * ay;
+    if (!(fabs(det) > 1e-4) || !(2 * ex <= p->max_extent && 2 * ey <= p->max_extent)) return;
+    double cx = sc->x2[k], cy = sc->y2[k];
+    const float dk = sc->d2[k], behind = dk * (1 - p->edge_jump);
+    const warp_rgba8 col = WARP_AT(c->v->color, x, y);
+    int x0, x1, y0, y1;
+    span(cx - ex, cx + ex + 1e-9, sc->dst_w, &x0, &x1);
+    span(cy - ey, cy + ey + 1e-9, sc->dst_h, &y0, &y1);
+    for (int j = y0; j < y1; j++) {
+        double dy = j + 0.5 - cy;
+        for (int i = x0; i < x1; i++) {
+            double dx = i + 0.5 - cx;
+            double al = (by * dx - bx * dy) / det, be = (ax * dy - ay * dx) / det;
+            if (!(al >= -1 && al < 1 && be >= -1 && be < 1)) continue;
+            float z = sc->zbuf[j * sc->dst_w + i];
+            if (z < 0 || z < behind) fragment(c, i, j, dk, col);
+        }
+    }
+}
+
 void warp_splat_draw(const warp_fwd_setup *s, warp_fwd_scratch *sc, const warp_splat_params *p,
                      warp_image_rgba8 *dst, warp_splat_stats *st)
 {
@@ -255,6 +299,9 @@ void warp_splat_draw(const warp_fwd_setup *s, warp_fwd_scratch *sc, const warp_s
         }
     }
     if (p->kind == WARP_SPLAT_MESH) {
+        /* raster order: a footprint only writes over a surface farther by a depth edge, so order hardly matters */
+        for (int y = 0; y < h; y++)
+            for (int x = 0; x < w; x++) mesh_skirt(&c, p, x, y);
         /* Samples cut off from every triangle (slivers between depth edges, the last column and row) still show
          * as points where nothing else landed, as a 1-pixel forward warp would draw them. */
         for (int q = 0; q < n; q++) {

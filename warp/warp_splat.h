@@ -12,7 +12,8 @@ typedef enum {
                            * splats of one surface overlap the nearest sample wins, and the rounded-up part beyond
                            * the true footprint only fills what no footprint covers */
     WARP_SPLAT_QUAD = 1,  /* the parallelogram J * [-1/2, 1/2]^2 around the warped centre */
-    WARP_SPLAT_MESH = 2,  /* two triangles per 2x2 block of source pixels, colour and depth interpolated */
+    WARP_SPLAT_MESH = 2,  /* two triangles per 2x2 block of source pixels, colour and depth interpolated; samples
+                           * at a cut also draw their pixel's footprint over what lies behind them */
 } warp_splat_kind;
 
 typedef struct {
