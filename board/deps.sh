@@ -10,6 +10,7 @@ set -eu
 # example (host/python, host/examples; make test runs them). libturbojpeg0-dev, libzstd-dev and FFmpeg's
 # libavcodec-dev, libavutil-dev, libswscale-dev: framelink v2's compressed planes (docs/framelink.md).
 # libjson-c-dev and libyaml-dev: hmdwarp-lens import reads Monado/SteamVR config JSON and OpenCV calibration YAML.
+# opencv-doc: its examples hold the Aloe stereo pair with ground-truth disparity (tests/accuracy/test_real_stereo).
 PKGS="gcc libc6-dev make pkg-config
 libinih-dev libpng-dev zlib1g-dev
 libhidapi-dev libusb-1.0-0-dev libgpiod-dev libi2c-dev linux-libc-dev
@@ -20,7 +21,8 @@ libturbojpeg0-dev libzstd-dev libavcodec-dev libavutil-dev libswscale-dev
 libjson-c-dev libyaml-dev
 help2man
 g++ libopencv-imgproc-dev gnuplot-nox
-python3-numpy python3-opengl"
+python3-numpy python3-opengl
+opencv-doc"
 
 . "$(dirname "$0")/deps-lib.sh"
 deps_install deps $PKGS
