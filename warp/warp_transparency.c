@@ -98,6 +98,8 @@ long warp_minmax_build(warp_minmax_tree *t, const warp_image_layers *l)
 const char *warp_transparency_prepare(warp_transparency_setup *s, const warp_view *src, const warp_minmax_tree *tree,
                                       const warp_camera *dst_cam, warp_pose dst_pose, const warp_transparency_params *p)
 {
+    const char *bad = warp_poses_check(src->pose, dst_pose);
+    if (bad) return bad;
     if (!src->layers) return "transparency warp needs a layers plane";
     if (tree->w != src->cam.width || tree->h != src->cam.height || src->layers->w != tree->w ||
         src->layers->h != tree->h)
