@@ -8,6 +8,7 @@
 
 #include "sim/sim_internal.h"
 #include "sim/sim_scene.h"
+#include "warp/warp_srgb.h"
 
 #if defined(__SSE2__)
 #include <emmintrin.h>
@@ -806,10 +807,17 @@ void sim_render_rows(const sim_scene *s, double t, warp_pose eye, const warp_cam
                              * would hold without them */
                             float c[3] = {clampf(col.x[l], 0.0f, 1.0f), clampf(col.y[l], 0.0f, 1.0f),
                                           clampf(col.z[l], 0.0f, 1.0f)};
-                            /* "over", back to front (000 §4.2): straight-alpha fragments onto the opaque colour */
-                            for (int k = nf - 1; k >= 0; k--) {
-                                float a = fr[k].rgba[3];
-                                for (int i = 0; i < 3; i++) c[i] = clampf(fr[k].rgba[i], 0.0f, 1.0f) * a + c[i] * (1.0f - a);
+                            /* "over", back to front (000 §4.2): straight-alpha fragments onto the opaque colour,
+                             * in linear light as renderers blend (colours are sRGB-encoded; warp_transparency
+                             * un-blends and composites the same way) */
+                            if (nf > 0) {
+                                for (int i = 0; i < 3; i++) c[i] = warp_srgb_decode(c[i]);
+                                for (int k = nf - 1; k >= 0; k--) {
+                                    float a = fr[k].rgba[3];
+                                    for (int i = 0; i < 3; i++)
+                                        c[i] = warp_srgb_decode(fr[k].rgba[i]) * a + c[i] * (1.0f - a);
+                                }
+                                for (int i = 0; i < 3; i++) c[i] = warp_srgb_encode(c[i]);
                             }
                             warp_rgba8 px = {to_u8(c[0]), to_u8(c[1]), to_u8(c[2]), 255};
                             WARP_AT(&b->color, x, y) = px;

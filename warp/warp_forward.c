@@ -157,7 +157,8 @@ const char *warp_forward_prepare(warp_fwd_setup *s, const warp_view *src, const 
     if (src->color->w != src->cam.width || src->color->h != src->cam.height) return "source planes differ from camera";
     if (warp_camera_check(&src->cam)) return "source camera is not valid";
     if (warp_camera_check(dst_cam)) return "target camera is not valid";
-    if (!warp_pose_isfinite(src->pose) || !warp_pose_isfinite(dst_pose)) return "pose is not finite";
+    const char *bad = warp_poses_check(src->pose, dst_pose);
+    if (bad) return bad;
     if (p->vis != WARP_FWD_ZBUFFER && p->vis != WARP_FWD_SHEETS4 && p->vis != WARP_FWD_SHEETS8)
         return "unknown visibility mode";
     if (p->two_pass && p->bin_width < 1) return "two-pass bin width must be at least 1";

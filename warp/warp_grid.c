@@ -603,6 +603,8 @@ const char *warp_grid_warp_rows(const warp_grid *g, const warp_view *src, const 
                                 warp_pose dst_pose, const warp_grid_params *p, warp_image_rgba8 *dst,
                                 warp_image_f32 *dst_inv, warp_image_u8 *mask, int y0, int y1, warp_grid_stats *st)
 {
+    const char *bad = warp_poses_check(src->pose, dst_pose);
+    if (bad) return bad;
     if (!src->color || src->color->w != g->w || src->color->h != g->h) return "grid and source differ in size";
     if (dst->w != dst_cam->width || dst->h != dst_cam->height || dst_inv->w != dst->w || dst_inv->h != dst->h ||
         (mask && (mask->w != dst->w || mask->h != dst->h)))

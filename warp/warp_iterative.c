@@ -128,8 +128,10 @@ const char *warp_iter_prepare(warp_iter_ctx *c, const warp_view *src, const warp
     if (src->cam.width != w || src->cam.height != h) return "source camera differs from the context's source size";
     if (dst->cam.width != c->dst_w || dst->cam.height != c->dst_h) return "target camera differs from the context's size";
     if (warp_camera_check(&src->cam) || warp_camera_check(&dst->cam)) return "camera is not usable";
-    if (!warp_pose_isfinite(src->pose) || !warp_pose_isfinite(dst->pose) || !isfinite(dst->time) || !isfinite(src->time))
-        return "pose or time is not finite";
+    const char *bad = warp_poses_check(src->pose, dst->pose);
+    if (!bad) bad = warp_object_poses_check(src->object_pose, dst->object_pose, src->n_objects);
+    if (bad) return bad;
+    if (!isfinite(dst->time) || !isfinite(src->time)) return "source or target time is not finite";
     if (p->seeds < 1 || p->seeds > 1024) return "seed count N must be 1..1024";
     if (p->iters < 1 || p->iters > 256) return "iteration count T must be 1..256";
     if (!(p->tol > 0)) return "convergence tolerance must be positive";

@@ -187,6 +187,50 @@ warp_mat4 warp_pose_to_mat4(warp_pose a)
 
 bool warp_pose_isfinite(warp_pose a) { return warp_quat_isfinite(a.q) && warp_v3_isfinite(a.p); }
 
+/* One static message per role and fault, so the check formats nothing (warps report static strings). */
+enum { POSE_BAD_POSITION, POSE_BAD_ORIENT, POSE_ZERO_QUAT, POSE_NOT_UNIT, POSE_FAULTS };
+#define POSE_MSGS_(who)                                                                                                \
+    {who " pose: position is not finite", who " pose: orientation is not finite",                                   \
+     who " pose: orientation quaternion is zero",                                                                   \
+     who " pose: orientation is not a unit quaternion (|q| off 1 by more than 1e-3)"}
+static const char *const pose_msg[][POSE_FAULTS] = {
+    [WARP_POSE_SOURCE] = POSE_MSGS_("source"),
+    [WARP_POSE_TARGET] = POSE_MSGS_("target"),
+    [WARP_POSE_SOURCE_OBJECT] = POSE_MSGS_("source object"),
+    [WARP_POSE_TARGET_OBJECT] = POSE_MSGS_("target object"),
+};
+#undef POSE_MSGS_
+
+static const char *const *pose_msgs(warp_pose_role role)
+{
+    return pose_msg[role <= WARP_POSE_TARGET_OBJECT ? role : WARP_POSE_TARGET];
+}
+
+const char *warp_orientation_check(warp_quat q, warp_pose_role role)
+{
+    const char *const *m = pose_msgs(role);
+    if (!warp_quat_isfinite(q)) return m[POSE_BAD_ORIENT];
+    if (q.w == 0 && q.x == 0 && q.y == 0 && q.z == 0) return m[POSE_ZERO_QUAT];
+    if (!(fabs(warp_quat_norm(q) - 1.0) <= WARP_POSE_UNIT_TOL)) return m[POSE_NOT_UNIT];
+    return NULL;
+}
+
+const char *warp_pose_check(warp_pose p, warp_pose_role role)
+{
+    if (!warp_v3_isfinite(p.p)) return pose_msgs(role)[POSE_BAD_POSITION];
+    return warp_orientation_check(p.q, role);
+}
+
+const char *warp_object_poses_check(const warp_pose *src, const warp_pose *dst, int n)
+{
+    for (int i = 0; i < n; i++) {
+        const char *bad = src ? warp_pose_check(src[i], WARP_POSE_SOURCE_OBJECT) : NULL;
+        if (!bad && dst) bad = warp_pose_check(dst[i], WARP_POSE_TARGET_OBJECT);
+        if (bad) return bad;
+    }
+    return NULL;
+}
+
 warp_mat3 warp_mat3_identity(void)
 {
     warp_mat3 m = {{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}};

@@ -71,6 +71,30 @@ warp_pose warp_pose_relative(warp_pose a, warp_pose b);
 warp_mat4 warp_pose_to_mat4(warp_pose a);
 bool warp_pose_isfinite(warp_pose a);
 
+/* The one check every warp makes of the poses it is given (a NaN would otherwise reach ray arithmetic and index
+ * images at (int)NaN, and a non-unit quaternion would scale the scene: warp_quat_rotate assumes |q| = 1). Returns
+ * NULL when usable, else a static message naming the pose and what is wrong with it: "target pose: position is not
+ * finite", "... orientation is not finite", "... orientation quaternion is zero", "... orientation is not a unit
+ * quaternion". Unit within WARP_POSE_UNIT_TOL, as drv_frame_validate accepts a host's poses. */
+#define WARP_POSE_UNIT_TOL 1e-3
+typedef enum {
+    WARP_POSE_SOURCE,        /* the view's pose (world_from_eye at render time) */
+    WARP_POSE_TARGET,        /* the eye pose warped to */
+    WARP_POSE_SOURCE_OBJECT, /* an object's pose at render time */
+    WARP_POSE_TARGET_OBJECT, /* an object's pose at the target time */
+} warp_pose_role;
+const char *warp_pose_check(warp_pose p, warp_pose_role role);
+/* The orientation alone, for warps that use nothing else of a pose (rotation reprojection). */
+const char *warp_orientation_check(warp_quat q, warp_pose_role role);
+/* n object poses at render time (src) and at the target time (dst), either may be NULL: the first bad one. */
+const char *warp_object_poses_check(const warp_pose *src, const warp_pose *dst, int n);
+/* Source, then target: what a warp's entry calls, `const char *bad = warp_poses_check(src->pose, dst_pose);`. */
+static inline const char *warp_poses_check(warp_pose src, warp_pose dst)
+{
+    const char *bad = warp_pose_check(src, WARP_POSE_SOURCE);
+    return bad ? bad : warp_pose_check(dst, WARP_POSE_TARGET);
+}
+
 /* 3x3 and 4x4 matrices */
 warp_mat3 warp_mat3_identity(void);
 warp_mat3 warp_mat3_mul(const warp_mat3 *a, const warp_mat3 *b);

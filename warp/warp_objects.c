@@ -41,7 +41,7 @@ const char *warp_objects_prepare(warp_objects_setup *s, const warp_view *src, co
     s->n_moved = 0;
     for (int id = 1; id <= src->n_objects; id++) {
         warp_pose os = src->object_pose[id - 1], od = dst_object_pose ? dst_object_pose[id - 1] : os;
-        if (!warp_pose_isfinite(os) || !warp_pose_isfinite(od)) return "object pose is not finite";
+        if ((err = warp_object_poses_check(&os, &od, 1))) return err;
         warp_pose m = warp_object_eye_transform(src->pose, dst_pose, os, od);
         s->xf[id] = warp_fwd_xform_make(&src->cam, dst_cam, m);
         s->n_moved += od.p.x != os.p.x || od.p.y != os.p.y || od.p.z != os.p.z || od.q.w != os.q.w ||

@@ -20,6 +20,8 @@ warp_raytrace_params warp_raytrace_default_params(void)
 const char *warp_raytrace_prepare(warp_raytrace_setup *s, const warp_view *src, const warp_camera *dst_cam,
                                   warp_pose dst_pose, const warp_raytrace_params *p)
 {
+    const char *bad = warp_poses_check(src->pose, dst_pose);
+    if (bad) return bad;
     if (!src->inv_depth) return "raytrace warp needs a depth plane";
     if (!src->color) return "raytrace warp needs a colour plane";
     if (src->inv_depth->w != src->color->w || src->inv_depth->h != src->color->h)

@@ -13,6 +13,19 @@ warp_mat3 warp_reproject_homography(const warp_view *src, const warp_camera *dst
     return warp_rotation_homography(&src->cam, dst_cam, src_from_dst);
 }
 
+const char *warp_reproject_prepare(warp_mat3 *h, const warp_view *src, const warp_camera *dst_cam,
+                                   warp_quat dst_orient)
+{
+    const char *bad = warp_pose_check(src->pose, WARP_POSE_SOURCE);
+    if (!bad) bad = warp_orientation_check(dst_orient, WARP_POSE_TARGET);
+    if (bad) return bad;
+    if (!src->color) return "rotation warp needs a colour plane";
+    if (warp_camera_check(&src->cam)) return "source camera is not valid";
+    if (warp_camera_check(dst_cam)) return "target camera is not valid";
+    *h = warp_reproject_homography(src, dst_cam, dst_orient);
+    return NULL;
+}
+
 long warp_reproject_rows(const warp_view *src, const warp_mat3 *h, warp_image_rgba8 *dst, warp_image_u8 *mask,
                          int y0, int y1)
 {

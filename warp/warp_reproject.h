@@ -11,6 +11,11 @@
 /* Homography for warping `src` to a target eye with orientation dst_orient seen through dst_cam: maps target
  * pixels (homogeneous, centres at +0.5) to source pixels. Uses only the orientations of the two poses. */
 warp_mat3 warp_reproject_homography(const warp_view *src, const warp_camera *dst_cam, warp_quat dst_orient);
+/* The same after checking what it uses: the source's pose (a view whose position is not finite is a broken frame,
+ * though rotation ignores positions), the target orientation and both cameras. NULL and *h set when usable, else a
+ * static string naming what is wrong (a NaN orientation would otherwise give an all-fringe image without a word). */
+const char *warp_reproject_prepare(warp_mat3 *h, const warp_view *src, const warp_camera *dst_cam,
+                                   warp_quat dst_orient);
 
 /* Writes rows [y0, y1) of dst (dst->w x dst->h must equal dst_cam's size) through homography h. Pixels whose
  * source position falls outside the source image, or behind it, are filled by clamping to the border (003 §4.3)

@@ -6,11 +6,18 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "warp/warp_srgb.h"
+
 /* Geometry of one ray. The target pixel's ray, at target inverse depth d, has the source homogeneous position
  * H(d) = d * ka + b (ka = K_src * eye, b = K_src * R * (u, v, -1)): source pixel H.xy / H.w, source inverse depth
  * D = d / H.w. Between two such points the source pixel moves on a straight line and D is affine along it (inverse
  * depth is affine in screen space along a ray), so the ray is a 2D segment S(s) = Sa + s (Sb - Sa) with
- * D(s) = Da + s (Db - Da), s in [0, 1], from the target's near plane (s = 0) to the warped opaque surface (s = 1). */
+ * D(s) = Da + s (Db - Da), s in [0, 1], from the target's near plane (s = 0) to the warped opaque surface (s = 1).
+ *
+ * Colours are 8-bit sRGB; "over" is applied to linear light, as renderers blend (a blend of the encoded values is
+ * darker at partial coverage, so un-blending a renderer's image that way leaves opaque values outside 0..255 and
+ * the identity warp does not give its input back, issue #21). Codes decode by a table; the result encodes exactly. */
+static inline float lin(uint8_t c) { return warp_srgb_to_linear_u8[c]; }
 
 warp_transparency_params warp_transparency_default_params(void)
 {
@@ -98,6 +105,8 @@ long warp_minmax_build(warp_minmax_tree *t, const warp_image_layers *l)
 const char *warp_transparency_prepare(warp_transparency_setup *s, const warp_view *src, const warp_minmax_tree *tree,
                                       const warp_camera *dst_cam, warp_pose dst_pose, const warp_transparency_params *p)
 {
+    const char *bad = warp_poses_check(src->pose, dst_pose);
+    if (bad) return bad;
     if (!src->layers) return "transparency warp needs a layers plane";
     if (tree->w != src->cam.width || tree->h != src->cam.height || src->layers->w != tree->w ||
         src->layers->h != tree->h)
@@ -233,8 +242,8 @@ static warp_rgba8 cast(const warp_transparency_setup *s, double px, double py, d
                 if (last_d > 0 && fabs(hs[q].d - last_d) <= th * (hs[q].d + last_d)) continue;
                 last_d = hs[q].d;
                 const warp_rgba8 cf = hs[q].f->rgba;
-                float a = cf.a * (1.0f / 255.0f), wgt = trans * a * (1.0f / 255.0f);
-                acc[0] += wgt * cf.r, acc[1] += wgt * cf.g, acc[2] += wgt * cf.b;
+                float a = cf.a * (1.0f / 255.0f), wgt = trans * a;
+                acc[0] += wgt * lin(cf.r), acc[1] += wgt * lin(cf.g), acc[2] += wgt * lin(cf.b);
                 trans *= 1.0f - a;
                 composited++;
                 if (1.0f - trans >= s->p.opacity_threshold) break;
@@ -262,12 +271,10 @@ static warp_rgba8 cast(const warp_transparency_setup *s, double px, double py, d
         st->rays_hit += composited > 0;
     }
     if (!composited) return opaque;
-    float o[3] = {acc[0] + trans * opaque.r * (1.0f / 255.0f), acc[1] + trans * opaque.g * (1.0f / 255.0f),
-                  acc[2] + trans * opaque.b * (1.0f / 255.0f)};
     warp_rgba8 r;
-    r.r = (uint8_t)(fminf(fmaxf(o[0], 0.0f), 1.0f) * 255.0f + 0.5f);
-    r.g = (uint8_t)(fminf(fmaxf(o[1], 0.0f), 1.0f) * 255.0f + 0.5f);
-    r.b = (uint8_t)(fminf(fmaxf(o[2], 0.0f), 1.0f) * 255.0f + 0.5f);
+    r.r = warp_srgb_from_linear_u8(acc[0] + trans * lin(opaque.r));
+    r.g = warp_srgb_from_linear_u8(acc[1] + trans * lin(opaque.g));
+    r.b = warp_srgb_from_linear_u8(acc[2] + trans * lin(opaque.b));
     r.a = 255;
     return r;
 }
@@ -323,19 +330,19 @@ long warp_transparency_unblend(const warp_image_rgba8 *blended, const warp_image
             size_t pix = (size_t)y * (size_t)l->w + (size_t)x;
             int n = l->count[pix] < l->max_layers ? l->count[pix] : l->max_layers;
             float acc[3] = {0, 0, 0}, trans = 1.0f;
-            for (int k = 0; k < n; k++) { /* front to back: blended = acc + trans * opaque */
+            for (int k = 0; k < n; k++) { /* front to back, in linear light: blended = acc + trans * opaque */
                 warp_rgba8 f = l->frag[pix * (size_t)l->max_layers + (size_t)k].rgba;
                 float a = f.a * (1.0f / 255.0f);
-                acc[0] += trans * a * f.r, acc[1] += trans * a * f.g, acc[2] += trans * a * f.b;
+                acc[0] += trans * a * lin(f.r), acc[1] += trans * a * lin(f.g), acc[2] += trans * a * lin(f.b);
                 trans *= 1.0f - a;
             }
             if (n > 0 && trans < 0.02f) {
                 lost++;
             } else if (n > 0) {
-                float r = (c.r - acc[0]) / trans, g = (c.g - acc[1]) / trans, b = (c.b - acc[2]) / trans;
-                c.r = (uint8_t)(fminf(fmaxf(r, 0.0f), 255.0f) + 0.5f);
-                c.g = (uint8_t)(fminf(fmaxf(g, 0.0f), 255.0f) + 0.5f);
-                c.b = (uint8_t)(fminf(fmaxf(b, 0.0f), 255.0f) + 0.5f);
+                float it = 1.0f / trans; /* the encoder clamps to [0, 1] */
+                c.r = warp_srgb_from_linear_u8((lin(c.r) - acc[0]) * it);
+                c.g = warp_srgb_from_linear_u8((lin(c.g) - acc[1]) * it);
+                c.b = warp_srgb_from_linear_u8((lin(c.b) - acc[2]) * it);
             }
             WARP_AT(opaque, x, y) = c;
         }

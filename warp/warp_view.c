@@ -8,8 +8,9 @@
 long warp_inverse_depth_from(const warp_camera *cam, warp_depth_encoding enc, const warp_image_f32 *depth,
                              warp_image_f32 *inv, float *inv_min, float *inv_max)
 {
-    /* Allow a little slack past the near plane: renderers clip at near, rounding may land just inside it. */
-    const double limit = 1.0001 / cam->near_z;
+    /* Depth nearer than the near plane (a renderer's rounding, or one whose near plane is nearer than the camera's)
+     * is a surface at least that near: clamped to near it stays the nearest thing in view and occludes as it should;
+     * written as sky (0) it would vanish behind everything and show what is behind it through it (issue #21). */
     const double in = 1.0 / cam->near_z, inf = 1.0 / cam->far_z;
     /* Affine map d -> 1/z for the window-depth encodings (see warp_depth_to_inverse). */
     double a = 0, b = 0;
@@ -26,7 +27,8 @@ long warp_inverse_depth_from(const warp_camera *cam, warp_depth_encoding enc, co
                 v = d > 0 ? 1.0 / d : NAN; /* +INF -> 0: sky */
             else
                 v = (d >= 0 && d <= 1) ? a + b * d : NAN;
-            if (!(v >= 0 && v <= limit)) {
+            if (v > in) v = in;
+            if (!(v >= 0)) {
                 bad++;
                 v = 0;
             }

@@ -23,9 +23,10 @@ typedef struct {
     double time;                     /* scene time the view shows, seconds (object-motion extrapolation) */
 } warp_view;
 
-/* Converts a depth plane in encoding `enc` into inverse depth and reports its range. Values that are NaN,
- * negative or beyond the near plane's inverse depth are written as 0 (sky) and counted: the return value is the
- * number of such bad values, so the caller can reject the frame (a frame with bad depth is not warped). */
+/* Converts a depth plane in encoding `enc` into inverse depth and reports its range. Depth nearer than the near
+ * plane is taken as the near plane. Values that are NaN, zero or negative (linear), or outside [0, 1] (window depth)
+ * are written as 0 (sky) and counted: the return value is the number of such bad values, so the caller can reject
+ * the frame (a frame with bad depth is not warped). */
 long warp_inverse_depth_from(const warp_camera *cam, warp_depth_encoding enc, const warp_image_f32 *depth,
                              warp_image_f32 *inv, float *inv_min, float *inv_max);
 

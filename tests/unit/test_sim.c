@@ -13,6 +13,7 @@
 #include "tests/support/test_util.h"
 #include "warp/warp_camera.h"
 #include "warp/warp_math.h"
+#include "warp/warp_srgb.h"
 
 #define DEG (WARP_PI / 180.0)
 #define ALL_PLANES (SIM_PLANE_COLOR | SIM_PLANE_DEPTH | SIM_PLANE_IDS | SIM_PLANE_MOTION | SIM_PLANE_LAYERS)
@@ -524,14 +525,17 @@ static void test_layers_and_blend(void **state)
             /* truncation keeps the nearest ones, the colour still blends all of them */
             assert_memory_equal(f, &g2.layers.frag[i * 2], (size_t)n2 * sizeof(warp_fragment));
             assert_memory_equal(&WARP_AT(&g4.color, x, y), &WARP_AT(&g2.color, x, y), 4);
-            /* depth and opaque colour are the room's: the panes are blended "over" it, back to front */
+            /* depth and opaque colour are the room's: the panes are blended "over" it, back to front, in linear
+             * light (issue #21: as renderers blend, and as warp_transparency un-blends) */
             assert_true(WARP_AT(&g4.depth, x, y) == WARP_AT(&room.depth, x, y));
             warp_rgba8 o = WARP_AT(&room.color, x, y), got = WARP_AT(&g4.color, x, y);
-            double cc[3] = {o.r, o.g, o.b};
+            const float *lin = warp_srgb_to_linear_u8;
+            double cc[3] = {lin[o.r], lin[o.g], lin[o.b]};
             for (int k = n4 - 1; k >= 0; k--) {
-                double a = f[k].rgba.a / 255.0, fc[3] = {f[k].rgba.r, f[k].rgba.g, f[k].rgba.b};
+                double a = f[k].rgba.a / 255.0, fc[3] = {lin[f[k].rgba.r], lin[f[k].rgba.g], lin[f[k].rgba.b]};
                 for (int ch = 0; ch < 3; ch++) cc[ch] = a * fc[ch] + (1 - a) * cc[ch];
             }
+            for (int ch = 0; ch < 3; ch++) cc[ch] = 255.0 * warp_srgb_encode((float)cc[ch]);
             assert_true(fabs(cc[0] - got.r) <= 2.0 && fabs(cc[1] - got.g) <= 2.0 && fabs(cc[2] - got.b) <= 2.0);
             if (n4 == 0) assert_memory_equal(&o, &got, 4);
         }

@@ -191,7 +191,31 @@ static void test_declared_sizes_bounded(void **state)
     fclose(f);
     snprintf(args, sizeof args, "--color %s/in/color.png --view %s", dir, view);
     assert_int_equal(run(args, out, sizeof out), 1);
-    assert_non_null(strstr(out, ":3: cannot read the values of 'source'"));
+    assert_non_null(strstr(out, ":3: 'source': x is not finite"));
+    /* each bad field is named (issue #21), the zero quaternion apart from an unreadable line */
+    const struct {
+        const char *text, *want;
+    } bad[] = {
+        {"size 160 120\nintrinsics 80 75 80 60\nsource 1 0 0 0 0 0 0\ntarget 1 0 0 0 0 -inf 0\n",
+         ":4: 'target': y is not finite"},
+        {"size 160 120\nintrinsics 80 75 80 60\nsource 0 0 0 0 0 1.6 0\ntarget 1 0 0 0 0 0 0\n",
+         ":3: 'source': orientation quaternion qw qx qy qz is zero"},
+        {"size 160 120\nintrinsics 80 75 80 60\nsource 1 nan 0 0 0 1.6 0\ntarget 1 0 0 0 0 0 0\n",
+         ":3: 'source': qx is not finite"},
+        {"size 160 120\nintrinsics 80 75 nan 60\nsource 1 0 0 0 0 0 0\ntarget 1 0 0 0 0 0 0\n",
+         ":2: 'intrinsics': fx fy cx cy must be finite numbers"},
+        {"size 160 120\ntan 1 inf 0.75 0.75\nsource 1 0 0 0 0 0 0\ntarget 1 0 0 0 0 0 0\n",
+         ":2: 'tan': the tangents must be finite numbers"},
+        {"size 160 120\nnear nan\ntan 1 1 0.75 0.75\nsource 1 0 0 0 0 0 0\ntarget 1 0 0 0 0 0 0\n",
+         ":2: 'near': near must be a finite number"},
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        f = fopen(view, "w");
+        fputs(bad[i].text, f);
+        fclose(f);
+        assert_int_equal(run(args, out, sizeof out), 1);
+        if (!strstr(out, bad[i].want)) fail_msg("case %zu: want '%s', got '%s'", i, bad[i].want, out);
+    }
     /* a comment line longer than the reader's buffer: named, not read in pieces with shifted line numbers */
     f = fopen(view, "w");
     fprintf(f, "size 160 120\n# %0600d\nintrinsics 80 75 80 60\nsource 1 0 0 0 0 0 0\ntarget 1 0 0 0 0 0 0\n", 0);

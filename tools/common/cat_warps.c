@@ -70,7 +70,8 @@ static const char *reproject(warp_method m, const warp_view *src, const warp_cam
 {
     const char *why = cat_check_params(m, params);
     if (why) return why;
-    warp_mat3 h = warp_reproject_homography(src, dst_cam, q);
+    warp_mat3 h;
+    if ((why = warp_reproject_prepare(&h, src, dst_cam, q))) return why;
     warp_reproject_rows(src, &h, dst, mask, 0, dst->h);
     st->primitives = -1;
     st->samples = samples;

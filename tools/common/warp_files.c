@@ -24,28 +24,34 @@ static long long bytes_left(FILE *f)
 
 /* ---- the view file ---- */
 
-bool warpfile_parse_pose(const char *s, double tol, warp_pose *p, int *used)
+const char *warpfile_parse_pose(const char *s, double tol, warp_pose *p, int *used)
 {
+    /* sscanf reads "nan" and "inf" as numbers: each is named, as the warps would reject the pose without the field */
+    static const char *const not_finite[7] = {"qw is not finite", "qx is not finite", "qy is not finite",
+                                              "qz is not finite", "x is not finite",  "y is not finite",
+                                              "z is not finite"};
     double v[7];
     int n = 0;
     if (sscanf(s, "%lf %lf %lf %lf %lf %lf %lf%n", &v[0], &v[1], &v[2], &v[3], &v[4], &v[5], &v[6], &n) != 7)
-        return false;
-    /* A NaN or infinite position would reach the warps' ray arithmetic unchecked. */
+        return "expected 7 numbers: qw qx qy qz x y z";
     for (int i = 0; i < 7; i++)
-        if (!isfinite(v[i])) return false;
+        if (!isfinite(v[i])) return not_finite[i];
     warp_quat q = {v[0], v[1], v[2], v[3]};
+    if (q.w == 0 && q.x == 0 && q.y == 0 && q.z == 0) return "orientation quaternion qw qx qy qz is zero";
     double len = sqrt(q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z);
-    if (tol >= 0 && fabs(len - 1) > tol) return false;
-    if (!warp_quat_normalize(q, &p->q)) return false;
+    if (tol >= 0 && fabs(len - 1) > tol) return "orientation quaternion qw qx qy qz is not of unit length";
+    if (!warp_quat_normalize(q, &p->q)) return "orientation quaternion qw qx qy qz is too short to normalise";
     p->p = warp_v3(v[4], v[5], v[6]);
     if (used) *used = n;
-    return true;
+    return NULL;
 }
 
-static bool read_pose(const char *rest, warp_pose *p)
+/* Every number of the camera keys must be finite; far alone may be "inf" (no far plane). */
+static bool all_finite(const double *v, int n)
 {
-    int used;
-    return warpfile_parse_pose(rest, -1, p, &used);
+    for (int i = 0; i < n; i++)
+        if (!isfinite(v[i])) return false;
+    return true;
 }
 
 bool warpfile_load_view(const char *path, warpfile_view *vf, char *err, int errlen)
@@ -74,31 +80,44 @@ bool warpfile_load_view(const char *path, warpfile_view *vf, char *err, int errl
         if (sscanf(s, "%31s %n", key, &used) != 1) continue;
         const char *rest = s + used;
         bool ok = true;
+        const char *why = NULL; /* what is wrong with the values, when more than "cannot read" can be said */
+        int used2;
         if (strcmp(key, "size") == 0) {
             ok = sscanf(rest, "%6d %6d", &vf->cam.width, &vf->cam.height) == 2; /* 6 digits: no int overflow */
             have_size = ok;
         } else if (strcmp(key, "tan") == 0) {
-            ok = sscanf(rest, "%lf %lf %lf %lf", &vf->cam.tan_left, &vf->cam.tan_right, &vf->cam.tan_up,
-                        &vf->cam.tan_down) == 4;
+            double t[4];
+            ok = sscanf(rest, "%lf %lf %lf %lf", &t[0], &t[1], &t[2], &t[3]) == 4;
+            if (ok && !all_finite(t, 4)) why = "the tangents must be finite numbers";
+            vf->cam.tan_left = t[0], vf->cam.tan_right = t[1], vf->cam.tan_up = t[2], vf->cam.tan_down = t[3];
             have_proj = ok;
         } else if (strcmp(key, "intrinsics") == 0) {
-            ok = sscanf(rest, "%lf %lf %lf %lf", &fx, &fy, &cx, &cy) == 4 && fx > 0 && fy > 0;
+            double k[4];
+            ok = sscanf(rest, "%lf %lf %lf %lf", &k[0], &k[1], &k[2], &k[3]) == 4;
+            if (ok && !all_finite(k, 4)) why = "fx fy cx cy must be finite numbers";
+            else if (ok && !(k[0] > 0 && k[1] > 0)) why = "fx and fy must be positive";
+            fx = k[0], fy = k[1], cx = k[2], cy = k[3];
             have_proj = intr = ok;
         } else if (strcmp(key, "near") == 0) {
             ok = sscanf(rest, "%lf", &vf->cam.near_z) == 1;
+            if (ok && !isfinite(vf->cam.near_z)) why = "near must be a finite number";
         } else if (strcmp(key, "far") == 0) {
             ok = sscanf(rest, "%lf", &vf->cam.far_z) == 1; /* "inf" parses as infinity */
+            if (ok && isnan(vf->cam.far_z)) why = "far must be a number (inf: no far plane)";
         } else if (strcmp(key, "source") == 0) {
-            ok = have_src = read_pose(rest, &vf->src);
+            why = warpfile_parse_pose(rest, -1, &vf->src, &used2);
+            have_src = !why;
         } else if (strcmp(key, "target") == 0) {
-            ok = have_dst = read_pose(rest, &vf->dst);
+            why = warpfile_parse_pose(rest, -1, &vf->dst, &used2);
+            have_dst = !why;
         } else {
             fclose(f);
             return warp_err(err, errlen, "%s:%d: unknown key '%s' (size, tan, intrinsics, near, far, source, "
                             "target)", path, n, key);
         }
-        if (!ok) {
+        if (!ok || why) {
             fclose(f);
+            if (why) return warp_err(err, errlen, "%s:%d: '%s': %s", path, n, key, why);
             return warp_err(err, errlen, "%s:%d: cannot read the values of '%s'", path, n, key);
         }
     }
@@ -410,17 +429,18 @@ bool warpfile_load_objects(const char *path, warpfile_objects *o, char *err, int
         }
         const char *rest = s + 6 + used;
         int u2 = 0;
-        if (!warpfile_parse_pose(rest, UNIT_TOL, &o->src[id - 1], &u2)) {
-            ok = warp_err(err, errlen, "%s:%d: object %d: source pose: expected qw qx qy qz x y z, finite, a unit "
-                          "quaternion", path, n, id);
+        const char *why = warpfile_parse_pose(rest, UNIT_TOL, &o->src[id - 1], &u2);
+        if (why) {
+            ok = warp_err(err, errlen, "%s:%d: object %d: source pose: %s (expected qw qx qy qz x y z, a unit "
+                          "quaternion)", path, n, id, why);
             break;
         }
         rest += u2;
         rest += strspn(rest, " \t\r");
         if (*rest && *rest != '\n' && *rest != '#') {
-            if (!warpfile_parse_pose(rest, UNIT_TOL, &o->dst[id - 1], &u2)) {
-                ok = warp_err(err, errlen, "%s:%d: object %d: target pose: expected qw qx qy qz x y z, finite, a unit "
-                              "quaternion", path, n, id);
+            if ((why = warpfile_parse_pose(rest, UNIT_TOL, &o->dst[id - 1], &u2))) {
+                ok = warp_err(err, errlen, "%s:%d: object %d: target pose: %s (expected qw qx qy qz x y z, a unit "
+                              "quaternion)", path, n, id, why);
                 break;
             }
             rest += u2;

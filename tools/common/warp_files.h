@@ -62,8 +62,9 @@ bool warpfile_load_objects(const char *path, warpfile_objects *o, char *err, int
 /* dst may be NULL (source poses only). */
 bool warpfile_write_objects(const char *path, int n, const warp_pose *src, const warp_pose *dst);
 
-/* A pose from 7 numbers "qw qx qy qz x y z": false when fewer, not finite, or the quaternion's length is off 1 by
- * more than tol (tol < 0: any non-zero length); the quaternion is normalised. *used: characters read. */
-bool warpfile_parse_pose(const char *s, double tol, warp_pose *p, int *used);
+/* A pose from 7 numbers "qw qx qy qz x y z"; the quaternion is normalised. NULL when read, else a static message
+ * naming what is wrong: fewer numbers, the first one that is not finite ("x is not finite"), a zero quaternion, or a
+ * quaternion whose length is off 1 by more than tol (tol < 0: any non-zero length). *used: characters read. */
+const char *warpfile_parse_pose(const char *s, double tol, warp_pose *p, int *used);
 
 #endif

@@ -280,7 +280,7 @@ int main(int argc, char **argv)
     if (have_depth) {
         if (!warp_image_f32_alloc(&inv, vf.cam.width, vf.cam.height)) return fail_msg("out of memory");
         long bad = warp_inverse_depth_from(&vf.cam, enc, &depth, &inv, &v.inv_depth_min, &v.inv_depth_max);
-        if (bad) fprintf(stderr, "hmdwarp-warp: %ld depth values were NaN, negative or nearer than 'near': taken as sky\n", bad);
+        if (bad) fprintf(stderr, "hmdwarp-warp: %ld depth values were NaN, zero or negative: taken as sky\n", bad);
         v.inv_depth = &inv;
     }
     if ((w->needs & CAT_NEEDS_DEPTH) && !v.inv_depth) return fail_msg("this warp needs --depth");
