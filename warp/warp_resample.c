@@ -487,7 +487,7 @@ AVX512 static void kernel_avx512(const warp_planar3 *s, const warp_mesh *m, cons
 }
 #endif
 
-static warp_resample_kernel_id forced;
+static warp_resample_kernel_id forced, auto_choice;
 
 bool warp_resample_kernel_available(warp_resample_kernel_id k)
 {
@@ -514,29 +514,52 @@ bool warp_resample_force_kernel(warp_resample_kernel_id k)
     return true;
 }
 
+warp_resample_kernel_id warp_resample_forced_kernel(void) { return forced; }
+
 void warp_resample_force_scalar(bool force) { forced = force ? WARP_RESAMPLE_SCALAR : WARP_RESAMPLE_AUTO; }
+
+warp_resample_kernel_id warp_resample_kernel_widest(void)
+{
+    for (int k = WARP_RESAMPLE_KERNELS - 1; k > WARP_RESAMPLE_VECTOR; k--)
+        if (warp_resample_kernel_available((warp_resample_kernel_id)k)) return (warp_resample_kernel_id)k;
+    return WARP_RESAMPLE_VECTOR;
+}
+
+warp_resample_kernel_id warp_resample_kernel_pick(const double ms[WARP_RESAMPLE_KERNELS],
+                                                  const bool usable[WARP_RESAMPLE_KERNELS])
+{
+    double best = 0;
+    for (int k = WARP_RESAMPLE_SCALAR; k < WARP_RESAMPLE_KERNELS; k++)
+        if (usable[k] && ms[k] > 0 && (best == 0 || ms[k] < best)) best = ms[k]; /* NaN compares false */
+    if (best == 0) return warp_resample_kernel_widest();
+    /* one pass from the narrowest: the first within the tie margin of the fastest (not pairwise, which would
+     * not be transitive) */
+    for (int k = WARP_RESAMPLE_SCALAR; k < WARP_RESAMPLE_KERNELS; k++)
+        if (usable[k] && ms[k] > 0 && ms[k] <= best * (1 + WARP_RESAMPLE_PICK_TIE)) return (warp_resample_kernel_id)k;
+    return warp_resample_kernel_widest(); /* not reached */
+}
+
+bool warp_resample_set_auto(warp_resample_kernel_id k)
+{
+    if (!warp_resample_kernel_available(k)) return false;
+    auto_choice = k;
+    return true;
+}
 
 static warp_resample_kernel_id kernel_in_use(void)
 {
     if (forced != WARP_RESAMPLE_AUTO) return forced;
-    if (warp_resample_kernel_available(WARP_RESAMPLE_AVX512)) return WARP_RESAMPLE_AVX512;
-    if (warp_resample_kernel_available(WARP_RESAMPLE_AVX2)) return WARP_RESAMPLE_AVX2;
-    return WARP_RESAMPLE_VECTOR;
+    if (auto_choice != WARP_RESAMPLE_AUTO) return auto_choice;
+    return warp_resample_kernel_widest();
 }
 
-const char *warp_resample_kernel(void)
+const char *warp_resample_kernel_name(warp_resample_kernel_id k)
 {
-    switch (kernel_in_use()) {
-    case WARP_RESAMPLE_AVX512:
-        return "avx512";
-    case WARP_RESAMPLE_AVX2:
-        return "avx2";
-    case WARP_RESAMPLE_VECTOR:
-        return "vector";
-    default:
-        return "scalar";
-    }
+    static const char *const names[WARP_RESAMPLE_KERNELS] = {"auto", "scalar", "vector", "avx2", "avx512"};
+    return k >= 0 && k < WARP_RESAMPLE_KERNELS ? names[k] : "?";
 }
+
+const char *warp_resample_kernel(void) { return warp_resample_kernel_name(kernel_in_use()); }
 
 typedef void kernel_fn(const warp_planar3 *s, const warp_mesh *m, const row_table *t, int x0, int x1,
                        warp_rgba8 *row);
