@@ -561,6 +561,15 @@ const char *warp_resample_kernel_name(warp_resample_kernel_id k)
 
 const char *warp_resample_kernel(void) { return warp_resample_kernel_name(kernel_in_use()); }
 
+/* row[x0, x1) = opaque black, four pixels a store: the hidden-area mask covers a third of a wide-FOV lens's
+ * viewport, and pixel by pixel it took a tenth of the resample's time. */
+static inline void fill_black(warp_rgba8 *row, int x0, int x1, v4u black)
+{
+    int x = x0;
+    for (; x + 4 <= x1; x += 4) memcpy(&row[x], &black, sizeof black);
+    for (; x < x1; x++) row[x] = (warp_rgba8){0, 0, 0, 255};
+}
+
 typedef void kernel_fn(const warp_planar3 *s, const warp_mesh *m, const row_table *t, int x0, int x1,
                        warp_rgba8 *row);
 
@@ -593,11 +602,11 @@ void warp_mesh_resample(const warp_mesh *m, const warp_planar3 *src, warp_image_
     }
     const int cw = m->cell_w;
     row_table t;
+    const v4u black = (v4u){0} + 0xff000000u;
     /* strips of at most STRIP_CELLS cells */
     for (int sx0 = x0; sx0 < x1;) {
         const int ia = sx0 / cw;
         const int sx1 = (ia + STRIP_CELLS) * cw < x1 ? (ia + STRIP_CELLS) * cw : x1;
-        const int ib = (sx1 - 1) / cw;
         for (int y = y0; y < y1; y++) {
             warp_rgba8 *row = &WARP_AT(dst, m->vp_x, m->vp_y + y);
             int lo = sx0, hi = sx1;
@@ -606,11 +615,12 @@ void warp_mesh_resample(const warp_mesh *m, const warp_planar3 *src, warp_image_
                 const int v0 = m->visible[2 * y], v1 = m->visible[2 * y + 1];
                 lo = v0 > sx0 ? (v0 < sx1 ? v0 : sx1) : sx0;
                 hi = v1 < sx1 ? (v1 > lo ? v1 : lo) : sx1;
-                for (int x = sx0; x < lo; x++) row[x] = (warp_rgba8){0, 0, 0, 255};
-                for (int x = hi; x < sx1; x++) row[x] = (warp_rgba8){0, 0, 0, 255};
+                fill_black(row, sx0, lo, black);
+                fill_black(row, hi, sx1, black);
                 if (lo >= hi) continue;
             }
-            build(&t, m, y, ia, ib);
+            /* the visible cells only: the rest of the strip is not sampled */
+            build(&t, m, y, lo / cw, (hi - 1) / cw);
             kernel(src, m, &t, lo, hi, row);
         }
         sx0 = sx1;
