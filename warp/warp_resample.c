@@ -168,8 +168,10 @@ static void kernel_scalar(const warp_planar3 *s, const warp_mesh *m, const row_t
  * AVX2 kernel loses a third of its speed without the prefetch, and fetching 12 row pairs ahead instead of 3
  * took another 11 % off on one thread and 6 % on two (6 to 16 were alike; taller tiles did not help); the
  * portable kernel, which had no prefetch, got 21 % faster on one thread and 26 % on two with it there (as SSE;
- * not yet measured as NEON on a board). */
-#define PREFETCH_ROWS 3
+ * not yet measured as NEON on a board). On a 2-core EPYC with AVX-512 (a VM, 1 MB L2 per core) the AVX-512
+ * kernel at 3 row pairs was 17 % slower at 1440x1600 than at 12 (one eye on one thread 4.9 against 4.1 ms, both
+ * eyes on two 10.3 against 8.6), and 20 to 32 were within the noise of 12; at 720x800 (whose source stays in
+ * the caches) all were alike: it uses the far distance too. */
 #define PREFETCH_ROWS_FAR 12
 
 /* The portable SIMD kernel: 4-pixel groups in GCC/clang vector extensions, the width of NEON on the aarch64
@@ -368,7 +370,7 @@ AVX512_INLINE static inline void a512_position(const a512_ctx *k, int c, __m512i
     const uint32_t o = (uint32_t)_mm_cvtsi128_si32(_mm512_castsi512_si128(org));
     const int yb = (int)(o >> 16), xb = (int)(o & 0xffff);
     p->win = s->plane[c] + (size_t)yb * (size_t)s->stride + (size_t)xb;
-    const int ypf = yb + PREFETCH_ROWS < s->h ? yb + PREFETCH_ROWS : s->h;
+    const int ypf = yb + PREFETCH_ROWS_FAR < s->h ? yb + PREFETCH_ROWS_FAR : s->h;
     const char *pf = (const char *)(s->plane[c] + (size_t)ypf * (size_t)s->stride + (size_t)xb);
     _mm_prefetch(pf, _MM_HINT_T0);
     _mm_prefetch(pf + 63, _MM_HINT_T0);
