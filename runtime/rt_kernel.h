@@ -19,7 +19,8 @@ typedef struct {
 
 /* Times the kernels on eye 0 of c's panel, lens, lens mesh and eye buffer, warped by a 5 deg yaw, in the render
  * pass's tiles on the calling thread (its CPU time: a busy machine's preemption does not count), and fills *out.
- * Start-up only: it allocates, and takes some 5 to 50 ms on a PC. False (the reason in err) when out of memory. */
+ * Start-up only: it allocates, and takes some 15 to 30 ms on a PC (1440x1600 eyes), about a second under qemu-user.
+ * False (the reason in err) when out of memory. */
 bool rt_kernel_measure(const rt_config *c, rt_kernel_choice *out, char *err, int errlen);
 
 #endif
