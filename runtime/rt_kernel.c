@@ -122,8 +122,10 @@ bool rt_kernel_measure(const rt_config *c, rt_kernel_choice *out, char *err, int
     for (int k = WARP_RESAMPLE_KERNELS - 1; k >= WARP_RESAMPLE_SCALAR; k--)
         if (k != (int)out->picked && out->usable[k] && n < (int)sizeof out->why) {
             const char *name = warp_resample_kernel_name((warp_resample_kernel_id)k);
-            n += out->ms[k] > 0 ? snprintf(out->why + n, sizeof out->why - (size_t)n, "%s%s %.2f ms", sep, name, out->ms[k])
-                                : snprintf(out->why + n, sizeof out->why - (size_t)n, "%s%s > %.0fx", sep, name, CUTOFF);
+            char *at = out->why + n;
+            const size_t left = sizeof out->why - (size_t)n;
+            n += out->ms[k] > 0 ? snprintf(at, left, "%s%s %.2f ms", sep, name, out->ms[k])
+                                : snprintf(at, left, "%s%s > %.0fx", sep, name, CUTOFF);
             sep = ", ";
         }
     if (n < (int)sizeof out->why) snprintf(out->why + n, sizeof out->why - (size_t)n, " for one eye on one thread");

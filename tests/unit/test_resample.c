@@ -419,7 +419,8 @@ static void test_kernel_pick_by_measurement(void **state)
     assert_string_equal(warp_resample_kernel(), "scalar");
     assert_true(warp_resample_force_kernel(WARP_RESAMPLE_AUTO));
     assert_string_equal(warp_resample_kernel(), "vector");
-    if (!warp_resample_kernel_available(WARP_RESAMPLE_AVX512)) assert_false(warp_resample_set_auto(WARP_RESAMPLE_AVX512));
+    if (!warp_resample_kernel_available(WARP_RESAMPLE_AVX512))
+        assert_false(warp_resample_set_auto(WARP_RESAMPLE_AVX512));
     assert_true(warp_resample_set_auto(WARP_RESAMPLE_AUTO));
     assert_string_equal(warp_resample_kernel(), warp_resample_kernel_name(warp_resample_kernel_widest()));
 }
