@@ -21,6 +21,7 @@
 #include "runtime/rt_compositor.h"
 #include "runtime/rt_csv.h"
 #include "runtime/rt_gles.h"
+#include "runtime/rt_kernel.h"
 #include "runtime/rt_live.h"
 #include "runtime/rt_pacer.h"
 #include "runtime/rt_simboard.h"
@@ -72,6 +73,14 @@ static bool render_init(rt_app *a, char *err, int errlen)
     if (!warp_resample_force_kernel((warp_resample_kernel_id)c->kernel))
         return warp_err(err, errlen, "[render] kernel = %s: this build or CPU cannot run it",
                         rt_kernel_name(c->kernel));
+    if (c->kernel == WARP_RESAMPLE_AUTO) {
+        /* the fastest by measurement, not the widest the CPU flags allow (on a Zen 5 AVX2 beat AVX-512); GLES
+         * runs may fall back to the CPU pass, so they choose too; the summary says which and why */
+        rt_kernel_choice kc;
+        if (!rt_kernel_measure(c, &kc, err, errlen)) return false;
+        warp_resample_set_auto(kc.picked);
+        snprintf(a->kernel_why, sizeof a->kernel_why, "%s", kc.why);
+    }
     plat_kms_params kp = {c->kms_device, c->kms_connector, 0, 0, 0, c->rt_priority};
     if (kms) {
         if (!rt_config_parse_mode(c->kms_mode, &kp.mode_w, &kp.mode_h, &kp.mode_hz))
@@ -338,6 +347,7 @@ static void summary_src(rt_app *a, rt_summary_src *s, bool live, bool with_outpu
                  : "");
     s->render_why = t->why;
     s->cpu_kernel = warp_resample_kernel();
+    s->cpu_kernel_why = a->kernel_why;
     s->threads = a->workers ? plat_workers_threads(a->workers) : 0;
     s->gles_ms = a->gl.ms;
     s->gles_errors = a->gl.errors;

@@ -66,6 +66,7 @@ typedef struct {
 
     /* renderer ([render] renderer, rt_render_choose) and the GLES path (rt_gles.h) */
     char render_why[256];      /* why this renderer was chosen, for the summary */
+    char kernel_why[200];      /* [render] kernel = auto: the measured times it was chosen by (rt_kernel) */
     rt_gles gl;
 
     /* telemetry */

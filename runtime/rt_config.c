@@ -123,8 +123,9 @@ static const keydef keys[] = {
      "software rasterizer such as llvmpipe or nothing)"},
     {"render", "threads", K_INT, F(threads), 0, 1, 16, NULL, "compositor threads (the vsync thread included)"},
     {"render", "kernel", K_ENUM, F(kernel), 0, 0, 0, kernel_names,
-     "CPU resampling kernel: auto (the widest this CPU runs), scalar, vector, avx2 or avx512 (x86 only); all give "
-     "the same image bit for bit, they differ in speed (an emulator may run the plain ones faster)"},
+     "CPU resampling kernel: auto (the fastest this CPU runs, timed at start-up), scalar, vector, avx2 or avx512 "
+     "(x86 only); all give the same image bit for bit, they differ in speed (an emulator may run the plain ones "
+     "faster)"},
     {"render", "rt_priority", K_INT, F(rt_priority), 0, 0, 99, NULL,
      "SCHED_FIFO priority for the compositor when permitted (0 = normal scheduling)"},
     {"render", "max_memory_mb", K_DOUBLE, F(max_memory_mb), 0, 16, 1048576, NULL,

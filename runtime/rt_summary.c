@@ -446,14 +446,16 @@ void rt_summary_print(const rt_summary_src *s, FILE *out)
     if (s->gles)
         fprintf(out, "  %-26s gles: %s (%s; %s), warp method %s\n", L(R_RENDERER), STR(R_GL_RENDERER),
                 s->gl_version, s->realtime ? "SCHED_FIFO" : "normal priority", rt_method_name(c->method));
-    else
-        fprintf(out, "  %-26s cpu (%s kernel, %d threads, %s%s), warp method %s\n", L(R_RENDERER), s->cpu_kernel,
-                s->threads,
+    else {
+        const bool why = s->cpu_kernel_why && *s->cpu_kernel_why; /* kernel = auto measured the kernels */
+        fprintf(out, "  %-26s cpu (%s kernel%s%s%s %d threads, %s%s), warp method %s\n", L(R_RENDERER), s->cpu_kernel,
+                why ? ", " : "", why ? s->cpu_kernel_why : "", why ? ";" : ",", s->threads,
                 s->realtime           ? "SCHED_FIFO"
                 : c->rt_priority == 0 ? "normal priority (rt_priority = 0)"
                                       : "normal priority (not permitted to use SCHED_FIFO)",
                 s->realtime ? (s->memory_locked ? ", memory locked" : ", memory not locked") : "",
                 rt_method_name(c->method));
+    }
     fprintf(out, "  %-26s %s\n", L(R_RENDERER_REASON), STR(R_RENDERER_REASON));
     const warp_scan scan = rt_config_scan(c);
     static const char *const scan_dirs[] = {"top to bottom", "bottom to top", "left to right", "right to left"};

@@ -30,6 +30,7 @@ typedef struct {
     const char *gl_renderer, *gl_version, *gles_timing; /* "" on the CPU path */
     const char *render_why;
     const char *cpu_kernel;
+    const char *cpu_kernel_why; /* "" or NULL unless [render] kernel = auto measured it (rt_kernel) */
     int threads;
     const rt_hist *gles_ms;    /* [PLAT_GLES_PASSES], NULL on the CPU path */
     uint64_t gles_errors;

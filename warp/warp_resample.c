@@ -168,8 +168,10 @@ static void kernel_scalar(const warp_planar3 *s, const warp_mesh *m, const row_t
  * AVX2 kernel loses a third of its speed without the prefetch, and fetching 12 row pairs ahead instead of 3
  * took another 11 % off on one thread and 6 % on two (6 to 16 were alike; taller tiles did not help); the
  * portable kernel, which had no prefetch, got 21 % faster on one thread and 26 % on two with it there (as SSE;
- * not yet measured as NEON on a board). */
-#define PREFETCH_ROWS 3
+ * not yet measured as NEON on a board). On a 2-core EPYC with AVX-512 (a VM, 1 MB L2 per core) the AVX-512
+ * kernel at 3 row pairs was 17 % slower at 1440x1600 than at 12 (one eye on one thread 4.9 against 4.1 ms, both
+ * eyes on two 10.3 against 8.6), and 20 to 32 were within the noise of 12; at 720x800 (whose source stays in
+ * the caches) all were alike: it uses the far distance too. */
 #define PREFETCH_ROWS_FAR 12
 
 /* The portable SIMD kernel: 4-pixel groups in GCC/clang vector extensions, the width of NEON on the aarch64
@@ -368,7 +370,7 @@ AVX512_INLINE static inline void a512_position(const a512_ctx *k, int c, __m512i
     const uint32_t o = (uint32_t)_mm_cvtsi128_si32(_mm512_castsi512_si128(org));
     const int yb = (int)(o >> 16), xb = (int)(o & 0xffff);
     p->win = s->plane[c] + (size_t)yb * (size_t)s->stride + (size_t)xb;
-    const int ypf = yb + PREFETCH_ROWS < s->h ? yb + PREFETCH_ROWS : s->h;
+    const int ypf = yb + PREFETCH_ROWS_FAR < s->h ? yb + PREFETCH_ROWS_FAR : s->h;
     const char *pf = (const char *)(s->plane[c] + (size_t)ypf * (size_t)s->stride + (size_t)xb);
     _mm_prefetch(pf, _MM_HINT_T0);
     _mm_prefetch(pf + 63, _MM_HINT_T0);
@@ -487,7 +489,7 @@ AVX512 static void kernel_avx512(const warp_planar3 *s, const warp_mesh *m, cons
 }
 #endif
 
-static warp_resample_kernel_id forced;
+static warp_resample_kernel_id forced, auto_choice;
 
 bool warp_resample_kernel_available(warp_resample_kernel_id k)
 {
@@ -514,28 +516,60 @@ bool warp_resample_force_kernel(warp_resample_kernel_id k)
     return true;
 }
 
+warp_resample_kernel_id warp_resample_forced_kernel(void) { return forced; }
+
 void warp_resample_force_scalar(bool force) { forced = force ? WARP_RESAMPLE_SCALAR : WARP_RESAMPLE_AUTO; }
+
+warp_resample_kernel_id warp_resample_kernel_widest(void)
+{
+    for (int k = WARP_RESAMPLE_KERNELS - 1; k > WARP_RESAMPLE_VECTOR; k--)
+        if (warp_resample_kernel_available((warp_resample_kernel_id)k)) return (warp_resample_kernel_id)k;
+    return WARP_RESAMPLE_VECTOR;
+}
+
+warp_resample_kernel_id warp_resample_kernel_pick(const double ms[WARP_RESAMPLE_KERNELS],
+                                                  const bool usable[WARP_RESAMPLE_KERNELS])
+{
+    double best = 0;
+    for (int k = WARP_RESAMPLE_SCALAR; k < WARP_RESAMPLE_KERNELS; k++)
+        if (usable[k] && ms[k] > 0 && (best == 0 || ms[k] < best)) best = ms[k]; /* NaN compares false */
+    if (best == 0) return warp_resample_kernel_widest();
+    /* one pass from the narrowest: the first within the tie margin of the fastest (not pairwise, which would
+     * not be transitive) */
+    for (int k = WARP_RESAMPLE_SCALAR; k < WARP_RESAMPLE_KERNELS; k++)
+        if (usable[k] && ms[k] > 0 && ms[k] <= best * (1 + WARP_RESAMPLE_PICK_TIE)) return (warp_resample_kernel_id)k;
+    return warp_resample_kernel_widest(); /* not reached */
+}
+
+bool warp_resample_set_auto(warp_resample_kernel_id k)
+{
+    if (!warp_resample_kernel_available(k)) return false;
+    auto_choice = k;
+    return true;
+}
 
 static warp_resample_kernel_id kernel_in_use(void)
 {
     if (forced != WARP_RESAMPLE_AUTO) return forced;
-    if (warp_resample_kernel_available(WARP_RESAMPLE_AVX512)) return WARP_RESAMPLE_AVX512;
-    if (warp_resample_kernel_available(WARP_RESAMPLE_AVX2)) return WARP_RESAMPLE_AVX2;
-    return WARP_RESAMPLE_VECTOR;
+    if (auto_choice != WARP_RESAMPLE_AUTO) return auto_choice;
+    return warp_resample_kernel_widest();
 }
 
-const char *warp_resample_kernel(void)
+const char *warp_resample_kernel_name(warp_resample_kernel_id k)
 {
-    switch (kernel_in_use()) {
-    case WARP_RESAMPLE_AVX512:
-        return "avx512";
-    case WARP_RESAMPLE_AVX2:
-        return "avx2";
-    case WARP_RESAMPLE_VECTOR:
-        return "vector";
-    default:
-        return "scalar";
-    }
+    static const char *const names[WARP_RESAMPLE_KERNELS] = {"auto", "scalar", "vector", "avx2", "avx512"};
+    return k >= 0 && k < WARP_RESAMPLE_KERNELS ? names[k] : "?";
+}
+
+const char *warp_resample_kernel(void) { return warp_resample_kernel_name(kernel_in_use()); }
+
+/* row[x0, x1) = opaque black, four pixels a store: the hidden-area mask covers a third of a wide-FOV lens's
+ * viewport, and pixel by pixel it took a tenth of the resample's time. */
+static inline void fill_black(warp_rgba8 *row, int x0, int x1, v4u black)
+{
+    int x = x0;
+    for (; x + 4 <= x1; x += 4) memcpy(&row[x], &black, sizeof black);
+    for (; x < x1; x++) row[x] = (warp_rgba8){0, 0, 0, 255};
 }
 
 typedef void kernel_fn(const warp_planar3 *s, const warp_mesh *m, const row_table *t, int x0, int x1,
@@ -570,11 +604,11 @@ void warp_mesh_resample(const warp_mesh *m, const warp_planar3 *src, warp_image_
     }
     const int cw = m->cell_w;
     row_table t;
+    const v4u black = (v4u){0} + 0xff000000u;
     /* strips of at most STRIP_CELLS cells */
     for (int sx0 = x0; sx0 < x1;) {
         const int ia = sx0 / cw;
         const int sx1 = (ia + STRIP_CELLS) * cw < x1 ? (ia + STRIP_CELLS) * cw : x1;
-        const int ib = (sx1 - 1) / cw;
         for (int y = y0; y < y1; y++) {
             warp_rgba8 *row = &WARP_AT(dst, m->vp_x, m->vp_y + y);
             int lo = sx0, hi = sx1;
@@ -583,11 +617,12 @@ void warp_mesh_resample(const warp_mesh *m, const warp_planar3 *src, warp_image_
                 const int v0 = m->visible[2 * y], v1 = m->visible[2 * y + 1];
                 lo = v0 > sx0 ? (v0 < sx1 ? v0 : sx1) : sx0;
                 hi = v1 < sx1 ? (v1 > lo ? v1 : lo) : sx1;
-                for (int x = sx0; x < lo; x++) row[x] = (warp_rgba8){0, 0, 0, 255};
-                for (int x = hi; x < sx1; x++) row[x] = (warp_rgba8){0, 0, 0, 255};
+                fill_black(row, sx0, lo, black);
+                fill_black(row, hi, sx1, black);
                 if (lo >= hi) continue;
             }
-            build(&t, m, y, ia, ib);
+            /* the visible cells only: the rest of the strip is not sampled */
+            build(&t, m, y, lo / cw, (hi - 1) / cw);
             kernel(src, m, &t, lo, hi, row);
         }
         sx0 = sx1;

@@ -374,6 +374,57 @@ static void test_kernel_selection(void **state)
     assert_true(warp_resample_force_kernel(WARP_RESAMPLE_AUTO));
 }
 
+static void test_kernel_pick_by_measurement(void **state)
+{
+    (void)state;
+    const bool all[WARP_RESAMPLE_KERNELS] = {false, true, true, true, true};
+    /* the Zen 5: AVX-512 (6.12 ms) was slower than AVX2 (5.83 ms), and the widest-first rule ran it */
+    double ms[WARP_RESAMPLE_KERNELS] = {0, 18.1, 11.0, 5.83, 6.12};
+    assert_int_equal(warp_resample_kernel_pick(ms, all), WARP_RESAMPLE_AVX2);
+    ms[WARP_RESAMPLE_AVX512] = 5.0;
+    assert_int_equal(warp_resample_kernel_pick(ms, all), WARP_RESAMPLE_AVX512);
+    /* under an emulator the plain kernels can win */
+    const double emu[WARP_RESAMPLE_KERNELS] = {0, 40, 55, 90, 300};
+    assert_int_equal(warp_resample_kernel_pick(emu, all), WARP_RESAMPLE_SCALAR);
+    /* ties, exact or within the margin, go to the narrower kernel, whichever of them measured faster */
+    const double tie[WARP_RESAMPLE_KERNELS] = {0, 30, 10, 5.0, 5.0};
+    assert_int_equal(warp_resample_kernel_pick(tie, all), WARP_RESAMPLE_AVX2);
+    const double near[WARP_RESAMPLE_KERNELS] = {0, 30, 10, 5.0 * (1 + WARP_RESAMPLE_PICK_TIE / 2), 5.0};
+    assert_int_equal(warp_resample_kernel_pick(near, all), WARP_RESAMPLE_AVX2);
+    const double clear[WARP_RESAMPLE_KERNELS] = {0, 30, 10, 5.0 * (1 + 2 * WARP_RESAMPLE_PICK_TIE), 5.0};
+    assert_int_equal(warp_resample_kernel_pick(clear, all), WARP_RESAMPLE_AVX512);
+    /* a kernel this CPU cannot run is never picked, however fast its (bogus) time; nor one not measured (0, NaN,
+     * negative) */
+    const bool no_avx512[WARP_RESAMPLE_KERNELS] = {false, true, true, true, false};
+    const double fast512[WARP_RESAMPLE_KERNELS] = {0, 30, 10, 5.0, 0.1};
+    assert_int_equal(warp_resample_kernel_pick(fast512, no_avx512), WARP_RESAMPLE_AVX2);
+    const bool plain[WARP_RESAMPLE_KERNELS] = {false, true, true, false, false};
+    assert_int_equal(warp_resample_kernel_pick(fast512, plain), WARP_RESAMPLE_VECTOR);
+    const double unmeasured[WARP_RESAMPLE_KERNELS] = {0, 30, NAN, 0, -1};
+    assert_int_equal(warp_resample_kernel_pick(unmeasured, all), WARP_RESAMPLE_SCALAR);
+    /* AUTO's own entry is no kernel */
+    const double auto_fast[WARP_RESAMPLE_KERNELS] = {0.01, 30, 10, 0, 0};
+    const bool with_auto[WARP_RESAMPLE_KERNELS] = {true, true, true, false, false};
+    assert_int_equal(warp_resample_kernel_pick(auto_fast, with_auto), WARP_RESAMPLE_VECTOR);
+    /* nothing measured: the widest this CPU runs, which it can run */
+    const double none[WARP_RESAMPLE_KERNELS] = {0};
+    const warp_resample_kernel_id w = warp_resample_kernel_pick(none, all);
+    assert_int_equal(w, warp_resample_kernel_widest());
+    assert_true(warp_resample_kernel_available(w));
+
+    /* AUTO runs the choice until it is set back; forcing still wins over it */
+    assert_true(warp_resample_set_auto(WARP_RESAMPLE_VECTOR));
+    assert_string_equal(warp_resample_kernel(), "vector");
+    assert_true(warp_resample_force_kernel(WARP_RESAMPLE_SCALAR));
+    assert_string_equal(warp_resample_kernel(), "scalar");
+    assert_true(warp_resample_force_kernel(WARP_RESAMPLE_AUTO));
+    assert_string_equal(warp_resample_kernel(), "vector");
+    if (!warp_resample_kernel_available(WARP_RESAMPLE_AVX512))
+        assert_false(warp_resample_set_auto(WARP_RESAMPLE_AVX512));
+    assert_true(warp_resample_set_auto(WARP_RESAMPLE_AUTO));
+    assert_string_equal(warp_resample_kernel(), warp_resample_kernel_name(warp_resample_kernel_widest()));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -386,6 +437,7 @@ int main(void)
         cmocka_unit_test(test_chromatic_aberration_separates_channels),
         cmocka_unit_test(test_mesh_behind_camera_is_fringe),
         cmocka_unit_test(test_kernel_selection),
+        cmocka_unit_test(test_kernel_pick_by_measurement),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -24,6 +24,7 @@
 #include "platform/plat_version.h"
 #include "platform/plat_workers.h"
 #include "runtime/rt_config.h"
+#include "runtime/rt_kernel.h"
 #include "runtime/rt_render_cpu.h"
 #include "sim/sim_scene.h"
 #include "tools/common/cat_warps.h"
@@ -376,6 +377,9 @@ int main(int argc, char **argv)
         fprintf(stderr, "hmdwarp-bench: %s\n", err);
         return 1;
     }
+    rt_kernel_choice kc; /* the kernel hmdwarpd's [render] kernel = auto would measure and run */
+    if (rt_kernel_measure(&cfg, &kc, err, sizeof err) && warp_resample_set_auto(kc.picked))
+        printf("auto kernel: %s, %s\n", warp_resample_kernel_name(kc.picked), kc.why);
     printf("hmdwarp-bench: panel %dx%d (eyes %dx%d), lens mesh %d, %d threads, %d reps, kernel %s\n", cfg.panel_w,
            cfg.panel_h, cfg.eye_w, cfg.eye_h, cfg.mesh_n, o.threads, o.reps, warp_resample_kernel());
     fflush(stdout);
