@@ -223,8 +223,8 @@ static void test_values_and_formats(void **state)
                           "\ngles_upload_ms_p50=0.505\ngles_upload_ms_p99=0.505\ngles_pyramid_ms_p50=",
                           "\npsnr_none=30.000\nssim_none=0.90000\npsnr_rotation=30.500\n", "\nkms_api=atomic\n",
                           "\nrenderer=gles\ngl_renderer=Test GPU\n", "\nframes_bytes=1234567\n",
-                          "\nframes_link_poses_dropped=3\nframes_link_cams_sent=4\nframes_link_masks_sent=3\n"
-                          "frames_link_usb_speed=super-speed\n",
+                          ("\nframes_link_poses_dropped=3\nframes_link_cams_sent=4\nframes_link_masks_sent=3\n"
+                           "frames_link_usb_speed=super-speed\n"),
                           /* 1.125 MB in run_s 2.25 s; 9 MB of planes from 1.125 MB on the wire */
                           "\nframes_link_compressed_frames=40\n", "\nframes_link_codec_errors=2\n",
                           "\nframes_link_key_requests=1\n", "\nframes_link_wire_mb_s=0.50\n",
