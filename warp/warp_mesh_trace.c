@@ -45,8 +45,13 @@ static bool cell_discontinuous(const warp_mesh *m, int i, int j, const warp_came
     }
     /* wholly outside the source: the clamped fringe fill, per pixel or interpolated alike */
     if (all & WARP_MASK_FRINGE) return false;
-    /* some rays left the source or crossed an edge and others did not: the boundary runs through the cell */
-    if (any != all || (any & WARP_MASK_EDGE)) return true;
+    /* some rays crossed an edge: the boundary runs through the cell */
+    if (any & WARP_MASK_EDGE) return true;
+    /* Rays that left the source beside rays that did not: the border of what the source saw. Where the lens sees
+     * beyond the eye buffer (the panel's periphery) that is a ring of cells whose fringe fill (003 §4.3) the
+     * interpolation already gives; where a translation uncovers what the source never saw, the fill's positions
+     * do not continue the hits beside them. The centre ray tells which (its flag may be either). */
+    const bool border = any != all;
     /* the ray through the cell's centre (green) */
     const warp_vec2f *tn = m->tan;
     double tx, ty;
@@ -58,13 +63,13 @@ static bool cell_discontinuous(const warp_mesh *m, int i, int j, const warp_came
      * them or one surface too curved for the interpolation land it away from where the corners put it, while on a
      * slanted surface it lands there however much the depth changes. One ray per cell, a third of a vertex's. */
     double cx, cy;
-    if (warp_raytrace_point(s, tx, ty, &cx, &cy, NULL) != all) return true;
+    if (warp_raytrace_point(s, tx, ty, &cx, &cy, NULL) != all && !border) return true;
     if (last && scan) {
         /* rolling: the vertices hold their own scan line's interpolation; the centre takes its own */
         const double f = warp_scan_fraction(scan, m->vp_x + (i + 0.5) * m->cell_w,
                                             m->vp_y + (j + 0.5) * (double)m->vp_h / (m->rows - 1));
         double lx, ly;
-        if (warp_raytrace_point(last, tx, ty, &lx, &ly, NULL) != all) return true;
+        if (warp_raytrace_point(last, tx, ty, &lx, &ly, NULL) != all && !border) return true;
         cx += (lx - cx) * f;
         cy += (ly - cy) * f;
     }
@@ -76,6 +81,18 @@ static bool cell_discontinuous(const warp_mesh *m, int i, int j, const warp_came
     return (cx - ix) * (cx - ix) + (cy - iy) * (cy - iy) > (double)p->parallax_px * p->parallax_px;
 }
 
+/* Whether any pixel of cell (i, j) is shown (the hidden-area mask): the rest are written black, never sampled. */
+static bool cell_shown(const warp_mesh *m, int i, int j)
+{
+    if (!m->visible) return true;
+    const int x0 = i * m->cell_w, x1 = x0 + m->cell_w;
+    const int y0 = (int)ceil((double)j * m->vp_h / (m->rows - 1) - 0.5) - 1;
+    const int y1 = (int)ceil((double)(j + 1) * m->vp_h / (m->rows - 1) - 0.5) + 1;
+    for (int y = y0 > 0 ? y0 : 0; y < y1 && y < m->vp_h; y++)
+        if (m->visible[2 * y] < x1 && m->visible[2 * y + 1] > x0) return true;
+    return false;
+}
+
 int warp_mesh_trace_mark(warp_mesh_trace *t, const warp_mesh *m, const warp_camera *dst_cam,
                          const warp_raytrace_setup *s, const warp_raytrace_setup *last, const warp_scan *scan,
                          const warp_mesh_trace_params *p)
@@ -83,7 +100,7 @@ int warp_mesh_trace_mark(warp_mesh_trace *t, const warp_mesh *m, const warp_came
     int n = 0;
     for (int j = 0; j < t->cells_y; j++)
         for (int i = 0; i < t->cells_x; i++) {
-            const bool d = cell_discontinuous(m, i, j, dst_cam, s, last, scan, p);
+            const bool d = cell_shown(m, i, j) && cell_discontinuous(m, i, j, dst_cam, s, last, scan, p);
             t->cell[(size_t)j * t->cells_x + i] = d;
             n += d;
         }
@@ -125,6 +142,174 @@ static bool ray_line(const warp_raytrace_setup *s, double tx, double ty, double 
     return true;
 }
 
+/* What tracing one rectangle needs, hoisted. */
+typedef struct {
+    const warp_mesh *m;
+    const warp_camera *cam;
+    const warp_raytrace_setup *s, *last;
+    const warp_scan *scan;
+    const warp_planar3 *src;
+    double px_max; /* parallax_px */
+} rect_ctx;
+
+/* One traced pixel: per channel its source position; its flag and the inverse depth of green's hit. */
+typedef struct {
+    double x[3], y[3];
+    double d, elen;
+    int flag;
+} ray_px;
+
+/* The vertex band j of viewport row y and the fraction across it, as the resampler's row table takes them. */
+static int band_of(const warp_mesh *m, int y, double *fy)
+{
+    const double b = ((double)y + 0.5) * (m->rows - 1) / m->vp_h;
+    int j = (int)b;
+    if (j > m->rows - 2) j = m->rows - 2;
+    *fy = b - j;
+    return j;
+}
+
+/* Traces viewport pixel (x, y) of cell (i, j) (fy: its fraction across the band). */
+static void trace_pixel(const rect_ctx *c, int i, int j, int x, int y, double fy, ray_px *r)
+{
+    const warp_mesh *m = c->m;
+    const int cw = m->cell_w;
+    const warp_vec2f *v00 = &m->tan[((size_t)j * m->cols + i) * 3], *v10 = v00 + 3, *v01 = v00 + (size_t)m->cols * 3,
+                     *v11 = v01 + 3;
+    const double fx = (x + 0.5 - (double)i * cw) / cw;
+    /* the eye-buffer positions of the pixel's three lens directions, bilinear between the corners' (tan_to_pixel is
+     * affine: where the two-pass path's lens mesh reads its eye buffer) */
+    double px[3], py[3];
+    for (int k = 0; k < 3; k++) {
+        const double u = (1 - fy) * ((1 - fx) * v00[k].x + fx * v10[k].x) + fy * ((1 - fx) * v01[k].x + fx * v11[k].x);
+        const double w = (1 - fy) * ((1 - fx) * v00[k].y + fx * v10[k].y) + fy * ((1 - fx) * v01[k].y + fx * v11[k].y);
+        warp_camera_tan_to_pixel(c->cam, u, w, &px[k], &py[k]);
+    }
+    /* One ray, green's; red and blue lie a chromatic aberration away (a pixel or two) and take the surface green
+     * hit, as the two-pass path's lens pass samples one traced eye buffer per pixel. */
+    double gx = 0, gy = 0;
+    int flag = 0;
+    if (!(c->last && c->scan)) {
+        flag = warp_raytrace_point(c->s, px[1], py[1], &gx, &gy, NULL);
+    } else {
+        const double f = warp_scan_fraction(c->scan, m->vp_x + x + 0.5, m->vp_y + y + 0.5);
+        double lx = 0, ly = 0;
+        if (f < 1) flag |= warp_raytrace_point(c->s, px[1], py[1], &gx, &gy, NULL);
+        if (f > 0) flag |= warp_raytrace_point(c->last, px[1], py[1], &lx, &ly, NULL);
+        gx = f <= 0 ? gx : (f >= 1 ? lx : gx + (lx - gx) * f);
+        gy = f <= 0 ? gy : (f >= 1 ? ly : gy + (ly - gy) * f);
+    }
+    r->flag = flag;
+    r->x[1] = gx;
+    r->y[1] = gy;
+    double ig[2], eg[2];
+    const bool front = ray_line(c->s, px[1], py[1], ig, eg);
+    /* the hit's inverse depth along green's ray (S(D) = p_inf + D e), for the other two */
+    const double e2 = eg[0] * eg[0] + eg[1] * eg[1];
+    r->d = front && e2 > 1e-12 ? ((gx - ig[0]) * eg[0] + (gy - ig[1]) * eg[1]) / e2 : 0;
+    r->elen = front ? sqrt(e2) : 0;
+    for (int k = 0; k < 3; k += 2) {
+        double ic[2], ec[2];
+        if (front && ray_line(c->s, px[k], py[k], ic, ec)) {
+            r->x[k] = gx + (ic[0] - ig[0]) + r->d * (ec[0] - eg[0]);
+            r->y[k] = gy + (ic[1] - ig[1]) + r->d * (ec[1] - eg[1]);
+        } else {
+            warp_raytrace_point(c->s, px[k], py[k], &r->x[k], &r->y[k], NULL); /* beyond 90 degrees: its own */
+        }
+    }
+}
+
+static void put(const rect_ctx *c, warp_rgba8 *row, int x, const double sx[3], const double sy[3])
+{
+    row[x] = (warp_rgba8){sample64(c->src, 0, sx[0], sy[0]), sample64(c->src, 1, sx[1], sy[1]),
+                          sample64(c->src, 2, sx[2], sy[2]), 255};
+}
+
+/* Whether viewport pixel (x, y) is shown (the hidden-area mask). */
+static bool shown(const warp_mesh *m, int x, int y)
+{
+    return !m->visible || (x >= m->visible[2 * y] && x < m->visible[2 * y + 1]);
+}
+
+/* Sub-cells of a traced cell: rays on a lattice SUB pixels apart, and per pixel only in the sub-cells whose
+ * corners still disagree (000 §4.1's subdivision, one level): a cell's depth edge crosses a few of them. */
+#define SUB 4
+#define SUB_MAX 48 /* lattice points per side on the stack; wider cells are traced pixel by pixel */
+
+/* Pixels [xa, xb) x [ya, yb) of cell (i, j), all in its band. */
+static void trace_block(const rect_ctx *c, int i, int j, int xa, int xb, int ya, int yb, warp_image_rgba8 *dst)
+{
+    const warp_mesh *m = c->m;
+    const int nx = (xb - 1 - xa + SUB - 1) / SUB + 1, ny = (yb - 1 - ya + SUB - 1) / SUB + 1;
+    if (nx < 2 || ny < 2 || nx > SUB_MAX || ny > SUB_MAX) {
+        for (int y = ya; y < yb; y++) {
+            double fy;
+            band_of(m, y, &fy);
+            warp_rgba8 *row = &WARP_AT(dst, m->vp_x, m->vp_y + y);
+            for (int x = xa; x < xb; x++) {
+                if (!shown(m, x, y)) continue;
+                ray_px r;
+                trace_pixel(c, i, j, x, y, fy, &r);
+                put(c, row, x, r.x, r.y);
+            }
+        }
+        return;
+    }
+    /* the lattice: every SUB-th pixel from the block's first, and its last */
+    ray_px lat[2][SUB_MAX];
+    int lx[SUB_MAX];
+    for (int k = 0; k < nx; k++) lx[k] = xa + k * SUB < xb - 1 ? xa + k * SUB : xb - 1;
+    for (int l = 0; l < ny; l++) {
+        const int ly = ya + l * SUB < yb - 1 ? ya + l * SUB : yb - 1;
+        double lfy;
+        band_of(m, ly, &lfy);
+        ray_px *cur = lat[l & 1];
+        for (int k = 0; k < nx; k++) trace_pixel(c, i, j, lx[k], ly, lfy, &cur[k]);
+        if (l == 0) continue;
+        const ray_px *up = lat[(l - 1) & 1];
+        const int y0 = ya + (l - 1) * SUB, y1 = ly; /* rows [y0, y1), and y1 itself in the last row of sub-cells */
+        const int yend = l == ny - 1 ? y1 + 1 : y1;
+        for (int k = 0; k + 1 < nx; k++) {
+            const ray_px *q[4] = {&up[k], &up[k + 1], &cur[k], &cur[k + 1]};
+            const int x0 = lx[k], x1 = lx[k + 1], xend = k + 1 == nx - 1 ? x1 + 1 : x1;
+            /* smooth: one flag, no edge, and the hits' parallax alike to within parallax_px */
+            double dlo = q[0]->d, dhi = q[0]->d, el = q[0]->elen;
+            bool same = !(q[0]->flag & WARP_MASK_EDGE);
+            for (int n = 1; n < 4; n++) {
+                same = same && q[n]->flag == q[0]->flag;
+                dlo = q[n]->d < dlo ? q[n]->d : dlo;
+                dhi = q[n]->d > dhi ? q[n]->d : dhi;
+                el = q[n]->elen > el ? q[n]->elen : el;
+            }
+            const bool smooth = same && (q[0]->flag & WARP_MASK_FRINGE || (dhi - dlo) * el <= c->px_max);
+            for (int y = y0; y < yend; y++) {
+                double fy;
+                band_of(m, y, &fy);
+                warp_rgba8 *row = &WARP_AT(dst, m->vp_x, m->vp_y + y);
+                const double ty = y1 > y0 ? (double)(y - y0) / (y1 - y0) : 0;
+                for (int x = x0; x < xend; x++) {
+                    if (!shown(m, x, y)) continue;
+                    if (smooth) {
+                        const double tx = x1 > x0 ? (double)(x - x0) / (x1 - x0) : 0;
+                        double sx[3], sy[3];
+                        for (int ch = 0; ch < 3; ch++) {
+                            sx[ch] = (1 - ty) * ((1 - tx) * q[0]->x[ch] + tx * q[1]->x[ch]) +
+                                     ty * ((1 - tx) * q[2]->x[ch] + tx * q[3]->x[ch]);
+                            sy[ch] = (1 - ty) * ((1 - tx) * q[0]->y[ch] + tx * q[1]->y[ch]) +
+                                     ty * ((1 - tx) * q[2]->y[ch] + tx * q[3]->y[ch]);
+                        }
+                        put(c, row, x, sx, sy);
+                    } else {
+                        ray_px r;
+                        trace_pixel(c, i, j, x, y, fy, &r);
+                        put(c, row, x, r.x, r.y);
+                    }
+                }
+            }
+        }
+    }
+}
+
 void warp_mesh_trace_rect(const warp_mesh_trace *t, const warp_mesh *m, const warp_camera *dst_cam,
                           const warp_raytrace_setup *s, const warp_raytrace_setup *last, const warp_scan *scan,
                           const warp_planar3 *src, warp_image_rgba8 *dst, int x0, int y0, int x1, int y1)
@@ -134,70 +319,20 @@ void warp_mesh_trace_rect(const warp_mesh_trace *t, const warp_mesh *m, const wa
     y0 = y0 > 0 ? y0 : 0;
     x1 = x1 < m->vp_w ? x1 : m->vp_w;
     y1 = y1 < m->vp_h ? y1 : m->vp_h;
+    if (x0 >= x1 || y0 >= y1) return;
+    const rect_ctx c = {m, dst_cam, s, last, scan, src, 1.0};
     const int cw = m->cell_w;
-    const bool rolling = last && scan;
-    for (int y = y0; y < y1; y++) {
-        /* the cell band and the fraction across it, as the resampler's row table takes them */
-        const double by = ((double)y + 0.5) * (m->rows - 1) / m->vp_h;
-        int j = (int)by;
-        if (j > m->rows - 2) j = m->rows - 2;
-        const double fy = by - j;
-        int lo = x0, hi = x1;
-        if (m->visible) {
-            lo = m->visible[2 * y] > lo ? m->visible[2 * y] : lo;
-            hi = m->visible[2 * y + 1] < hi ? m->visible[2 * y + 1] : hi;
-        }
-        warp_rgba8 *row = &WARP_AT(dst, m->vp_x, m->vp_y + y);
-        for (int i = lo / cw; lo < hi && i <= (hi - 1) / cw; i++) {
+    /* runs of rows in one band, then the marked cells across them */
+    for (int ya = y0; ya < y1;) {
+        double fy;
+        const int j = band_of(m, ya, &fy);
+        int yb = ya + 1;
+        while (yb < y1 && band_of(m, yb, &fy) == j) yb++;
+        for (int i = x0 / cw; i <= (x1 - 1) / cw; i++) {
             if (!t->cell[(size_t)j * t->cells_x + i]) continue;
-            const int xa = i * cw > lo ? i * cw : lo, xb = (i + 1) * cw < hi ? (i + 1) * cw : hi;
-            const warp_vec2f *v00 = &m->tan[((size_t)j * m->cols + i) * 3], *v10 = v00 + 3,
-                             *v01 = v00 + (size_t)m->cols * 3, *v11 = v01 + 3;
-            for (int x = xa; x < xb; x++) {
-                const double fx = (x + 0.5 - (double)i * cw) / cw;
-                /* the eye-buffer positions of the pixel's three lens directions, bilinear between the corners'
-                 * (tan_to_pixel is affine: where the two-pass path's lens mesh reads its eye buffer) */
-                double px[3], py[3];
-                for (int c = 0; c < 3; c++) {
-                    const double u = (1 - fy) * ((1 - fx) * v00[c].x + fx * v10[c].x) +
-                                     fy * ((1 - fx) * v01[c].x + fx * v11[c].x);
-                    const double w = (1 - fy) * ((1 - fx) * v00[c].y + fx * v10[c].y) +
-                                     fy * ((1 - fx) * v01[c].y + fx * v11[c].y);
-                    warp_camera_tan_to_pixel(dst_cam, u, w, &px[c], &py[c]);
-                }
-                /* One ray, green's; red and blue lie a chromatic aberration away (a pixel or two) and take the
-                 * surface green hit, as the two-pass path's lens pass samples one traced eye buffer per pixel. */
-                double gx, gy;
-                if (!rolling) {
-                    warp_raytrace_point(s, px[1], py[1], &gx, &gy, NULL);
-                } else {
-                    const double frac = warp_scan_fraction(scan, m->vp_x + x + 0.5, m->vp_y + y + 0.5);
-                    double lx = 0, ly = 0;
-                    gx = gy = 0;
-                    if (frac < 1) warp_raytrace_point(s, px[1], py[1], &gx, &gy, NULL);
-                    if (frac > 0) warp_raytrace_point(last, px[1], py[1], &lx, &ly, NULL);
-                    gx = frac <= 0 ? gx : (frac >= 1 ? lx : gx + (lx - gx) * frac);
-                    gy = frac <= 0 ? gy : (frac >= 1 ? ly : gy + (ly - gy) * frac);
-                }
-                uint8_t out[3];
-                out[1] = sample64(src, 1, gx, gy);
-                double ig[2], eg[2];
-                const bool front = ray_line(s, px[1], py[1], ig, eg);
-                /* the hit's inverse depth along green's ray (S(D) = p_inf + D e), for the other two */
-                const double e2 = eg[0] * eg[0] + eg[1] * eg[1];
-                const double d = front && e2 > 1e-12 ? ((gx - ig[0]) * eg[0] + (gy - ig[1]) * eg[1]) / e2 : 0;
-                for (int c = 0; c < 3; c += 2) {
-                    double ic[2], ec[2], sx, sy;
-                    if (front && ray_line(s, px[c], py[c], ic, ec)) {
-                        sx = gx + (ic[0] - ig[0]) + d * (ec[0] - eg[0]);
-                        sy = gy + (ic[1] - ig[1]) + d * (ec[1] - eg[1]);
-                    } else {
-                        warp_raytrace_point(s, px[c], py[c], &sx, &sy, NULL); /* beyond 90 degrees: its own */
-                    }
-                    out[c] = sample64(src, c, sx, sy);
-                }
-                row[x] = (warp_rgba8){out[0], out[1], out[2], 255};
-            }
+            const int xa = i * cw > x0 ? i * cw : x0, xb = (i + 1) * cw < x1 ? (i + 1) * cw : x1;
+            trace_block(&c, i, j, xa, xb, ya, yb, dst);
         }
+        ya = yb;
     }
 }

@@ -13,10 +13,12 @@
 #include "warp/warp_resample.h"
 #include "warp/warp_scan.h"
 
-/* When a cell is traced per pixel: its vertices' rays disagree (one left the source or crossed a depth edge and
- * another did not), or the ray through its centre lands more than `parallax_px` source pixels from where the
- * interpolation between its vertices puts it (000 §4.1's error test): an edge through the cell, an object between
- * its vertices, a surface too curved to interpolate. A slanted plane interpolates well and is not traced. */
+/* When a cell is traced per pixel: some pixel of it is shown (the hidden-area mask), and a vertex's ray crossed a
+ * depth edge, or the ray through its centre lands more than `parallax_px` source pixels from where the interpolation
+ * between its vertices puts it (000 §4.1's error test): an edge through the cell, an object between its vertices, a
+ * surface too curved to interpolate, or the border of what the source saw where a translation uncovers it. A
+ * slanted plane interpolates well and is not traced; nor is the ring where the lens sees beyond the eye buffer,
+ * whose clamped fringe fill (003 §4.3) the interpolation already gives. */
 typedef struct {
     float parallax_px; /* source pixels */
 } warp_mesh_trace_params;
@@ -42,9 +44,11 @@ int warp_mesh_trace_mark(warp_mesh_trace *t, const warp_mesh *m, const warp_came
                          const warp_mesh_trace_params *p);
 
 /* Overwrites the marked cells' pixels within the viewport rectangle [x0, x1) x [y0, y1) of dst (the panel, as
- * warp_mesh_resample writes it) with per-pixel rays: per channel, the ray through the eye-buffer position of the
- * pixel's lens direction (interpolated between the cell's vertices, as the two-pass path's lens mesh does), traced
- * under s and sampled from src as the resampler samples (1/64 pixel, clamped border). On a rolling panel (last and
+ * warp_mesh_resample writes it) with rays: green's through the eye-buffer position of the pixel's lens direction
+ * (interpolated between the cell's vertices, as the two-pass path's lens mesh does), traced under s, and red and
+ * blue at their own lens directions on the surface green hit; sampled from src as the resampler samples (1/64
+ * pixel, clamped border). Rays run on a lattice 4 pixels apart first, and per pixel only in the 4 x 4 blocks whose
+ * corners disagree (a flag, or their hits' parallax by more than a pixel); the rest is interpolated between them. On a rolling panel (last and
  * scan not NULL) each pixel is traced under s (the first line's pose) and last and interpolated by its scan
  * fraction, as the mesh's vertices are. Hidden pixels (m->visible) are left alone. Allocation-free; rectangles are
  * independent (threads). */
