@@ -169,8 +169,24 @@ static int band_of(const warp_mesh *m, int y, double *fy)
     return j;
 }
 
-/* Traces viewport pixel (x, y) of cell (i, j) (fy: its fraction across the band). */
-static void trace_pixel(const rect_ctx *c, int i, int j, int x, int y, double fy, ray_px *r)
+/* The source position of the ray through eye-buffer position (tx, ty) under the pass's setup(s) (rolling: at
+ * viewport pixel (x, y)'s scan fraction); its flag. */
+static int trace_at(const rect_ctx *c, int x, int y, double tx, double ty, double *sx, double *sy)
+{
+    if (!(c->last && c->scan)) return warp_raytrace_point(c->s, tx, ty, sx, sy, NULL);
+    const double f = warp_scan_fraction(c->scan, c->m->vp_x + x + 0.5, c->m->vp_y + y + 0.5);
+    double fx = 0, fy = 0, lx = 0, ly = 0;
+    int flag = 0;
+    if (f < 1) flag |= warp_raytrace_point(c->s, tx, ty, &fx, &fy, NULL);
+    if (f > 0) flag |= warp_raytrace_point(c->last, tx, ty, &lx, &ly, NULL);
+    *sx = f <= 0 ? fx : (f >= 1 ? lx : fx + (lx - fx) * f);
+    *sy = f <= 0 ? fy : (f >= 1 ? ly : fy + (ly - fy) * f);
+    return flag;
+}
+
+/* Traces viewport pixel (x, y) of cell (i, j) (fy: its fraction across the band). all3: each channel its own ray
+ * (beside a depth edge, where red's or blue's ray may meet the other side), else green's alone. */
+static void trace_pixel(const rect_ctx *c, int i, int j, int x, int y, double fy, bool all3, ray_px *r)
 {
     const warp_mesh *m = c->m;
     const int cw = m->cell_w;
@@ -185,20 +201,10 @@ static void trace_pixel(const rect_ctx *c, int i, int j, int x, int y, double fy
         const double w = (1 - fy) * ((1 - fx) * v00[k].y + fx * v10[k].y) + fy * ((1 - fx) * v01[k].y + fx * v11[k].y);
         warp_camera_tan_to_pixel(c->cam, u, w, &px[k], &py[k]);
     }
-    /* One ray, green's; red and blue lie a chromatic aberration away (a pixel or two) and take the surface green
-     * hit, as the two-pass path's lens pass samples one traced eye buffer per pixel. */
+    /* Green's ray; red and blue lie a chromatic aberration away (a pixel or two) and, away from depth edges,
+     * take the surface green hit at their own lens directions. */
     double gx = 0, gy = 0;
-    int flag = 0;
-    if (!(c->last && c->scan)) {
-        flag = warp_raytrace_point(c->s, px[1], py[1], &gx, &gy, NULL);
-    } else {
-        const double f = warp_scan_fraction(c->scan, m->vp_x + x + 0.5, m->vp_y + y + 0.5);
-        double lx = 0, ly = 0;
-        if (f < 1) flag |= warp_raytrace_point(c->s, px[1], py[1], &gx, &gy, NULL);
-        if (f > 0) flag |= warp_raytrace_point(c->last, px[1], py[1], &lx, &ly, NULL);
-        gx = f <= 0 ? gx : (f >= 1 ? lx : gx + (lx - gx) * f);
-        gy = f <= 0 ? gy : (f >= 1 ? ly : gy + (ly - gy) * f);
-    }
+    const int flag = trace_at(c, x, y, px[1], py[1], &gx, &gy);
     r->flag = flag;
     r->x[1] = gx;
     r->y[1] = gy;
@@ -210,7 +216,12 @@ static void trace_pixel(const rect_ctx *c, int i, int j, int x, int y, double fy
     r->elen = front ? sqrt(e2) : 0;
     for (int k = 0; k < 3; k += 2) {
         double ic[2], ec[2];
-        if (front && ray_line(c->s, px[k], py[k], ic, ec)) {
+        /* beside an edge a channel that lies half a pixel or more from green's may meet the edge's other side:
+         * its own ray then (near the lens's centre, where the aberration is small, green's hit serves) */
+        const double ca = (px[k] - px[1]) * (px[k] - px[1]) + (py[k] - py[1]) * (py[k] - py[1]);
+        if (all3 && ca > 0.25) {
+            trace_at(c, x, y, px[k], py[k], &r->x[k], &r->y[k]);
+        } else if (front && ray_line(c->s, px[k], py[k], ic, ec)) {
             r->x[k] = gx + (ic[0] - ig[0]) + r->d * (ec[0] - eg[0]);
             r->y[k] = gy + (ic[1] - ig[1]) + r->d * (ec[1] - eg[1]);
         } else {
@@ -249,7 +260,7 @@ static void trace_block(const rect_ctx *c, int i, int j, int xa, int xb, int ya,
             for (int x = xa; x < xb; x++) {
                 if (!shown(m, x, y)) continue;
                 ray_px r;
-                trace_pixel(c, i, j, x, y, fy, &r);
+                trace_pixel(c, i, j, x, y, fy, true, &r);
                 put(c, row, x, r.x, r.y);
             }
         }
@@ -264,7 +275,7 @@ static void trace_block(const rect_ctx *c, int i, int j, int xa, int xb, int ya,
         double lfy;
         band_of(m, ly, &lfy);
         ray_px *cur = lat[l & 1];
-        for (int k = 0; k < nx; k++) trace_pixel(c, i, j, lx[k], ly, lfy, &cur[k]);
+        for (int k = 0; k < nx; k++) trace_pixel(c, i, j, lx[k], ly, lfy, false, &cur[k]);
         if (l == 0) continue;
         const ray_px *up = lat[(l - 1) & 1];
         const int y0 = ya + (l - 1) * SUB, y1 = ly; /* rows [y0, y1), and y1 itself in the last row of sub-cells */
@@ -301,7 +312,7 @@ static void trace_block(const rect_ctx *c, int i, int j, int xa, int xb, int ya,
                         put(c, row, x, sx, sy);
                     } else {
                         ray_px r;
-                        trace_pixel(c, i, j, x, y, fy, &r);
+                        trace_pixel(c, i, j, x, y, fy, true, &r);
                         put(c, row, x, r.x, r.y);
                     }
                 }
