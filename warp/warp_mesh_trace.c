@@ -31,6 +31,20 @@ void warp_mesh_trace_free(warp_mesh_trace *t)
 
 static int clampi(int v, int lo, int hi) { return v < lo ? lo : (v > hi ? hi : v); }
 
+/* Bilinear inverse depth at source position (x, y), clamped to the image (warp_raytrace.c's inv_at). */
+static float inv_at(const warp_image_f32 *d, double x, double y)
+{
+    float fx = (float)x - 0.5f, fy = (float)y - 0.5f;
+    fx = fx > 0 ? (fx < (float)(d->w - 1) ? fx : (float)(d->w - 1)) : 0; /* NaN too: to 0 */
+    fy = fy > 0 ? (fy < (float)(d->h - 1) ? fy : (float)(d->h - 1)) : 0;
+    const int x0 = (int)fx, y0 = (int)fy;
+    const int x1 = x0 + (x0 + 1 < d->w), y1 = y0 + (y0 + 1 < d->h);
+    const float ax = fx - (float)x0, ay = fy - (float)y0;
+    const float top = WARP_AT(d, x0, y0) + (WARP_AT(d, x1, y0) - WARP_AT(d, x0, y0)) * ax;
+    const float bot = WARP_AT(d, x0, y1) + (WARP_AT(d, x1, y1) - WARP_AT(d, x0, y1)) * ax;
+    return top + (bot - top) * ay;
+}
+
 /* Whether cell (i, j) needs per-pixel rays (the criteria in warp_mesh_trace.h). */
 static bool cell_discontinuous(const warp_mesh *m, int i, int j, const warp_camera *dst_cam,
                                const warp_raytrace_setup *s, const warp_raytrace_setup *last, const warp_scan *scan,
@@ -186,7 +200,7 @@ static int trace_at(const rect_ctx *c, int x, int y, double tx, double ty, doubl
 
 /* Traces viewport pixel (x, y) of cell (i, j) (fy: its fraction across the band). all3: each channel its own ray
  * (beside a depth edge, where red's or blue's ray may meet the other side), else green's alone. */
-static void trace_pixel(const rect_ctx *c, int i, int j, int x, int y, double fy, bool all3, ray_px *r)
+static void trace_pixel(const rect_ctx *c, int i, int j, int x, int y, double fy, bool all3, double dnear, ray_px *r)
 {
     const warp_mesh *m = c->m;
     const int cw = m->cell_w;
@@ -219,11 +233,19 @@ static void trace_pixel(const rect_ctx *c, int i, int j, int x, int y, double fy
         /* beside an edge a channel that lies half a pixel or more from green's may meet the edge's other side:
          * its own ray then (near the lens's centre, where the aberration is small, green's hit serves) */
         const double ca = (px[k] - px[1]) * (px[k] - px[1]) + (py[k] - py[1]) * (py[k] - py[1]);
-        if (all3 && ca > 0.25) {
-            trace_at(c, x, y, px[k], py[k], &r->x[k], &r->y[k]);
-        } else if (front && ray_line(c->s, px[k], py[k], ic, ec)) {
+        if (front && ray_line(c->s, px[k], py[k], ic, ec)) {
             r->x[k] = gx + (ic[0] - ig[0]) + r->d * (ec[0] - eg[0]);
             r->y[k] = gy + (ic[1] - ig[1]) + r->d * (ec[1] - eg[1]);
+            if (all3 && ca > 0.25 && !(flag & WARP_MASK_FRINGE)) {
+                /* its own ray unless the surface is there at green's depth and nothing as near as the block's
+                 * nearest hit (dnear) stands where its ray would cross that depth */
+                const warp_image_f32 *inv = c->s->src->inv_depth;
+                const double dk = inv_at(inv, r->x[k], r->y[k]);
+                bool own = (flag & WARP_MASK_EDGE) || fabs(dk - r->d) > 0.1 * r->d;
+                if (!own && dnear > r->d * 1.1)
+                    own = inv_at(inv, ic[0] + dnear * ec[0], ic[1] + dnear * ec[1]) > 0.9 * dnear;
+                if (own) trace_at(c, x, y, px[k], py[k], &r->x[k], &r->y[k]);
+            }
         } else {
             warp_raytrace_point(c->s, px[k], py[k], &r->x[k], &r->y[k], NULL); /* beyond 90 degrees: its own */
         }
@@ -260,7 +282,7 @@ static void trace_block(const rect_ctx *c, int i, int j, int xa, int xb, int ya,
             for (int x = xa; x < xb; x++) {
                 if (!shown(m, x, y)) continue;
                 ray_px r;
-                trace_pixel(c, i, j, x, y, fy, true, &r);
+                trace_pixel(c, i, j, x, y, fy, true, INFINITY, &r);
                 put(c, row, x, r.x, r.y);
             }
         }
@@ -275,7 +297,7 @@ static void trace_block(const rect_ctx *c, int i, int j, int xa, int xb, int ya,
         double lfy;
         band_of(m, ly, &lfy);
         ray_px *cur = lat[l & 1];
-        for (int k = 0; k < nx; k++) trace_pixel(c, i, j, lx[k], ly, lfy, false, &cur[k]);
+        for (int k = 0; k < nx; k++) trace_pixel(c, i, j, lx[k], ly, lfy, false, 0, &cur[k]);
         if (l == 0) continue;
         const ray_px *up = lat[(l - 1) & 1];
         const int y0 = ya + (l - 1) * SUB, y1 = ly; /* rows [y0, y1), and y1 itself in the last row of sub-cells */
@@ -312,7 +334,7 @@ static void trace_block(const rect_ctx *c, int i, int j, int xa, int xb, int ya,
                         put(c, row, x, sx, sy);
                     } else {
                         ray_px r;
-                        trace_pixel(c, i, j, x, y, fy, true, &r);
+                        trace_pixel(c, i, j, x, y, fy, true, dhi, &r);
                         put(c, row, x, r.x, r.y);
                     }
                 }

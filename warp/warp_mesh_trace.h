@@ -47,8 +47,8 @@ int warp_mesh_trace_mark(warp_mesh_trace *t, const warp_mesh *m, const warp_came
  * warp_mesh_resample writes it) with rays: green's through the eye-buffer position of the pixel's lens direction
  * (interpolated between the cell's vertices, as the two-pass path's lens mesh does), traced under s; red and blue
  * at their own lens directions on the surface green hit, except beside depth edges, where a channel half a pixel or
- * more from green's (chromatic aberration) gets its own ray; sampled from src as the resampler samples (1/64 pixel,
- * clamped border). Rays run on a lattice 4 pixels apart first, and per pixel only in the 4 x 4 blocks whose
+ * more from green's (chromatic aberration) gets its own ray when that surface is not there or something nearer may
+ * stop it; sampled from src as the resampler samples (1/64 pixel, clamped border). Rays run on a lattice 4 pixels apart first, and per pixel only in the 4 x 4 blocks whose
  * corners disagree (a flag, or their hits' parallax by more than a pixel); the rest is interpolated between them. On a rolling panel (last and
  * scan not NULL) each pixel is traced under s (the first line's pose) and last and interpolated by its scan
  * fraction, as the mesh's vertices are. Hidden pixels (m->visible) are left alone. Allocation-free; rectangles are
