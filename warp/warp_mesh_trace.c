@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
-/* warp_mesh_trace: the per-pixel part of the display path's depth warp: the lens mesh cells whose rays meet a depth
- * discontinuity (000 §3: the grid is refined only there) are raytraced per pixel (003 §3.5), the rest interpolated. */
+/* warp_mesh_trace: the per-pixel part of the display path's depth warp: lens mesh cells whose rays meet a depth
+ * discontinuity (000 §3: refine the grid only there) are raytraced per pixel (003 §3.5), the rest interpolated. */
 #include "warp/warp_mesh_trace.h"
 
 #include <math.h>

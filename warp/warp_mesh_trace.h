@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
-/* warp_mesh_trace: the per-pixel part of the display path's depth warp: the lens mesh cells whose rays meet a depth
- * discontinuity (000 §3: the grid is refined only there) are raytraced per pixel (003 §3.5), the rest interpolated. */
+/* warp_mesh_trace: the per-pixel part of the display path's depth warp: lens mesh cells whose rays meet a depth
+ * discontinuity (000 §3: refine the grid only there) are raytraced per pixel (003 §3.5), the rest interpolated. */
 #ifndef WARP_MESH_TRACE_H
 #define WARP_MESH_TRACE_H
 
@@ -45,14 +45,14 @@ int warp_mesh_trace_mark(warp_mesh_trace *t, const warp_mesh *m, const warp_came
 
 /* Overwrites the marked cells' pixels within the viewport rectangle [x0, x1) x [y0, y1) of dst (the panel, as
  * warp_mesh_resample writes it) with rays: green's through the eye-buffer position of the pixel's lens direction
- * (interpolated between the cell's vertices, as the two-pass path's lens mesh does), traced under s; red and blue
- * at their own lens directions on the surface green hit, except beside depth edges, where a channel half a pixel or
- * more from green's (chromatic aberration) gets its own ray when that surface is not there or something nearer may
- * stop it; sampled from src as the resampler samples (1/64 pixel, clamped border). Rays run on a lattice 4 pixels apart first, and per pixel only in the 4 x 4 blocks whose
- * corners disagree (a flag, or their hits' parallax by more than a pixel); the rest is interpolated between them. On a rolling panel (last and
- * scan not NULL) each pixel is traced under s (the first line's pose) and last and interpolated by its scan
- * fraction, as the mesh's vertices are. Hidden pixels (m->visible) are left alone. Allocation-free; rectangles are
- * independent (threads). */
+ * (interpolated between the cell's vertices, as the two-pass path's lens mesh does), traced under s; red and blue at
+ * their own lens directions on the surface green hit, except beside depth edges, where a channel half a pixel or more
+ * from green's (chromatic aberration) gets its own ray when that surface is not there or something nearer may stop it;
+ * sampled from src as the resampler samples (1/64 pixel, clamped border). Rays run on a lattice 4 pixels apart first,
+ * and per pixel only in the 4 x 4 blocks whose corners disagree (a flag, or their hits' parallax by more than a pixel);
+ * the rest is interpolated between them. On a rolling panel (last and scan not NULL) each pixel is traced under s (the
+ * first line's pose) and last and interpolated by its scan fraction, as the mesh's vertices are. Hidden pixels
+ * (m->visible) are left alone. Allocation-free; rectangles are independent (threads). */
 void warp_mesh_trace_rect(const warp_mesh_trace *t, const warp_mesh *m, const warp_camera *dst_cam,
                           const warp_raytrace_setup *s, const warp_raytrace_setup *last, const warp_scan *scan,
                           const warp_planar3 *src, warp_image_rgba8 *dst, int x0, int y0, int x1, int y1);

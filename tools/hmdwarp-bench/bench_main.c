@@ -765,9 +765,9 @@ int main(int argc, char **argv)
     }
     if (isfinite(gap_def))
         fprintf(md, "| raytrace_mesh within 0.3 dB of best reference at %g cm (the per-pixel raytrace or the adaptive "
-                    "grid at their defaults, whichever is better, on every scene of the sweep below; worst: %s. Against "
-                    "their best knobs: %.2f dB below on %s, where the grid's low-pass hole fill wins) | %.2f dB below "
-                    "| %s |\n",
+                    "grid at their defaults, whichever is better, on every scene of the sweep below; worst: %s. "
+                    "Against their best knobs: %.2f dB below on %s, where the grid's low-pass hole fill wins) | "
+                    "%.2f dB below | %s |\n",
                 mcm[1], scene_def, gap_any, scene_any, gap_def, gap_def <= 0.3 ? "met" : "NOT met");
     static const char *soak_what[] = {
         "zero missed vsyncs in %g s at 90 Hz, rotation warp, simulated board",
