@@ -20,8 +20,9 @@ typedef enum {
     RT_METHOD_RAYTRACE = 2,
     RT_METHOD_TRANSPARENCY = 3, /* opaque surface by the adaptive grid + A-buffer ray casting (000 §5.3) */
     RT_METHOD_OBJECTS = 4,      /* per-object forward warp with extrapolated object poses (002 §3.2) */
-    RT_METHOD_RAYTRACE_MESH = 5, /* the raytrace at the lens mesh's vertices only (warp_mesh_update_raytrace): one
-                                  * resampling pass from the host frame, parallax smeared within a mesh cell */
+    RT_METHOD_RAYTRACE_MESH = 5, /* the raytrace at the lens mesh's vertices (warp_mesh_update_raytrace), per pixel
+                                  * in the cells with a depth discontinuity (warp_mesh_trace): one resampling pass
+                                  * from the host frame */
     RT_METHOD_COUNT,
     RT_METHOD_AUTO = RT_METHOD_COUNT
 } rt_method;

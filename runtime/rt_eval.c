@@ -46,7 +46,8 @@ bool rt_eval_work_alloc(rt_eval_work *w, const rt_eval_inputs *in)
               sim_buffers_alloc(&w->truth, cam->width, cam->height, SIM_PLANE_COLOR, 1) &&
               warp_image_rgba8_alloc(&w->out, cam->width, cam->height) &&
               warp_image_f32_alloc(&w->inv, cam->width, cam->height) &&
-              warp_mesh_alloc_eye(&w->mesh, in->mesh_n, cam) && warp_planar3_alloc(&w->planar, cam->width, cam->height);
+              warp_mesh_alloc_eye(&w->mesh, in->mesh_n, cam) && warp_mesh_trace_alloc(&w->mtrace, &w->mesh) &&
+              warp_planar3_alloc(&w->planar, cam->width, cam->height);
     /* a horizontal scan's bands are columns: each band is rendered whole and its columns copied */
     if (ok && in->scan.rolling && (in->scan.dir == WARP_SCAN_LEFT_TO_RIGHT || in->scan.dir == WARP_SCAN_RIGHT_TO_LEFT))
         ok = sim_buffers_alloc(&w->band, cam->width, cam->height, SIM_PLANE_COLOR, 1);
@@ -62,6 +63,7 @@ void rt_eval_work_free(rt_eval_work *w)
     warp_image_free(&w->out);
     warp_image_free(&w->inv);
     warp_mesh_free(&w->mesh);
+    warp_mesh_trace_free(&w->mtrace);
     warp_planar3_free(&w->planar);
     memset(w, 0, sizeof *w);
 }
@@ -158,13 +160,22 @@ void rt_eval_score(rt_eval_work *w, const rt_eval_inputs *in, const rt_eval_reco
     if (!warp_raytrace_prepare(&rs, &v, cam, r->shown_eye, &in->rp)) {
         warp_raytrace_rows(&rs, out, NULL, 0, out->h, NULL);
         score(&acc[RT_EVAL_RAYTRACE], out, truth);
+        const warp_mesh_trace_params tp = warp_mesh_trace_default_params();
+        bool traced = false;
         if (!s.rolling) {
             warp_mesh_update_raytrace(&w->mesh, cam, &rs);
+            warp_mesh_trace_mark(&w->mtrace, &w->mesh, cam, &rs, NULL, NULL, &tp);
+            traced = true;
         } else if (!warp_raytrace_prepare(&rs, &v, cam, r->shown_first, &in->rp) &&
                    !warp_raytrace_prepare(&rs_last, &v, cam, r->shown_last, &in->rp)) {
             warp_mesh_update_raytrace_rolling(&w->mesh, cam, &rs, &rs_last, &s);
+            warp_mesh_trace_mark(&w->mtrace, &w->mesh, cam, &rs, &rs_last, &s, &tp);
+            traced = true;
         }
         warp_mesh_resample(&w->mesh, &w->planar, out, 0, 0, out->w, out->h);
+        if (traced)
+            warp_mesh_trace_rect(&w->mtrace, &w->mesh, cam, &rs, s.rolling ? &rs_last : NULL, s.rolling ? &s : NULL,
+                                 &w->planar, out, 0, 0, out->w, out->h);
         score(&acc[RT_EVAL_RAYTRACE_MESH], out, truth);
     }
 }

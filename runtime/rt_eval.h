@@ -15,6 +15,7 @@
 #include "warp/warp_math.h"
 #include "sim/sim_scene.h"
 #include "warp/warp_mesh.h"
+#include "warp/warp_mesh_trace.h"
 #include "warp/warp_raytrace.h"
 #include "warp/warp_resample.h"
 #include "warp/warp_scan.h"
@@ -87,6 +88,7 @@ typedef struct {
     warp_image_rgba8 out;
     warp_image_f32 inv;
     warp_mesh mesh;
+    warp_mesh_trace mtrace; /* raytrace_mesh's cells traced per pixel, as the CPU pass's */
     warp_planar3 planar;
 } rt_eval_work;
 

@@ -13,6 +13,7 @@
 #include "warp/warp_fov.h"
 #include "warp/warp_grid.h"
 #include "warp/warp_holes.h"
+#include "warp/warp_mesh_trace.h"
 #include "warp/warp_objects.h"
 #include "warp/warp_registry.h"
 #include "warp/warp_resample.h"
@@ -42,6 +43,7 @@ typedef struct {
     bool mesh_rolling;                 /* mesh_task: src_from_dst_last set, not a lens-only pass */
     warp_quat src_from_dst_last[2];    /* mesh_task: src_from_dst is then the first line's */
     warp_raytrace_setup rts_last[2];   /* mesh_raytrace_task: rts is then the first line's */
+    bool trace_cells;                  /* resample_task: raytrace_mesh's marked cells get per-pixel rays after */
 } job;
 
 struct rt_render_cpu {
@@ -49,6 +51,7 @@ struct rt_render_cpu {
     plat_workers *workers;
     job j;                         /* here, not on the caller's stack: a vsync's job is a few KB */
     warp_mesh mesh[2];
+    warp_mesh_trace mtrace[2];     /* raytrace_mesh: the cells traced per pixel (allocated with the depth warps) */
     warp_image_rgba8 inter[2];     /* eye-space warps' output, before the lens pass */
     warp_planar3 inter_planar[2];
     /* the further depth warps, allocated when the method may use them */
@@ -140,7 +143,8 @@ rt_render_cpu *rt_render_cpu_create(const rt_render_cpu_params *p, plat_workers 
         if (!warp_fov_weights_alloc(&r->weights[e], &r->mesh[e], r->visible[e])) return fail(r, err, errlen, "out of memory");
     }
     for (int e = 0; e < 2 && p->depth_warps; e++) {
-        bool ok = warp_image_rgba8_alloc(&r->inter[e], p->eye_w, p->eye_h) &&
+        bool ok = warp_mesh_trace_alloc(&r->mtrace[e], &r->mesh[e]) &&
+                  warp_image_rgba8_alloc(&r->inter[e], p->eye_w, p->eye_h) &&
                   warp_planar3_alloc(&r->inter_planar[e], p->eye_w, p->eye_h) &&
                   warp_image_u8_alloc(&r->wmask[e], p->eye_w, p->eye_h);
         if (ok && p->transparency)
@@ -163,6 +167,7 @@ void rt_render_cpu_destroy(rt_render_cpu **rp)
     if (!r) return;
     for (int e = 0; e < 2; e++) {
         warp_mesh_free(&r->mesh[e]);
+        warp_mesh_trace_free(&r->mtrace[e]);
         free(r->visible[e]);
         warp_fov_weights_free(&r->weights[e]);
         warp_image_free(&r->inter[e]);
@@ -186,6 +191,10 @@ rt_render_cpu_stats rt_render_cpu_stats_get(const rt_render_cpu *r)
     return st;
 }
 warp_mesh *rt_render_cpu_mesh(rt_render_cpu *r, int eye) { return &r->mesh[eye]; }
+const warp_mesh_trace *rt_render_cpu_mesh_trace(const rt_render_cpu *r, int eye)
+{
+    return r->mtrace[eye].cell ? &r->mtrace[eye] : NULL;
+}
 int64_t rt_render_cpu_visible(const rt_render_cpu *r, int eye) { return r->weights[eye].visible; }
 int64_t rt_render_cpu_outside(const rt_render_cpu *r, int eye, int src_w, int src_h)
 {
@@ -205,6 +214,9 @@ static void resample_task(void *ctx, int task)
     int x1 = x0 + TILE_W < m->vp_w ? x0 + TILE_W : m->vp_w;
     int y1 = y0 + TILE_H < m->vp_h ? y0 + TILE_H : m->vp_h;
     warp_mesh_resample(m, j->src[e], j->out, x0, y0, x1, y1);
+    if (j->trace_cells)
+        warp_mesh_trace_rect(&j->r->mtrace[e], m, &j->frame->f.cam[e], &j->rts[e], j->first ? &j->rts_last[e] : NULL,
+                             j->first ? &j->r->p.scan : NULL, j->src[e], j->out, x0, y0, x1, y1);
 }
 
 /* Task `task` of 2 * j->bands: one band of one eye, rows [*y0, *y1). */
@@ -278,15 +290,20 @@ static void mesh_task(void *ctx, int e)
     mesh_update(j->r, j->frame, e, j->mesh_rolling, j->src_from_dst[e], j->src_from_dst_last[e]);
 }
 
-/* raytrace_mesh: one eye's rays, at its lens mesh's vertices (the resample then reads the frame). */
+/* raytrace_mesh: one eye's rays, at its lens mesh's vertices, and which cells the resample tasks then trace per
+ * pixel (the depth discontinuities, warp_mesh_trace): the resample reads the frame. */
 static void mesh_raytrace_task(void *ctx, int e)
 {
     job *j = ctx;
+    rt_render_cpu *r = j->r;
+    const warp_camera *cam = &j->frame->f.cam[e];
     if (j->first)
-        warp_mesh_update_raytrace_rolling(&j->r->mesh[e], &j->frame->f.cam[e], &j->rts[e], &j->rts_last[e],
-                                          &j->r->p.scan);
+        warp_mesh_update_raytrace_rolling(&r->mesh[e], cam, &j->rts[e], &j->rts_last[e], &r->p.scan);
     else
-        warp_mesh_update_raytrace(&j->r->mesh[e], &j->frame->f.cam[e], &j->rts[e]);
+        warp_mesh_update_raytrace(&r->mesh[e], cam, &j->rts[e]);
+    const warp_mesh_trace_params tp = warp_mesh_trace_default_params();
+    warp_mesh_trace_mark(&r->mtrace[e], &r->mesh[e], cam, &j->rts[e], j->first ? &j->rts_last[e] : NULL,
+                         j->first ? &r->p.scan : NULL, &tp);
 }
 
 /* The warps that need a whole eye at once (they rasterise or splat): one task per eye, into eye space, holes
@@ -398,7 +415,9 @@ static rt_method pass_raytrace(rt_render_cpu *r, job *j, const rt_frame *frame, 
         /* no eye-space image: depth warp, lens and CA in the one resampling pass from the host frame */
         plat_workers_run(r->workers, 2, mesh_raytrace_task, j);
         for (int e = 0; e < 2; e++) j->src[e] = &frame->planar[e];
+        j->trace_cells = true;
         run_resample(r, j);
+        j->trace_cells = false;
         return method;
     }
     j->bands = (r->inter[0].h + BAND_H - 1) / BAND_H;

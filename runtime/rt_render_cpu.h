@@ -12,6 +12,7 @@
 #include "runtime/rt_frameq.h"
 #include "warp/warp_lens.h"
 #include "warp/warp_mesh.h"
+#include "warp/warp_mesh_trace.h"
 #include "warp/warp_raytrace.h"
 
 /* What the pass is built for: the panel, the lens, the raytrace's knobs, and which warps it allocates for (a
@@ -71,6 +72,9 @@ rt_render_cpu_stats rt_render_cpu_stats_get(const rt_render_cpu *r);
 /* The lens meshes (the GLES renderer draws through the same ones) and the raytrace's knobs (the GLES raytrace and
  * the accuracy evaluator use the pass's). */
 warp_mesh *rt_render_cpu_mesh(rt_render_cpu *r, int eye);
+/* Eye e's cells traced per pixel by the last raytrace_mesh pass (warp_mesh_trace: marked of cells_x * cells_y);
+ * NULL without the depth warps. */
+const warp_mesh_trace *rt_render_cpu_mesh_trace(const rt_render_cpu *r, int eye);
 /* Eye e's lens mesh updated for `method` (rotation; anything else draws the frame as rendered) from frame to
  * eye_pose, or per vertex between the scan's first and last line's poses when the panel scans out rolling and both
  * are given, exactly as the CPU pass does: the GLES renderer draws through it. */

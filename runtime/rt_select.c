@@ -77,14 +77,16 @@ rt_method rt_select_choose(rt_select *s, rt_method configured, const rt_select_i
     }
     double px = rt_select_parallax_px(&s->cam, in->translation_m, in->inv_depth_max);
     s->last_px = px;
-    rt_method want = px > s->p.pixel_budget ? RT_METHOD_RAYTRACE : RT_METHOD_ROTATION;
+    /* The depth warp for parallax: raytrace_mesh, as accurate as the per-pixel raytrace (per pixel where depth is
+     * discontinuous, 000 §3) at a fraction of its cost; the GPU draws its per-pixel raytrace for it (registry). */
+    rt_method want = px > s->p.pixel_budget ? RT_METHOD_RAYTRACE_MESH : RT_METHOD_ROTATION;
     rt_select_why w = px > s->p.pixel_budget ? RT_WHY_PARALLAX : RT_WHY_PARALLAX_SMALL;
     /* Moving objects need their own matrices whatever the head does (002 §3.2); transparent layers need their own
      * warp once the head translates enough to move them against the surface behind (000 §5.3). */
     if (in->objects_moving) {
         want = RT_METHOD_OBJECTS;
         w = RT_WHY_OBJECT_MOTION;
-    } else if (want == RT_METHOD_RAYTRACE && in->has_layers) {
+    } else if (want == RT_METHOD_RAYTRACE_MESH && in->has_layers) {
         want = RT_METHOD_TRANSPARENCY;
         w = RT_WHY_TRANSPARENCY;
     }
@@ -111,8 +113,8 @@ rt_method rt_select_choose(rt_select *s, rt_method configured, const rt_select_i
     rt_method m = s->current;
     /* Short of time: the cheaper warp now beats a missed vsync (which would show a stale frame unwarped). The state
      * keeps the preferred method, so the next vsync with time to spare returns to it. */
-    /* Step down the registry's ladder (objects/transparency -> raytrace -> raytrace at the mesh's vertices ->
-     * rotation) until the estimate fits: the mesh raytrace keeps most of the parallax at near rotation's cost. */
+    /* Step down the registry's ladder (objects/transparency -> raytrace -> raytrace_mesh -> rotation) until the
+     * estimate fits. */
     while (cheaper(m) != m && in->cost_ns[m] > 0 && in->cost_ns[m] > in->time_left_ns) {
         m = cheaper(m);
         w = RT_WHY_TIME_BUDGET;

@@ -22,7 +22,8 @@ static bool mesh_alloc(warp_mesh *m, int n, int vp_x, int vp_y, int vp_w, int vp
     m->src = calloc(count, sizeof *m->src);
     m->lines = calloc(lines, sizeof *m->lines);
     m->work = calloc((size_t)rows * 6 * (size_t)cols, sizeof *m->work);
-    if (!m->tan || !m->src || !m->lines || !m->work) {
+    m->flags = calloc((size_t)rows * (size_t)cols, 1);
+    if (!m->tan || !m->src || !m->lines || !m->work || !m->flags) {
         warp_mesh_free(m);
         return false;
     }
@@ -80,6 +81,7 @@ void warp_mesh_free(warp_mesh *m)
     free(m->src);
     free(m->lines);
     free(m->work);
+    free(m->flags);
     memset(m, 0, sizeof *m);
 }
 
@@ -128,6 +130,13 @@ static void finish_update(warp_mesh *m, int behind)
     for (int j = 0; j < m->rows - 1; j++) band_lines(m, j);
 }
 
+/* The same after a rotation: no vertex carries a raytrace flag. */
+static void finish_rotation(warp_mesh *m, int behind)
+{
+    memset(m->flags, 0, (size_t)m->rows * (size_t)m->cols);
+    finish_update(m, behind);
+}
+
 /* Far outside the source but small enough for float-to-int conversion: the resampler clamps it to the border like
  * every other fringe position. */
 #define FAR_OUT (-65536.0)
@@ -174,7 +183,7 @@ void warp_mesh_update(warp_mesh *m, const warp_camera *src_cam, warp_quat src_fr
     int behind = 0;
     for (int j = 0; j < m->rows; j++)
         for (int i = 0; i < m->cols; i++) behind += rotate_vertex(m, &h, j, i);
-    finish_update(m, behind);
+    finish_rotation(m, behind);
 }
 
 /* Scan fraction of vertex (i, j) on the panel (its viewport's offset added). */
@@ -201,31 +210,36 @@ void warp_mesh_update_rolling(warp_mesh *m, const warp_camera *src_cam, warp_qua
             behind += rotate_vertex(m, &h, j, i);
         }
     }
-    finish_update(m, behind);
+    finish_rotation(m, behind);
 }
 
-/* The source position the raytrace under s gives tangent direction t of the target eye; true when the ray left
- * the source. */
-static bool trace_tan(const warp_camera *dst_cam, const warp_raytrace_setup *s, warp_vec2f t, double *x, double *y)
+/* The source position the raytrace under s gives tangent direction t of the target eye; its flag (0,
+ * WARP_MASK_FRINGE when the ray left the source, WARP_MASK_EDGE across a depth edge). */
+static int trace_tan(const warp_camera *dst_cam, const warp_raytrace_setup *s, warp_vec2f t, double *x, double *y)
 {
     /* where the per-pixel raytrace would meet this direction in the target eye buffer (continuous: a lens vertex
      * rarely sits on a pixel centre, and may lie beyond the buffer's edge, where the ray is still traced: the
      * rows' fringe rules apply to it as to any ray) */
     double tx, ty;
     warp_camera_tan_to_pixel(dst_cam, t.x, t.y, &tx, &ty);
-    return warp_raytrace_point(s, tx, ty, x, y, NULL) == WARP_MASK_FRINGE;
+    return warp_raytrace_point(s, tx, ty, x, y, NULL);
 }
 
 void warp_mesh_update_raytrace(warp_mesh *m, const warp_camera *dst_cam, const warp_raytrace_setup *s)
 {
     int left = 0;
     for (int j = 0; j < m->rows; j++)
-        for (int i = 0; i < m->cols; i++)
+        for (int i = 0; i < m->cols; i++) {
+            int fl = 0;
             for (int c = 0; c < 3; c++) {
                 double x, y;
-                left += trace_tan(dst_cam, s, m->tan[((size_t)j * m->cols + i) * 3 + c], &x, &y);
+                const int f = trace_tan(dst_cam, s, m->tan[((size_t)j * m->cols + i) * 3 + c], &x, &y);
+                left += f == WARP_MASK_FRINGE;
+                fl |= f;
                 set_vertex(m, j, i, c, x, y);
             }
+            m->flags[(size_t)j * m->cols + i] = (uint8_t)fl;
+        }
     finish_update(m, left);
 }
 
@@ -236,13 +250,16 @@ void warp_mesh_update_raytrace_rolling(warp_mesh *m, const warp_camera *dst_cam,
     for (int j = 0; j < m->rows; j++)
         for (int i = 0; i < m->cols; i++) {
             const double f = vertex_fraction(m, scan, i, j);
+            int fl = 0;
             for (int c = 0; c < 3; c++) {
                 const warp_vec2f t = m->tan[((size_t)j * m->cols + i) * 3 + c];
                 double x0 = 0, y0 = 0, x1 = 0, y1 = 0;
-                bool out = false;
+                int g = 0;
                 /* an endpoint's trace only where it has weight: the first and last vertex lines cost one */
-                if (f < 1) out |= trace_tan(dst_cam, first, t, &x0, &y0);
-                if (f > 0) out |= trace_tan(dst_cam, last, t, &x1, &y1);
+                if (f < 1) g |= trace_tan(dst_cam, first, t, &x0, &y0);
+                if (f > 0) g |= trace_tan(dst_cam, last, t, &x1, &y1);
+                const bool out = (g & WARP_MASK_FRINGE) != 0;
+                fl |= g;
                 if (f <= 0) {
                     x1 = x0;
                     y1 = y0;
@@ -254,6 +271,7 @@ void warp_mesh_update_raytrace_rolling(warp_mesh *m, const warp_camera *dst_cam,
                 /* equal endpoints give x0 exactly (a still head: the global mesh bit for bit) */
                 set_vertex(m, j, i, c, x0 + (x1 - x0) * f, y0 + (y1 - y0) * f);
             }
+            m->flags[(size_t)j * m->cols + i] = (uint8_t)fl;
         }
     finish_update(m, left);
 }

@@ -56,6 +56,9 @@ typedef struct {
     const int32_t *visible;
     int behind;      /* vertices of the last update that pointed behind the source camera (warp_mesh_update) or
                       * whose ray left the source (warp_mesh_update_raytrace) */
+    uint8_t *flags;  /* [j*cols + i] the raytrace's flags of vertex (i, j) (WARP_MASK_FRINGE / WARP_MASK_EDGE, OR over
+                      * channels and rolling endpoints) after warp_mesh_update_raytrace*, 0 after a rotation update:
+                      * warp_mesh_trace reads them to find the cells whose vertices disagree */
 } warp_mesh;
 
 /* Allocates the mesh and evaluates the lens at every vertex (start-up only). n must be in [2, 1024], the viewport

@@ -255,11 +255,13 @@ static inline __attribute__((always_inline)) uint8_t trace_ray(const ray_ctx *c,
          * below the surface: it is hidden by something the source never saw. */
         if (near_clipped) flag = WARP_MASK_FRINGE;
     } else {
+        int plain_until = 0;
         for (k = 1; k <= n; k++) {
             /* A run of `chunk` steps (about a block long) none of which can hit: the nearest surface in
              * their region is farther than the ray at the run's far end. Jump to its last step, whose sample
-             * the search would have kept as the bracket's near side. */
-            if (chunk && k + chunk - 1 < n) {
+             * the search would have kept as the bracket's near side. A run that may hit is walked step by step
+             * before the next test (testing at every step near a surface cost more than the steps). */
+            if (chunk && k >= plain_until && k + chunk - 1 < n) {
                 double dlast = hi - dd * (k + chunk - 1);
                 double d0 = hi - dd * k;
                 if (region_max(s, pix + d0 * ex, piy + d0 * ey, pix + dlast * ex, piy + dlast * ey) < dlast) {
@@ -270,6 +272,7 @@ static inline __attribute__((always_inline)) uint8_t trace_ray(const ray_ctx *c,
                     (*samples)++;
                     continue;
                 }
+                plain_until = k + chunk;
             }
             db = hi - dd * k;
             if (k == n) db = lo;

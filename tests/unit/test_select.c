@@ -88,9 +88,9 @@ static void test_translation_near_object_escalates(void **state)
     /* far scene, 1 cm: under budget */
     rt_select_input in = frame(0.001, 50);
     expect_choice(&x.s, RT_METHOD_AUTO, &in, RT_METHOD_ROTATION, RT_WHY_PARALLAX_SMALL);
-    /* 1 cm with something 40 cm away: several pixels of parallax -> raytrace */
+    /* 1 cm with something 40 cm away: several pixels of parallax -> the display path's depth warp */
     in = frame(0.01, 0.4);
-    expect_choice(&x.s, RT_METHOD_AUTO, &in, RT_METHOD_RAYTRACE, RT_WHY_PARALLAX);
+    expect_choice(&x.s, RT_METHOD_AUTO, &in, RT_METHOD_RAYTRACE_MESH, RT_WHY_PARALLAX);
     assert_true(x.s.last_px > 5);
     /* transparency and object motion are named */
     in.has_layers = true;
@@ -141,20 +141,20 @@ static void test_time_budget_degrades(void **state)
     rt_select_why why;
     rt_select_input in = frame(0.02, 0.4);
     in.cost_ns[RT_METHOD_ROTATION] = 2e6;
-    in.cost_ns[RT_METHOD_RAYTRACE] = 20e6; /* does not fit in 8 ms: the mesh raytrace next (cost not known yet) */
-    expect_choice(&x.s, RT_METHOD_AUTO, &in, RT_METHOD_RAYTRACE_MESH, RT_WHY_TIME_BUDGET);
+    in.cost_ns[RT_METHOD_RAYTRACE] = 20e6; /* the per-pixel raytrace is not what auto wants for parallax */
     in.cost_ns[RT_METHOD_RAYTRACE_MESH] = 3e6; /* fits */
-    assert_int_equal(rt_select_choose(&x.s, RT_METHOD_AUTO, &in, &why), RT_METHOD_RAYTRACE_MESH);
-    in.cost_ns[RT_METHOD_RAYTRACE_MESH] = 9e6; /* neither fits: rotation */
+    expect_choice(&x.s, RT_METHOD_AUTO, &in, RT_METHOD_RAYTRACE_MESH, RT_WHY_PARALLAX);
+    in.cost_ns[RT_METHOD_RAYTRACE_MESH] = 9e6; /* does not fit in 8 ms: rotation */
     expect_choice(&x.s, RT_METHOD_AUTO, &in, RT_METHOD_ROTATION, RT_WHY_TIME_BUDGET);
-    /* the objects warp steps down through the same ladder */
+    /* the objects warp steps down through the same ladder: raytrace does not fit, raytrace_mesh does */
     in.objects_moving = true;
     in.cost_ns[RT_METHOD_OBJECTS] = 30e6;
     in.cost_ns[RT_METHOD_RAYTRACE_MESH] = 3e6;
-    assert_int_equal(rt_select_choose(&x.s, RT_METHOD_AUTO, &in, &why), RT_METHOD_RAYTRACE_MESH);
-    in.objects_moving = false;
-    in.cost_ns[RT_METHOD_RAYTRACE] = 5e6; /* fits again: back to the preferred warp at once */
+    expect_choice(&x.s, RT_METHOD_AUTO, &in, RT_METHOD_RAYTRACE_MESH, RT_WHY_TIME_BUDGET);
+    in.cost_ns[RT_METHOD_RAYTRACE] = 5e6; /* fits: one rung down only */
     assert_int_equal(rt_select_choose(&x.s, RT_METHOD_AUTO, &in, &why), RT_METHOD_RAYTRACE);
+    in.cost_ns[RT_METHOD_OBJECTS] = 6e6; /* fits again: back to the preferred warp at once */
+    assert_int_equal(rt_select_choose(&x.s, RT_METHOD_AUTO, &in, &why), RT_METHOD_OBJECTS);
 }
 
 /* The reasons' --stats keys (select_KEY) are an interface: exactly these, one per reason, and a summary text each. */

@@ -17,6 +17,7 @@
 #include "warp/warp_transparency.h"
 #include "warp/warp_iterative.h"
 #include "warp/warp_mesh.h"
+#include "warp/warp_mesh_trace.h"
 #include "warp/warp_raytrace.h"
 #include "warp/warp_reproject.h"
 #include "warp/warp_resample.h"
@@ -440,7 +441,17 @@ static const char *run_raytrace_mesh(const warp_view *src, const warp_camera *ds
         warp_raytrace_use_blockmax(&s, &bmax, 8);
         warp_mesh_update_raytrace(&m, dst_cam, &s);
         warp_mesh_resample(&m, &planar, dst, 0, 0, m.vp_w, m.vp_h);
-        st->primitives = (long)(m.rows - 1) * (m.cols - 1);
+        /* and per pixel in the cells with a depth discontinuity, as the runtime's pass */
+        warp_mesh_trace tr;
+        if (warp_mesh_trace_alloc(&tr, &m)) {
+            const warp_mesh_trace_params tp = warp_mesh_trace_default_params();
+            warp_mesh_trace_mark(&tr, &m, dst_cam, &s, NULL, NULL, &tp);
+            warp_mesh_trace_rect(&tr, &m, dst_cam, &s, NULL, NULL, &planar, dst, 0, 0, m.vp_w, m.vp_h);
+            st->primitives = (long)(m.rows - 1) * (m.cols - 1);
+            warp_mesh_trace_free(&tr);
+        } else {
+            why = "out of memory";
+        }
         st->samples = -1;
         st->fringe = st->holes = 0;
     } else {

@@ -1,0 +1,60 @@
+/* SPDX-License-Identifier: MIT */
+/* warp_mesh_trace: the per-pixel part of the display path's depth warp: lens mesh cells whose rays meet a depth
+ * discontinuity (000 §3: refine the grid only there) are raytraced per pixel (003 §3.5), the rest interpolated. */
+#ifndef WARP_MESH_TRACE_H
+#define WARP_MESH_TRACE_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "warp/warp_image.h"
+#include "warp/warp_mesh.h"
+#include "warp/warp_raytrace.h"
+#include "warp/warp_resample.h"
+#include "warp/warp_scan.h"
+
+/* When a cell is traced per pixel: some pixel of it is shown (the hidden-area mask), and a vertex's ray crossed a
+ * depth edge, or the ray through its centre lands more than `parallax_px` source pixels from where the interpolation
+ * between its vertices puts it (000 §4.1's error test): an edge through the cell, an object between its vertices, a
+ * surface too curved to interpolate, or the border of what the source saw where a translation uncovers it. A
+ * slanted plane interpolates well and is not traced; nor is the ring where the lens sees beyond the eye buffer,
+ * whose clamped fringe fill (003 §4.3) the interpolation already gives. */
+typedef struct {
+    float parallax_px; /* source pixels */
+} warp_mesh_trace_params;
+
+/* parallax_px 1: at a depth edge, a pixel of the wrong side's parallax. */
+warp_mesh_trace_params warp_mesh_trace_default_params(void);
+
+/* The per-cell marks of one mesh: allocated once (start-up), rewritten per vsync by warp_mesh_trace_mark. */
+typedef struct {
+    int cells_x, cells_y; /* the mesh's cols - 1 and rows - 1 */
+    uint8_t *cell;        /* [j * cells_x + i]: 1 = cell (i, j) is traced per pixel */
+    int marked;           /* cells marked by the last warp_mesh_trace_mark */
+} warp_mesh_trace;
+
+bool warp_mesh_trace_alloc(warp_mesh_trace *t, const warp_mesh *m);
+void warp_mesh_trace_free(warp_mesh_trace *t);
+
+/* Marks the cells of m, just updated by warp_mesh_update_raytrace for dst_cam under s (or, last and scan not NULL,
+ * by warp_mesh_update_raytrace_rolling under s and last), that are to be traced per pixel. Returns the count.
+ * Allocation-free: vsync path. */
+int warp_mesh_trace_mark(warp_mesh_trace *t, const warp_mesh *m, const warp_camera *dst_cam,
+                         const warp_raytrace_setup *s, const warp_raytrace_setup *last, const warp_scan *scan,
+                         const warp_mesh_trace_params *p);
+
+/* Overwrites the marked cells' pixels within the viewport rectangle [x0, x1) x [y0, y1) of dst (the panel, as
+ * warp_mesh_resample writes it) with rays: green's through the eye-buffer position of the pixel's lens direction
+ * (interpolated between the cell's vertices, as the two-pass path's lens mesh does), traced under s; red and blue at
+ * their own lens directions on the surface green hit, except beside depth edges, where a channel half a pixel or more
+ * from green's (chromatic aberration) gets its own ray when that surface is not there or something nearer may stop it;
+ * sampled from src as the resampler samples (1/64 pixel, clamped border). Rays run on a lattice 4 pixels apart first,
+ * and per pixel only in the 4 x 4 blocks whose corners disagree (a flag, or their hits' parallax by more than a pixel);
+ * the rest is interpolated between them. On a rolling panel (last and scan not NULL) each pixel is traced under s (the
+ * first line's pose) and last and interpolated by its scan fraction, as the mesh's vertices are. Hidden pixels
+ * (m->visible) are left alone. Allocation-free; rectangles are independent (threads). */
+void warp_mesh_trace_rect(const warp_mesh_trace *t, const warp_mesh *m, const warp_camera *dst_cam,
+                          const warp_raytrace_setup *s, const warp_raytrace_setup *last, const warp_scan *scan,
+                          const warp_planar3 *src, warp_image_rgba8 *dst, int x0, int y0, int x1, int y1);
+
+#endif
