@@ -730,8 +730,9 @@ int main(int argc, char **argv)
             o.quick ? " BENCH_ARGS=--quick" : "", o.threads, warp_resample_kernel(), bench_cv_version(), cfg.panel_w,
             cfg.panel_h, cfg.eye_w, cfg.eye_h, cfg.mesh_n, o.reps);
     fprintf(md, "## Targets\n\n| target | measured | verdict |\n|---|---|---|\n");
-    fprintf(md, "| display path at least 3x faster than OpenCV cv::remap doing the same per-channel resampling | "
-                "%.2fx | %s |\n", cv_speedup, cv_speedup >= 3 ? "met" : "NOT met");
+    /* #21 raised the bar from 3x to 5x (the kernel picked by measurement, the mask filled four pixels a store) */
+    fprintf(md, "| display path at least 5x faster than OpenCV cv::remap doing the same per-channel resampling | "
+                "%.2fx | %s |\n", cv_speedup, cv_speedup >= 5 ? "met" : "NOT met");
     fprintf(md, "| raytrace at 5 cm head translation at most 2x the display path | %.2fx | %s |\n", ray_ratio,
             ray_ratio <= 2 ? "met" : "NOT met");
     const int m5 = n_motion - 1 < 3 ? n_motion - 1 : 3; /* 5 cm (quick: the largest measured) */
