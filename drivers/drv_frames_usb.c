@@ -722,6 +722,31 @@ static void ffs_note_speed(ffs_transport *t)
                  drv_usb_speed_mbps(cur), udc);
 }
 
+void drv_frames_usb_ffs_event(int type, bool *enabled, drv_frames_usb_stats *st)
+{
+    switch (type) {
+    case FUNCTIONFS_ENABLE:
+        if (*enabled) { /* the replug's DISABLE/UNBIND were coalesced away (see the header) */
+            st->disconnects++;
+            snprintf(st->last_error, sizeof st->last_error, "usb frames: host re-enabled the function (a replug)");
+        }
+        st->connections++; /* a host configured the function: counted as socket hosts are */
+        *enabled = true;
+        break;
+    case FUNCTIONFS_DISABLE:
+    case FUNCTIONFS_UNBIND:
+        if (*enabled) {
+            st->disconnects++;
+            snprintf(st->last_error, sizeof st->last_error, "usb frames: host %s",
+                     type == FUNCTIONFS_DISABLE ? "disabled the function" : "unbound");
+        }
+        *enabled = false;
+        break;
+    default: /* BIND, SETUP, SUSPEND, RESUME: no change of host */
+        break;
+    }
+}
+
 static void *ep0_thread(void *arg)
 {
     ffs_transport *t = arg;
@@ -740,29 +765,15 @@ static void *ep0_thread(void *arg)
         for (size_t i = 0; i < (size_t)n / sizeof ev[0]; i++) {
             switch (ev[i].type) {
             case FUNCTIONFS_ENABLE:
-                pthread_mutex_lock(&t->lock);
-                if (!t->enabled) { /* a host configured the function: counted as socket hosts are */
-                    pthread_mutex_lock(&t->owner->lock);
-                    t->owner->st.connections++;
-                    pthread_mutex_unlock(&t->owner->lock);
-                }
-                t->enabled = true;
-                pthread_cond_broadcast(&t->cond);
-                pthread_mutex_unlock(&t->lock);
-                ffs_note_speed(t);
-                break;
             case FUNCTIONFS_DISABLE:
             case FUNCTIONFS_UNBIND:
                 pthread_mutex_lock(&t->lock);
-                if (t->enabled) {
-                    pthread_mutex_lock(&t->owner->lock);
-                    t->owner->st.disconnects++;
-                    snprintf(t->owner->st.last_error, sizeof t->owner->st.last_error, "usb frames: host %s",
-                             ev[i].type == FUNCTIONFS_DISABLE ? "disabled the function" : "unbound");
-                    pthread_mutex_unlock(&t->owner->lock);
-                }
-                t->enabled = false;
+                pthread_mutex_lock(&t->owner->lock);
+                drv_frames_usb_ffs_event(ev[i].type, &t->enabled, &t->owner->st);
+                pthread_mutex_unlock(&t->owner->lock);
+                if (t->enabled) pthread_cond_broadcast(&t->cond);
                 pthread_mutex_unlock(&t->lock);
+                if (ev[i].type == FUNCTIONFS_ENABLE) ffs_note_speed(t);
                 break;
             case FUNCTIONFS_SETUP:
                 /* No vendor control requests: stall the data phase in its direction. */

@@ -100,6 +100,13 @@ drv_frames *drv_frames_usb_create_fed(const drv_frames_usb_params *p, char *err,
  * waiting to be received, or the buffer is full. */
 size_t drv_frames_usb_feed(drv_frames *fr, const uint8_t *data, size_t n);
 
+/* FunctionFS's ep0 events (FUNCTIONFS_BIND..RESUME) as the gadget counts them: ENABLE connects, DISABLE and UNBIND
+ * disconnect. An ENABLE while already enabled is a disconnect and a new host: f_fs.c's __ffs_event_add drops the
+ * pending DISABLE/UNBIND/BIND when an ENABLE is queued, so an ep0 reader that woke late (a busy board) sees a replug
+ * only as a second ENABLE. Updates *enabled and st (connections, disconnects, last_error); the caller holds the
+ * locks. Public for the tests. */
+void drv_frames_usb_ffs_event(int type, bool *enabled, drv_frames_usb_stats *st);
+
 /* Statistics of a usb, mock or socket frames source; safe from any thread. */
 void drv_frames_usb_stats_get(drv_frames *fr, drv_frames_usb_stats *st);
 /* The decode time (ms) of the frame the last drv_frames_receive returned: for the receiving thread only (no lock),

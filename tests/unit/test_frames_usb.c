@@ -12,7 +12,9 @@
 #include <string.h>
 #include <unistd.h>
 #include <cmocka.h>
+#include <linux/usb/functionfs.h>
 
+#include "drivers/drv_frames_usb.h"
 #include "drivers/drv_frames_usb_mock.h"
 #include "drivers/drv_framelink.h"
 #include "platform/plat_clock.h"
@@ -341,6 +343,37 @@ static void test_fed_byte_by_byte(void **state)
     drv_frame_free(&out);
 }
 
+/* The gadget's ep0 accounting: a clean unplug/replug, and the same replug as a late-woken reader sees it once
+ * f_fs.c has coalesced DISABLE/UNBIND/BIND away (a second ENABLE), both count one disconnect and a new host. */
+static void test_ffs_events(void **state)
+{
+    (void)state;
+    drv_frames_usb_stats st = {0};
+    bool on = false;
+    drv_frames_usb_ffs_event(FUNCTIONFS_BIND, &on, &st);
+    drv_frames_usb_ffs_event(FUNCTIONFS_ENABLE, &on, &st);
+    assert_true(on);
+    assert_int_equal(st.connections, 1);
+    assert_int_equal(st.disconnects, 0);
+    drv_frames_usb_ffs_event(FUNCTIONFS_SUSPEND, &on, &st);
+    drv_frames_usb_ffs_event(FUNCTIONFS_RESUME, &on, &st);
+    assert_int_equal(st.connections, 1);
+    drv_frames_usb_ffs_event(FUNCTIONFS_DISABLE, &on, &st);
+    drv_frames_usb_ffs_event(FUNCTIONFS_UNBIND, &on, &st); /* already down: not a second disconnect */
+    assert_false(on);
+    assert_int_equal(st.disconnects, 1);
+    assert_non_null(strstr(st.last_error, "disabled"));
+    drv_frames_usb_ffs_event(FUNCTIONFS_BIND, &on, &st);
+    drv_frames_usb_ffs_event(FUNCTIONFS_ENABLE, &on, &st);
+    assert_int_equal(st.connections, 2);
+    /* the coalesced replug: ENABLE while enabled */
+    drv_frames_usb_ffs_event(FUNCTIONFS_ENABLE, &on, &st);
+    assert_true(on);
+    assert_int_equal(st.connections, 3);
+    assert_int_equal(st.disconnects, 2);
+    assert_non_null(strstr(st.last_error, "replug"));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -351,6 +384,7 @@ int main(void)
         cmocka_unit_test(test_stall_mid_frame),
         cmocka_unit_test(test_missing_ffs),
         cmocka_unit_test(test_fed_byte_by_byte),
+        cmocka_unit_test(test_ffs_events),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
