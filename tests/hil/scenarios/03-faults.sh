@@ -41,12 +41,20 @@ hil_live_wait_locked 60
 # USB unplug, as a cable pulled for 1 s: the gadget unbound from its UDC, then bound again. The board's FunctionFS
 # sees the link go and come back; hmdwarp-feed (libhmdwarp-host) loses its device and opens the re-enumerated one
 # (a fresh libusb context per try: no udevd here, so no hot-plug events); frames come again.
-r0=$(hil_stat frames_received "$HIL_LIVE")
+# The live file is rewritten once a second, so a count read now may lag the frames that came before the unplug
+# (once, 10 of them arrived in that second and passed for frames after the replug): the wait is first for the
+# board to count the new host, then for 10 frames beyond what the live file said at that point.
+c0=$(hil_stat frames_link_connections "$HIL_LIVE")
 echo "" >/sys/kernel/config/usb_gadget/hmdwarp/UDC && hil_log "USB unplugged (gadget unbound from dummy_udc.0)"
 sleep 1
 echo dummy_udc.0 >/sys/kernel/config/usb_gadget/hmdwarp/UDC && hil_log "USB replugged"
-hil_live_wait 120 frames_received "$((${r0:-0} + 10))" ||
-    hil_miss "USB replug: frames did not come again ($(hil_stat frames_received "$HIL_LIVE") received, ${r0:-none} before the unplug; $(tail -n 1 "$HIL_WORK/feed.log"))"
+if hil_live_wait 120 frames_link_connections "$((${c0:-1} + 1))"; then
+    r0=$(hil_stat frames_received "$HIL_LIVE")
+    hil_live_wait 120 frames_received "$((${r0:-0} + 10))" ||
+        hil_miss "USB replug: frames did not come again ($(hil_stat frames_received "$HIL_LIVE") received, ${r0:-none} when the host was back; $(tail -n 1 "$HIL_WORK/feed.log"))"
+else
+    hil_miss "USB replug: the board saw no host connect again within 120 s (frames_link_connections $(hil_stat frames_link_connections "$HIL_LIVE"), ${c0:-none} before the unplug; $(tail -n 1 "$HIL_WORK/feed.log"))"
+fi
 hil_hmdwarpd_stop 30
 kill "$HIL_FEED_PID" 2>/dev/null; wait "$HIL_FEED_PID" 2>/dev/null
 hil_gadget_stop
