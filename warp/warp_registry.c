@@ -14,7 +14,7 @@
 #define FILL I("fill", 0, 5, 0, "holes: 0 none, 1 epipolar far, 2 low-pass, 3 nearest, 4 background, 5 rubber sheet")
 /* The adaptive grid's knobs (000 §4.1), shared by grid and transparency. */
 #define GRID_KNOBS                                                                                                     \
-    I("strategy", 0, 3, 3, "0 Didyk, 1 cross, 2 partial cross, 3 irregular"), I("tile", 2, 256, 32, NULL),          \
+    I("strategy", 0, 3, 3, "0 Didyk, 1 cross, 2 partial cross, 3 irregular"), I("tile", 2, 64, 32, "a power of two"),          \
         R("max_error", 0, 1, 0.02, NULL), I("filter", 0, 2, 0, "0 adaptive, 1 linear, 2 nearest"), FILL
 
 /* Indexed by warp_method; the defaults are the warp modules' *_default_params() (tests/unit/test_registry.c). */
@@ -48,7 +48,7 @@ static const warp_method_info methods[WARP_METHOD_COUNT] = {
                                    {I("mesh", 2, 1024, 64, "vertices per side ([lens] mesh)")}},
     [WARP_METHOD_ITERATIVE] = {"iterative", "001 §3", "backward warp by fixed-point iteration", WARP_NEEDS_DEPTH,
                                WARP_METHOD_ROTATION, 5, false, WARP_METHOD_COUNT, 6,
-                               {I("seeds", 1, 64, 8, NULL), I("iters", 0, 64, 32, "steps per seed at most"),
+                               {I("seeds", 1, 64, 8, NULL), I("iters", 1, 64, 32, "steps per seed at most"),
                                 I("bound", 0, 2, 2, "0 global, 1 tight, 2 PCA"), I("dilate", 0, 1, 0, NULL),
                                 I("awoc", 0, 1, 0, NULL), FILL}},
     [WARP_METHOD_GRID] = {"grid", "000 §4.1", "adaptive grid warp", WARP_NEEDS_DEPTH, WARP_METHOD_ROTATION, 5, false,

@@ -17,6 +17,7 @@
 #include "tools/common/cat_warps.h"
 #include "warp/warp_raytrace.h"
 #include "warp/warp_registry.h"
+#include "tests/support/test_scene.h"
 #include "tests/support/test_util.h"
 
 static void entries_consistent(void **state)
@@ -184,6 +185,38 @@ static void catalogue_lists_registry(void **state)
     assert_non_null(cat_check_params(WARP_METHOD_GRID, "tile="));
 }
 
+/* Every knob's registry range is what the warp itself accepts: run each colour+depth method with each knob at its
+ * minimum and at its maximum (the others at their defaults) on a small pair; none may refuse the value (the
+ * iterative warp's `iters` once reached down to 0, which the warp rejects as "iteration count T must be 1..256"). */
+static void knob_ranges_accepted(void **state)
+{
+    (void)state;
+    enum { W = 24, H = 16 };
+    const warp_camera cam = {W, H, 1.0, 1.0, 0.8, 0.7, 0.05, INFINITY};
+    test_pair tp;
+    assert_true(test_pair_alloc(&tp, W, H, SIM_PLANE_COLOR | SIM_PLANE_DEPTH));
+    const warp_pose a = test_eye_at(0, 0, 0, (warp_vec3){0, 0, 0});
+    const warp_pose b = test_eye_at(0.05, 0.02, 0, (warp_vec3){0.02, 0, 0});
+    test_pair_render(&tp, "near", &cam, a, b);
+    int runs = 0;
+    for (int m = 0; m < WARP_METHOD_COUNT; m++) {
+        const warp_method_info *w = warp_method_get((warp_method)m);
+        if (w->needs & ~(unsigned)WARP_NEEDS_DEPTH) continue; /* ids, motion, layers: not in this pair */
+        for (int k = 0; k < w->n_knobs; k++) {
+            for (int end = 0; end < 2; end++) {
+                char params[80];
+                snprintf(params, sizeof params, "%s=%g", w->knobs[k].name, end ? w->knobs[k].max : w->knobs[k].min);
+                cat_stats st;
+                const char *err = cat_all()[m]->run(&tp.v, &cam, b, 0.0, params, &tp.out, &tp.mask, &st);
+                if (err) fail_msg("%s %s: %s", w->name, params, err);
+                runs++;
+            }
+        }
+    }
+    assert_true(runs >= 20);
+    test_pair_free(&tp);
+}
+
 static char tool[600]; /* build/hmdwarp-warp, beside this test's build/tests/unit/ */
 
 /* hmdwarp-warp --list prints one line per registry method, in registry order, with its paper and planes. */
@@ -222,6 +255,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(gpu_column_covers_runtime),
         cmocka_unit_test(config_lists_registry),
         cmocka_unit_test(catalogue_lists_registry),
+        cmocka_unit_test(knob_ranges_accepted),
         cmocka_unit_test(warp_tool_lists_registry),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
