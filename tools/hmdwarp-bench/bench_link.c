@@ -244,7 +244,7 @@ static void run_row(link_row *r, const sim_scene *sc, drv_frame *src, int nf, dr
                     size_t *cap, scorer *s, double ray_raw_db, int threads)
 {
     const int w = src[0].cam[0].width, h = src[0].cam[0].height;
-    char err[200] = "";
+    char err[180] = ""; /* fits r->na behind "encoder: " */
     drv_framelink_enc *enc = drv_framelink_enc_create(&r->p, w, h, err, sizeof err);
     if (!enc) {
         snprintf(r->na, sizeof r->na, "encoder: %s", err);
@@ -281,7 +281,7 @@ static void run_row(link_row *r, const sim_scene *sc, drv_frame *src, int nf, dr
             snprintf(r->na, sizeof r->na, "encode: %s", err);
             break;
         }
-        char detail[200] = "";
+        char detail[160] = ""; /* fits r->na behind "decode: <reason>: " */
         drv_frame_err fe = drv_framelink_dec_decode(dec, *buf, n, MAX_FRAME_BYTES, out, NULL, detail, sizeof detail);
         int64_t t2 = plat_now_ns();
         if (fe != DRV_FRAME_OK) {
