@@ -213,10 +213,11 @@ static void resample_task(void *ctx, int task)
     int x0 = tx * TILE_W, y0 = ty * TILE_H;
     int x1 = x0 + TILE_W < m->vp_w ? x0 + TILE_W : m->vp_w;
     int y1 = y0 + TILE_H < m->vp_h ? y0 + TILE_H : m->vp_h;
-    warp_mesh_resample(m, j->src[e], j->out, x0, y0, x1, y1);
     if (j->trace_cells)
-        warp_mesh_trace_rect(&j->r->mtrace[e], m, &j->frame->f.cam[e], &j->rts[e], j->first ? &j->rts_last[e] : NULL,
-                             j->first ? &j->r->p.scan : NULL, j->src[e], j->out, x0, y0, x1, y1);
+        warp_mesh_raytrace_rect(m, &j->r->mtrace[e], &j->frame->f.cam[e], &j->rts[e], j->first ? &j->rts_last[e] : NULL,
+                                j->first ? &j->r->p.scan : NULL, j->src[e], j->out, x0, y0, x1, y1);
+    else
+        warp_mesh_resample(m, j->src[e], j->out, x0, y0, x1, y1);
 }
 
 /* Task `task` of 2 * j->bands: one band of one eye, rows [*y0, *y1). */
@@ -297,13 +298,9 @@ static void mesh_raytrace_task(void *ctx, int e)
     job *j = ctx;
     rt_render_cpu *r = j->r;
     const warp_camera *cam = &j->frame->f.cam[e];
-    if (j->first)
-        warp_mesh_update_raytrace_rolling(&r->mesh[e], cam, &j->rts[e], &j->rts_last[e], &r->p.scan);
-    else
-        warp_mesh_update_raytrace(&r->mesh[e], cam, &j->rts[e]);
     const warp_mesh_trace_params tp = warp_mesh_trace_default_params();
-    warp_mesh_trace_mark(&r->mtrace[e], &r->mesh[e], cam, &j->rts[e], j->first ? &j->rts_last[e] : NULL,
-                         j->first ? &r->p.scan : NULL, &tp);
+    warp_mesh_raytrace_vertices(&r->mesh[e], &r->mtrace[e], cam, &j->rts[e], j->first ? &j->rts_last[e] : NULL,
+                                j->first ? &r->p.scan : NULL, &tp);
 }
 
 /* The warps that need a whole eye at once (they rasterise or splat): one task per eye, into eye space, holes

@@ -546,11 +546,7 @@ int main(int argc, char **argv)
         ray_steps[m] = (double)st.steps / (double)st.rays;
         ray_psnr[m] = warp_psnr(&eye_out, &fc[0].truth.color, NULL, 0);
         warp_planar3_from_rgba_rows(&planar0, &fc[0].src.color, 0, cfg.eye_h);
-        warp_mesh_update_raytrace(&eye_mesh, &cam[0], &rts0);
-        warp_mesh_resample(&eye_mesh, &planar0, &eye_out2, 0, 0, cfg.eye_w, cfg.eye_h);
-        warp_mesh_trace_mark(&eye_trace, &eye_mesh, &cam[0], &rts0, NULL, NULL, &eye_tp);
-        warp_mesh_trace_rect(&eye_trace, &eye_mesh, &cam[0], &rts0, NULL, NULL, &planar0, &eye_out2, 0, 0, cfg.eye_w,
-                             cfg.eye_h);
+        warp_mesh_raytrace_draw(&eye_mesh, &eye_trace, &cam[0], &rts0, NULL, NULL, &eye_tp, &planar0, &eye_out2);
         mesh_psnr[m] = warp_psnr(&eye_out2, &fc[0].truth.color, NULL, 0);
         mesh_vs_ray[m] = warp_psnr(&eye_out2, &eye_out, NULL, 0);
         cat_stats cs;
