@@ -280,7 +280,8 @@ void rt_app_run(rt_app *a)
 {
     if (a->sim && a->dev.has_truth && a->cfg.eval_every_ms > 0) {
         rt_eval_inputs in = {.cam = a->eye_cam[0], .head = a->head, .mesh_n = a->cfg.mesh_n,
-                             .rp = *rt_render_cpu_raytrace_params(a->render), .scan = rt_config_scan(&a->cfg),
+                             .rp = *rt_render_cpu_raytrace_params(a->render),
+                             .tp = *rt_render_cpu_mesh_trace_params(a->render), .scan = rt_config_scan(&a->cfg),
                              .stop = &a->stop};
         rt_simboard_eval_start(a->sim, &in);
     }

@@ -87,6 +87,7 @@ rt_render_cpu_params rt_render_cpu_params_from_config(const rt_config *c)
     p.raytrace.max_steps = c->raytrace_steps;
     p.raytrace.edge_fill = (warp_edge_fill)c->edge_fill;
     p.raytrace.edge_jump = (float)c->edge_jump;
+    p.mesh_trace = warp_mesh_trace_default_params();
     p.depth_warps = c->method != RT_METHOD_NONE && c->method != RT_METHOD_ROTATION;
     p.transparency = c->method == RT_METHOD_TRANSPARENCY || c->method == RT_METHOD_AUTO;
     p.objects = c->method == RT_METHOD_OBJECTS || c->method == RT_METHOD_AUTO;
@@ -201,6 +202,7 @@ int64_t rt_render_cpu_outside(const rt_render_cpu *r, int eye, int src_w, int sr
     return warp_fov_outside(&r->weights[eye], &r->mesh[eye], src_w, src_h);
 }
 const warp_raytrace_params *rt_render_cpu_raytrace_params(const rt_render_cpu *r) { return &r->p.raytrace; }
+const warp_mesh_trace_params *rt_render_cpu_mesh_trace_params(const rt_render_cpu *r) { return &r->p.mesh_trace; }
 
 static void resample_task(void *ctx, int task)
 {
@@ -298,9 +300,8 @@ static void mesh_raytrace_task(void *ctx, int e)
     job *j = ctx;
     rt_render_cpu *r = j->r;
     const warp_camera *cam = &j->frame->f.cam[e];
-    const warp_mesh_trace_params tp = warp_mesh_trace_default_params();
     warp_mesh_raytrace_vertices(&r->mesh[e], &r->mtrace[e], cam, &j->rts[e], j->first ? &j->rts_last[e] : NULL,
-                                j->first ? &r->p.scan : NULL, &tp);
+                                j->first ? &r->p.scan : NULL, &r->p.mesh_trace);
 }
 
 /* The warps that need a whole eye at once (they rasterise or splat): one task per eye, into eye space, holes
