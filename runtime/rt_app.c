@@ -77,7 +77,7 @@ static bool render_init(rt_app *a, char *err, int errlen)
         /* the fastest by measurement, not the widest the CPU flags allow (on a Zen 5 AVX2 beat AVX-512); GLES
          * runs may fall back to the CPU pass, so they choose too; the summary says which and why */
         rt_kernel_choice kc;
-        if (!rt_kernel_measure(c, &kc, err, errlen)) return false;
+        if (!rt_kernel_measure(c, a->render, &kc, err, errlen)) return false;
         warp_resample_set_auto(kc.picked);
         snprintf(a->kernel_why, sizeof a->kernel_why, "%s", kc.why);
     }

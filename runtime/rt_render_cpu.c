@@ -19,8 +19,6 @@
 #include "warp/warp_resample.h"
 #include "warp/warp_transparency.h"
 
-#define TILE_W 128
-#define TILE_H 32
 #define BAND_H 16
 
 /* One vsync's work, shared with the worker threads. */
@@ -212,9 +210,9 @@ static void resample_task(void *ctx, int task)
     int t = task - e * per_eye;
     const warp_mesh *m = &j->r->mesh[e];
     int tx = t % j->tiles_x[e], ty = t / j->tiles_x[e];
-    int x0 = tx * TILE_W, y0 = ty * TILE_H;
-    int x1 = x0 + TILE_W < m->vp_w ? x0 + TILE_W : m->vp_w;
-    int y1 = y0 + TILE_H < m->vp_h ? y0 + TILE_H : m->vp_h;
+    int x0 = tx * RT_RENDER_CPU_TILE_W, y0 = ty * RT_RENDER_CPU_TILE_H;
+    int x1 = x0 + RT_RENDER_CPU_TILE_W < m->vp_w ? x0 + RT_RENDER_CPU_TILE_W : m->vp_w;
+    int y1 = y0 + RT_RENDER_CPU_TILE_H < m->vp_h ? y0 + RT_RENDER_CPU_TILE_H : m->vp_h;
     if (j->trace_cells)
         warp_mesh_raytrace_rect(m, &j->r->mtrace[e], &j->frame->f.cam[e], &j->rts[e], j->first ? &j->rts_last[e] : NULL,
                                 j->first ? &j->r->p.scan : NULL, j->src[e], j->out, x0, y0, x1, y1);
@@ -345,8 +343,8 @@ static void depth_task(void *ctx, int e)
 static void run_resample(rt_render_cpu *r, job *j)
 {
     for (int e = 0; e < 2; e++) {
-        j->tiles_x[e] = (r->mesh[e].vp_w + TILE_W - 1) / TILE_W;
-        j->tiles_y[e] = (r->mesh[e].vp_h + TILE_H - 1) / TILE_H;
+        j->tiles_x[e] = (r->mesh[e].vp_w + RT_RENDER_CPU_TILE_W - 1) / RT_RENDER_CPU_TILE_W;
+        j->tiles_y[e] = (r->mesh[e].vp_h + RT_RENDER_CPU_TILE_H - 1) / RT_RENDER_CPU_TILE_H;
     }
     plat_workers_run(r->workers, j->tiles_x[0] * j->tiles_y[0] + j->tiles_x[1] * j->tiles_y[1], resample_task, j);
 }

@@ -31,6 +31,11 @@ typedef struct {
     warp_scan scan;         /* how the panel lights its lines ([display] scanout) */
 } rt_render_cpu_params;
 
+/* The pass's tiles: the lens pass resamples (and raytrace_mesh traces) an eye in rectangles of this size, one task
+ * each; rt_kernel times the kernels on them too, since the kernels' prefetch and cache behaviour depend on them. */
+#define RT_RENDER_CPU_TILE_W 128
+#define RT_RENDER_CPU_TILE_H 32
+
 /* The pass as hmdwarpd configures it from c ([display], [lens], [warp]); the bench and the tests use this too, so
  * they run what the daemon runs. */
 rt_render_cpu_params rt_render_cpu_params_from_config(const rt_config *c);

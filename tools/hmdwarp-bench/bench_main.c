@@ -379,7 +379,7 @@ int main(int argc, char **argv)
         return 1;
     }
     rt_kernel_choice kc; /* the kernel hmdwarpd's [render] kernel = auto would measure and run */
-    if (rt_kernel_measure(&cfg, &kc, err, sizeof err) && warp_resample_set_auto(kc.picked))
+    if (rt_kernel_measure(&cfg, D.pass[0], &kc, err, sizeof err) && warp_resample_set_auto(kc.picked))
         printf("auto kernel: %s, %s\n", warp_resample_kernel_name(kc.picked), kc.why);
     printf("hmdwarp-bench: panel %dx%d (eyes %dx%d), lens mesh %d, %d threads, %d reps, kernel %s\n", cfg.panel_w,
            cfg.panel_h, cfg.eye_w, cfg.eye_h, cfg.mesh_n, o.threads, o.reps, warp_resample_kernel());
