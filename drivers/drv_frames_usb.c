@@ -278,8 +278,9 @@ static bool send_cams(usb_frames *u, int timeout_ms)
 }
 
 /* The visibility mask (HWV1) that follows each camera message (a host clears the mask it had when a camera message
- * comes). Sent on its own, retried before later poses: on USB the host may not have its next read out within a pose
- * period (TCG in the HIL takes longer), and a greeting held back until the mask went out would hold every pose. */
+ * comes). Sent on its own and retried before later poses, so a mask that does not go out never holds back the
+ * greeting or a pose. Masks once never crossed real USB because the IN endpoint's write buffer was sized for poses
+ * and refused the longer mask (FFS_WRITE_MAX now holds a full one), not because of when the host reads. */
 static bool send_mask(usb_frames *u, int timeout_ms)
 {
     drv_framelink_mask m = u->p.mask;

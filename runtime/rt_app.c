@@ -77,7 +77,7 @@ static bool render_init(rt_app *a, char *err, int errlen)
         /* the fastest by measurement, not the widest the CPU flags allow (on a Zen 5 AVX2 beat AVX-512); GLES
          * runs may fall back to the CPU pass, so they choose too; the summary says which and why */
         rt_kernel_choice kc;
-        if (!rt_kernel_measure(c, &kc, err, errlen)) return false;
+        if (!rt_kernel_measure(c, a->render, &kc, err, errlen)) return false;
         warp_resample_set_auto(kc.picked);
         snprintf(a->kernel_why, sizeof a->kernel_why, "%s", kc.why);
     }
@@ -280,7 +280,8 @@ void rt_app_run(rt_app *a)
 {
     if (a->sim && a->dev.has_truth && a->cfg.eval_every_ms > 0) {
         rt_eval_inputs in = {.cam = a->eye_cam[0], .head = a->head, .mesh_n = a->cfg.mesh_n,
-                             .rp = *rt_render_cpu_raytrace_params(a->render), .scan = rt_config_scan(&a->cfg),
+                             .rp = *rt_render_cpu_raytrace_params(a->render),
+                             .tp = *rt_render_cpu_mesh_trace_params(a->render), .scan = rt_config_scan(&a->cfg),
                              .stop = &a->stop};
         rt_simboard_eval_start(a->sim, &in);
     }

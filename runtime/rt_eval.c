@@ -160,22 +160,13 @@ void rt_eval_score(rt_eval_work *w, const rt_eval_inputs *in, const rt_eval_reco
     if (!warp_raytrace_prepare(&rs, &v, cam, r->shown_eye, &in->rp)) {
         warp_raytrace_rows(&rs, out, NULL, 0, out->h, NULL);
         score(&acc[RT_EVAL_RAYTRACE], out, truth);
-        const warp_mesh_trace_params tp = warp_mesh_trace_default_params();
-        bool traced = false;
-        if (!s.rolling) {
-            warp_mesh_update_raytrace(&w->mesh, cam, &rs);
-            warp_mesh_trace_mark(&w->mtrace, &w->mesh, cam, &rs, NULL, NULL, &tp);
-            traced = true;
-        } else if (!warp_raytrace_prepare(&rs, &v, cam, r->shown_first, &in->rp) &&
-                   !warp_raytrace_prepare(&rs_last, &v, cam, r->shown_last, &in->rp)) {
-            warp_mesh_update_raytrace_rolling(&w->mesh, cam, &rs, &rs_last, &s);
-            warp_mesh_trace_mark(&w->mtrace, &w->mesh, cam, &rs, &rs_last, &s, &tp);
-            traced = true;
-        }
-        warp_mesh_resample(&w->mesh, &w->planar, out, 0, 0, out->w, out->h);
-        if (traced)
-            warp_mesh_trace_rect(&w->mtrace, &w->mesh, cam, &rs, s.rolling ? &rs_last : NULL, s.rolling ? &s : NULL,
-                                 &w->planar, out, 0, 0, out->w, out->h);
+        if (!s.rolling)
+            warp_mesh_raytrace_draw(&w->mesh, &w->mtrace, cam, &rs, NULL, NULL, &in->tp, &w->planar, out);
+        else if (!warp_raytrace_prepare(&rs, &v, cam, r->shown_first, &in->rp) &&
+                 !warp_raytrace_prepare(&rs_last, &v, cam, r->shown_last, &in->rp))
+            warp_mesh_raytrace_draw(&w->mesh, &w->mtrace, cam, &rs, &rs_last, &s, &in->tp, &w->planar, out);
+        else /* no setup for the scan's ends: the rotation's mesh, as the pass falls back to */
+            warp_mesh_resample(&w->mesh, &w->planar, out, 0, 0, out->w, out->h);
         score(&acc[RT_EVAL_RAYTRACE_MESH], out, truth);
     }
 }

@@ -61,6 +61,7 @@ typedef struct {
     warp_head head;
     int mesh_n;                 /* [lens] mesh: raytrace_mesh's vertex grid */
     warp_raytrace_params rp;    /* the CPU pass's raytrace knobs (rt_render_cpu_raytrace_params) */
+    warp_mesh_trace_params tp;  /* and its raytrace_mesh's (rt_render_cpu_mesh_trace_params) */
     warp_scan scan;             /* the panel's scanout (rt_config_scan): rolling renders the truth per band */
     _Atomic int *stop;          /* the run's: the thread returns once it is set and the ring is empty */
 } rt_eval_inputs;

@@ -8,14 +8,11 @@
 #include <string.h>
 
 #include "platform/plat_clock.h"
+#include "runtime/rt_render_cpu.h"
 #include "warp/warp_err.h"
-#include "warp/warp_fov.h"
 #include "warp/warp_math.h"
 #include "warp/warp_mesh.h"
 
-/* The render pass's tiles (rt_render_cpu.c): the kernels' prefetch and cache behaviour depend on them. */
-#define TILE_W 128
-#define TILE_H 32
 /* About this many pixels are timed per kernel and round: every so many rows of tiles, so that the lens's centre,
  * middle and rim all count (every 8th at 1440x1600). Natively the whole measurement then takes some 20 ms at
  * start-up; under an emulator (qemu-user runs the tests 20-50x slower) about a second, not tens. */
@@ -31,19 +28,16 @@
 #define YAW_DEG 5.0
 
 typedef struct {
-    warp_mesh mesh;
+    warp_mesh *mesh; /* the pass's eye 0, with its hidden-area mask */
     warp_planar3 src;
     warp_image_rgba8 dst;
-    int32_t *visible;
     int step; /* rows of tiles: every step-th is timed */
 } bench_bufs;
 
 static void bufs_free(bench_bufs *b)
 {
-    warp_mesh_free(&b->mesh);
     warp_planar3_free(&b->src);
     warp_image_free(&b->dst);
-    free(b->visible);
 }
 
 /* One kernel over the timed tiles; ms of this thread's CPU time. The caller's forced kernel comes back after. */
@@ -52,11 +46,11 @@ static double time_kernel(bench_bufs *b, warp_resample_kernel_id k)
     const int step = b->step;
     const warp_resample_kernel_id before = warp_resample_forced_kernel();
     warp_resample_force_kernel(k);
-    const warp_mesh *m = &b->mesh;
+    const warp_mesh *m = b->mesh;
     const int64_t t = plat_thread_cpu_ns();
-    for (int y0 = 0; y0 < m->vp_h; y0 += TILE_H * step)
-        for (int x0 = 0; x0 < m->vp_w; x0 += TILE_W)
-            warp_mesh_resample(m, &b->src, &b->dst, x0, y0, x0 + TILE_W, y0 + TILE_H);
+    for (int y0 = 0; y0 < m->vp_h; y0 += RT_RENDER_CPU_TILE_H * step)
+        for (int x0 = 0; x0 < m->vp_w; x0 += RT_RENDER_CPU_TILE_W)
+            warp_mesh_resample(m, &b->src, &b->dst, x0, y0, x0 + RT_RENDER_CPU_TILE_W, y0 + RT_RENDER_CPU_TILE_H);
     const double ms = (double)(plat_thread_cpu_ns() - t) * 1e-6;
     warp_resample_force_kernel(before);
     return ms;
@@ -68,30 +62,24 @@ static int cmp_double(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-bool rt_kernel_measure(const rt_config *c, rt_kernel_choice *out, char *err, int errlen)
+bool rt_kernel_measure(const rt_config *c, rt_render_cpu *pass, rt_kernel_choice *out, char *err, int errlen)
 {
     memset(out, 0, sizeof *out);
-    const int vw = c->panel_w / 2, h = c->panel_h;
     bench_bufs b;
     memset(&b, 0, sizeof b);
-    const warp_lens lens = rt_config_lens(c, 0);
-    const double radius = rt_config_visible_radius(c, 0);
-    if (!warp_mesh_alloc(&b.mesh, c->mesh_n, &lens, 0, 0, vw, h) || !warp_planar3_alloc(&b.src, c->eye_w, c->eye_h) ||
-        !warp_image_rgba8_alloc(&b.dst, vw, h) ||
-        (radius > 0 && !(b.visible = malloc(sizeof *b.visible * 2 * (size_t)h)))) {
+    /* the pass's own lens mesh and hidden-area mask, not a second copy built here from the same config */
+    b.mesh = rt_render_cpu_mesh(pass, 0);
+    const int vw = b.mesh->vp_w, h = b.mesh->vp_h;
+    if (!warp_planar3_alloc(&b.src, c->eye_w, c->eye_h) || !warp_image_rgba8_alloc(&b.dst, b.mesh->vp_x + vw, h)) {
         bufs_free(&b);
         return warp_err(err, errlen, "[render] kernel = auto: out of memory for the kernels' measurement");
     }
     const long px = (long)vw * h;
     b.step = (int)((px + MEASURE_PIXELS - 1) / MEASURE_PIXELS);
-    if (radius > 0) {
-        warp_fov_spans(&lens, radius, vw, h, b.visible);
-        b.mesh.visible = b.visible;
-    }
     /* the source stays black (warp_planar3_alloc zeroes it): no kernel branches on the colours, only on the
      * positions, so its values do not change the timing */
     const warp_camera cam = rt_config_eye_camera(c, 0);
-    warp_mesh_update(&b.mesh, &cam, warp_quat_from_ypr(YAW_DEG * WARP_PI / 180, 0, 0));
+    warp_mesh_update(b.mesh, &cam, warp_quat_from_ypr(YAW_DEG * WARP_PI / 180, 0, 0));
 
     for (int k = WARP_RESAMPLE_SCALAR; k < WARP_RESAMPLE_KERNELS; k++)
         out->usable[k] = warp_resample_kernel_available((warp_resample_kernel_id)k);
@@ -108,7 +96,7 @@ bool rt_kernel_measure(const rt_config *c, rt_kernel_choice *out, char *err, int
             if (out->usable[k] && warm[k] <= best * CUTOFF) t[k][r] = time_kernel(&b, (warp_resample_kernel_id)k);
     /* per whole eye: the timed tile rows are a fraction of it */
     int rows = 0, timed = 0;
-    for (int y0 = 0; y0 < h; y0 += TILE_H, rows++) timed += rows % b.step == 0;
+    for (int y0 = 0; y0 < h; y0 += RT_RENDER_CPU_TILE_H, rows++) timed += rows % b.step == 0;
     for (int k = WARP_RESAMPLE_SCALAR; k < WARP_RESAMPLE_KERNELS; k++)
         if (out->usable[k] && warm[k] <= best * CUTOFF) {
             qsort(t[k], ROUNDS, sizeof t[k][0], cmp_double);

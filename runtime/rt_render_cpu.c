@@ -19,8 +19,6 @@
 #include "warp/warp_resample.h"
 #include "warp/warp_transparency.h"
 
-#define TILE_W 128
-#define TILE_H 32
 #define BAND_H 16
 
 /* One vsync's work, shared with the worker threads. */
@@ -87,6 +85,7 @@ rt_render_cpu_params rt_render_cpu_params_from_config(const rt_config *c)
     p.raytrace.max_steps = c->raytrace_steps;
     p.raytrace.edge_fill = (warp_edge_fill)c->edge_fill;
     p.raytrace.edge_jump = (float)c->edge_jump;
+    p.mesh_trace = warp_mesh_trace_default_params();
     p.depth_warps = c->method != RT_METHOD_NONE && c->method != RT_METHOD_ROTATION;
     p.transparency = c->method == RT_METHOD_TRANSPARENCY || c->method == RT_METHOD_AUTO;
     p.objects = c->method == RT_METHOD_OBJECTS || c->method == RT_METHOD_AUTO;
@@ -201,6 +200,7 @@ int64_t rt_render_cpu_outside(const rt_render_cpu *r, int eye, int src_w, int sr
     return warp_fov_outside(&r->weights[eye], &r->mesh[eye], src_w, src_h);
 }
 const warp_raytrace_params *rt_render_cpu_raytrace_params(const rt_render_cpu *r) { return &r->p.raytrace; }
+const warp_mesh_trace_params *rt_render_cpu_mesh_trace_params(const rt_render_cpu *r) { return &r->p.mesh_trace; }
 
 static void resample_task(void *ctx, int task)
 {
@@ -210,13 +210,14 @@ static void resample_task(void *ctx, int task)
     int t = task - e * per_eye;
     const warp_mesh *m = &j->r->mesh[e];
     int tx = t % j->tiles_x[e], ty = t / j->tiles_x[e];
-    int x0 = tx * TILE_W, y0 = ty * TILE_H;
-    int x1 = x0 + TILE_W < m->vp_w ? x0 + TILE_W : m->vp_w;
-    int y1 = y0 + TILE_H < m->vp_h ? y0 + TILE_H : m->vp_h;
-    warp_mesh_resample(m, j->src[e], j->out, x0, y0, x1, y1);
+    int x0 = tx * RT_RENDER_CPU_TILE_W, y0 = ty * RT_RENDER_CPU_TILE_H;
+    int x1 = x0 + RT_RENDER_CPU_TILE_W < m->vp_w ? x0 + RT_RENDER_CPU_TILE_W : m->vp_w;
+    int y1 = y0 + RT_RENDER_CPU_TILE_H < m->vp_h ? y0 + RT_RENDER_CPU_TILE_H : m->vp_h;
     if (j->trace_cells)
-        warp_mesh_trace_rect(&j->r->mtrace[e], m, &j->frame->f.cam[e], &j->rts[e], j->first ? &j->rts_last[e] : NULL,
-                             j->first ? &j->r->p.scan : NULL, j->src[e], j->out, x0, y0, x1, y1);
+        warp_mesh_raytrace_rect(m, &j->r->mtrace[e], &j->frame->f.cam[e], &j->rts[e], j->first ? &j->rts_last[e] : NULL,
+                                j->first ? &j->r->p.scan : NULL, j->src[e], j->out, x0, y0, x1, y1);
+    else
+        warp_mesh_resample(m, j->src[e], j->out, x0, y0, x1, y1);
 }
 
 /* Task `task` of 2 * j->bands: one band of one eye, rows [*y0, *y1). */
@@ -297,13 +298,8 @@ static void mesh_raytrace_task(void *ctx, int e)
     job *j = ctx;
     rt_render_cpu *r = j->r;
     const warp_camera *cam = &j->frame->f.cam[e];
-    if (j->first)
-        warp_mesh_update_raytrace_rolling(&r->mesh[e], cam, &j->rts[e], &j->rts_last[e], &r->p.scan);
-    else
-        warp_mesh_update_raytrace(&r->mesh[e], cam, &j->rts[e]);
-    const warp_mesh_trace_params tp = warp_mesh_trace_default_params();
-    warp_mesh_trace_mark(&r->mtrace[e], &r->mesh[e], cam, &j->rts[e], j->first ? &j->rts_last[e] : NULL,
-                         j->first ? &r->p.scan : NULL, &tp);
+    warp_mesh_raytrace_vertices(&r->mesh[e], &r->mtrace[e], cam, &j->rts[e], j->first ? &j->rts_last[e] : NULL,
+                                j->first ? &r->p.scan : NULL, &r->p.mesh_trace);
 }
 
 /* The warps that need a whole eye at once (they rasterise or splat): one task per eye, into eye space, holes
@@ -347,8 +343,8 @@ static void depth_task(void *ctx, int e)
 static void run_resample(rt_render_cpu *r, job *j)
 {
     for (int e = 0; e < 2; e++) {
-        j->tiles_x[e] = (r->mesh[e].vp_w + TILE_W - 1) / TILE_W;
-        j->tiles_y[e] = (r->mesh[e].vp_h + TILE_H - 1) / TILE_H;
+        j->tiles_x[e] = (r->mesh[e].vp_w + RT_RENDER_CPU_TILE_W - 1) / RT_RENDER_CPU_TILE_W;
+        j->tiles_y[e] = (r->mesh[e].vp_h + RT_RENDER_CPU_TILE_H - 1) / RT_RENDER_CPU_TILE_H;
     }
     plat_workers_run(r->workers, j->tiles_x[0] * j->tiles_y[0] + j->tiles_x[1] * j->tiles_y[1], resample_task, j);
 }

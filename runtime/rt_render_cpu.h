@@ -24,11 +24,17 @@ typedef struct {
     warp_lens lens[2];
     double visible_radius[2]; /* the lens's visible disc per eye (warp_fov); 0: no hidden-area mask */
     warp_raytrace_params raytrace;
+    warp_mesh_trace_params mesh_trace; /* raytrace_mesh: which lens mesh cells get per-pixel rays */
     bool depth_warps;       /* the eye-space warps (raytrace, transparency, objects): their eye buffers */
     bool transparency;      /* the A-buffer warp's grid, tree and depth buffer */
     bool objects;           /* the per-object warp's splat and hole-filling scratch */
     warp_scan scan;         /* how the panel lights its lines ([display] scanout) */
 } rt_render_cpu_params;
+
+/* The pass's tiles: the lens pass resamples (and raytrace_mesh traces) an eye in rectangles of this size, one task
+ * each; rt_kernel times the kernels on them too, since the kernels' prefetch and cache behaviour depend on them. */
+#define RT_RENDER_CPU_TILE_W 128
+#define RT_RENDER_CPU_TILE_H 32
 
 /* The pass as hmdwarpd configures it from c ([display], [lens], [warp]); the bench and the tests use this too, so
  * they run what the daemon runs. */
@@ -69,8 +75,8 @@ typedef struct {
 /* Any thread (the helper thread reads them live). */
 rt_render_cpu_stats rt_render_cpu_stats_get(const rt_render_cpu *r);
 
-/* The lens meshes (the GLES renderer draws through the same ones) and the raytrace's knobs (the GLES raytrace and
- * the accuracy evaluator use the pass's). */
+/* The lens meshes (the GLES renderer draws through the same ones) and the raytrace's and raytrace_mesh's knobs (the
+ * GLES raytrace, the accuracy evaluator and the bench use the pass's). */
 warp_mesh *rt_render_cpu_mesh(rt_render_cpu *r, int eye);
 /* Eye e's cells traced per pixel by the last raytrace_mesh pass (warp_mesh_trace: marked of cells_x * cells_y);
  * NULL without the depth warps. */
@@ -81,6 +87,7 @@ const warp_mesh_trace *rt_render_cpu_mesh_trace(const rt_render_cpu *r, int eye)
 warp_mesh *rt_render_cpu_mesh_for(rt_render_cpu *r, const rt_frame *frame, int e, rt_method method,
                                   warp_pose eye_pose, const warp_pose *first, const warp_pose *last);
 const warp_raytrace_params *rt_render_cpu_raytrace_params(const rt_render_cpu *r);
+const warp_mesh_trace_params *rt_render_cpu_mesh_trace_params(const rt_render_cpu *r);
 
 /* The eye's visible panel pixels (the whole viewport without a mask), and how many of them the mesh's current warp
  * samples outside a src_w x src_h source (warp_fov_outside: per mesh vertex, the pixels nearest it). Allocation-free:

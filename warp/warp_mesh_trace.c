@@ -369,3 +369,34 @@ void warp_mesh_trace_rect(const warp_mesh_trace *t, const warp_mesh *m, const wa
         ya = yb;
     }
 }
+
+/* The steps the display path's depth warp runs (warp_mesh_trace.h): written once here, not in each caller. */
+int warp_mesh_raytrace_vertices(warp_mesh *m, warp_mesh_trace *t, const warp_camera *dst_cam,
+                                const warp_raytrace_setup *s, const warp_raytrace_setup *last, const warp_scan *scan,
+                                const warp_mesh_trace_params *p)
+{
+    const bool rolling = last && scan;
+    if (rolling)
+        warp_mesh_update_raytrace_rolling(m, dst_cam, s, last, scan);
+    else
+        warp_mesh_update_raytrace(m, dst_cam, s);
+    return t ? warp_mesh_trace_mark(t, m, dst_cam, s, rolling ? last : NULL, rolling ? scan : NULL, p) : 0;
+}
+
+void warp_mesh_raytrace_rect(const warp_mesh *m, const warp_mesh_trace *t, const warp_camera *dst_cam,
+                             const warp_raytrace_setup *s, const warp_raytrace_setup *last, const warp_scan *scan,
+                             const warp_planar3 *src, warp_image_rgba8 *dst, int x0, int y0, int x1, int y1)
+{
+    warp_mesh_resample(m, src, dst, x0, y0, x1, y1);
+    /* per-pixel rays after the resampling: they overwrite its pixels in the marked cells */
+    if (t) warp_mesh_trace_rect(t, m, dst_cam, s, last, scan, src, dst, x0, y0, x1, y1);
+}
+
+int warp_mesh_raytrace_draw(warp_mesh *m, warp_mesh_trace *t, const warp_camera *dst_cam,
+                            const warp_raytrace_setup *s, const warp_raytrace_setup *last, const warp_scan *scan,
+                            const warp_mesh_trace_params *p, const warp_planar3 *src, warp_image_rgba8 *dst)
+{
+    const int marked = warp_mesh_raytrace_vertices(m, t, dst_cam, s, last, scan, p);
+    warp_mesh_raytrace_rect(m, t, dst_cam, s, last, scan, src, dst, 0, 0, m->vp_w, m->vp_h);
+    return marked;
+}

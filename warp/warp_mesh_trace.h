@@ -57,4 +57,25 @@ void warp_mesh_trace_rect(const warp_mesh_trace *t, const warp_mesh *m, const wa
                           const warp_raytrace_setup *s, const warp_raytrace_setup *last, const warp_scan *scan,
                           const warp_planar3 *src, warp_image_rgba8 *dst, int x0, int y0, int x1, int y1);
 
+/* The display path's depth warp on one mesh (raytrace_mesh), in its two steps and whole; the runtime's pass, the
+ * evaluator, the tools and the tests all draw it through these. Rolling panel: last and scan not NULL (s is then
+ * the first line's setup). t NULL: the vertices alone (rays at the mesh's vertices, interpolated between them;
+ * p unused).
+ * Per vsync, once per mesh: the rays at the vertices (warp_mesh_update_raytrace or _rolling), then the cells they
+ * mark for per-pixel rays under p (warp_mesh_trace_mark). Returns the marked count (0 with t NULL).
+ * Allocation-free: vsync path. */
+int warp_mesh_raytrace_vertices(warp_mesh *m, warp_mesh_trace *t, const warp_camera *dst_cam,
+                                const warp_raytrace_setup *s, const warp_raytrace_setup *last, const warp_scan *scan,
+                                const warp_mesh_trace_params *p);
+/* Then per rectangle of the viewport (as warp_mesh_resample and warp_mesh_trace_rect take it): the resampling
+ * through the mesh from src into dst, the marked cells overwritten with rays. Independent rectangles (threads);
+ * the kernel is the resampler's (warp_resample_force_kernel). Allocation-free: vsync path. */
+void warp_mesh_raytrace_rect(const warp_mesh *m, const warp_mesh_trace *t, const warp_camera *dst_cam,
+                             const warp_raytrace_setup *s, const warp_raytrace_setup *last, const warp_scan *scan,
+                             const warp_planar3 *src, warp_image_rgba8 *dst, int x0, int y0, int x1, int y1);
+/* Both steps over the whole viewport on the calling thread. Returns the marked count. Allocation-free. */
+int warp_mesh_raytrace_draw(warp_mesh *m, warp_mesh_trace *t, const warp_camera *dst_cam,
+                            const warp_raytrace_setup *s, const warp_raytrace_setup *last, const warp_scan *scan,
+                            const warp_mesh_trace_params *p, const warp_planar3 *src, warp_image_rgba8 *dst);
+
 #endif

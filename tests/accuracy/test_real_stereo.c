@@ -314,17 +314,12 @@ static void mesh_raytrace(bool cells)
     assert_true(warp_mesh_alloc_eye(&m, S.h / MESH_CELL_PX + 1, &S.cam));
     assert_true(warp_planar3_alloc(&src, S.w, S.h));
     warp_planar3_from_rgba_rows(&src, &S.left, 0, S.h);
-    warp_mesh_update_raytrace(&m, &S.cam, &s);
-    warp_mesh_resample(&m, &src, &S.out, 0, 0, S.w, S.h);
-    if (cells) {
-        warp_mesh_trace t;
-        assert_true(warp_mesh_trace_alloc(&t, &m));
-        const warp_mesh_trace_params tp = warp_mesh_trace_default_params();
-        const int marked = warp_mesh_trace_mark(&t, &m, &S.cam, &s, NULL, NULL, &tp);
-        print_message("mesh raytrace: %d of %d cells traced per pixel\n", marked, t.cells_x * t.cells_y);
-        warp_mesh_trace_rect(&t, &m, &S.cam, &s, NULL, NULL, &src, &S.out, 0, 0, S.w, S.h);
-        warp_mesh_trace_free(&t);
-    }
+    warp_mesh_trace t;
+    assert_true(warp_mesh_trace_alloc(&t, &m));
+    const warp_mesh_trace_params tp = warp_mesh_trace_default_params();
+    const int marked = warp_mesh_raytrace_draw(&m, cells ? &t : NULL, &S.cam, &s, NULL, NULL, &tp, &src, &S.out);
+    if (cells) print_message("mesh raytrace: %d of %d cells traced per pixel\n", marked, t.cells_x * t.cells_y);
+    warp_mesh_trace_free(&t);
     memset(S.mask.px, 0, (size_t)S.mask.stride * (size_t)S.h);
     warp_mesh_free(&m);
     warp_planar3_free(&src);

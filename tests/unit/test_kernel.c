@@ -8,8 +8,10 @@
 #include <string.h>
 #include <cmocka.h>
 
+#include "platform/plat_workers.h"
 #include "runtime/rt_config.h"
 #include "runtime/rt_kernel.h"
+#include "runtime/rt_render_cpu.h"
 #include "warp/warp_resample.h"
 
 /* The default panel and lens scaled to a small eye, as hmdwarp-bench --eye does: the test stays cheap. */
@@ -32,7 +34,15 @@ static void test_measure_picks_a_measured_usable_kernel(void **state)
     assert_true(warp_resample_force_kernel(WARP_RESAMPLE_VECTOR));
     rt_kernel_choice kc;
     char err[200] = "";
-    assert_true(rt_kernel_measure(&c, &kc, err, sizeof err));
+    /* timed on the render pass's own lens mesh, as hmdwarpd does */
+    plat_workers *w = plat_workers_create(0, 0);
+    assert_non_null(w);
+    const rt_render_cpu_params p = rt_render_cpu_params_from_config(&c);
+    rt_render_cpu *pass = rt_render_cpu_create(&p, w, err, sizeof err);
+    assert_non_null(pass);
+    assert_true(rt_kernel_measure(&c, pass, &kc, err, sizeof err));
+    rt_render_cpu_destroy(&pass);
+    plat_workers_destroy(w);
     /* measuring forces each kernel in turn; afterwards the caller's kernel runs again */
     assert_string_equal(warp_resample_kernel(), "vector");
     assert_true(warp_resample_force_kernel(WARP_RESAMPLE_AUTO));

@@ -230,6 +230,17 @@ static void near_free(near_fx *f)
 
 static const warp_pose near_a = {{0, 0, 0, 1}, {-0.032, 1.6, 0}};
 
+/* The near scene seen from near_a turned 2 degrees and moved 5 cm aside, and the raytrace setup to that pose (the
+ * tests at 5 cm). Returns the pose. */
+static warp_pose near_5cm(near_fx *f, warp_raytrace_setup *s)
+{
+    const warp_pose b = moved(near_a, 2, 0, 0.05, 0, 0);
+    near_make(f, near_a, b);
+    const warp_raytrace_params p = warp_raytrace_default_params();
+    assert_null(warp_raytrace_prepare(s, &f->v, &f->cam, b, &p));
+    return b;
+}
+
 /* (d) A ray traced alone is the ray of warp_raytrace_rows through the same pixel centre: same flag, same colour
  * (the positions differ only by the rows' incremental stepping), under every fill and refinement setting. */
 static void test_point_agrees_with_rows(void **state)
@@ -335,19 +346,15 @@ static void test_depth_edges_favour_per_pixel(void **state)
 {
     (void)state;
     near_fx f;
-    warp_pose b = moved(near_a, 2, 0, 0.05, 0, 0);
-    near_make(&f, near_a, b);
-    warp_raytrace_params p = warp_raytrace_default_params();
     warp_raytrace_setup s;
-    assert_null(warp_raytrace_prepare(&s, &f.v, &f.cam, b, &p));
+    const warp_pose b = near_5cm(&f, &s);
     warp_raytrace_rows(&s, &f.out, &f.mask, 0, H, NULL);
     warp_mesh m;
     assert_true(warp_mesh_alloc_eye(&m, 21, &f.cam)); /* 24 px cells, as the default mesh on the panel */
     warp_planar3 src_p;
     assert_true(warp_planar3_alloc(&src_p, W, H));
     warp_planar3_from_rgba_rows(&src_p, f.v.color, 0, H);
-    warp_mesh_update_raytrace(&m, &f.cam, &s);
-    warp_mesh_resample(&m, &src_p, &f.out2, 0, 0, W, H);
+    warp_mesh_raytrace_draw(&m, NULL, &f.cam, &s, NULL, NULL, NULL, &src_p, &f.out2); /* the vertices alone */
     double pix = warp_psnr(&f.out, &f.b.color, &f.mask, WARP_MASK_FRINGE);
     double mesh = warp_psnr(&f.out2, &f.b.color, &f.mask, WARP_MASK_FRINGE);
     long n_edge;
@@ -421,14 +428,12 @@ static void test_edge_cells_traced_per_pixel(void **state)
         warp_planar3 src_p;
         assert_true(warp_planar3_alloc(&src_p, W, H));
         warp_planar3_from_rgba_rows(&src_p, f.v.color, 0, H);
-        warp_mesh_update_raytrace(&m, &f.cam, &s);
-        warp_mesh_resample(&m, &src_p, &f.out2, 0, 0, W, H);
+        warp_mesh_raytrace_draw(&m, NULL, &f.cam, &s, NULL, NULL, NULL, &src_p, &f.out2);
         long n_band;
         const double vert = warp_psnr(&f.out2, &f.b.color, &f.mask, WARP_MASK_FRINGE);
         const double vert_band = band_psnr(&f.out2, &f, 3, &n_band);
         const warp_mesh_trace_params tp = warp_mesh_trace_default_params();
-        const int marked = warp_mesh_trace_mark(&tr, &m, &f.cam, &s, NULL, NULL, &tp);
-        warp_mesh_trace_rect(&tr, &m, &f.cam, &s, NULL, NULL, &src_p, &f.out2, 0, 0, W, H);
+        const int marked = warp_mesh_raytrace_draw(&m, &tr, &f.cam, &s, NULL, NULL, &tp, &src_p, &f.out2);
         const double pix = warp_psnr(&f.out, &f.b.color, &f.mask, WARP_MASK_FRINGE);
         const double hyb = warp_psnr(&f.out2, &f.b.color, &f.mask, WARP_MASK_FRINGE);
         const double pix_band = band_psnr(&f.out, &f, 3, &n_band), hyb_band = band_psnr(&f.out2, &f, 3, &n_band);
@@ -456,11 +461,8 @@ static void test_edge_cells_under_chromatic_aberration(void **state)
 {
     (void)state;
     near_fx f;
-    warp_pose b = moved(near_a, 2, 0, 0.05, 0, 0);
-    near_make(&f, near_a, b);
-    warp_raytrace_params p = warp_raytrace_default_params();
     warp_raytrace_setup s;
-    assert_null(warp_raytrace_prepare(&s, &f.v, &f.cam, b, &p));
+    near_5cm(&f, &s);
     const warp_lens lens = test_reference_lens(W / 2.0, H / 2.0, 300); /* CA of 1-2 px at the periphery */
     warp_mesh m;
     warp_mesh_trace tr;
@@ -483,12 +485,10 @@ static void test_edge_cells_under_chromatic_aberration(void **state)
             }
             WARP_AT(&f.out, x, y) = (warp_rgba8){o[0], o[1], o[2], 255};
         }
-    warp_mesh_update_raytrace(&m, &f.cam, &s);
-    warp_mesh_resample(&m, &src_p, &f.out2, 0, 0, W, H);
+    warp_mesh_raytrace_draw(&m, NULL, &f.cam, &s, NULL, NULL, NULL, &src_p, &f.out2);
     const double vert = warp_psnr(&f.out2, &f.out, NULL, 0);
     const warp_mesh_trace_params tp = warp_mesh_trace_default_params();
-    const int marked = warp_mesh_trace_mark(&tr, &m, &f.cam, &s, NULL, NULL, &tp);
-    warp_mesh_trace_rect(&tr, &m, &f.cam, &s, NULL, NULL, &src_p, &f.out2, 0, 0, W, H);
+    const int marked = warp_mesh_raytrace_draw(&m, &tr, &f.cam, &s, NULL, NULL, &tp, &src_p, &f.out2);
     const double hyb = warp_psnr(&f.out2, &f.out, NULL, 0);
     print_message("panel with CA, near at 5 cm, against three rays per pixel: vertices only %.2f dB, raytrace_mesh "
                   "%.2f dB (%d of %d cells traced)\n",

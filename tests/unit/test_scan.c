@@ -184,7 +184,7 @@ static void test_raytrace_mesh_and_truth(void **state)
     sim_trace still, fast;
     assert_true(sim_trace_init(&still, "still", 1) && sim_trace_init(&fast, "fast", 1));
     rt_eval_inputs in = {.scene = sim_scene_find("room"), .trace = &still, .cam = cam, .head = still.head,
-                         .mesh_n = 12, .rp = warp_raytrace_default_params(),
+                         .mesh_n = 12, .rp = warp_raytrace_default_params(), .tp = warp_mesh_trace_default_params(),
                          .scan = {true, WARP_SCAN_TOP_TO_BOTTOM, 0.01, 2 * cam.width, cam.height}};
     assert_non_null(in.scene);
     rt_eval_work w;

@@ -439,14 +439,12 @@ static const char *run_raytrace_mesh(const warp_view *src, const warp_camera *ds
         warp_planar3_from_rgba_rows(&planar, src->color, 0, src->color->h);
         warp_raytrace_blockmax(src->inv_depth, &bmax, 8);
         warp_raytrace_use_blockmax(&s, &bmax, 8);
-        warp_mesh_update_raytrace(&m, dst_cam, &s);
-        warp_mesh_resample(&m, &planar, dst, 0, 0, m.vp_w, m.vp_h);
-        /* and per pixel in the cells with a depth discontinuity, as the runtime's pass */
+        /* the display path's depth warp as the runtime's pass draws it: rays at the vertices, and per pixel in the
+         * cells with a depth discontinuity */
         warp_mesh_trace tr;
         if (warp_mesh_trace_alloc(&tr, &m)) {
             const warp_mesh_trace_params tp = warp_mesh_trace_default_params();
-            warp_mesh_trace_mark(&tr, &m, dst_cam, &s, NULL, NULL, &tp);
-            warp_mesh_trace_rect(&tr, &m, dst_cam, &s, NULL, NULL, &planar, dst, 0, 0, m.vp_w, m.vp_h);
+            warp_mesh_raytrace_draw(&m, &tr, dst_cam, &s, NULL, NULL, &tp, &planar, dst);
             st->primitives = (long)(m.rows - 1) * (m.cols - 1);
             warp_mesh_trace_free(&tr);
         } else {

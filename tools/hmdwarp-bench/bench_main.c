@@ -379,7 +379,7 @@ int main(int argc, char **argv)
         return 1;
     }
     rt_kernel_choice kc; /* the kernel hmdwarpd's [render] kernel = auto would measure and run */
-    if (rt_kernel_measure(&cfg, &kc, err, sizeof err) && warp_resample_set_auto(kc.picked))
+    if (rt_kernel_measure(&cfg, D.pass[0], &kc, err, sizeof err) && warp_resample_set_auto(kc.picked))
         printf("auto kernel: %s, %s\n", warp_resample_kernel_name(kc.picked), kc.why);
     printf("hmdwarp-bench: panel %dx%d (eyes %dx%d), lens mesh %d, %d threads, %d reps, kernel %s\n", cfg.panel_w,
            cfg.panel_h, cfg.eye_w, cfg.eye_h, cfg.mesh_n, o.threads, o.reps, warp_resample_kernel());
@@ -516,7 +516,6 @@ int main(int argc, char **argv)
     memset(&eye_mesh, 0, sizeof eye_mesh);
     memset(&planar0, 0, sizeof planar0);
     warp_mesh_trace eye_trace;
-    const warp_mesh_trace_params eye_tp = warp_mesh_trace_default_params();
     memset(&eye_trace, 0, sizeof eye_trace);
     if (!warp_mesh_alloc_eye(&eye_mesh, cfg.mesh_n, &cam[0]) || !warp_mesh_trace_alloc(&eye_trace, &eye_mesh) ||
         !warp_planar3_alloc(&planar0, cfg.eye_w, cfg.eye_h)) {
@@ -546,11 +545,8 @@ int main(int argc, char **argv)
         ray_steps[m] = (double)st.steps / (double)st.rays;
         ray_psnr[m] = warp_psnr(&eye_out, &fc[0].truth.color, NULL, 0);
         warp_planar3_from_rgba_rows(&planar0, &fc[0].src.color, 0, cfg.eye_h);
-        warp_mesh_update_raytrace(&eye_mesh, &cam[0], &rts0);
-        warp_mesh_resample(&eye_mesh, &planar0, &eye_out2, 0, 0, cfg.eye_w, cfg.eye_h);
-        warp_mesh_trace_mark(&eye_trace, &eye_mesh, &cam[0], &rts0, NULL, NULL, &eye_tp);
-        warp_mesh_trace_rect(&eye_trace, &eye_mesh, &cam[0], &rts0, NULL, NULL, &planar0, &eye_out2, 0, 0, cfg.eye_w,
-                             cfg.eye_h);
+        warp_mesh_raytrace_draw(&eye_mesh, &eye_trace, &cam[0], &rts0, NULL, NULL,
+                                rt_render_cpu_mesh_trace_params(D.pass[0]), &planar0, &eye_out2);
         mesh_psnr[m] = warp_psnr(&eye_out2, &fc[0].truth.color, NULL, 0);
         mesh_vs_ray[m] = warp_psnr(&eye_out2, &eye_out, NULL, 0);
         cat_stats cs;

@@ -57,6 +57,7 @@ bool bench_rolling_measure(const bench_rolling_opts *o, bench_rolling_result *re
     }
     rt_eval_inputs in = {.scene = scene, .trace = &tr, .cam = rt_config_eye_camera(&c, WARP_EYE_LEFT),
                          .head = tr.head, .mesh_n = c.mesh_n, .rp = warp_raytrace_default_params(),
+                         .tp = warp_mesh_trace_default_params(),
                          .scan = rt_config_scan(&c)};
     in.rp.max_steps = c.raytrace_steps;
     rt_eval_work w;
