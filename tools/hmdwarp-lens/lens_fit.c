@@ -1,7 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /* hmdwarp-lens fit: measured correspondences (panel pixel -> view tangent, per colour) to a [lens] section, each
  * channel fitted by least squares (warp_lensfit), with the residual in panel pixels. */
-#include <errno.h>
 #include <getopt.h>
 #include <math.h>
 #include <stdio.h>
@@ -9,9 +8,8 @@
 #include <string.h>
 
 #include "tools/hmdwarp-lens/lens_cli.h"
+#include "tools/hmdwarp-lens/lens_read.h"
 #include "warp/warp_lensfit.h"
-
-#define FIT_MAX_POINTS 1000000 /* a photographed grid has thousands; this bounds the memory */
 
 static void usage(FILE *f)
 {
@@ -27,83 +25,6 @@ static void usage(FILE *f)
                "--fit-center fits the centre too, starting there (the scale only normalises: any value near the\n"
                "viewport's half-width fits the same lens).\n"
                "Prints each channel's RMS and largest residual in panel pixels (also as comments in the section).\n");
-}
-
-static int channel_of(const char *s)
-{
-    const char *const names[3][3] = {{"red", "r", "0"}, {"green", "g", "1"}, {"blue", "b", "2"}};
-    for (int c = 0; c < 3; c++)
-        for (int i = 0; i < 3; i++)
-            if (strcmp(s, names[c][i]) == 0) return c;
-    return -1;
-}
-
-/* Reads the CSV into pts (each channel's points). Returns 0, or 2 with a message naming file:line. */
-static int read_csv(const char *path, warp_lensfit_point *pts[3], int n[3])
-{
-    FILE *f = fopen(path, "r");
-    if (!f) return fprintf(stderr, "hmdwarp-lens fit: %s: cannot open: %s\n", path, strerror(errno)), 2;
-    char line[512];
-    int ln = 0, total = 0, rc = 0;
-    while (fgets(line, sizeof line, f)) {
-        ln++;
-        size_t len = strlen(line);
-        if (len == sizeof line - 1 && line[len - 1] != '\n') {
-            fprintf(stderr, "hmdwarp-lens fit: %s:%d: line longer than %zu characters\n", path, ln, sizeof line - 2);
-            rc = 2;
-            break;
-        }
-        line[strcspn(line, "\r\n")] = 0;
-        char *p = line;
-        while (*p == ' ' || *p == '\t') p++;
-        if (!*p || *p == '#') continue;
-        if (strncmp(p, "channel", 7) == 0) continue; /* the header */
-        char *field[6];
-        int nf = 0;
-        for (char *tok = p; nf < 6;) {
-            field[nf++] = tok;
-            char *comma = strchr(tok, ',');
-            if (!comma) break;
-            *comma = 0;
-            tok = comma + 1;
-        }
-        double v[4];
-        bool ok = nf == 5;
-        for (int i = 0; ok && i < 4; i++) {
-            char *end;
-            v[i] = strtod(field[i + 1], &end);
-            while (*end == ' ') end++;
-            ok = end != field[i + 1] && *end == 0 && isfinite(v[i]);
-        }
-        char ch[16];
-        snprintf(ch, sizeof ch, "%s", nf ? field[0] : "");
-        char *e = ch + strlen(ch);
-        while (e > ch && e[-1] == ' ') *--e = 0;
-        int c = ok ? channel_of(ch) : -1;
-        if (!ok || c < 0) {
-            fprintf(stderr,
-                    "hmdwarp-lens fit: %s:%d: expected channel,panel_x,panel_y,u,v with channel red, green or blue "
-                    "and four finite numbers\n",
-                    path, ln);
-            rc = 2;
-            break;
-        }
-        if (++total > FIT_MAX_POINTS) {
-            fprintf(stderr, "hmdwarp-lens fit: %s:%d: more than %d points\n", path, ln, FIT_MAX_POINTS);
-            rc = 2;
-            break;
-        }
-        warp_lensfit_point *np = realloc(pts[c], sizeof *np * (size_t)(n[c] + 1));
-        if (!np) {
-            fprintf(stderr, "hmdwarp-lens fit: out of memory\n");
-            rc = 1;
-            break;
-        }
-        pts[c] = np;
-        pts[c][n[c]++] = (warp_lensfit_point){v[0], v[1], v[2], v[3]};
-    }
-    fclose(f);
-    return rc;
 }
 
 int lens_fit_main(int argc, char **argv)
@@ -140,7 +61,9 @@ int lens_fit_main(int argc, char **argv)
     warp_lensfit_point *pts[3] = {NULL, NULL, NULL};
     int n[3] = {0, 0, 0};
     const char *csv = argv[optind];
-    rc = read_csv(csv, pts, n);
+    char csv_err[1200];
+    rc = lens_read_csv(csv, pts, n, csv_err, sizeof csv_err);
+    if (rc) fprintf(stderr, "hmdwarp-lens fit: %s\n", csv_err);
     const char *const key[3] = {"red", "green", "blue"};
     warp_lensfit_result r[3];
     for (int ch = 0; !rc && ch < 3; ch++)
