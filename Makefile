@@ -286,20 +286,24 @@ $(BUILD)/tests/accuracy/test_rolling: $(BUILD)/obj/tests/accuracy/test_rolling.o
 # regression runners (standalone.c, any compiler) in make test, with libFuzzer (clang) in make fuzz.
 FUZZ_LINK_OBJ := $(patsubst %.c,$(BUILD)/obj/%.o,tests/fuzz/util.c tools/common/warp_files.c \
                  tools/common/seq_manifest.c)
+# fuzz_lens also links hmdwarp-lens's readers and their json-c and libyaml (the others need neither).
+FUZZ_LENS_BINS := $(BUILD)/tests/fuzz/fuzz_lens $(BUILD)/fuzzers/seeds_lens $(BUILD)/fuzzers/lens
+$(FUZZ_LENS_BINS): $(BUILD)/obj/tools/hmdwarp-lens/lens_read.o
+$(FUZZ_LENS_BINS): FUZZ_LIBS = $(TOOL_LIBS_hmdwarp-lens)
 $(FUZZ_REG_BINS): $(BUILD)/tests/fuzz/%: $(BUILD)/obj/tests/fuzz/%.o $(BUILD)/obj/tests/fuzz/standalone.o \
                   $(FUZZ_LINK_OBJ) $(LIBS)
 	@mkdir -p $(dir $@)
 	@$(if $(Q),echo "  LD      $@")
-	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_ALL)
+	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_ALL) $(FUZZ_LIBS)
 $(BUILD)/obj/tests/fuzz/standalone.o: CPPFLAGS += -DFUZZ_CORPUS='"$(CURDIR)/tests/fuzz/corpus"'
 $(BUILD)/fuzzers/seeds_%: $(BUILD)/obj/tests/fuzz/fuzz_%.o $(BUILD)/obj/tests/fuzz/seeds_main.o $(FUZZ_LINK_OBJ) $(LIBS)
 	@mkdir -p $(dir $@)
 	@$(if $(Q),echo "  LD      $@")
-	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_ALL)
+	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_ALL) $(FUZZ_LIBS)
 $(BUILD)/fuzzers/%: $(BUILD)/obj/tests/fuzz/fuzz_%.o $(FUZZ_LINK_OBJ) $(LIBS)
 	@mkdir -p $(dir $@)
 	@$(if $(Q),echo "  LD      $@")
-	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -fsanitize=fuzzer -o $@ $^ $(LDLIBS_ALL)
+	$(Q)$(CC) $(ALL_CFLAGS) $(LDFLAGS) -fsanitize=fuzzer -o $@ $^ $(LDLIBS_ALL) $(FUZZ_LIBS)
 fuzz-bins: $(addprefix $(BUILD)/fuzzers/,$(FUZZ_NAMES) $(addprefix seeds_,$(FUZZ_NAMES)))
 
 # `make fuzz FUZZ_SECONDS=N`: every harness under libFuzzer with ASan + UBSan for N seconds, two at a time, from
