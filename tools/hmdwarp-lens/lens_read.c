@@ -284,6 +284,15 @@ int lens_read_opencv(const char *path, double vw, double vh, warp_lens_opencv_pa
     *p = (warp_lens_opencv_params){.fx = k[0] * sx, .fy = k[4] * sy, .cx = k[2] * sx, .cy = k[5] * sy,
                                    .k1 = dist[0], .k2 = dist[1], .p1 = dist[2], .p2 = dist[3],
                                    .k3 = nd >= 5 ? dist[4] : 0.0};
+    /* finite factors can still overflow (image_width 1e-306, or fx near DBL_MAX): say so here, naming the file,
+     * rather than as an 'inf' the [lens] section's range check blames on the command line */
+    if (!isfinite(p->fx) || !isfinite(p->fy) || !isfinite(p->cx) || !isfinite(p->cy)) {
+        rc = say(err, errlen, 2,
+                 "%s: camera_matrix scaled from image_width x image_height %g x %g to the %g x %g viewport is not "
+                 "finite",
+                 path, iw, ih, vw, vh);
+        goto out;
+    }
 out:
     yaml_document_delete(&doc);
     return rc;
