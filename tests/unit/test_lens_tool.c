@@ -281,6 +281,11 @@ static void test_fit(void **state)
     snprintf(args, sizeof args, "fit %s --config %s", path_of("badrow.csv"), path_of("fitboard.ini"));
     assert_int_equal(run(args, out, sizeof out), 2);
     assert_non_null(strstr(out, "badrow.csv:3: expected channel,panel_x,panel_y,u,v"));
+    /* a channel name longer than the reader's buffer is refused, not cut to "red" plus spaces and taken */
+    write_file("longch.csv", "channel,panel_x,panel_y,u,v\nred            junk,1,2,0.1,0.2\n");
+    snprintf(args, sizeof args, "fit %s --config %s", path_of("longch.csv"), path_of("fitboard.ini"));
+    assert_int_equal(run(args, out, sizeof out), 2);
+    assert_non_null(strstr(out, "longch.csv:2: expected channel,panel_x,panel_y,u,v"));
     write_file("nogreen.csv", "red,1,2,0.1,0.2\nblue,1,2,0.1,0.2\n");
     snprintf(args, sizeof args, "fit %s --config %s", path_of("nogreen.csv"), path_of("fitboard.ini"));
     assert_int_equal(run(args, out, sizeof out), 2);

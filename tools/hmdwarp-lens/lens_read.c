@@ -344,8 +344,10 @@ int lens_read_csv(const char *path, warp_lensfit_point *pts[3], int n[3], char *
             while (*end == ' ') end++;
             ok = end != field[i + 1] && *end == 0 && isfinite(v[i]);
         }
+        /* a name that does not fit is no channel: cut short, "red" and 12 spaces then "junk" would read as red */
         char ch[16];
-        snprintf(ch, sizeof ch, "%s", nf ? field[0] : "");
+        ok = ok && strlen(field[0]) < sizeof ch;
+        snprintf(ch, sizeof ch, "%s", ok ? field[0] : "");
         char *e = ch + strlen(ch);
         while (e > ch && e[-1] == ' ') *--e = 0;
         int c = ok ? channel_of(ch) : -1;
