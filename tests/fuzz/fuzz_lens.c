@@ -128,11 +128,22 @@ void fuzz_write_seeds(void)
     seed_file("opencv-rational", 1,
               "camera_matrix:\n  data: [700, 0, 540, 0, 700, 600, 0, 0, 1]\n"
               "distortion_coefficients:\n  data: [0, 0, 0, 0, 0, 0.5, 0, 0]\n");
+    /* numbers near the ends of double's range, for the mutator to push past them (crash-opencv-scale-inf) */
+    seed_file("opencv-extreme", 1,
+              "image_width: 1e-300\nimage_height: 4.9e-324\n"
+              "camera_matrix:\n  data: [1e300, 0, -1.7e308, 0, 2.2e-308, 1e308, 0, 0, 1]\n"
+              "distortion_coefficients:\n  data: [1e308, -1e308, 0, 0]\n");
+    seed_file("vive-extreme", 0,
+              "{\"device\": {\"physical_aspect_x_over_y\": 4.9e-324}, \"tracking_to_eye_transform\": [{"
+              "\"distortion\": {\"center_x\": 1.7e308, \"center_y\": -1e308, \"coeffs\": [1e308, -9223372036854775808, "
+              "18446744073709551615, 1e-320]}, \"intrinsics\": [[1e-320, 0, 0], [0, -1e308, 0], [0, 0, 1]], "
+              "\"undistort_r2_cutoff\": 0}]}");
     seed_file("opencv-bad", 1, "%YAML:1.0\ncamera_matrix: !!opencv-matrix\n  data: [1, 2\n  rows: 3\n");
     seed_file("csv", 2,
               "channel,panel_x,panel_y,u,v\n# a comment\n"
               "red,0.5,0.5,-1.0371,1.1523\ngreen,0.5,0.5,-1.0412,1.1569\nblue,0.5,0.5,-1.0455,1.1617\n"
               "r,540.5,600.5,0,0\ng,540.5,600.5,0,0\nb,540.5,600.5,0,0\n\n"
               "0 ,60.5, 60.5 ,-0.81,0.89\r\n1,60.5,60.5,-0.82,0.9\n2,60.5,60.5,-0.83,0.91\n");
+    seed_file("csv-extreme", 2, "green,1e308,-1.7e308,4.9e-324,1e-320\nred            junk,1,2,0.1,0.2\n");
     seed_file("csv-bad", 2, "channel,panel_x,panel_y,u,v\nred,1,2,0.1,0.2\ngreen,1,2,zero,0.2\n");
 }
