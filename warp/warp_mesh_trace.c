@@ -4,6 +4,7 @@
 #include "warp/warp_mesh_trace.h"
 
 #include <math.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -156,6 +157,11 @@ static bool ray_line(const warp_raytrace_setup *s, double tx, double ty, double 
     return true;
 }
 
+/* One rectangle's counts (warp_mesh_trace_stats), added to the shared ones once at its end. */
+typedef struct {
+    long pixels, lattice_rays, pixel_rays, channel_rays;
+} rect_counts;
+
 /* What tracing one rectangle needs, hoisted. */
 typedef struct {
     const warp_mesh *m;
@@ -164,6 +170,7 @@ typedef struct {
     const warp_scan *scan;
     const warp_planar3 *src;
     double px_max; /* parallax_px */
+    rect_counts *n;
 } rect_ctx;
 
 /* One traced pixel: per channel its source position; its flag and the inverse depth of green's hit. */
@@ -244,7 +251,10 @@ static void trace_pixel(const rect_ctx *c, int i, int j, int x, int y, double fy
                 bool own = (flag & WARP_MASK_EDGE) || fabs(dk - r->d) > 0.1 * r->d;
                 if (!own && dnear > r->d * 1.1)
                     own = inv_at(inv, ic[0] + dnear * ec[0], ic[1] + dnear * ec[1]) > 0.9 * dnear;
-                if (own) trace_at(c, x, y, px[k], py[k], &r->x[k], &r->y[k]);
+                if (own) {
+                    trace_at(c, x, y, px[k], py[k], &r->x[k], &r->y[k]);
+                    c->n->channel_rays++;
+                }
             }
         } else {
             warp_raytrace_point(c->s, px[k], py[k], &r->x[k], &r->y[k], NULL); /* beyond 90 degrees: its own */
@@ -284,6 +294,8 @@ static void trace_block(const rect_ctx *c, int i, int j, int xa, int xb, int ya,
                 ray_px r;
                 trace_pixel(c, i, j, x, y, fy, true, INFINITY, &r);
                 put(c, row, x, r.x, r.y);
+                c->n->pixels++;
+                c->n->pixel_rays++;
             }
         }
         return;
@@ -298,6 +310,7 @@ static void trace_block(const rect_ctx *c, int i, int j, int xa, int xb, int ya,
         band_of(m, ly, &lfy);
         ray_px *cur = lat[l & 1];
         for (int k = 0; k < nx; k++) trace_pixel(c, i, j, lx[k], ly, lfy, false, 0, &cur[k]);
+        c->n->lattice_rays += nx;
         if (l == 0) continue;
         const ray_px *up = lat[(l - 1) & 1];
         const int y0 = ya + (l - 1) * SUB, y1 = ly; /* rows [y0, y1), and y1 itself in the last row of sub-cells */
@@ -322,6 +335,7 @@ static void trace_block(const rect_ctx *c, int i, int j, int xa, int xb, int ya,
                 const double ty = y1 > y0 ? (double)(y - y0) / (y1 - y0) : 0;
                 for (int x = x0; x < xend; x++) {
                     if (!shown(m, x, y)) continue;
+                    c->n->pixels++;
                     if (smooth) {
                         const double tx = x1 > x0 ? (double)(x - x0) / (x1 - x0) : 0;
                         double sx[3], sy[3];
@@ -336,6 +350,7 @@ static void trace_block(const rect_ctx *c, int i, int j, int xa, int xb, int ya,
                         ray_px r;
                         trace_pixel(c, i, j, x, y, fy, true, dhi, &r);
                         put(c, row, x, r.x, r.y);
+                        c->n->pixel_rays++;
                     }
                 }
             }
@@ -353,7 +368,8 @@ void warp_mesh_trace_rect(const warp_mesh_trace *t, const warp_mesh *m, const wa
     x1 = x1 < m->vp_w ? x1 : m->vp_w;
     y1 = y1 < m->vp_h ? y1 : m->vp_h;
     if (x0 >= x1 || y0 >= y1) return;
-    const rect_ctx c = {m, dst_cam, s, last, scan, src, 1.0};
+    rect_counts n = {0, 0, 0, 0};
+    const rect_ctx c = {m, dst_cam, s, last, scan, src, 1.0, &n};
     const int cw = m->cell_w;
     /* runs of rows in one band, then the marked cells across them */
     for (int ya = y0; ya < y1;) {
@@ -367,5 +383,11 @@ void warp_mesh_trace_rect(const warp_mesh_trace *t, const warp_mesh *m, const wa
             trace_block(&c, i, j, xa, xb, ya, yb, dst);
         }
         ya = yb;
+    }
+    if (t->stats) {
+        atomic_fetch_add_explicit(&t->stats->pixels, n.pixels, memory_order_relaxed);
+        atomic_fetch_add_explicit(&t->stats->lattice_rays, n.lattice_rays, memory_order_relaxed);
+        atomic_fetch_add_explicit(&t->stats->pixel_rays, n.pixel_rays, memory_order_relaxed);
+        atomic_fetch_add_explicit(&t->stats->channel_rays, n.channel_rays, memory_order_relaxed);
     }
 }

@@ -26,11 +26,22 @@ typedef struct {
 /* parallax_px 1: at a depth edge, a pixel of the wrong side's parallax. */
 warp_mesh_trace_params warp_mesh_trace_default_params(void);
 
+/* What warp_mesh_trace_rect did, summed over the rectangles traced while warp_mesh_trace.stats points here: counts
+ * for tests and the bench (what the per-pixel work costs, not its time). One atomic add per field per rectangle, so
+ * threads may share it. */
+typedef struct {
+    _Atomic long pixels;       /* shown pixels of marked cells written */
+    _Atomic long lattice_rays; /* full rays (green) on the lattice of the marked cells */
+    _Atomic long pixel_rays;   /* full rays (green) for single pixels */
+    _Atomic long channel_rays; /* full rays of red or blue beside depth edges */
+} warp_mesh_trace_stats;
+
 /* The per-cell marks of one mesh: allocated once (start-up), rewritten per vsync by warp_mesh_trace_mark. */
 typedef struct {
     int cells_x, cells_y; /* the mesh's cols - 1 and rows - 1 */
     uint8_t *cell;        /* [j * cells_x + i]: 1 = cell (i, j) is traced per pixel */
     int marked;           /* cells marked by the last warp_mesh_trace_mark */
+    warp_mesh_trace_stats *stats; /* NULL (warp_mesh_trace_alloc's), or where warp_mesh_trace_rect adds its counts */
 } warp_mesh_trace;
 
 bool warp_mesh_trace_alloc(warp_mesh_trace *t, const warp_mesh *m);
