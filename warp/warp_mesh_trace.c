@@ -205,9 +205,70 @@ static int trace_at(const rect_ctx *c, int x, int y, double tx, double ty, doubl
     return flag;
 }
 
+/* The inverse depths the corners of a block hit, nearest (hi) to farthest (lo); corners at an edge or outside the
+ * source left out (their positions are fills, not hits): n = 0 when none is left. */
+typedef struct {
+    int n;
+    double lo, hi;
+} hit_range;
+
+static void block_hits(const ray_px *const q[4], hit_range *h)
+{
+    h->n = 0;
+    h->lo = INFINITY;
+    h->hi = -INFINITY;
+    for (int k = 0; k < 4; k++)
+        if (!q[k]->flag) {
+            h->n++;
+            h->lo = q[k]->d < h->lo ? q[k]->d : h->lo;
+            h->hi = q[k]->d > h->hi ? q[k]->d : h->hi;
+        }
+}
+
+/* How far beyond the corners' hits (source pixels of parallax) a ray of their block looks: its pixel lies between
+ * the corners, so on their surfaces its hit does too, up to a curved surface's bulge and the half pixel the edge
+ * rules snap a corner's hit by (its inverse depth is read back from the snapped position). */
+#define HIT_MARGIN_PX 2.0
+
+/* trace_at, but the search kept to the depths the block's corners hit (h; NULL: the full search), where one of its
+ * surfaces (at a depth edge the near or the far side, or a third between them that a corner hit) meets the ray: a
+ * few steps where the full search takes one per source pixel of the whole depth range (003 §3.5). A hit there is
+ * the ray's first unless something nearer than every corner's hit stands in its way, which no corner saw (at 4
+ * pixels apart, a thin object in front of the block's nearest surface); where the ray is behind the height map
+ * already at the range's near end or meets nothing in it (a disocclusion's wall, or it leaves the source) it is
+ * traced in full (*full). Rolling: under both setups, over the same range (a scan's pose change moves a surface's
+ * depth by far less than the margin). */
+static int resolve_at(const rect_ctx *c, const hit_range *h, int x, int y, double tx, double ty, double *sx,
+                      double *sy, bool *full)
+{
+    *full = false;
+    if (h && h->n) {
+        if (!(c->last && c->scan)) {
+            const int r = warp_raytrace_point_within(c->s, tx, ty, h->lo, h->hi, HIT_MARGIN_PX, sx, sy, NULL);
+            if (r >= 0) return r;
+        } else {
+            const double f = warp_scan_fraction(c->scan, c->m->vp_x + x + 0.5, c->m->vp_y + y + 0.5);
+            double fx = 0, fy = 0, lx = 0, ly = 0;
+            int rf = 0, rl = 0;
+            if (f < 1) rf = warp_raytrace_point_within(c->s, tx, ty, h->lo, h->hi, HIT_MARGIN_PX, &fx, &fy, NULL);
+            if (rf >= 0 && f > 0)
+                rl = warp_raytrace_point_within(c->last, tx, ty, h->lo, h->hi, HIT_MARGIN_PX, &lx, &ly, NULL);
+            if (rf >= 0 && rl >= 0) {
+                *sx = f <= 0 ? fx : (f >= 1 ? lx : fx + (lx - fx) * f);
+                *sy = f <= 0 ? fy : (f >= 1 ? ly : fy + (ly - fy) * f);
+                return rf | rl;
+            }
+        }
+    }
+    *full = true;
+    return trace_at(c, x, y, tx, ty, sx, sy);
+}
+
 /* Traces viewport pixel (x, y) of cell (i, j) (fy: its fraction across the band). all3: each channel its own ray
- * (beside a depth edge, where red's or blue's ray may meet the other side), else green's alone. */
-static void trace_pixel(const rect_ctx *c, int i, int j, int x, int y, double fy, bool all3, double dnear, ray_px *r)
+ * (beside a depth edge, where red's or blue's ray may meet the other side), else green's alone. h: the depths its
+ * block's corners hit, where its rays are searched (NULL: full rays). */
+static void trace_pixel(const rect_ctx *c, int i, int j, int x, int y, double fy, bool all3, double dnear,
+                        const hit_range *h, ray_px *r)
 {
     const warp_mesh *m = c->m;
     const int cw = m->cell_w;
@@ -225,7 +286,9 @@ static void trace_pixel(const rect_ctx *c, int i, int j, int x, int y, double fy
     /* Green's ray; red and blue lie a chromatic aberration away (a pixel or two) and, away from depth edges,
      * take the surface green hit at their own lens directions. */
     double gx = 0, gy = 0;
-    const int flag = trace_at(c, x, y, px[1], py[1], &gx, &gy);
+    bool full;
+    const int flag = resolve_at(c, h, x, y, px[1], py[1], &gx, &gy, &full);
+    if (all3) c->n->pixel_rays += full;
     r->flag = flag;
     r->x[1] = gx;
     r->y[1] = gy;
@@ -252,8 +315,8 @@ static void trace_pixel(const rect_ctx *c, int i, int j, int x, int y, double fy
                 if (!own && dnear > r->d * 1.1)
                     own = inv_at(inv, ic[0] + dnear * ec[0], ic[1] + dnear * ec[1]) > 0.9 * dnear;
                 if (own) {
-                    trace_at(c, x, y, px[k], py[k], &r->x[k], &r->y[k]);
-                    c->n->channel_rays++;
+                    resolve_at(c, h, x, y, px[k], py[k], &r->x[k], &r->y[k], &full);
+                    c->n->channel_rays += full;
                 }
             }
         } else {
@@ -292,10 +355,9 @@ static void trace_block(const rect_ctx *c, int i, int j, int xa, int xb, int ya,
             for (int x = xa; x < xb; x++) {
                 if (!shown(m, x, y)) continue;
                 ray_px r;
-                trace_pixel(c, i, j, x, y, fy, true, INFINITY, &r);
+                trace_pixel(c, i, j, x, y, fy, true, INFINITY, NULL, &r);
                 put(c, row, x, r.x, r.y);
                 c->n->pixels++;
-                c->n->pixel_rays++;
             }
         }
         return;
@@ -309,7 +371,7 @@ static void trace_block(const rect_ctx *c, int i, int j, int xa, int xb, int ya,
         double lfy;
         band_of(m, ly, &lfy);
         ray_px *cur = lat[l & 1];
-        for (int k = 0; k < nx; k++) trace_pixel(c, i, j, lx[k], ly, lfy, false, 0, &cur[k]);
+        for (int k = 0; k < nx; k++) trace_pixel(c, i, j, lx[k], ly, lfy, false, 0, NULL, &cur[k]);
         c->n->lattice_rays += nx;
         if (l == 0) continue;
         const ray_px *up = lat[(l - 1) & 1];
@@ -328,6 +390,8 @@ static void trace_block(const rect_ctx *c, int i, int j, int xa, int xb, int ya,
                 el = q[n]->elen > el ? q[n]->elen : el;
             }
             const bool smooth = same && (q[0]->flag & WARP_MASK_FRINGE || (dhi - dlo) * el <= c->px_max);
+            hit_range h;
+            block_hits(q, &h);
             for (int y = y0; y < yend; y++) {
                 double fy;
                 band_of(m, y, &fy);
@@ -348,9 +412,8 @@ static void trace_block(const rect_ctx *c, int i, int j, int xa, int xb, int ya,
                         put(c, row, x, sx, sy);
                     } else {
                         ray_px r;
-                        trace_pixel(c, i, j, x, y, fy, true, dhi, &r);
+                        trace_pixel(c, i, j, x, y, fy, true, dhi, &h, &r);
                         put(c, row, x, r.x, r.y);
-                        c->n->pixel_rays++;
                     }
                 }
             }
