@@ -173,10 +173,11 @@ typedef struct {
     rect_counts *n;
 } rect_ctx;
 
-/* One traced pixel: per channel its source position; its flag and the inverse depth of green's hit. */
+/* One traced pixel: per channel its source position; its flag and the inverse depth of green's hit: along green's
+ * ray where its source position lies (d) and where its search stopped (dhit: at an edge, on the wall). */
 typedef struct {
     double x[3], y[3];
-    double d, elen;
+    double d, dhit, elen;
     int flag;
 } ray_px;
 
@@ -191,22 +192,24 @@ static int band_of(const warp_mesh *m, int y, double *fy)
 }
 
 /* The source position of the ray through eye-buffer position (tx, ty) under the pass's setup(s) (rolling: at
- * viewport pixel (x, y)'s scan fraction); its flag. */
-static int trace_at(const rect_ctx *c, int x, int y, double tx, double ty, double *sx, double *sy)
+ * viewport pixel (x, y)'s scan fraction); its flag; its hit's inverse depth into *d (rolling: under the first setup
+ * that traced it). */
+static int trace_at(const rect_ctx *c, int x, int y, double tx, double ty, double *sx, double *sy, double *d)
 {
-    if (!(c->last && c->scan)) return warp_raytrace_point(c->s, tx, ty, sx, sy, NULL);
+    if (!(c->last && c->scan)) return warp_raytrace_point_depth(c->s, tx, ty, sx, sy, d, NULL);
     const double f = warp_scan_fraction(c->scan, c->m->vp_x + x + 0.5, c->m->vp_y + y + 0.5);
-    double fx = 0, fy = 0, lx = 0, ly = 0;
+    double fx = 0, fy = 0, lx = 0, ly = 0, dl = 0;
     int flag = 0;
-    if (f < 1) flag |= warp_raytrace_point(c->s, tx, ty, &fx, &fy, NULL);
-    if (f > 0) flag |= warp_raytrace_point(c->last, tx, ty, &lx, &ly, NULL);
+    if (f < 1) flag |= warp_raytrace_point_depth(c->s, tx, ty, &fx, &fy, d, NULL);
+    if (f > 0) flag |= warp_raytrace_point_depth(c->last, tx, ty, &lx, &ly, f < 1 ? &dl : d, NULL);
     *sx = f <= 0 ? fx : (f >= 1 ? lx : fx + (lx - fx) * f);
     *sy = f <= 0 ? fy : (f >= 1 ? ly : fy + (ly - fy) * f);
     return flag;
 }
 
-/* The inverse depths the corners of a block hit, nearest (hi) to farthest (lo); corners at an edge or outside the
- * source left out (their positions are fills, not hits): n = 0 when none is left. */
+/* The inverse depths the corners of a block hit (dhit), nearest (hi) to farthest (lo): at an edge where their rays
+ * met its wall; corners whose rays left the source left out (their depths are the fill's): n = 0 when none is
+ * left. */
 typedef struct {
     int n;
     double lo, hi;
@@ -218,10 +221,10 @@ static void block_hits(const ray_px *const q[4], hit_range *h)
     h->lo = INFINITY;
     h->hi = -INFINITY;
     for (int k = 0; k < 4; k++)
-        if (!q[k]->flag) {
+        if (!(q[k]->flag & WARP_MASK_FRINGE)) {
             h->n++;
-            h->lo = q[k]->d < h->lo ? q[k]->d : h->lo;
-            h->hi = q[k]->d > h->hi ? q[k]->d : h->hi;
+            h->lo = q[k]->dhit < h->lo ? q[k]->dhit : h->lo;
+            h->hi = q[k]->dhit > h->hi ? q[k]->dhit : h->hi;
         }
 }
 
@@ -239,20 +242,21 @@ static void block_hits(const ray_px *const q[4], hit_range *h)
  * traced in full (*full). Rolling: under both setups, over the same range (a scan's pose change moves a surface's
  * depth by far less than the margin). */
 static int resolve_at(const rect_ctx *c, const hit_range *h, int x, int y, double tx, double ty, double *sx,
-                      double *sy, bool *full)
+                      double *sy, double *d, bool *full)
 {
     *full = false;
     if (h && h->n) {
         if (!(c->last && c->scan)) {
-            const int r = warp_raytrace_point_within(c->s, tx, ty, h->lo, h->hi, HIT_MARGIN_PX, sx, sy, NULL);
+            const int r = warp_raytrace_point_within(c->s, tx, ty, h->lo, h->hi, HIT_MARGIN_PX, sx, sy, d, NULL);
             if (r >= 0) return r;
         } else {
             const double f = warp_scan_fraction(c->scan, c->m->vp_x + x + 0.5, c->m->vp_y + y + 0.5);
-            double fx = 0, fy = 0, lx = 0, ly = 0;
+            double fx = 0, fy = 0, lx = 0, ly = 0, dl = 0;
             int rf = 0, rl = 0;
-            if (f < 1) rf = warp_raytrace_point_within(c->s, tx, ty, h->lo, h->hi, HIT_MARGIN_PX, &fx, &fy, NULL);
+            if (f < 1) rf = warp_raytrace_point_within(c->s, tx, ty, h->lo, h->hi, HIT_MARGIN_PX, &fx, &fy, d, NULL);
             if (rf >= 0 && f > 0)
-                rl = warp_raytrace_point_within(c->last, tx, ty, h->lo, h->hi, HIT_MARGIN_PX, &lx, &ly, NULL);
+                rl = warp_raytrace_point_within(c->last, tx, ty, h->lo, h->hi, HIT_MARGIN_PX, &lx, &ly,
+                                                f < 1 ? &dl : d, NULL);
             if (rf >= 0 && rl >= 0) {
                 *sx = f <= 0 ? fx : (f >= 1 ? lx : fx + (lx - fx) * f);
                 *sy = f <= 0 ? fy : (f >= 1 ? ly : fy + (ly - fy) * f);
@@ -261,7 +265,7 @@ static int resolve_at(const rect_ctx *c, const hit_range *h, int x, int y, doubl
         }
     }
     *full = true;
-    return trace_at(c, x, y, tx, ty, sx, sy);
+    return trace_at(c, x, y, tx, ty, sx, sy, d);
 }
 
 /* Traces viewport pixel (x, y) of cell (i, j) (fy: its fraction across the band). all3: each channel its own ray
@@ -287,7 +291,7 @@ static void trace_pixel(const rect_ctx *c, int i, int j, int x, int y, double fy
      * take the surface green hit at their own lens directions. */
     double gx = 0, gy = 0;
     bool full;
-    const int flag = resolve_at(c, h, x, y, px[1], py[1], &gx, &gy, &full);
+    const int flag = resolve_at(c, h, x, y, px[1], py[1], &gx, &gy, &r->dhit, &full);
     if (all3) c->n->pixel_rays += full;
     r->flag = flag;
     r->x[1] = gx;
@@ -315,7 +319,8 @@ static void trace_pixel(const rect_ctx *c, int i, int j, int x, int y, double fy
                 if (!own && dnear > r->d * 1.1)
                     own = inv_at(inv, ic[0] + dnear * ec[0], ic[1] + dnear * ec[1]) > 0.9 * dnear;
                 if (own) {
-                    resolve_at(c, h, x, y, px[k], py[k], &r->x[k], &r->y[k], &full);
+                    double dh;
+                    resolve_at(c, h, x, y, px[k], py[k], &r->x[k], &r->y[k], &dh, &full);
                     c->n->channel_rays += full;
                 }
             }

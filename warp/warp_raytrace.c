@@ -265,7 +265,8 @@ static inline __attribute__((always_inline)) uint8_t edge_rules(const ray_ctx *c
  * to *steps and *samples. Always inlined: warp_raytrace_rows keeps the speed of the loop this was cut from, and
  * warp_raytrace_point traces exactly the same way. */
 static inline __attribute__((always_inline)) uint8_t trace_ray(const ray_ctx *c, double bx, double by, double bw,
-                                                               float *hx, float *hy, long *steps, long *samples)
+                                                               float *hx, float *hy, double *dhit, long *steps,
+                                                               long *samples)
 {
     const warp_raytrace_setup *s = c->s;
     const warp_image_f32 *dimg = c->dimg;
@@ -280,6 +281,7 @@ static inline __attribute__((always_inline)) uint8_t trace_ray(const ray_ctx *c,
     if (!(bw > 1e-9 * (fabs(bx) + fabs(by) + fabs(bw)))) {
         *hx = bx > 0 ? (float)sw : 0.f;
         *hy = by > 0 ? (float)sh : 0.f;
+        *dhit = 0;
         return WARP_MASK_FRINGE;
     }
     double pix = bx / bw, piy = by / bw;
@@ -297,6 +299,7 @@ static inline __attribute__((always_inline)) uint8_t trace_ray(const ray_ctx *c,
          * the frame; the fringe fill samples the ray within the frame's depth range (for an all-sky
          * frame exactly the rotation reprojection's clamped sample). */
         double d = lo < dmin ? dmin : (lo > dmax ? dmax : lo);
+        *dhit = d;
         *hx = (float)(pix + d * ex);
         *hy = (float)(piy + d * ey);
         return WARP_MASK_FRINGE;
@@ -360,6 +363,7 @@ static inline __attribute__((always_inline)) uint8_t trace_ray(const ray_ctx *c,
             da = refine_hit(c, pix, piy, ex, ey, da, fa, db, fb);
         }
     }
+    *dhit = da;
     return edge_rules(c, pix, piy, ex, ey, len, da, dfront, flag, hx, hy);
 }
 
@@ -379,7 +383,8 @@ void warp_raytrace_rows(const warp_raytrace_setup *s, warp_image_rgba8 *dst, war
         uint8_t *m = mask ? &WARP_AT(mask, 0, y) : NULL;
         for (int x = 0; x < dst->w; x++, bx += s->h.m[0][0], by += s->h.m[1][0], bw += s->h.m[2][0]) {
             float hx, hy;
-            uint8_t flag = trace_ray(&c, bx, by, bw, &hx, &hy, &steps_total, &samples);
+            double dhit;
+            uint8_t flag = trace_ray(&c, bx, by, bw, &hx, &hy, &dhit, &steps_total, &samples);
             if (flag == WARP_MASK_EDGE && s->p.edge_fill == WARP_EDGE_FILL_FAR) {
                 int tx, ty;
                 far_texel_at(v, hx, hy, &tx, &ty);
@@ -419,6 +424,12 @@ static void point_source(const warp_raytrace_setup *s, uint8_t flag, float hx, f
 int warp_raytrace_point(const warp_raytrace_setup *s, double tx, double ty, double *sx, double *sy,
                         warp_raytrace_stats *st)
 {
+    return warp_raytrace_point_depth(s, tx, ty, sx, sy, NULL, st);
+}
+
+int warp_raytrace_point_depth(const warp_raytrace_setup *s, double tx, double ty, double *sx, double *sy, double *d,
+                              warp_raytrace_stats *st)
+{
     const ray_ctx c = ray_ctx_make(s);
     /* the same homogeneous position warp_raytrace_rows reaches by stepping along a row (up to rounding) */
     double bx = s->h.m[0][0] * tx + s->h.m[0][1] * ty + s->h.m[0][2];
@@ -426,8 +437,10 @@ int warp_raytrace_point(const warp_raytrace_setup *s, double tx, double ty, doub
     double bw = s->h.m[2][0] * tx + s->h.m[2][1] * ty + s->h.m[2][2];
     long steps = 0, samples = 0;
     float hx, hy;
-    uint8_t flag = trace_ray(&c, bx, by, bw, &hx, &hy, &steps, &samples);
+    double dhit;
+    uint8_t flag = trace_ray(&c, bx, by, bw, &hx, &hy, &dhit, &steps, &samples);
     point_source(s, flag, hx, hy, sx, sy);
+    if (d) *d = dhit;
     if (st) {
         st->rays++;
         st->steps += steps;
@@ -439,7 +452,7 @@ int warp_raytrace_point(const warp_raytrace_setup *s, double tx, double ty, doub
 }
 
 int warp_raytrace_point_within(const warp_raytrace_setup *s, double tx, double ty, double d_lo, double d_hi,
-                               double margin_px, double *sx, double *sy, int *samples)
+                               double margin_px, double *sx, double *sy, double *d, int *samples)
 {
     const ray_ctx c = ray_ctx_make(s);
     const double bx = s->h.m[0][0] * tx + s->h.m[0][1] * ty + s->h.m[0][2];
@@ -491,5 +504,6 @@ int warp_raytrace_point_within(const warp_raytrace_setup *s, double tx, double t
     float hx, hy;
     const uint8_t flag = edge_rules(&c, pix, piy, ex, ey, len, da, dfront, 0, &hx, &hy);
     point_source(s, flag, hx, hy, sx, sy);
+    if (d) *d = da;
     return flag;
 }
