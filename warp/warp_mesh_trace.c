@@ -159,7 +159,7 @@ static bool ray_line(const warp_raytrace_setup *s, double tx, double ty, double 
 
 /* One rectangle's counts (warp_mesh_trace_stats), added to the shared ones once at its end. */
 typedef struct {
-    long pixels, lattice_rays, pixel_rays, channel_rays;
+    long pixels, lattice_rays, pixel_rays, channel_rays, samples;
 } rect_counts;
 
 /* What tracing one rectangle needs, hoisted. */
@@ -194,14 +194,15 @@ static int band_of(const warp_mesh *m, int y, double *fy)
 /* The source position of the ray through eye-buffer position (tx, ty) under the pass's setup(s) (rolling: at
  * viewport pixel (x, y)'s scan fraction); its flag; its hit's inverse depth into *d (rolling: under the first setup
  * that traced it). */
-static int trace_at(const rect_ctx *c, int x, int y, double tx, double ty, double *sx, double *sy, double *d)
+static int trace_at(const rect_ctx *c, int x, int y, double tx, double ty, double *sx, double *sy, double *d,
+                    warp_raytrace_stats *st)
 {
-    if (!(c->last && c->scan)) return warp_raytrace_point_depth(c->s, tx, ty, sx, sy, d, NULL);
+    if (!(c->last && c->scan)) return warp_raytrace_point_depth(c->s, tx, ty, sx, sy, d, st);
     const double f = warp_scan_fraction(c->scan, c->m->vp_x + x + 0.5, c->m->vp_y + y + 0.5);
     double fx = 0, fy = 0, lx = 0, ly = 0, dl = 0;
     int flag = 0;
-    if (f < 1) flag |= warp_raytrace_point_depth(c->s, tx, ty, &fx, &fy, d, NULL);
-    if (f > 0) flag |= warp_raytrace_point_depth(c->last, tx, ty, &lx, &ly, f < 1 ? &dl : d, NULL);
+    if (f < 1) flag |= warp_raytrace_point_depth(c->s, tx, ty, &fx, &fy, d, st);
+    if (f > 0) flag |= warp_raytrace_point_depth(c->last, tx, ty, &lx, &ly, f < 1 ? &dl : d, st);
     *sx = f <= 0 ? fx : (f >= 1 ? lx : fx + (lx - fx) * f);
     *sy = f <= 0 ? fy : (f >= 1 ? ly : fy + (ly - fy) * f);
     return flag;
@@ -245,18 +246,21 @@ static int resolve_at(const rect_ctx *c, const hit_range *h, int x, int y, doubl
                       double *sy, double *d, bool *full)
 {
     *full = false;
+    int taken = 0;
     if (h && h->n) {
         if (!(c->last && c->scan)) {
-            const int r = warp_raytrace_point_within(c->s, tx, ty, h->lo, h->hi, HIT_MARGIN_PX, sx, sy, d, NULL);
+            const int r = warp_raytrace_point_within(c->s, tx, ty, h->lo, h->hi, HIT_MARGIN_PX, sx, sy, d, &taken);
+            c->n->samples += taken;
             if (r >= 0) return r;
         } else {
             const double f = warp_scan_fraction(c->scan, c->m->vp_x + x + 0.5, c->m->vp_y + y + 0.5);
             double fx = 0, fy = 0, lx = 0, ly = 0, dl = 0;
             int rf = 0, rl = 0;
-            if (f < 1) rf = warp_raytrace_point_within(c->s, tx, ty, h->lo, h->hi, HIT_MARGIN_PX, &fx, &fy, d, NULL);
+            if (f < 1) rf = warp_raytrace_point_within(c->s, tx, ty, h->lo, h->hi, HIT_MARGIN_PX, &fx, &fy, d, &taken);
             if (rf >= 0 && f > 0)
                 rl = warp_raytrace_point_within(c->last, tx, ty, h->lo, h->hi, HIT_MARGIN_PX, &lx, &ly,
-                                                f < 1 ? &dl : d, NULL);
+                                                f < 1 ? &dl : d, &taken);
+            c->n->samples += taken;
             if (rf >= 0 && rl >= 0) {
                 *sx = f <= 0 ? fx : (f >= 1 ? lx : fx + (lx - fx) * f);
                 *sy = f <= 0 ? fy : (f >= 1 ? ly : fy + (ly - fy) * f);
@@ -265,7 +269,10 @@ static int resolve_at(const rect_ctx *c, const hit_range *h, int x, int y, doubl
         }
     }
     *full = true;
-    return trace_at(c, x, y, tx, ty, sx, sy, d);
+    warp_raytrace_stats st = {0};
+    const int r = trace_at(c, x, y, tx, ty, sx, sy, d, &st);
+    c->n->samples += st.samples;
+    return r;
 }
 
 /* Traces viewport pixel (x, y) of cell (i, j) (fy: its fraction across the band). all3: each channel its own ray
@@ -436,7 +443,7 @@ void warp_mesh_trace_rect(const warp_mesh_trace *t, const warp_mesh *m, const wa
     x1 = x1 < m->vp_w ? x1 : m->vp_w;
     y1 = y1 < m->vp_h ? y1 : m->vp_h;
     if (x0 >= x1 || y0 >= y1) return;
-    rect_counts n = {0, 0, 0, 0};
+    rect_counts n = {0, 0, 0, 0, 0};
     const rect_ctx c = {m, dst_cam, s, last, scan, src, 1.0, &n};
     const int cw = m->cell_w;
     /* runs of rows in one band, then the marked cells across them */
@@ -457,5 +464,6 @@ void warp_mesh_trace_rect(const warp_mesh_trace *t, const warp_mesh *m, const wa
         atomic_fetch_add_explicit(&t->stats->lattice_rays, n.lattice_rays, memory_order_relaxed);
         atomic_fetch_add_explicit(&t->stats->pixel_rays, n.pixel_rays, memory_order_relaxed);
         atomic_fetch_add_explicit(&t->stats->channel_rays, n.channel_rays, memory_order_relaxed);
+        atomic_fetch_add_explicit(&t->stats->samples, n.samples, memory_order_relaxed);
     }
 }

@@ -34,6 +34,8 @@ typedef struct {
     _Atomic long lattice_rays; /* full rays (green) on the lattice of the marked cells */
     _Atomic long pixel_rays;   /* full rays (green) for single pixels */
     _Atomic long channel_rays; /* full rays of red or blue beside depth edges */
+    _Atomic long samples;      /* depth samples the searches took: the lattice's, the single pixels' (full or kept
+                                * to their block's depths), red's and blue's (the refinement's not counted) */
 } warp_mesh_trace_stats;
 
 /* The per-cell marks of one mesh: allocated once (start-up), rewritten per vsync by warp_mesh_trace_mark. */
