@@ -64,9 +64,10 @@ int warp_mesh_trace_mark(warp_mesh_trace *t, const warp_mesh *m, const warp_came
  * sampled from src as the resampler samples (1/64 pixel, clamped border). Rays run on a lattice 4 pixels apart first,
  * and per pixel only in the 4 x 4 blocks whose corners disagree (a flag, or their hits' parallax by more than a pixel);
  * the rest is interpolated between them. A pixel's ray searches only the depths its block's corners hit (a few
- * steps: warp_raytrace_point_within), and the whole depth range only where it finds nothing there. On a rolling panel (last and scan not NULL) each pixel is traced under s (the
- * first line's pose) and last and interpolated by its scan fraction, as the mesh's vertices are. Hidden pixels
- * (m->visible) are left alone. Allocation-free; rectangles are independent (threads). */
+ * steps: warp_raytrace_point_within), and the whole depth range only where it finds nothing there. On a rolling
+ * panel (last and scan not NULL) each pixel is traced under s (the first line's pose) and last and interpolated by
+ * its scan fraction, as the mesh's vertices are. Hidden pixels (m->visible) are left alone. Allocation-free;
+ * rectangles are independent (threads). */
 void warp_mesh_trace_rect(const warp_mesh_trace *t, const warp_mesh *m, const warp_camera *dst_cam,
                           const warp_raytrace_setup *s, const warp_raytrace_setup *last, const warp_scan *scan,
                           const warp_planar3 *src, warp_image_rgba8 *dst, int x0, int y0, int x1, int y1);

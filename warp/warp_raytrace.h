@@ -69,6 +69,7 @@ void warp_raytrace_rows(const warp_raytrace_setup *s, warp_image_rgba8 *dst, war
  * the mask); adds to *st (may be NULL). For meshes that trace only at their vertices (warp_mesh_update_raytrace). */
 int warp_raytrace_point(const warp_raytrace_setup *s, double tx, double ty, double *sx, double *sy,
                         warp_raytrace_stats *st);
+
 /* warp_raytrace_point, and the inverse depth of the ray's hit into *d (may be NULL): where its search stopped, before
  * the edge rules move the position to a texel (at an edge: where the ray met the wall; for a ray that leaves the
  * source: the depth its fringe fill samples at, 0 beyond 90 degrees). */
@@ -87,9 +88,9 @@ enum {
  * the bracket that is the ray's first is where warp_raytrace_point puts it; whether it is the first (nothing
  * nearer before d_hi) is the caller's to know. Returns the flag (0 or WARP_MASK_EDGE) and writes the source
  * position as warp_raytrace_point does and the hit's inverse depth as warp_raytrace_point_depth does (d may be
- * NULL); or WARP_WITHIN_BEHIND or WARP_WITHIN_MISSED, and writes nothing. Also
- * for a ray of no parallax, beyond 90 degrees, or whose bracket leaves the image or reaches the search's near end
- * (warp_raytrace_point's own rules hold there). Adds the depth samples taken to *samples (may be NULL). */
+ * NULL); or WARP_WITHIN_BEHIND or WARP_WITHIN_MISSED, and writes nothing (MISSED also for a ray of no parallax,
+ * beyond 90 degrees, or whose bracket leaves the image or reaches the search's near end: warp_raytrace_point's own
+ * rules hold there). Adds the depth samples taken to *samples (may be NULL). */
 int warp_raytrace_point_within(const warp_raytrace_setup *s, double tx, double ty, double d_lo, double d_hi,
                                double margin_px, double *sx, double *sy, double *d, int *samples);
 
