@@ -4,6 +4,7 @@
 #include "warp/warp_mesh_trace.h"
 
 #include <math.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -156,6 +157,11 @@ static bool ray_line(const warp_raytrace_setup *s, double tx, double ty, double 
     return true;
 }
 
+/* One rectangle's counts (warp_mesh_trace_stats), added to the shared ones once at its end. */
+typedef struct {
+    long pixels, lattice_rays, pixel_rays, channel_rays, samples;
+} rect_counts;
+
 /* What tracing one rectangle needs, hoisted. */
 typedef struct {
     const warp_mesh *m;
@@ -164,12 +170,14 @@ typedef struct {
     const warp_scan *scan;
     const warp_planar3 *src;
     double px_max; /* parallax_px */
+    rect_counts *n;
 } rect_ctx;
 
-/* One traced pixel: per channel its source position; its flag and the inverse depth of green's hit. */
+/* One traced pixel: per channel its source position; its flag and the inverse depth of green's hit: along green's
+ * ray where its source position lies (d) and where its search stopped (dhit: at an edge, on the wall). */
 typedef struct {
     double x[3], y[3];
-    double d, elen;
+    double d, dhit, elen;
     int flag;
 } ray_px;
 
@@ -184,23 +192,94 @@ static int band_of(const warp_mesh *m, int y, double *fy)
 }
 
 /* The source position of the ray through eye-buffer position (tx, ty) under the pass's setup(s) (rolling: at
- * viewport pixel (x, y)'s scan fraction); its flag. */
-static int trace_at(const rect_ctx *c, int x, int y, double tx, double ty, double *sx, double *sy)
+ * viewport pixel (x, y)'s scan fraction); its flag; its hit's inverse depth into *d (rolling: under the first setup
+ * that traced it). */
+static int trace_at(const rect_ctx *c, int x, int y, double tx, double ty, double *sx, double *sy, double *d,
+                    warp_raytrace_stats *st)
 {
-    if (!(c->last && c->scan)) return warp_raytrace_point(c->s, tx, ty, sx, sy, NULL);
+    if (!(c->last && c->scan)) return warp_raytrace_point_depth(c->s, tx, ty, sx, sy, d, st);
     const double f = warp_scan_fraction(c->scan, c->m->vp_x + x + 0.5, c->m->vp_y + y + 0.5);
-    double fx = 0, fy = 0, lx = 0, ly = 0;
+    double fx = 0, fy = 0, lx = 0, ly = 0, dl = 0;
     int flag = 0;
-    if (f < 1) flag |= warp_raytrace_point(c->s, tx, ty, &fx, &fy, NULL);
-    if (f > 0) flag |= warp_raytrace_point(c->last, tx, ty, &lx, &ly, NULL);
+    if (f < 1) flag |= warp_raytrace_point_depth(c->s, tx, ty, &fx, &fy, d, st);
+    if (f > 0) flag |= warp_raytrace_point_depth(c->last, tx, ty, &lx, &ly, f < 1 ? &dl : d, st);
     *sx = f <= 0 ? fx : (f >= 1 ? lx : fx + (lx - fx) * f);
     *sy = f <= 0 ? fy : (f >= 1 ? ly : fy + (ly - fy) * f);
     return flag;
 }
 
+/* The inverse depths the corners of a block hit (dhit), nearest (hi) to farthest (lo): at an edge where their rays
+ * met its wall; corners whose rays left the source left out (their depths are the fill's): n = 0 when none is
+ * left. */
+typedef struct {
+    int n;
+    double lo, hi;
+} hit_range;
+
+static void block_hits(const ray_px *const q[4], hit_range *h)
+{
+    h->n = 0;
+    h->lo = INFINITY;
+    h->hi = -INFINITY;
+    for (int k = 0; k < 4; k++)
+        if (!(q[k]->flag & WARP_MASK_FRINGE)) {
+            h->n++;
+            h->lo = q[k]->dhit < h->lo ? q[k]->dhit : h->lo;
+            h->hi = q[k]->dhit > h->hi ? q[k]->dhit : h->hi;
+        }
+}
+
+/* How far beyond the corners' hits (source pixels of parallax) a ray of their block looks: its pixel lies between
+ * the corners, so on their surfaces its hit does too, up to a curved surface's bulge and the half pixel the edge
+ * rules snap a corner's hit by (its inverse depth is read back from the snapped position). */
+#define HIT_MARGIN_PX 2.0
+
+/* trace_at, but the search kept to the depths the block's corners hit (h; NULL: the full search), where one of its
+ * surfaces (at a depth edge the near or the far side, or a third between them that a corner hit) meets the ray: a
+ * few steps where the full search takes one per source pixel of the whole depth range (003 §3.5). A hit there is
+ * the ray's first unless something nearer than every corner's hit stands in its way, which no corner saw (at 4
+ * pixels apart, a thin object in front of the block's nearest surface); where the ray is behind the height map
+ * already at the range's near end or meets nothing in it (a disocclusion's wall, or it leaves the source) it is
+ * traced in full (*full). Rolling: under both setups, over the same range (a scan's pose change moves a surface's
+ * depth by far less than the margin). */
+static int resolve_at(const rect_ctx *c, const hit_range *h, int x, int y, double tx, double ty, double *sx,
+                      double *sy, double *d, bool *full)
+{
+    *full = false;
+    int taken = 0;
+    if (h && h->n) {
+        if (!(c->last && c->scan)) {
+            const int r = warp_raytrace_point_within(c->s, tx, ty, h->lo, h->hi, HIT_MARGIN_PX, sx, sy, d, &taken);
+            c->n->samples += taken;
+            if (r >= 0) return r;
+        } else {
+            const double f = warp_scan_fraction(c->scan, c->m->vp_x + x + 0.5, c->m->vp_y + y + 0.5);
+            double fx = 0, fy = 0, lx = 0, ly = 0, dl = 0;
+            int rf = 0, rl = 0;
+            if (f < 1) rf = warp_raytrace_point_within(c->s, tx, ty, h->lo, h->hi, HIT_MARGIN_PX, &fx, &fy, d, &taken);
+            if (rf >= 0 && f > 0)
+                rl = warp_raytrace_point_within(c->last, tx, ty, h->lo, h->hi, HIT_MARGIN_PX, &lx, &ly,
+                                                f < 1 ? &dl : d, &taken);
+            c->n->samples += taken;
+            if (rf >= 0 && rl >= 0) {
+                *sx = f <= 0 ? fx : (f >= 1 ? lx : fx + (lx - fx) * f);
+                *sy = f <= 0 ? fy : (f >= 1 ? ly : fy + (ly - fy) * f);
+                return rf | rl;
+            }
+        }
+    }
+    *full = true;
+    warp_raytrace_stats st = {0};
+    const int r = trace_at(c, x, y, tx, ty, sx, sy, d, &st);
+    c->n->samples += st.samples;
+    return r;
+}
+
 /* Traces viewport pixel (x, y) of cell (i, j) (fy: its fraction across the band). all3: each channel its own ray
- * (beside a depth edge, where red's or blue's ray may meet the other side), else green's alone. */
-static void trace_pixel(const rect_ctx *c, int i, int j, int x, int y, double fy, bool all3, double dnear, ray_px *r)
+ * (beside a depth edge, where red's or blue's ray may meet the other side), else green's alone. h: the depths its
+ * block's corners hit, where its rays are searched (NULL: full rays). */
+static void trace_pixel(const rect_ctx *c, int i, int j, int x, int y, double fy, bool all3, double dnear,
+                        const hit_range *h, ray_px *r)
 {
     const warp_mesh *m = c->m;
     const int cw = m->cell_w;
@@ -218,7 +297,9 @@ static void trace_pixel(const rect_ctx *c, int i, int j, int x, int y, double fy
     /* Green's ray; red and blue lie a chromatic aberration away (a pixel or two) and, away from depth edges,
      * take the surface green hit at their own lens directions. */
     double gx = 0, gy = 0;
-    const int flag = trace_at(c, x, y, px[1], py[1], &gx, &gy);
+    bool full;
+    const int flag = resolve_at(c, h, x, y, px[1], py[1], &gx, &gy, &r->dhit, &full);
+    if (all3) c->n->pixel_rays += full;
     r->flag = flag;
     r->x[1] = gx;
     r->y[1] = gy;
@@ -244,7 +325,11 @@ static void trace_pixel(const rect_ctx *c, int i, int j, int x, int y, double fy
                 bool own = (flag & WARP_MASK_EDGE) || fabs(dk - r->d) > 0.1 * r->d;
                 if (!own && dnear > r->d * 1.1)
                     own = inv_at(inv, ic[0] + dnear * ec[0], ic[1] + dnear * ec[1]) > 0.9 * dnear;
-                if (own) trace_at(c, x, y, px[k], py[k], &r->x[k], &r->y[k]);
+                if (own) {
+                    double dh;
+                    resolve_at(c, h, x, y, px[k], py[k], &r->x[k], &r->y[k], &dh, &full);
+                    c->n->channel_rays += full;
+                }
             }
         } else {
             warp_raytrace_point(c->s, px[k], py[k], &r->x[k], &r->y[k], NULL); /* beyond 90 degrees: its own */
@@ -282,8 +367,9 @@ static void trace_block(const rect_ctx *c, int i, int j, int xa, int xb, int ya,
             for (int x = xa; x < xb; x++) {
                 if (!shown(m, x, y)) continue;
                 ray_px r;
-                trace_pixel(c, i, j, x, y, fy, true, INFINITY, &r);
+                trace_pixel(c, i, j, x, y, fy, true, INFINITY, NULL, &r);
                 put(c, row, x, r.x, r.y);
+                c->n->pixels++;
             }
         }
         return;
@@ -297,7 +383,8 @@ static void trace_block(const rect_ctx *c, int i, int j, int xa, int xb, int ya,
         double lfy;
         band_of(m, ly, &lfy);
         ray_px *cur = lat[l & 1];
-        for (int k = 0; k < nx; k++) trace_pixel(c, i, j, lx[k], ly, lfy, false, 0, &cur[k]);
+        for (int k = 0; k < nx; k++) trace_pixel(c, i, j, lx[k], ly, lfy, false, 0, NULL, &cur[k]);
+        c->n->lattice_rays += nx;
         if (l == 0) continue;
         const ray_px *up = lat[(l - 1) & 1];
         const int y0 = ya + (l - 1) * SUB, y1 = ly; /* rows [y0, y1), and y1 itself in the last row of sub-cells */
@@ -315,6 +402,8 @@ static void trace_block(const rect_ctx *c, int i, int j, int xa, int xb, int ya,
                 el = q[n]->elen > el ? q[n]->elen : el;
             }
             const bool smooth = same && (q[0]->flag & WARP_MASK_FRINGE || (dhi - dlo) * el <= c->px_max);
+            hit_range h;
+            block_hits(q, &h);
             for (int y = y0; y < yend; y++) {
                 double fy;
                 band_of(m, y, &fy);
@@ -322,6 +411,7 @@ static void trace_block(const rect_ctx *c, int i, int j, int xa, int xb, int ya,
                 const double ty = y1 > y0 ? (double)(y - y0) / (y1 - y0) : 0;
                 for (int x = x0; x < xend; x++) {
                     if (!shown(m, x, y)) continue;
+                    c->n->pixels++;
                     if (smooth) {
                         const double tx = x1 > x0 ? (double)(x - x0) / (x1 - x0) : 0;
                         double sx[3], sy[3];
@@ -334,7 +424,7 @@ static void trace_block(const rect_ctx *c, int i, int j, int xa, int xb, int ya,
                         put(c, row, x, sx, sy);
                     } else {
                         ray_px r;
-                        trace_pixel(c, i, j, x, y, fy, true, dhi, &r);
+                        trace_pixel(c, i, j, x, y, fy, true, dhi, &h, &r);
                         put(c, row, x, r.x, r.y);
                     }
                 }
@@ -353,7 +443,8 @@ void warp_mesh_trace_rect(const warp_mesh_trace *t, const warp_mesh *m, const wa
     x1 = x1 < m->vp_w ? x1 : m->vp_w;
     y1 = y1 < m->vp_h ? y1 : m->vp_h;
     if (x0 >= x1 || y0 >= y1) return;
-    const rect_ctx c = {m, dst_cam, s, last, scan, src, 1.0};
+    rect_counts n = {0, 0, 0, 0, 0};
+    const rect_ctx c = {m, dst_cam, s, last, scan, src, 1.0, &n};
     const int cw = m->cell_w;
     /* runs of rows in one band, then the marked cells across them */
     for (int ya = y0; ya < y1;) {
@@ -367,6 +458,13 @@ void warp_mesh_trace_rect(const warp_mesh_trace *t, const warp_mesh *m, const wa
             trace_block(&c, i, j, xa, xb, ya, yb, dst);
         }
         ya = yb;
+    }
+    if (t->stats) {
+        atomic_fetch_add_explicit(&t->stats->pixels, n.pixels, memory_order_relaxed);
+        atomic_fetch_add_explicit(&t->stats->lattice_rays, n.lattice_rays, memory_order_relaxed);
+        atomic_fetch_add_explicit(&t->stats->pixel_rays, n.pixel_rays, memory_order_relaxed);
+        atomic_fetch_add_explicit(&t->stats->channel_rays, n.channel_rays, memory_order_relaxed);
+        atomic_fetch_add_explicit(&t->stats->samples, n.samples, memory_order_relaxed);
     }
 }
 

@@ -26,11 +26,24 @@ typedef struct {
 /* parallax_px 1: at a depth edge, a pixel of the wrong side's parallax. */
 warp_mesh_trace_params warp_mesh_trace_default_params(void);
 
+/* What warp_mesh_trace_rect did, summed over the rectangles traced while warp_mesh_trace.stats points here: counts
+ * for tests and the bench (what the per-pixel work costs, not its time). One atomic add per field per rectangle, so
+ * threads may share it. */
+typedef struct {
+    _Atomic long pixels;       /* shown pixels of marked cells written */
+    _Atomic long lattice_rays; /* full rays (green) on the lattice of the marked cells */
+    _Atomic long pixel_rays;   /* full rays (green) for single pixels */
+    _Atomic long channel_rays; /* full rays of red or blue beside depth edges */
+    _Atomic long samples;      /* depth samples the searches took: the lattice's, the single pixels' (full or kept
+                                * to their block's depths), red's and blue's (the refinement's not counted) */
+} warp_mesh_trace_stats;
+
 /* The per-cell marks of one mesh: allocated once (start-up), rewritten per vsync by warp_mesh_trace_mark. */
 typedef struct {
     int cells_x, cells_y; /* the mesh's cols - 1 and rows - 1 */
     uint8_t *cell;        /* [j * cells_x + i]: 1 = cell (i, j) is traced per pixel */
     int marked;           /* cells marked by the last warp_mesh_trace_mark */
+    warp_mesh_trace_stats *stats; /* NULL (warp_mesh_trace_alloc's), or where warp_mesh_trace_rect adds its counts */
 } warp_mesh_trace;
 
 bool warp_mesh_trace_alloc(warp_mesh_trace *t, const warp_mesh *m);
@@ -50,9 +63,11 @@ int warp_mesh_trace_mark(warp_mesh_trace *t, const warp_mesh *m, const warp_came
  * from green's (chromatic aberration) gets its own ray when that surface is not there or something nearer may stop it;
  * sampled from src as the resampler samples (1/64 pixel, clamped border). Rays run on a lattice 4 pixels apart first,
  * and per pixel only in the 4 x 4 blocks whose corners disagree (a flag, or their hits' parallax by more than a pixel);
- * the rest is interpolated between them. On a rolling panel (last and scan not NULL) each pixel is traced under s (the
- * first line's pose) and last and interpolated by its scan fraction, as the mesh's vertices are. Hidden pixels
- * (m->visible) are left alone. Allocation-free; rectangles are independent (threads). */
+ * the rest is interpolated between them. A pixel's ray searches only the depths its block's corners hit (a few
+ * steps: warp_raytrace_point_within), and the whole depth range only where it finds nothing there. On a rolling
+ * panel (last and scan not NULL) each pixel is traced under s (the first line's pose) and last and interpolated by
+ * its scan fraction, as the mesh's vertices are. Hidden pixels (m->visible) are left alone. Allocation-free;
+ * rectangles are independent (threads). */
 void warp_mesh_trace_rect(const warp_mesh_trace *t, const warp_mesh *m, const warp_camera *dst_cam,
                           const warp_raytrace_setup *s, const warp_raytrace_setup *last, const warp_scan *scan,
                           const warp_planar3 *src, warp_image_rgba8 *dst, int x0, int y0, int x1, int y1);

@@ -193,13 +193,80 @@ static ray_ctx ray_ctx_make(const warp_raytrace_setup *s)
     return c;
 }
 
+/* The hit between the last search sample in front of the surface (inverse depth da, height over the ray fa < 0)
+ * and the first one behind it (db, fb >= 0): regula falsi (Illinois), so that it lands between samples, not on
+ * the step grid. */
+static inline __attribute__((always_inline)) double refine_hit(const ray_ctx *c, double pix, double piy, double ex,
+                                                               double ey, double da, double fa, double db, double fb)
+{
+    const warp_raytrace_setup *s = c->s;
+    int side = 0;
+    /* Refining a bracket that already spans under 1/64 pixel cannot move the hit visibly: most rays of a small
+     * head translation stop here after one step. */
+    const double epx = sqrt(ex * ex + ey * ey);
+    for (int it = 0; it < s->p.refine_iters && fabs(db - da) * epx > 1.0 / 64; it++) {
+        double dm = da + (db - da) * (-fa) / (fb - fa);
+        float sm = inv_at(c->dimg, (float)(pix + dm * ex), (float)(piy + dm * ey), c->jump);
+        double fm = sm - dm;
+        if (fm < 0) {
+            da = dm;
+            fa = fm;
+            if (side == -1) fb *= 0.5;
+            side = -1;
+        } else {
+            db = dm;
+            fb = fm;
+            if (side == 1) fa *= 0.5;
+            side = 1;
+        }
+    }
+    /* Without refinement the hit is the first sample behind the surface, as in 003 eq. 10. */
+    if (s->p.refine_iters > 0) return fb - fa != 0 ? da + (db - da) * (-fa) / (fb - fa) : db;
+    return db;
+}
+
+/* The source position (*hx, *hy) of the ray's hit at inverse depth da (dfront: the last search sample in front of
+ * the surface; len: the search's length in source pixels), and its flag after the edge rules. */
+static inline __attribute__((always_inline)) uint8_t edge_rules(const ray_ctx *c, double pix, double piy, double ex,
+                                                                double ey, double len, double da, double dfront,
+                                                                uint8_t flag, float *hx, float *hy)
+{
+    const warp_image_f32 *dimg = c->dimg;
+    const float jump = c->jump;
+    *hx = (float)(pix + da * ex);
+    *hy = (float)(piy + da * ey);
+    /* Edge fills (003 §4.4), decided on texels rather than on the two search samples bracketing the hit, which
+     * fall anywhere on a wall (so neighbouring rays flipped between the sides: comb-like streaks). Where the hit's
+     * cell or that of the last sample in front of it spans a depth edge, the ray belongs to the near surface when,
+     * at that surface's depth, it passes through a near texel's own pixel: the near side keeps exactly its half
+     * pixel, unblended. Else it sees the far surface: its own texel where the hit's pixel is one, otherwise it is a
+     * disocclusion. Without translation (the ray is one source point) there are no disocclusions: bilinear. */
+    if (!flag && len * 64 > 1) {
+        float near_d = 0, far_d = INFINITY, cx, cy;
+        cell_range(dimg, *hx, *hy, &near_d, &far_d);
+        cell_range(dimg, (float)(pix + dfront * ex), (float)(piy + dfront * ey), &near_d, &far_d);
+        if (near_d - far_d > jump * near_d) {
+            const float near_lo = near_d * (1 - jump);
+            if (texel_at(dimg, pix + near_d * ex, piy + near_d * ey, &cx, &cy) < near_lo &&
+                texel_at(dimg, *hx, *hy, &cx, &cy) >= near_lo)
+                flag = WARP_MASK_EDGE;
+            else {
+                *hx = cx;
+                *hy = cy;
+            }
+        }
+    }
+    return flag;
+}
+
 /* Traces the ray whose point at infinity has homogeneous source position (bx, by, bw): returns its flag (0,
  * WARP_MASK_FRINGE or WARP_MASK_EDGE) and the source position (*hx, *hy) its colour comes from, bilinearly,
  * except for an edge with the far-side fill, which takes far_texel_at(*hx, *hy); adds the steps and samples taken
  * to *steps and *samples. Always inlined: warp_raytrace_rows keeps the speed of the loop this was cut from, and
  * warp_raytrace_point traces exactly the same way. */
 static inline __attribute__((always_inline)) uint8_t trace_ray(const ray_ctx *c, double bx, double by, double bw,
-                                                               float *hx, float *hy, long *steps, long *samples)
+                                                               float *hx, float *hy, double *dhit, long *steps,
+                                                               long *samples)
 {
     const warp_raytrace_setup *s = c->s;
     const warp_image_f32 *dimg = c->dimg;
@@ -214,6 +281,7 @@ static inline __attribute__((always_inline)) uint8_t trace_ray(const ray_ctx *c,
     if (!(bw > 1e-9 * (fabs(bx) + fabs(by) + fabs(bw)))) {
         *hx = bx > 0 ? (float)sw : 0.f;
         *hy = by > 0 ? (float)sh : 0.f;
+        *dhit = 0;
         return WARP_MASK_FRINGE;
     }
     double pix = bx / bw, piy = by / bw;
@@ -231,6 +299,7 @@ static inline __attribute__((always_inline)) uint8_t trace_ray(const ray_ctx *c,
          * the frame; the fringe fill samples the ray within the frame's depth range (for an all-sky
          * frame exactly the rotation reprojection's clamped sample). */
         double d = lo < dmin ? dmin : (lo > dmax ? dmax : lo);
+        *dhit = d;
         *hx = (float)(pix + d * ex);
         *hy = (float)(piy + d * ey);
         return WARP_MASK_FRINGE;
@@ -291,59 +360,11 @@ static inline __attribute__((always_inline)) uint8_t trace_ray(const ray_ctx *c,
             da = db;
         } else {
             dfront = da;
-            /* Regula falsi (Illinois) between the last sample in front of the surface and the first one
-             * behind it: the hit lands between samples, not on the step grid. */
-            int side = 0;
-            /* Refining a bracket that already spans under 1/64 pixel cannot move the hit visibly: most
-             * rays of a small head translation stop here after one step. */
-            const double epx = sqrt(ex * ex + ey * ey);
-            for (int it = 0; it < s->p.refine_iters && fabs(db - da) * epx > 1.0 / 64; it++) {
-                double dm = da + (db - da) * (-fa) / (fb - fa);
-                float sm = inv_at(dimg, (float)(pix + dm * ex), (float)(piy + dm * ey), jump);
-                double fm = sm - dm;
-                if (fm < 0) {
-                    da = dm;
-                    fa = fm;
-                    if (side == -1) fb *= 0.5;
-                    side = -1;
-                } else {
-                    db = dm;
-                    fb = fm;
-                    if (side == 1) fa *= 0.5;
-                    side = 1;
-                }
-            }
-            /* Without refinement the hit is the first sample behind the surface, as in 003 eq. 10. */
-            if (s->p.refine_iters > 0)
-                da = fb - fa != 0 ? da + (db - da) * (-fa) / (fb - fa) : db;
-            else
-                da = db;
+            da = refine_hit(c, pix, piy, ex, ey, da, fa, db, fb);
         }
     }
-    *hx = (float)(pix + da * ex);
-    *hy = (float)(piy + da * ey);
-    /* Edge fills (003 §4.4), decided on texels rather than on the two search samples bracketing the hit, which
-     * fall anywhere on a wall (so neighbouring rays flipped between the sides: comb-like streaks). Where the hit's
-     * cell or that of the last sample in front of it spans a depth edge, the ray belongs to the near surface when,
-     * at that surface's depth, it passes through a near texel's own pixel: the near side keeps exactly its half
-     * pixel, unblended. Else it sees the far surface: its own texel where the hit's pixel is one, otherwise it is a
-     * disocclusion. Without translation (the ray is one source point) there are no disocclusions: bilinear. */
-    if (!flag && len * 64 > 1) {
-        float near_d = 0, far_d = INFINITY, cx, cy;
-        cell_range(dimg, *hx, *hy, &near_d, &far_d);
-        cell_range(dimg, (float)(pix + dfront * ex), (float)(piy + dfront * ey), &near_d, &far_d);
-        if (near_d - far_d > jump * near_d) {
-            const float near_lo = near_d * (1 - jump);
-            if (texel_at(dimg, pix + near_d * ex, piy + near_d * ey, &cx, &cy) < near_lo &&
-                texel_at(dimg, *hx, *hy, &cx, &cy) >= near_lo)
-                flag = WARP_MASK_EDGE;
-            else {
-                *hx = cx;
-                *hy = cy;
-            }
-        }
-    }
-    return flag;
+    *dhit = da;
+    return edge_rules(c, pix, piy, ex, ey, len, da, dfront, flag, hx, hy);
 }
 
 void warp_raytrace_rows(const warp_raytrace_setup *s, warp_image_rgba8 *dst, warp_image_u8 *mask, int y0, int y1,
@@ -362,7 +383,8 @@ void warp_raytrace_rows(const warp_raytrace_setup *s, warp_image_rgba8 *dst, war
         uint8_t *m = mask ? &WARP_AT(mask, 0, y) : NULL;
         for (int x = 0; x < dst->w; x++, bx += s->h.m[0][0], by += s->h.m[1][0], bw += s->h.m[2][0]) {
             float hx, hy;
-            uint8_t flag = trace_ray(&c, bx, by, bw, &hx, &hy, &steps_total, &samples);
+            double dhit;
+            uint8_t flag = trace_ray(&c, bx, by, bw, &hx, &hy, &dhit, &steps_total, &samples);
             if (flag == WARP_MASK_EDGE && s->p.edge_fill == WARP_EDGE_FILL_FAR) {
                 int tx, ty;
                 far_texel_at(v, hx, hy, &tx, &ty);
@@ -384,17 +406,9 @@ void warp_raytrace_rows(const warp_raytrace_setup *s, warp_image_rgba8 *dst, war
     }
 }
 
-int warp_raytrace_point(const warp_raytrace_setup *s, double tx, double ty, double *sx, double *sy,
-                        warp_raytrace_stats *st)
+/* The source position whose bilinear sample is the colour of a ray with flag and hit (hx, hy). */
+static void point_source(const warp_raytrace_setup *s, uint8_t flag, float hx, float hy, double *sx, double *sy)
 {
-    const ray_ctx c = ray_ctx_make(s);
-    /* the same homogeneous position warp_raytrace_rows reaches by stepping along a row (up to rounding) */
-    double bx = s->h.m[0][0] * tx + s->h.m[0][1] * ty + s->h.m[0][2];
-    double by = s->h.m[1][0] * tx + s->h.m[1][1] * ty + s->h.m[1][2];
-    double bw = s->h.m[2][0] * tx + s->h.m[2][1] * ty + s->h.m[2][2];
-    long steps = 0, samples = 0;
-    float hx, hy;
-    uint8_t flag = trace_ray(&c, bx, by, bw, &hx, &hy, &steps, &samples);
     if (flag == WARP_MASK_EDGE && s->p.edge_fill == WARP_EDGE_FILL_FAR) {
         /* the far texel's centre, where a bilinear sample returns exactly that texel */
         int fx, fy;
@@ -405,6 +419,28 @@ int warp_raytrace_point(const warp_raytrace_setup *s, double tx, double ty, doub
         *sx = hx;
         *sy = hy;
     }
+}
+
+int warp_raytrace_point(const warp_raytrace_setup *s, double tx, double ty, double *sx, double *sy,
+                        warp_raytrace_stats *st)
+{
+    return warp_raytrace_point_depth(s, tx, ty, sx, sy, NULL, st);
+}
+
+int warp_raytrace_point_depth(const warp_raytrace_setup *s, double tx, double ty, double *sx, double *sy, double *d,
+                              warp_raytrace_stats *st)
+{
+    const ray_ctx c = ray_ctx_make(s);
+    /* the same homogeneous position warp_raytrace_rows reaches by stepping along a row (up to rounding) */
+    double bx = s->h.m[0][0] * tx + s->h.m[0][1] * ty + s->h.m[0][2];
+    double by = s->h.m[1][0] * tx + s->h.m[1][1] * ty + s->h.m[1][2];
+    double bw = s->h.m[2][0] * tx + s->h.m[2][1] * ty + s->h.m[2][2];
+    long steps = 0, samples = 0;
+    float hx, hy;
+    double dhit;
+    uint8_t flag = trace_ray(&c, bx, by, bw, &hx, &hy, &dhit, &steps, &samples);
+    point_source(s, flag, hx, hy, sx, sy);
+    if (d) *d = dhit;
     if (st) {
         st->rays++;
         st->steps += steps;
@@ -412,5 +448,62 @@ int warp_raytrace_point(const warp_raytrace_setup *s, double tx, double ty, doub
         st->fringe_pixels += flag == WARP_MASK_FRINGE;
         st->samples += samples;
     }
+    return flag;
+}
+
+int warp_raytrace_point_within(const warp_raytrace_setup *s, double tx, double ty, double d_lo, double d_hi,
+                               double margin_px, double *sx, double *sy, double *d, int *samples)
+{
+    const ray_ctx c = ray_ctx_make(s);
+    const double bx = s->h.m[0][0] * tx + s->h.m[0][1] * ty + s->h.m[0][2];
+    const double by = s->h.m[1][0] * tx + s->h.m[1][1] * ty + s->h.m[1][2];
+    const double bw = s->h.m[2][0] * tx + s->h.m[2][1] * ty + s->h.m[2][2];
+    if (!(bw > 1e-9 * (fabs(bx) + fabs(by) + fabs(bw)))) return WARP_WITHIN_MISSED;
+    const double pix = bx / bw, piy = by / bw;
+    const double ex = s->ax - s->aw * pix, ey = s->ay - s->aw * piy;
+    /* the full search's interval (trace_ray), for its length and to keep the bracket inside it */
+    double hi = c.dmax, lo = c.dmin;
+    if (s->aw > 0 && 1.0 / s->aw < hi) hi = 1.0 / s->aw;
+    if (!(lo <= hi && clip_axis(pix, ex, c.sw, &lo, &hi) && clip_axis(piy, ey, c.sh, &lo, &hi)))
+        return WARP_WITHIN_MISSED;
+    const double epx = sqrt(ex * ex + ey * ey), len = fabs(hi - lo) * epx;
+    /* Without translation every depth is the same source point: the full ray takes one step, nothing to save. */
+    if (!(epx > 1e-9)) return WARP_WITHIN_MISSED;
+    /* The full search's step grid (trace_ray: n steps from hi to lo), so that the samples bracketing a hit, on
+     * which the refinement and the edge rules decide, are the full search's own: a hit that is the ray's first
+     * comes out bit for bit as warp_raytrace_point's. */
+    int n = (int)ceil(len);
+    n = n < 1 ? 1 : (n > s->p.max_steps ? s->p.max_steps : n);
+    const double dd = (hi - lo) / n;
+    const double top = d_hi + margin_px / epx, bot = d_lo - margin_px / epx;
+    /* A bracket reaching the search's near end would also have to repeat its image-border rule: the full ray. */
+    if (!(top < hi)) return WARP_WITHIN_MISSED;
+    const int k0 = (int)((hi - top) / dd), k1 = bot > lo ? (int)ceil((hi - bot) / dd) : n;
+    if (k0 < 1 || k0 >= k1 || k1 > n) return WARP_WITHIN_MISSED;
+    double da = hi - dd * k0;
+    double fa = inv_at(c.dimg, (float)(pix + da * ex), (float)(piy + da * ey), c.jump) - da;
+    int taken = 1;
+    if (fa >= 0) {
+        if (samples) *samples += taken;
+        return WARP_WITHIN_BEHIND;
+    }
+    double db = da, fb = fa;
+    int k;
+    for (k = k0 + 1; k <= k1; k++) {
+        db = k == n ? lo : hi - dd * k;
+        fb = inv_at(c.dimg, (float)(pix + db * ex), (float)(piy + db * ey), c.jump) - db;
+        taken++;
+        if (fb >= 0) break;
+        da = db;
+        fa = fb;
+    }
+    if (samples) *samples += taken;
+    if (k > k1) return WARP_WITHIN_MISSED;
+    const double dfront = da;
+    da = refine_hit(&c, pix, piy, ex, ey, da, fa, db, fb);
+    float hx, hy;
+    const uint8_t flag = edge_rules(&c, pix, piy, ex, ey, len, da, dfront, 0, &hx, &hy);
+    point_source(s, flag, hx, hy, sx, sy);
+    if (d) *d = da;
     return flag;
 }

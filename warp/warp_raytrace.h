@@ -70,4 +70,28 @@ void warp_raytrace_rows(const warp_raytrace_setup *s, warp_image_rgba8 *dst, war
 int warp_raytrace_point(const warp_raytrace_setup *s, double tx, double ty, double *sx, double *sy,
                         warp_raytrace_stats *st);
 
+/* warp_raytrace_point, and the inverse depth of the ray's hit into *d (may be NULL): where its search stopped, before
+ * the edge rules move the position to a texel (at an edge: where the ray met the wall; for a ray that leaves the
+ * source: the depth its fringe fill samples at, 0 beyond 90 degrees). */
+int warp_raytrace_point_depth(const warp_raytrace_setup *s, double tx, double ty, double *sx, double *sy, double *d,
+                              warp_raytrace_stats *st);
+
+enum {
+    WARP_WITHIN_BEHIND = -1, /* the ray is behind the height map already at the bracket's near end */
+    WARP_WITHIN_MISSED = -2, /* it meets nothing inside the bracket (or the bracket cannot be searched) */
+};
+
+/* warp_raytrace_point's ray through (tx, ty), searched only between the inverse depths d_hi and d_lo, each widened
+ * by margin_px source pixels of the ray's parallax: the raytrace's hit test (003 §3.5) around a surface the caller
+ * expects the ray to meet (one its neighbours' rays met), a few steps where the full search takes one per pixel
+ * of the whole depth range. The search steps, refinement and edge rules are warp_raytrace_point's, so a hit inside
+ * the bracket that is the ray's first is where warp_raytrace_point puts it; whether it is the first (nothing
+ * nearer before d_hi) is the caller's to know. Returns the flag (0 or WARP_MASK_EDGE) and writes the source
+ * position as warp_raytrace_point does and the hit's inverse depth as warp_raytrace_point_depth does (d may be
+ * NULL); or WARP_WITHIN_BEHIND or WARP_WITHIN_MISSED, and writes nothing (MISSED also for a ray of no parallax,
+ * beyond 90 degrees, or whose bracket leaves the image or reaches the search's near end: warp_raytrace_point's own
+ * rules hold there). Adds the depth samples taken to *samples (may be NULL). */
+int warp_raytrace_point_within(const warp_raytrace_setup *s, double tx, double ty, double d_lo, double d_hi,
+                               double margin_px, double *sx, double *sy, double *d, int *samples);
+
 #endif
