@@ -453,6 +453,27 @@ static void test_edge_cells_traced_per_pixel(void **state)
     }
 }
 
+/* The reference of (f) and (g): every panel pixel traced per channel, at the lens's exact directions (lens NULL:
+ * the pixel's own centre for all three), into f->out. */
+static void trace_every_pixel(near_fx *f, const warp_raytrace_setup *s, const warp_lens *lens)
+{
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            uint8_t o[3];
+            for (int c = 0; c < 3; c++) {
+                double u, v, tx = x + 0.5, ty = y + 0.5, sx, sy;
+                if (lens) {
+                    warp_lens_distort(lens, c, x + 0.5, y + 0.5, &u, &v);
+                    warp_camera_tan_to_pixel(&f->cam, u, v, &tx, &ty);
+                }
+                warp_raytrace_point(s, tx, ty, &sx, &sy, NULL);
+                const warp_rgba8 q = warp_sample_bilinear(f->v.color, (float)sx, (float)sy);
+                o[c] = c == 0 ? q.r : (c == 1 ? q.g : q.b);
+            }
+            WARP_AT(&f->out, x, y) = (warp_rgba8){o[0], o[1], o[2], 255};
+        }
+}
+
 /* (f) Through a lens with chromatic aberration: per pixel, red and blue need their own rays beside depth edges
  * (green's hit taken at their lens directions shows the edge's wrong side within a pixel or two of it). Against
  * every panel pixel traced per channel (the per-pixel raytrace without the eye buffer's second resampling), on the
@@ -472,19 +493,7 @@ static void test_edge_cells_under_chromatic_aberration(void **state)
     assert_true(warp_planar3_alloc(&src_p, W, H));
     warp_planar3_from_rgba_rows(&src_p, f.v.color, 0, H);
     /* the reference: three rays per panel pixel, at the lens's exact directions */
-    for (int y = 0; y < H; y++)
-        for (int x = 0; x < W; x++) {
-            uint8_t o[3];
-            for (int c = 0; c < 3; c++) {
-                double u, v, tx, ty, sx, sy;
-                warp_lens_distort(&lens, c, x + 0.5, y + 0.5, &u, &v);
-                warp_camera_tan_to_pixel(&f.cam, u, v, &tx, &ty);
-                warp_raytrace_point(&s, tx, ty, &sx, &sy, NULL);
-                const warp_rgba8 q = warp_sample_bilinear(f.v.color, (float)sx, (float)sy);
-                o[c] = c == 0 ? q.r : (c == 1 ? q.g : q.b);
-            }
-            WARP_AT(&f.out, x, y) = (warp_rgba8){o[0], o[1], o[2], 255};
-        }
+    trace_every_pixel(&f, &s, &lens);
     warp_mesh_raytrace_draw(&m, NULL, &f.cam, &s, NULL, NULL, NULL, &src_p, &f.out2);
     const double vert = warp_psnr(&f.out2, &f.out, NULL, 0);
     const warp_mesh_trace_params tp = warp_mesh_trace_default_params();
@@ -510,11 +519,8 @@ static void test_edge_cells_few_full_rays(void **state)
     (void)state;
     for (int t = 0; t < 2; t++) {
         near_fx f;
-        warp_pose b = moved(near_a, 2, 0, 0.05, 0, 0);
-        near_make(&f, near_a, b);
-        warp_raytrace_params p = warp_raytrace_default_params();
         warp_raytrace_setup s;
-        assert_null(warp_raytrace_prepare(&s, &f.v, &f.cam, b, &p));
+        near_5cm(&f, &s);
         warp_image_f32 bmax;
         assert_true(warp_image_f32_alloc(&bmax, (W + 7) / 8, (H + 7) / 8));
         warp_raytrace_blockmax(&f.inv, &bmax, 8);
@@ -525,22 +531,7 @@ static void test_edge_cells_few_full_rays(void **state)
             assert_true(warp_mesh_alloc_eye(&m, 41, &f.cam));
         else
             assert_true(warp_mesh_alloc(&m, 41, &lens, 0, 0, W, H));
-        /* the reference: every pixel traced (per channel through the lens) */
-        for (int y = 0; y < H; y++)
-            for (int x = 0; x < W; x++) {
-                uint8_t o[3];
-                for (int c = 0; c < 3; c++) {
-                    double u = 0, v = 0, tx = x + 0.5, ty = y + 0.5, sx, sy;
-                    if (t == 1) {
-                        warp_lens_distort(&lens, c, x + 0.5, y + 0.5, &u, &v);
-                        warp_camera_tan_to_pixel(&f.cam, u, v, &tx, &ty);
-                    }
-                    warp_raytrace_point(&s, tx, ty, &sx, &sy, NULL);
-                    const warp_rgba8 q = warp_sample_bilinear(f.v.color, (float)sx, (float)sy);
-                    o[c] = c == 0 ? q.r : (c == 1 ? q.g : q.b);
-                }
-                WARP_AT(&f.out, x, y) = (warp_rgba8){o[0], o[1], o[2], 255};
-            }
+        trace_every_pixel(&f, &s, t ? &lens : NULL); /* the reference */
         warp_mesh_trace tr;
         assert_true(warp_mesh_trace_alloc(&tr, &m));
         warp_mesh_trace_stats st = {0};
@@ -548,11 +539,8 @@ static void test_edge_cells_few_full_rays(void **state)
         warp_planar3 src_p;
         assert_true(warp_planar3_alloc(&src_p, W, H));
         warp_planar3_from_rgba_rows(&src_p, f.v.color, 0, H);
-        warp_mesh_update_raytrace(&m, &f.cam, &s);
-        warp_mesh_resample(&m, &src_p, &f.out2, 0, 0, W, H);
         const warp_mesh_trace_params tp = warp_mesh_trace_default_params();
-        const int marked = warp_mesh_trace_mark(&tr, &m, &f.cam, &s, NULL, NULL, &tp);
-        warp_mesh_trace_rect(&tr, &m, &f.cam, &s, NULL, NULL, &src_p, &f.out2, 0, 0, W, H);
+        const int marked = warp_mesh_raytrace_draw(&m, &tr, &f.cam, &s, NULL, NULL, &tp, &src_p, &f.out2);
         const double hyb = warp_psnr(&f.out2, &f.out, NULL, 0);
         const long px = st.pixels, full = st.pixel_rays + st.channel_rays;
         print_message("near at 5 cm, %s: %d cells traced, %ld pixels: %ld lattice rays, %ld pixel rays, %ld channel "
