@@ -698,12 +698,6 @@ static ssize_t ffs_write(drv_usb_transport *bt, const uint8_t *buf, size_t len, 
 
 static bool ffs_connected(drv_usb_transport *bt) { return ffs_wait_enabled((ffs_transport *)bt, 0); }
 
-static const char *ffs_event_name(int type)
-{
-    static const char *const names[] = {"BIND", "UNBIND", "ENABLE", "DISABLE", "SETUP", "SUSPEND", "RESUME"};
-    return type >= 0 && type < 7 ? names[type] : "unknown";
-}
-
 /* On ENABLE (the host configured us), the speed the host negotiated: in the stats and the log, with a warning when
  * it is below what the UDC can do (a USB 2 port or cable in front of a USB 3 controller). */
 static void ffs_note_speed(ffs_transport *t)
@@ -785,7 +779,6 @@ static void *ep0_thread(void *arg)
                 }
                 break;
             default: /* BIND, SUSPEND, RESUME: nothing to do */
-                (void)ffs_event_name;
                 break;
             }
         }
