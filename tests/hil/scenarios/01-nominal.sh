@@ -79,7 +79,7 @@ mkdir -p "$HIL_WORK/real" "$HIL_WORK/inproc"
 # Each run lasts until it has shown 20 host frames and then 100 more vsyncs (two more raw images), however slowly.
 same_inputs_wait() {
     hil_live_wait 120 frames_shown 20
-    hil_live_wait 60 vsyncs "$(( $(hil_stat vsyncs "$HIL_LIVE") + 100 ))"
+    hil_live_wait 60 vsyncs "$(( $(hil_live_now vsyncs) + 100 ))"
     hil_hmdwarpd_stop 30
 }
 hil_gadget_start --config "$(hil_board hid-usb-gpio)" --duration 0 --set "vsync.chip=$HIL_GPIO_CHIP" \

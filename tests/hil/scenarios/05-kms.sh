@@ -117,7 +117,7 @@ kms_same_picture() {
     hil_wait_until 60 grep -qx enabled "$HIL_DRI_CONN/enabled" || hil_miss "$r: vkms's connector never got a CRTC"
     want_shown=5; [ "$r" = cpu ] || want_shown=1   # GLES shows few
     hil_live_wait 120 frames_shown "$want_shown" || hil_miss "$r: same inputs: no $want_shown host frames shown within 120 s"
-    hil_live_wait 30 vsyncs "$(( $(hil_stat vsyncs "$HIL_LIVE") + 90 ))"
+    hil_live_wait 30 vsyncs "$(( $(hil_live_now vsyncs) + 90 ))"
     hil_vkms_crc_on
     hil_wait_until 60 hil_vkms_crc_has 45 || hil_miss "$r: only $(hil_vkms_crc_count) CRCs in 60 s"
     # CRCs taken after hmdwarpd ended would be of a switched-off CRTC
@@ -140,8 +140,8 @@ kms_same_picture() {
         --set sim.gyro_noise=0 --set "sim.gyro_bias=0 0 0" --set sim.accel_noise=0 --set display.sink=raw \
         --set "display.sink_every=$every" --set "display.sink_path=$HIL_WORK/off-$r"
     hil_live_wait 120 frames_shown "$shown" || hil_miss "$r: reference: no $shown host frames shown within 120 s"
-    if [ "$r" = cpu ]; then hil_live_wait 60 vsyncs "$(( $(hil_stat vsyncs "$HIL_LIVE") + 3 * every ))"
-    else hil_live_wait 120 frames_shown "$(( $(hil_stat frames_shown "$HIL_LIVE") + 2 ))"
+    if [ "$r" = cpu ]; then hil_live_wait 60 vsyncs "$(( $(hil_live_now vsyncs) + 3 * every ))"
+    else hil_live_wait 120 frames_shown "$(( $(hil_live_now frames_shown) + 2 ))"
     fi || hil_miss "$r: reference: no more images of host frames within the cap"
     hil_hmdwarpd_stop 90
     hil_note "${r}_offscreen_frames_shown" "$(hil_stat frames_shown)"

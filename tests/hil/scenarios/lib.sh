@@ -395,7 +395,7 @@ hil_live_wait_locked() {
     case "$(hil_stat vsync_backend "$HIL_LIVE" 2>/dev/null)" in gpio | kms) ;; *) return 0 ;; esac
     while [ "$(hil_stat vsync_on_timer "$HIL_LIVE" 2>/dev/null)" != 0 ] && [ "$i" -lt $(($1 * 5)) ] &&
         kill -0 "$HIL_HMD_PID" 2>/dev/null; do
-        sleep 0.2; i=$((i + 1))
+        sleep 0.2; hlni=$((hlni + 1))
     done
     if [ "$(hil_stat vsync_on_timer "$HIL_LIVE" 2>/dev/null)" = 0 ]; then HIL_LOCKED_SEEN=1; else HIL_LOCKED_SEEN=0; fi
     HIL_WAIT_TE1=$(hil_te_counts)
@@ -521,6 +521,17 @@ hil_live_wait() {
     done
 }
 
+# hil_live_now KEY: KEY's value in the live stats at their next rewrite (once a second), not the last one: a base for a
+# relative wait ("+100 vsyncs") read from a file up to a second old would wait that many fewer vsyncs in fact.
+# Any rewrite changes the file while hmdwarpd runs (its vsyncs count on); after 5 s, or once it has ended, the
+# value as it stands.
+hil_live_now() {
+    hln0=$(cat "$HIL_LIVE" 2>/dev/null); hlni=0
+    while [ "$hlni" -lt 25 ] && [ "$(cat "$HIL_LIVE" 2>/dev/null)" = "$hln0" ] && kill -0 "$HIL_HMD_PID" 2>/dev/null; do
+        sleep 0.2; hlni=$((hlni + 1))
+    done
+    hil_stat "$1" "$HIL_LIVE"
+}
 # hil_stat KEY [FILE]: one value from a --stats file (key=value lines).
 hil_stat() { sed -n "s/^$1=//p" "${2:-$HIL_STATS}" | head -n 1; }
 # hil_expect_stat KEY OP VALUE [WHY]: check a stats value (VALUE may be "N * M + K"); a miss is recorded
