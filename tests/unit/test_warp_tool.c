@@ -3,7 +3,6 @@
  * read back through its file loaders give the same warp and the same score; ray-distance depth and 16-bit
  * reversed-Z depth convert to the same result; bad inputs are refused with a message naming them, and declared sizes
  * are checked against the file before anything is allocated. */
-#include <libgen.h>
 #include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
@@ -19,14 +18,7 @@
 static char tool[256], dir[256];
 
 /* Runs the tool; returns its exit status and its stdout in out. */
-static int run(const char *args, char *out, size_t cap)
-{
-    char cmd[9000];
-    snprintf(cmd, sizeof cmd, "%s%s %s 2>&1", test_runner(), tool, args);
-    int st = -1;
-    assert_true(test_capture(cmd, out, cap, &st));
-    return st;
-}
+static int run(const char *args, char *out, size_t cap) { return test_run_program(tool, args, out, cap); }
 
 static double psnr_of(const char *out)
 {
@@ -251,14 +243,9 @@ static void test_bad_inputs_named(void **state)
 int main(int argc, char **argv)
 {
     (void)argc;
-    char tmp[512];
-    snprintf(tmp, sizeof tmp, "%s", argv[0]);
-    char *build = dirname(dirname(dirname(tmp)));
+    char build[200];
+    if (!test_build_dirs(argv[0], build, sizeof build, dir, sizeof dir, "warp-tool")) return 1;
     snprintf(tool, sizeof tool, "%s/hmdwarp-warp", build);
-    snprintf(dir, sizeof dir, "%s/tests/warp-tool", build);
-    char cmd[600];
-    snprintf(cmd, sizeof cmd, "mkdir -p %s", dir);
-    if (system(cmd) != 0) return 1;
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_files_match_simulator),
         cmocka_unit_test(test_layers_file_round_trip),
