@@ -179,7 +179,7 @@ static void test_pure_rotation_matches_reprojection(void **state)
 static const warp_pose *near_a(void)
 {
     static warp_pose a;
-    a = test_eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
+    a = test_eye_home();
     return &a;
 }
 /* a 4 cm sideways lean with a 1.5 degree turn, as test_warp_accuracy's raytrace case */

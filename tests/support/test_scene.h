@@ -21,6 +21,17 @@ static inline warp_pose test_eye_at(double yaw, double pitch, double roll, warp_
     return (warp_pose){warp_quat_from_ypr(yaw, pitch, roll), p};
 }
 
+/* The source eye most warp tests render from: standing (1.6 m), level, looking 3 degrees down. */
+static inline warp_pose test_eye_home(void) { return test_eye_at(0, -3 * (WARP_PI / 180.0), 0, warp_v3(0, 1.6, 0)); }
+
+/* test_eye_home moved by d without turning: the pure-translation targets. */
+static inline warp_pose test_eye_home_moved(warp_vec3 d)
+{
+    warp_pose e = test_eye_home();
+    e.p = warp_v3_add(e.p, d);
+    return e;
+}
+
 /* The images a source-vs-truth warp test works on: the two renders, the source's inverse depth and view, two
  * outputs and two masks, all W x H. */
 typedef struct {
