@@ -20,6 +20,19 @@
 
 #define API __attribute__((visibility("default")))
 
+/* The camera message's plane bits reach the application unchanged (store_cams) and its frames' planes go to the board
+ * as they are: the public header's HMDWARP_HOST_PLANE_* must be the wire's DRV_PLANE_* bits (the public header cannot
+ * include the driver's). */
+#define HOST_PLANES_ALL                                                                                                \
+    (HMDWARP_HOST_PLANE_COLOR | HMDWARP_HOST_PLANE_DEPTH | HMDWARP_HOST_PLANE_IDS | HMDWARP_HOST_PLANE_MOTION |       \
+     HMDWARP_HOST_PLANE_LAYERS)
+_Static_assert((unsigned)HMDWARP_HOST_PLANE_COLOR == (unsigned)DRV_PLANE_COLOR &&
+                   (unsigned)HMDWARP_HOST_PLANE_DEPTH == (unsigned)DRV_PLANE_DEPTH &&
+                   (unsigned)HMDWARP_HOST_PLANE_IDS == (unsigned)DRV_PLANE_IDS &&
+                   (unsigned)HMDWARP_HOST_PLANE_MOTION == (unsigned)DRV_PLANE_MOTION &&
+                   (unsigned)HMDWARP_HOST_PLANE_LAYERS == (unsigned)DRV_PLANE_LAYERS,
+               "HMDWARP_HOST_PLANE_* and DRV_PLANE_* must be the same bits");
+
 /* Pose messages kept for hmdwarp_host_frame.pose_seq: 1024 at the board's 500 Hz is 2 s (200 KB), longer than any
  * render a board would still warp, even on a host loaded enough to stretch a render tenfold (64, 128 ms, refused a
  * loaded machine's first frames). */
@@ -507,7 +520,7 @@ API int hmdwarp_host_set_cameras(hmdwarp_host *h, const hmdwarp_host_cameras *ca
         const char *why = warp_camera_check(&c);
         if (why) return host_fail(HMDWARP_HOST_ERR_ARG, "cams.cam[%d]: %s", e, why);
     }
-    if (!(cams->planes & HMDWARP_HOST_PLANE_COLOR) || (cams->planes & ~0x1fu))
+    if (!(cams->planes & HMDWARP_HOST_PLANE_COLOR) || (cams->planes & ~(unsigned)HOST_PLANES_ALL))
         return host_fail(HMDWARP_HOST_ERR_ARG, "cams.planes: 0x%x (want COLOR and only HMDWARP_HOST_PLANE_* bits)",
                          cams->planes);
     pthread_mutex_lock(&h->lock);
