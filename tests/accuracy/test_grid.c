@@ -31,7 +31,7 @@ static fx F;
 static int setup(void **state)
 {
     (void)state;
-    F.cam = (warp_camera){W, H, 1.0, 1.0, 0.8, 0.7, 0.05, INFINITY};
+    F.cam = test_camera(W, H);
     if (!test_pair_alloc(&F.p, W, H, SIM_PLANE_COLOR | SIM_PLANE_DEPTH) || !warp_image_f32_alloc(&F.zb, W, H)) return -1;
     if (!warp_grid_alloc(&F.g, W, H, 32)) return -1;
     return 0;

@@ -38,7 +38,7 @@ static fx F;
 static int setup(void **state)
 {
     (void)state;
-    F.cam = (warp_camera){W, H, 1.0, 1.0, 0.8, 0.7, 0.05, INFINITY};
+    F.cam = test_camera(W, H);
     unsigned all = SIM_PLANE_COLOR | SIM_PLANE_DEPTH | SIM_PLANE_LAYERS;
     if (!sim_buffers_alloc(&F.glass, W, H, all, MAXL) || !sim_buffers_alloc(&F.room, W, H, all, MAXL) ||
         !sim_buffers_alloc(&F.truth, W, H, all, MAXL))
