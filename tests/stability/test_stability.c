@@ -555,7 +555,8 @@ static void test_random_round_trips(void **state)
         sim_render(s, 0, b, &f.c, SIM_PLANE_COLOR | SIM_PLANE_DEPTH, &f.p.a);
         warp_image_rgba8_copy(&f.p.a.color, &f.p.out); /* but the colour of the warped image */
         f.p.v.pose = b;
-        warp_inverse_depth_from(&f.c, WARP_DEPTH_LINEAR, &f.p.a.depth, &f.p.inv, &f.p.v.inv_depth_min, &f.p.v.inv_depth_max);
+        warp_inverse_depth_from(&f.c, WARP_DEPTH_LINEAR, &f.p.a.depth, &f.p.inv, &f.p.v.inv_depth_min,
+                                &f.p.v.inv_depth_max);
         raytrace(&f, a, &back);
         double p = warp_psnr(&back, &src_copy, &f.p.mask, WARP_MASK_FRINGE | WARP_MASK_EDGE);
         if (p < 24) fail_msg("raytrace round trip %d: %.2f dB", it, p);
