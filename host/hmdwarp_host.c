@@ -16,6 +16,7 @@
 #include "host/hmdwarp-host.h"
 #include "host/host_frame.h"
 #include "host/host_link.h"
+#include "platform/plat_clock.h"
 #include "platform/plat_version.h"
 
 #define API __attribute__((visibility("default")))
@@ -333,11 +334,7 @@ API hmdwarp_host *hmdwarp_host_open_ex(const hmdwarp_host_options *opts)
     }
     pthread_mutex_init(&h->send_lock, NULL);
     pthread_mutex_init(&h->lock, NULL);
-    pthread_condattr_t ca;
-    pthread_condattr_init(&ca);
-    pthread_condattr_setclock(&ca, CLOCK_MONOTONIC);
-    pthread_cond_init(&h->cond, &ca);
-    pthread_condattr_destroy(&ca);
+    plat_cond_init_monotonic(&h->cond);
     h->link = host_link_open(&h->opts, opts->wait_s, &h->stop);
     if (!h->link) {
         hmdwarp_host_close(h);
@@ -410,14 +407,6 @@ API int hmdwarp_host_connected(hmdwarp_host *h) { return h && is_connected(h) ? 
 
 /* ---- poses and cameras ---- */
 
-static void deadline(struct timespec *ts, int timeout_ms)
-{
-    clock_gettime(CLOCK_MONOTONIC, ts);
-    ts->tv_sec += timeout_ms / 1000;
-    ts->tv_nsec += (long)(timeout_ms % 1000) * 1000000L;
-    if (ts->tv_nsec >= 1000000000L) ts->tv_sec++, ts->tv_nsec -= 1000000000L;
-}
-
 /* One wait for the reader's signal (h->lock held); true when the caller's time is up: at once for a timeout of 0,
  * never for a negative one. While the board is away the wait goes on (the reader reconnects and signals), so a
  * caller's loop does not spin. */
@@ -436,7 +425,7 @@ API int hmdwarp_host_wait_pose(hmdwarp_host *h, int timeout_ms, hmdwarp_host_pos
     if (!h->messages)
         return host_fail(HMDWARP_HOST_ERR_UNSUPPORTED, "wait_pose: a file transport receives no pose messages");
     struct timespec ts;
-    if (timeout_ms > 0) deadline(&ts, timeout_ms);
+    if (timeout_ms > 0) ts = plat_deadline_after_ms(timeout_ms);
     int rc = 0;
     pthread_mutex_lock(&h->lock);
     for (;;) {
@@ -490,7 +479,7 @@ API int hmdwarp_host_wait_cameras(hmdwarp_host *h, int timeout_ms, hmdwarp_host_
 {
     if (!h || !out) return host_fail(HMDWARP_HOST_ERR_ARG, "%s: NULL", !h ? "handle" : "out");
     struct timespec ts;
-    if (timeout_ms > 0) deadline(&ts, timeout_ms);
+    if (timeout_ms > 0) ts = plat_deadline_after_ms(timeout_ms);
     int rc = 0;
     pthread_mutex_lock(&h->lock);
     for (;;) {
