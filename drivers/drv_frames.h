@@ -13,8 +13,8 @@
 #include "warp/warp_image.h"
 #include "warp/warp_math.h"
 
-/* Planes a frame can carry; the same bits as SIM_PLANE_* (asserted in drv_sim.c; a source sends only what its scene
- * needs). */
+/* Planes a frame can carry (a source sends only what its scene needs); the same bits as SIM_PLANE_* (asserted in
+ * drv_sim.c) and as the host library's public HMDWARP_HOST_PLANE_* (asserted in host/hmdwarp_host.c). */
 enum {
     DRV_PLANE_COLOR = 1u << 0,
     DRV_PLANE_DEPTH = 1u << 1,

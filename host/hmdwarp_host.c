@@ -16,9 +16,23 @@
 #include "host/hmdwarp-host.h"
 #include "host/host_frame.h"
 #include "host/host_link.h"
+#include "platform/plat_clock.h"
 #include "platform/plat_version.h"
 
 #define API __attribute__((visibility("default")))
+
+/* The camera message's plane bits reach the application unchanged (store_cams) and its frames' planes go to the board
+ * as they are: the public header's HMDWARP_HOST_PLANE_* must be the wire's DRV_PLANE_* bits (the public header cannot
+ * include the driver's). */
+#define HOST_PLANES_ALL                                                                                                \
+    (HMDWARP_HOST_PLANE_COLOR | HMDWARP_HOST_PLANE_DEPTH | HMDWARP_HOST_PLANE_IDS | HMDWARP_HOST_PLANE_MOTION |       \
+     HMDWARP_HOST_PLANE_LAYERS)
+_Static_assert((unsigned)HMDWARP_HOST_PLANE_COLOR == (unsigned)DRV_PLANE_COLOR &&
+                   (unsigned)HMDWARP_HOST_PLANE_DEPTH == (unsigned)DRV_PLANE_DEPTH &&
+                   (unsigned)HMDWARP_HOST_PLANE_IDS == (unsigned)DRV_PLANE_IDS &&
+                   (unsigned)HMDWARP_HOST_PLANE_MOTION == (unsigned)DRV_PLANE_MOTION &&
+                   (unsigned)HMDWARP_HOST_PLANE_LAYERS == (unsigned)DRV_PLANE_LAYERS,
+               "HMDWARP_HOST_PLANE_* and DRV_PLANE_* must be the same bits");
 
 /* Pose messages kept for hmdwarp_host_frame.pose_seq: 1024 at the board's 500 Hz is 2 s (200 KB), longer than any
  * render a board would still warp, even on a host loaded enough to stretch a render tenfold (64, 128 ms, refused a
@@ -320,11 +334,7 @@ API hmdwarp_host *hmdwarp_host_open_ex(const hmdwarp_host_options *opts)
     }
     pthread_mutex_init(&h->send_lock, NULL);
     pthread_mutex_init(&h->lock, NULL);
-    pthread_condattr_t ca;
-    pthread_condattr_init(&ca);
-    pthread_condattr_setclock(&ca, CLOCK_MONOTONIC);
-    pthread_cond_init(&h->cond, &ca);
-    pthread_condattr_destroy(&ca);
+    plat_cond_init_monotonic(&h->cond);
     h->link = host_link_open(&h->opts, opts->wait_s, &h->stop);
     if (!h->link) {
         hmdwarp_host_close(h);
@@ -397,14 +407,6 @@ API int hmdwarp_host_connected(hmdwarp_host *h) { return h && is_connected(h) ? 
 
 /* ---- poses and cameras ---- */
 
-static void deadline(struct timespec *ts, int timeout_ms)
-{
-    clock_gettime(CLOCK_MONOTONIC, ts);
-    ts->tv_sec += timeout_ms / 1000;
-    ts->tv_nsec += (long)(timeout_ms % 1000) * 1000000L;
-    if (ts->tv_nsec >= 1000000000L) ts->tv_sec++, ts->tv_nsec -= 1000000000L;
-}
-
 /* One wait for the reader's signal (h->lock held); true when the caller's time is up: at once for a timeout of 0,
  * never for a negative one. While the board is away the wait goes on (the reader reconnects and signals), so a
  * caller's loop does not spin. */
@@ -423,7 +425,7 @@ API int hmdwarp_host_wait_pose(hmdwarp_host *h, int timeout_ms, hmdwarp_host_pos
     if (!h->messages)
         return host_fail(HMDWARP_HOST_ERR_UNSUPPORTED, "wait_pose: a file transport receives no pose messages");
     struct timespec ts;
-    if (timeout_ms > 0) deadline(&ts, timeout_ms);
+    if (timeout_ms > 0) ts = plat_deadline_after_ms(timeout_ms);
     int rc = 0;
     pthread_mutex_lock(&h->lock);
     for (;;) {
@@ -477,7 +479,7 @@ API int hmdwarp_host_wait_cameras(hmdwarp_host *h, int timeout_ms, hmdwarp_host_
 {
     if (!h || !out) return host_fail(HMDWARP_HOST_ERR_ARG, "%s: NULL", !h ? "handle" : "out");
     struct timespec ts;
-    if (timeout_ms > 0) deadline(&ts, timeout_ms);
+    if (timeout_ms > 0) ts = plat_deadline_after_ms(timeout_ms);
     int rc = 0;
     pthread_mutex_lock(&h->lock);
     for (;;) {
@@ -507,7 +509,7 @@ API int hmdwarp_host_set_cameras(hmdwarp_host *h, const hmdwarp_host_cameras *ca
         const char *why = warp_camera_check(&c);
         if (why) return host_fail(HMDWARP_HOST_ERR_ARG, "cams.cam[%d]: %s", e, why);
     }
-    if (!(cams->planes & HMDWARP_HOST_PLANE_COLOR) || (cams->planes & ~0x1fu))
+    if (!(cams->planes & HMDWARP_HOST_PLANE_COLOR) || (cams->planes & ~(unsigned)HOST_PLANES_ALL))
         return host_fail(HMDWARP_HOST_ERR_ARG, "cams.planes: 0x%x (want COLOR and only HMDWARP_HOST_PLANE_* bits)",
                          cams->planes);
     pthread_mutex_lock(&h->lock);

@@ -46,6 +46,25 @@ bool plat_clock_set_slowdown(int n)
     return true;
 }
 
+void plat_cond_init_monotonic(pthread_cond_t *c)
+{
+    pthread_condattr_t ca;
+    pthread_condattr_init(&ca);
+    pthread_condattr_setclock(&ca, CLOCK_MONOTONIC);
+    pthread_cond_init(c, &ca);
+    pthread_condattr_destroy(&ca);
+}
+
+struct timespec plat_deadline_after_ms(int ms)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    int64_t ns = ts.tv_nsec + (int64_t)ms * PLAT_NS_PER_MS;
+    ts.tv_sec += (time_t)(ns / PLAT_NS_PER_S);
+    ts.tv_nsec = (long)(ns % PLAT_NS_PER_S);
+    return ts;
+}
+
 int64_t plat_real_now_ns(void)
 {
     struct timespec ts;

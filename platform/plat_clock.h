@@ -4,8 +4,10 @@
 #ifndef PLAT_CLOCK_H
 #define PLAT_CLOCK_H
 
+#include <pthread.h>
 #include <stdbool.h>
 #include <stdint.h>
+#include <time.h>
 
 #define PLAT_NS_PER_MS 1000000LL
 #define PLAT_NS_PER_S 1000000000LL
@@ -33,6 +35,13 @@ int64_t plat_thread_cpu_ns(void);
 int plat_timeout_ms(int ms);
 /* CLOCK_MONOTONIC whatever the slow-down: for caps that guard against hangs, which count real seconds. */
 int64_t plat_real_now_ns(void);
+
+/* Initialises c so that pthread_cond_timedwait's deadlines are CLOCK_MONOTONIC times (a wall-clock step does not
+ * shorten or stretch a wait). */
+void plat_cond_init_monotonic(pthread_cond_t *c);
+/* The CLOCK_MONOTONIC time ms milliseconds from now (real time, whatever the slow-down): the deadline of a wait of ms
+ * on such a condition variable. */
+struct timespec plat_deadline_after_ms(int ms);
 
 /* Gives the calling thread SCHED_FIFO priority `prio` (1..99). False when not permitted (not root, no
  * CAP_SYS_NICE, no RLIMIT_RTPRIO): the caller reports it and runs at normal priority. */

@@ -441,11 +441,7 @@ plat_kms *plat_kms_open(const plat_kms_params *p, char *err, int errlen)
     sem_init(&k->wake, 0, 0);
     pthread_mutex_init(&k->mu, NULL);
     pthread_mutex_init(&k->err_mu, NULL);
-    pthread_condattr_t ca;
-    pthread_condattr_init(&ca);
-    pthread_condattr_setclock(&ca, CLOCK_MONOTONIC);
-    pthread_cond_init(&k->cv, &ca);
-    pthread_condattr_destroy(&ca);
+    plat_cond_init_monotonic(&k->cv);
     k->fd = open(dev, O_RDWR | O_CLOEXEC);
     if (k->fd < 0) {
         warp_err(err, errlen, "no DRM device: %s: %s", dev, strerror(errno));
@@ -582,11 +578,7 @@ bool plat_kms_wait_flip(plat_kms *k, int timeout_ms)
 int plat_kms_wait_vblanks(plat_kms *k, int64_t *t_ns, int max, int timeout_ms, char *err, int errlen)
 {
     atomic_store(&k->want_vbl, true);
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    ts.tv_nsec += (long)(timeout_ms % 1000) * 1000000L;
-    ts.tv_sec += timeout_ms / 1000 + ts.tv_nsec / 1000000000L;
-    ts.tv_nsec %= 1000000000L;
+    struct timespec ts = plat_deadline_after_ms(timeout_ms);
     pthread_mutex_lock(&k->mu);
     while (k->vq_count == 0 && !atomic_load(&k->quit))
         if (pthread_cond_timedwait(&k->cv, &k->mu, &ts) == ETIMEDOUT) break;

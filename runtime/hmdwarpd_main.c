@@ -85,11 +85,26 @@ static void list(void)
     for (const char *const *n = sim_trace_names(); *n; n++) printf("  %s\n", *n);
 }
 
-static bool shorthand(rt_config *c, const char *key, const char *val, rt_config_errors *err)
+/* The options that stand for one --set KEY=VALUE (usage() lists them). */
+static const struct {
+    const char *opt, *key;
+} shorthands[] = {
+    {"--calibration", "board.calibration"}, {"--duration", "sim.duration_s"}, {"--scene", "sim.scene"},
+    {"--trace", "sim.trace"},               {"--method", "warp.method"},      {"--csv", "telemetry.csv"},
+    {"--stats", "telemetry.stats"},
+};
+
+/* opt as --set KEY=val when it is a shorthand; false when it is not one. */
+static bool shorthand(rt_config *c, const char *opt, const char *val, rt_config_errors *err)
 {
-    char buf[512];
-    snprintf(buf, sizeof buf, "%s=%s", key, val);
-    return rt_config_set(c, buf, err);
+    for (size_t i = 0; i < sizeof shorthands / sizeof *shorthands; i++)
+        if (strcmp(opt, shorthands[i].opt) == 0) {
+            char buf[512];
+            snprintf(buf, sizeof buf, "%s=%s", shorthands[i].key, val);
+            rt_config_set(c, buf, err);
+            return true;
+        }
+    return false;
 }
 
 int main(int argc, char **argv)
@@ -146,9 +161,6 @@ int main(int argc, char **argv)
             check = true;
         } else if (strcmp(a, "--config") == 0 && v) {
             i++;
-        } else if (strcmp(a, "--calibration") == 0 && v) {
-            shorthand(&cfg, "board.calibration", v, &err);
-            i++;
         } else if (strcmp(a, "--calibrate-imu") == 0) {
             calibrate = true;
         } else if (strcmp(a, "--seconds") == 0 && v) {
@@ -162,23 +174,7 @@ int main(int argc, char **argv)
         } else if (strcmp(a, "--set") == 0 && v) {
             rt_config_set(&cfg, v, &err);
             i++;
-        } else if (strcmp(a, "--duration") == 0 && v) {
-            shorthand(&cfg, "sim.duration_s", v, &err);
-            i++;
-        } else if (strcmp(a, "--scene") == 0 && v) {
-            shorthand(&cfg, "sim.scene", v, &err);
-            i++;
-        } else if (strcmp(a, "--trace") == 0 && v) {
-            shorthand(&cfg, "sim.trace", v, &err);
-            i++;
-        } else if (strcmp(a, "--method") == 0 && v) {
-            shorthand(&cfg, "warp.method", v, &err);
-            i++;
-        } else if (strcmp(a, "--csv") == 0 && v) {
-            shorthand(&cfg, "telemetry.csv", v, &err);
-            i++;
-        } else if (strcmp(a, "--stats") == 0 && v) {
-            shorthand(&cfg, "telemetry.stats", v, &err);
+        } else if (v && shorthand(&cfg, a, v, &err)) {
             i++;
         } else {
             plat_log(PLAT_LOG_ERR, "unknown or incomplete option '%s' (see --help)", a);

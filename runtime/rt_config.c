@@ -432,7 +432,7 @@ static bool parse_double(const char *s, double *out)
     return true;
 }
 
-static void list_names(const char *const *names, char *buf, size_t len)
+void rt_config_join_names(const char *const *names, char *buf, size_t len)
 {
     buf[0] = 0;
     for (int i = 0; names[i]; i++) {
@@ -535,7 +535,7 @@ static bool set_value(rt_config *c, const keydef *k, const char *section, const 
             }
         {
             char names[200];
-            list_names(k->names, names, sizeof names);
+            rt_config_join_names(k->names, names, sizeof names);
             add_error(err, "%s: [%s] %s = '%s': not available in this build (expected one of: %s)", where, section,
                       key, value, names);
         }

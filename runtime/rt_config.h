@@ -36,6 +36,8 @@ static inline warp_method rt_method_warp(rt_method m)
 }
 /* [render] kernel's value names, in warp_resample_kernel_id order ("auto", "scalar", ...). */
 const char *rt_kernel_name(int k);
+/* The NULL-terminated names as "a, b, c" into buf (cut to len), for the messages that list what a setting takes. */
+void rt_config_join_names(const char *const *names, char *buf, size_t len);
 
 /* Room in rt_config's origin table (the key table holds fewer; rt_config.c checks at compile time). */
 #define RT_CONFIG_MAX_KEYS 128

@@ -22,27 +22,18 @@ struct rt_simboard {
     bool eval_up;
 };
 
-static void names_list(const char *const *names, char *buf, size_t len)
-{
-    buf[0] = 0;
-    for (int i = 0; names[i]; i++) {
-        strncat(buf, i ? ", " : "", len - strlen(buf) - 1);
-        strncat(buf, names[i], len - strlen(buf) - 1);
-    }
-}
-
 rt_simboard *rt_simboard_create(const rt_config *c, char *err, int errlen)
 {
     char list[512];
     const sim_scene *scene = sim_scene_find(c->scene);
     if (!scene) {
-        names_list(sim_scene_names(), list, sizeof list);
+        rt_config_join_names(sim_scene_names(), list, sizeof list);
         warp_err(err, errlen, "[sim] scene = '%s': unknown scene (available: %s)", c->scene, list);
         return NULL;
     }
     sim_trace trace;
     if (!sim_trace_init(&trace, c->trace, c->seed)) {
-        names_list(sim_trace_names(), list, sizeof list);
+        rt_config_join_names(sim_trace_names(), list, sizeof list);
         warp_err(err, errlen, "[sim] trace = '%s': unknown trace (available: %s)", c->trace, list);
         return NULL;
     }

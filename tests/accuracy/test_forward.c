@@ -245,7 +245,7 @@ static void test_pure_rotation_matches_reprojection(void **state)
 static void test_translation_vs_truth(void **state)
 {
     (void)state;
-    warp_pose a = test_eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
+    warp_pose a = test_eye_home();
     warp_pose b = test_eye_at(1.5 * D2R, -3 * D2R, 0, warp_v3(0.04, 1.61, -0.01)); /* 4 cm sideways lean */
     render_pair("near", a, b);
     warp_forward_stats st;
@@ -279,7 +279,7 @@ static void test_splats_vs_truth(void **state)
     (void)state;
     /* Stepping 8 cm forward magnifies the near objects: 1-pixel points crack, Jacobian-sized splats and the mesh
      * close the cracks and keep only the disocclusions. */
-    warp_pose a = test_eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
+    warp_pose a = test_eye_home();
     warp_pose b = test_eye_at(0, -3 * D2R, 0, warp_v3(0.02, 1.6, -0.08));
     render_pair("near", a, b);
     warp_forward_stats pst;
@@ -343,7 +343,7 @@ static void test_no_cracks_under_rotation(void **state)
         {"room", 3, 0, 0, {0.02, 0, 0}}, {"room", 0, 0, 0, {0, 0, -0.05}},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
-        warp_pose a = test_eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
+        warp_pose a = test_eye_home();
         warp_pose b = test_eye_at(cases[i].yaw * D2R, (cases[i].pitch - 3) * D2R, cases[i].roll * D2R,
                                   warp_v3_add(a.p, cases[i].move));
         render_pair(cases[i].scene, a, b);
@@ -452,7 +452,7 @@ static void test_point_splats_centred(void **state)
     const char *scenes[] = {"room", "near"};
     const double floor_db[] = {33.0, 31.0};
     for (int sc = 0; sc < 2; sc++) {
-        warp_pose a = test_eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
+        warp_pose a = test_eye_home();
         warp_pose b = test_eye_at(2 * D2R, -3 * D2R, 0, warp_v3(0.02, 1.6, -0.04));
         render_pair(scenes[sc], a, b);
         double ps[2];
@@ -510,7 +510,7 @@ static void test_sheets8_fixes_sheets4_errors(void **state)
     assert_int_equal(e8, 0);
 
     /* On a real scene with footprints, 8 sheets resolve visibility as the z-buffer does. */
-    warp_pose a = test_eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
+    warp_pose a = test_eye_home();
     warp_pose c = test_eye_at(2 * D2R, -3 * D2R, 0, warp_v3(-0.05, 1.62, 0.04));
     render_pair("near", a, c);
     fwd(c, WARP_FWD_ZBUFFER, false, &F.p.out, NULL, NULL);
@@ -525,7 +525,7 @@ static void test_sheets8_fixes_sheets4_errors(void **state)
 static void test_two_pass_equals_single_pass(void **state)
 {
     (void)state;
-    warp_pose a = test_eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
+    warp_pose a = test_eye_home();
     warp_pose b = test_eye_at(4 * D2R, -1 * D2R, 2 * D2R, warp_v3(0.05, 1.58, -0.04));
     render_pair("near", a, b);
     warp_forward_stats s1, s2;
@@ -555,7 +555,7 @@ static void test_pixel_bound(void **state)
     assert_true(isnan(warp_fwd_pixel_bound(H, 1.33, 1.0, -1.0, 0.5)));
 
     /* Measured movement from the projective position never exceeds p, over random poses within T_max. */
-    warp_pose a = test_eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
+    warp_pose a = test_eye_home();
     render_pair("near", a, a);
     double d_min = INFINITY;
     for (int y = 0; y < H; y++)

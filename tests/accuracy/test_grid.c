@@ -31,7 +31,7 @@ static fx F;
 static int setup(void **state)
 {
     (void)state;
-    F.cam = (warp_camera){W, H, 1.0, 1.0, 0.8, 0.7, 0.05, INFINITY};
+    F.cam = test_camera(W, H);
     if (!test_pair_alloc(&F.p, W, H, SIM_PLANE_COLOR | SIM_PLANE_DEPTH) || !warp_image_f32_alloc(&F.zb, W, H)) return -1;
     if (!warp_grid_alloc(&F.g, W, H, 32)) return -1;
     return 0;
@@ -47,6 +47,9 @@ static int teardown(void **state)
 }
 
 static const double D2R = WARP_PI / 180.0;
+
+/* The target most tests here warp to from test_eye_home: a 3 cm lean with a 1 degree turn. */
+static warp_pose lean(void) { return test_eye_at(1.0 * D2R, -3 * D2R, 0, warp_v3(0.03, 1.61, -0.01)); }
 
 static void render_pair(const char *scene, warp_pose a, warp_pose b)
 {
@@ -97,8 +100,8 @@ static void check_ordering(const char *scene, warp_pose a, warp_pose b, bool did
 static void test_primitive_counts_near(void **state)
 {
     (void)state;
-    warp_pose a = test_eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
-    warp_pose b = test_eye_at(1.0 * D2R, -3 * D2R, 0, warp_v3(0.03, 1.61, -0.01));
+    warp_pose a = test_eye_home();
+    warp_pose b = lean();
     check_ordering("near", a, b, true);
 }
 
@@ -158,8 +161,8 @@ static void test_pure_rotation_matches_reprojection(void **state)
 static void test_translation_quality_and_sign(void **state)
 {
     (void)state;
-    warp_pose a = test_eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
-    warp_pose b = test_eye_at(1.0 * D2R, -3 * D2R, 0, warp_v3(0.03, 1.61, -0.01));
+    warp_pose a = test_eye_home();
+    warp_pose b = lean();
     render_pair("near", a, b);
     warp_grid_params p = warp_grid_default_params();
     warp_grid_stats st = {0};
@@ -186,8 +189,8 @@ static void test_vertex_depth_and_filter(void **state)
     (void)state;
     /* 000 §5.1: split vertices at discontinuities and nearest filtering next to them keep foreground colour out
      * of the background; Didyk's always-between-pixels vertices stretch rubber sheets across every edge. */
-    warp_pose a = test_eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
-    warp_pose b = test_eye_at(0, -3 * D2R, 0, warp_v3(0.05, 1.6, 0));
+    warp_pose a = test_eye_home();
+    warp_pose b = test_eye_home_moved(warp_v3(0.05, 0, 0));
     render_pair("near", a, b);
     warp_grid_params p = warp_grid_default_params();
     double err[3], ps[3];
@@ -249,8 +252,8 @@ static void test_rows_split(void **state)
 {
     (void)state;
     /* rows are independent: two row ranges give the same image as one call (threads may split them) */
-    warp_pose a = test_eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
-    warp_pose b = test_eye_at(1.0 * D2R, -3 * D2R, 0, warp_v3(0.03, 1.61, -0.01));
+    warp_pose a = test_eye_home();
+    warp_pose b = lean();
     render_pair("near", a, b);
     warp_grid_params p = warp_grid_default_params();
     grid(b, &p, &F.p.out, &F.p.mask, NULL);

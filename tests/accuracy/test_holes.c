@@ -15,6 +15,7 @@
 
 #include "platform/plat_png.h"
 #include "sim/sim_scene.h"
+#include "tests/support/test_images.h"
 #include "warp/warp_camera.h"
 #include "warp/warp_holes.h"
 #include "warp/warp_metrics.h"
@@ -41,6 +42,8 @@ typedef struct {
 } fx;
 
 static fx F;
+static const test_image images[] = {TEST_F32(&F.inv), TEST_RGBA8(&F.warped),  TEST_U8(&F.mask), TEST_U8(&F.kind),
+                                    TEST_RGBA8(&F.out), TEST_U8(&F.out_mask), TEST_U8(&F.score)};
 
 static int setup(void **state)
 {
@@ -48,11 +51,7 @@ static int setup(void **state)
     F.cam = (warp_camera){W, H, 0.9, 0.9, 0.68, 0.68, 0.05, INFINITY};
     unsigned pl = SIM_PLANE_COLOR | SIM_PLANE_DEPTH;
     if (!sim_buffers_alloc(&F.src, W, H, pl, 1) || !sim_buffers_alloc(&F.truth, W, H, pl, 1)) return -1;
-    if (!warp_image_f32_alloc(&F.inv, W, H) || !warp_image_rgba8_alloc(&F.warped, W, H) ||
-        !warp_image_u8_alloc(&F.mask, W, H) || !warp_image_u8_alloc(&F.kind, W, H) ||
-        !warp_image_rgba8_alloc(&F.out, W, H) || !warp_image_u8_alloc(&F.out_mask, W, H) ||
-        !warp_image_u8_alloc(&F.score, W, H))
-        return -1;
+    if (!test_images_alloc(images, TEST_IMAGES_N(images), W, H)) return -1;
     if (!warp_holes_alloc(&F.ctx, W, H, 9)) return -1;
     return 0;
 }
@@ -62,13 +61,7 @@ static int teardown(void **state)
     (void)state;
     sim_buffers_free(&F.src);
     sim_buffers_free(&F.truth);
-    warp_image_free(&F.inv);
-    warp_image_free(&F.warped);
-    warp_image_free(&F.mask);
-    warp_image_free(&F.kind);
-    warp_image_free(&F.out);
-    warp_image_free(&F.out_mask);
-    warp_image_free(&F.score);
+    test_images_free(images, TEST_IMAGES_N(images));
     warp_holes_free(&F.ctx);
     return 0;
 }

@@ -14,6 +14,7 @@
 #include <turbojpeg.h>
 
 #include "platform/plat_png.h"
+#include "tests/support/test_images.h"
 #include "warp/warp_camera.h"
 #include "warp/warp_forward.h"
 #include "warp/warp_grid.h"
@@ -70,6 +71,9 @@ typedef struct {
 } stereo_fx;
 
 static stereo_fx S;
+static const test_image images[] = {TEST_RGBA8(&S.left), TEST_RGBA8(&S.right), TEST_F32(&S.disp), TEST_F32(&S.inv),
+                                    TEST_F32(&S.disp_r), TEST_U8(&S.valid),     TEST_U8(&S.band),  TEST_RGBA8(&S.out),
+                                    TEST_U8(&S.mask),    TEST_F32(&S.zb)};
 static bool have_data;
 
 /* ---- reading and preparing the pair ---- */
@@ -228,12 +232,7 @@ static int setup(void **state)
     double t = tan(HFOV_DEG / 2 * WARP_PI / 180), tv = t * S.h / S.w; /* square pixels */
     S.cam = (warp_camera){S.w, S.h, t, t, tv, tv, 0.05, INFINITY};
     S.right_pose = (warp_pose){warp_quat_identity(), warp_v3(BASELINE_M, 0, 0)};
-    if (!warp_image_rgba8_alloc(&S.left, S.w, S.h) || !warp_image_rgba8_alloc(&S.right, S.w, S.h) ||
-        !warp_image_f32_alloc(&S.disp, S.w, S.h) || !warp_image_f32_alloc(&S.inv, S.w, S.h) ||
-        !warp_image_f32_alloc(&S.disp_r, S.w, S.h) || !warp_image_u8_alloc(&S.valid, S.w, S.h) ||
-        !warp_image_u8_alloc(&S.band, S.w, S.h) || !warp_image_rgba8_alloc(&S.out, S.w, S.h) ||
-        !warp_image_u8_alloc(&S.mask, S.w, S.h) || !warp_image_f32_alloc(&S.zb, S.w, S.h))
-        return -1;
+    if (!test_images_alloc(images, TEST_IMAGES_N(images), S.w, S.h)) return -1;
     downscale_rgba(&l, &S.left);
     downscale_rgba(&r, &S.right);
     downscale_disparity(&gt, &S.disp);
@@ -246,16 +245,7 @@ static int setup(void **state)
 static int teardown(void **state)
 {
     (void)state;
-    warp_image_free(&S.left);
-    warp_image_free(&S.right);
-    warp_image_free(&S.disp);
-    warp_image_free(&S.inv);
-    warp_image_free(&S.disp_r);
-    warp_image_free(&S.valid);
-    warp_image_free(&S.band);
-    warp_image_free(&S.out);
-    warp_image_free(&S.mask);
-    warp_image_free(&S.zb);
+    test_images_free(images, TEST_IMAGES_N(images));
     return 0;
 }
 

@@ -7,6 +7,8 @@
 #include <stddef.h>
 #include <cmocka.h>
 
+#include "tests/support/test_scene.h"
+
 #include "sim/sim_scene.h"
 #include "warp/warp_camera.h"
 #include "warp/warp_grid.h"
@@ -40,7 +42,7 @@ static fx F;
 static int setup(void **state)
 {
     (void)state;
-    F.cam = (warp_camera){W, H, 1.0, 1.0, 0.8, 0.7, 0.05, INFINITY};
+    F.cam = test_camera(W, H);
     unsigned pl = SIM_PLANE_COLOR | SIM_PLANE_DEPTH;
     for (int i = 0; i < 3; i++)
         if (!sim_buffers_alloc(&F.view[i].buf, W, H, pl, 1) || !warp_image_f32_alloc(&F.view[i].inv, W, H)) return -1;

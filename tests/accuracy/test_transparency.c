@@ -9,6 +9,7 @@
 #include <cmocka.h>
 
 #include "sim/sim_scene.h"
+#include "tests/support/test_images.h"
 #include "warp/warp_camera.h"
 #include "warp/warp_grid.h"
 #include "warp/warp_metrics.h"
@@ -34,20 +35,19 @@ typedef struct {
 } fx;
 
 static fx F;
+static const test_image images[] = {TEST_F32(&F.inv),    TEST_F32(&F.front),   TEST_F32(&F.zb),
+                                    TEST_RGBA8(&F.out),  TEST_RGBA8(&F.out2),  TEST_RGBA8(&F.unbl),
+                                    TEST_U8(&F.mask),    TEST_U8(&F.mask2)};
 
 static int setup(void **state)
 {
     (void)state;
-    F.cam = (warp_camera){W, H, 1.0, 1.0, 0.8, 0.7, 0.05, INFINITY};
+    F.cam = test_camera(W, H);
     unsigned all = SIM_PLANE_COLOR | SIM_PLANE_DEPTH | SIM_PLANE_LAYERS;
     if (!sim_buffers_alloc(&F.glass, W, H, all, MAXL) || !sim_buffers_alloc(&F.room, W, H, all, MAXL) ||
         !sim_buffers_alloc(&F.truth, W, H, all, MAXL))
         return -1;
-    if (!warp_image_f32_alloc(&F.inv, W, H) || !warp_image_f32_alloc(&F.front, W, H) ||
-        !warp_image_f32_alloc(&F.zb, W, H) || !warp_image_rgba8_alloc(&F.out, W, H) ||
-        !warp_image_rgba8_alloc(&F.out2, W, H) || !warp_image_rgba8_alloc(&F.unbl, W, H) ||
-        !warp_image_u8_alloc(&F.mask, W, H) || !warp_image_u8_alloc(&F.mask2, W, H))
-        return -1;
+    if (!test_images_alloc(images, TEST_IMAGES_N(images), W, H)) return -1;
     if (!warp_grid_alloc(&F.g, W, H, 32) || !warp_minmax_alloc(&F.t, W, H)) return -1;
     return 0;
 }
@@ -58,14 +58,7 @@ static int teardown(void **state)
     sim_buffers_free(&F.glass);
     sim_buffers_free(&F.room);
     sim_buffers_free(&F.truth);
-    warp_image_free(&F.inv);
-    warp_image_free(&F.front);
-    warp_image_free(&F.zb);
-    warp_image_free(&F.out);
-    warp_image_free(&F.out2);
-    warp_image_free(&F.unbl);
-    warp_image_free(&F.mask);
-    warp_image_free(&F.mask2);
+    test_images_free(images, TEST_IMAGES_N(images));
     warp_grid_free(&F.g);
     warp_minmax_free(&F.t);
     return 0;

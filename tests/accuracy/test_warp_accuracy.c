@@ -107,7 +107,7 @@ static void test_rotation_sign_error_fails(void **state)
 static void test_raytrace_beats_rotation_under_translation(void **state)
 {
     (void)state;
-    warp_pose a = test_eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
+    warp_pose a = test_eye_home();
     warp_pose b = test_eye_at(1.5 * D2R, -3 * D2R, 0, warp_v3(0.04, 1.61, -0.01)); /* 4 cm sideways lean */
     render_pair("near", a, b);
     warp_raytrace_params p = warp_raytrace_default_params();
@@ -149,8 +149,8 @@ static void test_raytrace_identity_and_pure_rotation(void **state)
 static void test_raytrace_refinement_and_budget(void **state)
 {
     (void)state;
-    warp_pose a = test_eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
-    warp_pose b = test_eye_at(0, -3 * D2R, 0, warp_v3(0.05, 1.6, 0));
+    warp_pose a = test_eye_home();
+    warp_pose b = test_eye_home_moved(warp_v3(0.05, 0, 0));
     render_pair("near", a, b);
     warp_raytrace_params p = warp_raytrace_default_params();
     raytrace(b, &p, &F.p.out, &F.p.mask, NULL);
@@ -172,8 +172,8 @@ static void test_raytrace_refinement_and_budget(void **state)
 static void test_raytrace_edge_fills(void **state)
 {
     (void)state;
-    warp_pose a = test_eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
-    warp_pose b = test_eye_at(0, -3 * D2R, 0, warp_v3(0.06, 1.6, 0));
+    warp_pose a = test_eye_home();
+    warp_pose b = test_eye_home_moved(warp_v3(0.06, 0, 0));
     render_pair("near", a, b);
     warp_raytrace_params p = warp_raytrace_default_params();
     p.edge_fill = WARP_EDGE_FILL_FAR;
@@ -297,7 +297,7 @@ static void test_raytrace_depth_edge_band(void **state)
      * 25.10 dB in the band (near, hairball, room); now 22.66 / 22.50 / 27.68. */
     static const char *const scenes[] = {"near", "hairball", "room"};
     static const double floor_db[] = {22.2, 22.0, 27.0};
-    warp_pose a = test_eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
+    warp_pose a = test_eye_home();
     warp_pose b = test_eye_at(1.5 * D2R, -3 * D2R, 0, warp_v3(0.05, 1.61, -0.01));
     for (int i = 0; i < 3; i++) {
         render_pair(scenes[i], a, b);

@@ -17,6 +17,8 @@ void fuzz_write_seeds(void);
 /* Saves one seed as fuzz_seed_dir/seed-NAME. */
 extern const char *fuzz_seed_dir;
 void fuzz_seed(const char *name, const void *data, size_t size);
+/* Saves one seed as a leading tag byte (the harness's mode or format selector) and then the data. */
+void fuzz_seed_tagged(const char *name, uint8_t tag, const void *data, size_t size);
 
 /* The bytes as a file the readers can open by name (a memfd: no disk I/O); valid until the next call. */
 const char *fuzz_file(const uint8_t *data, size_t size);

@@ -47,15 +47,6 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     return 0;
 }
 
-static void seed_text(const char *name, int mode, const char *text, size_t n)
-{
-    char *b = malloc(n + 1);
-    b[0] = (char)mode;
-    memcpy(b + 1, text, n);
-    fuzz_seed(name, b, n + 1);
-    free(b);
-}
-
 void fuzz_write_seeds(void)
 {
     static const char *boards[] = {"sim", "rpi5", "generic-aarch64"};
@@ -68,12 +59,12 @@ void fuzz_write_seeds(void)
         fclose(f);
         char name[64];
         snprintf(name, sizeof name, "board-%s", boards[i]);
-        seed_text(name, 0, buf, n);
+        fuzz_seed_tagged(name, 0, buf, n);
         snprintf(name, sizeof name, "file-%s", boards[i]);
-        seed_text(name, 2, buf, n);
+        fuzz_seed_tagged(name, 2, buf, n);
     }
     static const char sets[] = "sim.scene=cubes\nwarp.method=raytrace\nimu.backend=hid\nimu.device=mock\n"
                                "frames.backend=usb\nframes.device=mock\nvsync.backend=gpio\nsim.duration_s=0.5\n"
                                "display.width=1920\neye.width=960\nlens.k1=0.2\ntelemetry.csv=/tmp/x.csv\n";
-    seed_text("set", 1, sets, sizeof sets - 1);
+    fuzz_seed_tagged("set", 1, sets, sizeof sets - 1);
 }

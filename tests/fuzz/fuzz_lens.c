@@ -92,12 +92,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 
 static void seed_file(const char *name, int format, const char *text)
 {
-    size_t n = strlen(text);
-    char *b = malloc(n + 1);
-    b[0] = (char)format;
-    memcpy(b + 1, text, n);
-    fuzz_seed(name, b, n + 1);
-    free(b);
+    fuzz_seed_tagged(name, (uint8_t)format, text, strlen(text));
 }
 
 void fuzz_write_seeds(void)

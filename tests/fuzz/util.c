@@ -104,3 +104,13 @@ void fuzz_seed(const char *name, const void *data, size_t size)
         exit(1);
     }
 }
+
+void fuzz_seed_tagged(const char *name, uint8_t tag, const void *data, size_t size)
+{
+    uint8_t *b = malloc(size + 1);
+    if (!b) abort();
+    b[0] = tag;
+    memcpy(b + 1, data, size);
+    fuzz_seed(name, b, size + 1);
+    free(b);
+}

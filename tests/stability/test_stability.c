@@ -48,52 +48,37 @@ static bool image_finite_and_written(const warp_image_rgba8 *img)
 
 typedef struct {
     warp_camera c;
-    sim_buffers src, truth;
-    warp_image_f32 inv;
-    warp_image_rgba8 out, out2;
-    warp_image_u8 mask;
-    warp_view v;
+    test_pair p; /* src = p.a, truth = p.b */
 } fx;
 
 static void fx_init(fx *f)
 {
     memset(f, 0, sizeof *f);
     f->c = cam();
-    assert_true(sim_buffers_alloc(&f->src, W, H, SIM_PLANE_COLOR | SIM_PLANE_DEPTH, 1));
-    assert_true(sim_buffers_alloc(&f->truth, W, H, SIM_PLANE_COLOR | SIM_PLANE_DEPTH, 1));
-    assert_true(warp_image_f32_alloc(&f->inv, W, H) && warp_image_rgba8_alloc(&f->out, W, H) &&
-                warp_image_rgba8_alloc(&f->out2, W, H) && warp_image_u8_alloc(&f->mask, W, H));
+    assert_true(test_pair_alloc(&f->p, W, H, SIM_PLANE_COLOR | SIM_PLANE_DEPTH));
 }
 
-static void fx_free(fx *f)
-{
-    sim_buffers_free(&f->src);
-    sim_buffers_free(&f->truth);
-    warp_image_free(&f->inv);
-    warp_image_free(&f->out);
-    warp_image_free(&f->out2);
-    warp_image_free(&f->mask);
-}
+static void fx_free(fx *f) { test_pair_free(&f->p); }
 
 static void fx_render(fx *f, const char *scene, warp_pose a, warp_pose b)
 {
-    test_render_pair(scene, &f->c, a, b, &f->src, &f->truth, &f->inv, &f->v);
+    test_pair_render(&f->p, scene, &f->c, a, b);
 }
 
 static void raytrace(fx *f, warp_pose to, warp_image_rgba8 *out)
 {
     warp_raytrace_params p = warp_raytrace_default_params();
     warp_raytrace_setup s;
-    assert_null(warp_raytrace_prepare(&s, &f->v, &f->c, to, &p));
+    assert_null(warp_raytrace_prepare(&s, &f->p.v, &f->c, to, &p));
     warp_image_rgba8_fill(out, (warp_rgba8){0, 0, 0, 0});
-    warp_raytrace_rows(&s, out, &f->mask, 0, H, NULL);
+    warp_raytrace_rows(&s, out, &f->p.mask, 0, H, NULL);
 }
 
 static void reproject(fx *f, warp_quat to, warp_image_rgba8 *out)
 {
-    warp_mat3 h = warp_reproject_homography(&f->v, &f->c, to);
+    warp_mat3 h = warp_reproject_homography(&f->p.v, &f->c, to);
     warp_image_rgba8_fill(out, (warp_rgba8){0, 0, 0, 0});
-    warp_reproject_rows(&f->v, &h, out, &f->mask, 0, H);
+    warp_reproject_rows(&f->p.v, &h, out, &f->p.mask, 0, H);
 }
 
 /* ---- depth encodings at the limits ---- */
@@ -176,13 +161,13 @@ static void test_sky_only_frame(void **state)
     warp_pose a = {warp_quat_from_ypr(0.2, 0.1, 0), warp_v3(0, 1.6, 0)};
     fx_render(&f, "room", a, a);
     for (int y = 0; y < H; y++)
-        for (int x = 0; x < W; x++) WARP_AT(&f.inv, x, y) = 0;
-    f.v.inv_depth_min = f.v.inv_depth_max = 0;
+        for (int x = 0; x < W; x++) WARP_AT(&f.p.inv, x, y) = 0;
+    f.p.v.inv_depth_min = f.p.v.inv_depth_max = 0;
     warp_pose b = {warp_quat_from_ypr(0.25, 0.1, 0.05), warp_v3(0.05, 1.6, -0.03)};
-    raytrace(&f, b, &f.out);
-    reproject(&f, b.q, &f.out2);
-    assert_true(image_finite_and_written(&f.out));
-    double p = warp_psnr(&f.out, &f.out2, NULL, 0);
+    raytrace(&f, b, &f.p.out);
+    reproject(&f, b.q, &f.p.out2);
+    assert_true(image_finite_and_written(&f.p.out));
+    double p = warp_psnr(&f.p.out, &f.p.out2, NULL, 0);
     if (p < 45) fail_msg("sky-only raytrace vs rotation: %.2f dB", p);
     fx_free(&f);
 }
@@ -201,13 +186,13 @@ static void test_points_behind_cameras_and_w_near_zero(void **state)
     const double yaws[] = {90, 90 + 1e-9, 135, 180, -179.999};
     for (size_t i = 0; i < sizeof yaws / sizeof yaws[0]; i++) {
         warp_pose b = {warp_quat_from_ypr(yaws[i] * DEG, 0, 0), warp_v3(0.02, 1.6, 0)};
-        reproject(&f, b.q, &f.out);
-        assert_true(image_finite_and_written(&f.out));
-        raytrace(&f, b, &f.out);
-        assert_true(image_finite_and_written(&f.out));
+        reproject(&f, b.q, &f.p.out);
+        assert_true(image_finite_and_written(&f.p.out));
+        raytrace(&f, b, &f.p.out);
+        assert_true(image_finite_and_written(&f.p.out));
         long fringe = 0;
         for (int y = 0; y < H; y++)
-            for (int x = 0; x < W; x++) fringe += (WARP_AT(&f.mask, x, y) & WARP_MASK_FRINGE) != 0;
+            for (int x = 0; x < W; x++) fringe += (WARP_AT(&f.p.mask, x, y) & WARP_MASK_FRINGE) != 0;
         if (yaws[i] >= 135 || yaws[i] < -170) assert_int_equal(fringe, (long)W * H); /* the source saw none of it */
     }
     /* the camera's own projection of points behind it */
@@ -235,17 +220,17 @@ static void test_epipole_inside_image_and_on_pixel_centre(void **state)
         warp_pose a = {warp_quat_identity(), warp_v3(0, 1.6, 0)};
         warp_pose b = {warp_quat_identity(), warp_v3(0, 1.6, -0.06)}; /* 6 cm forward */
         fx_render(&f, "near", a, b);
-        raytrace(&f, b, &f.out);
-        assert_true(image_finite_and_written(&f.out));
-        reproject(&f, b.q, &f.out2);
-        double pr = warp_psnr(&f.out, &f.truth.color, NULL, 0), pn = warp_psnr(&f.out2, &f.truth.color, NULL, 0);
+        raytrace(&f, b, &f.p.out);
+        assert_true(image_finite_and_written(&f.p.out));
+        reproject(&f, b.q, &f.p.out2);
+        double pr = warp_psnr(&f.p.out, &f.p.b.color, NULL, 0), pn = warp_psnr(&f.p.out2, &f.p.b.color, NULL, 0);
         print_message("epipole %s: raytrace %.2f dB, rotation-only %.2f dB\n", centred ? "on a pixel centre" : "at a corner",
                       pr, pn);
         assert_true(pr > pn + 2); /* bounded error: the depth warp still does its job around the epipole */
         /* the pixel at the epipole itself does not move: it must equal the source there */
         int ex = W / 2, ey = H / 2;
         if (centred) {
-            warp_rgba8 o = WARP_AT(&f.out, ex, ey), s = WARP_AT(&f.src.color, ex, ey);
+            warp_rgba8 o = WARP_AT(&f.p.out, ex, ey), s = WARP_AT(&f.p.a.color, ex, ey);
             assert_true(abs(o.r - s.r) + abs(o.g - s.g) + abs(o.b - s.b) <= 6);
         }
         fx_free(&f);
@@ -261,10 +246,10 @@ static void test_zero_translation_matches_rotation(void **state)
     warp_pose a = {warp_quat_from_ypr(0.1, 0.05, 0), warp_v3(0.1, 1.6, 0.2)};
     warp_pose b = {warp_quat_from_ypr(0.16, 0.02, 0.03), a.p};
     fx_render(&f, "near", a, b);
-    raytrace(&f, b, &f.out);
-    reproject(&f, b.q, &f.out2);
-    assert_true(image_finite_and_written(&f.out));
-    assert_true(warp_psnr(&f.out, &f.out2, &f.mask, WARP_MASK_FRINGE) > 40);
+    raytrace(&f, b, &f.p.out);
+    reproject(&f, b.q, &f.p.out2);
+    assert_true(image_finite_and_written(&f.p.out));
+    assert_true(warp_psnr(&f.p.out, &f.p.out2, &f.p.mask, WARP_MASK_FRINGE) > 40);
     fx_free(&f);
 }
 
@@ -279,14 +264,14 @@ static void test_view_axis_and_half_turn_rotations(void **state)
     for (size_t i = 0; i < sizeof rolls / sizeof rolls[0]; i++) {
         warp_pose b = {warp_quat_from_ypr(0, 0, rolls[i] * DEG), a.p};
         fx_render(&f, "room", a, b);
-        reproject(&f, b.q, &f.out);
-        assert_true(image_finite_and_written(&f.out));
-        double p = warp_psnr(&f.out, &f.truth.color, &f.mask, WARP_MASK_FRINGE);
+        reproject(&f, b.q, &f.p.out);
+        assert_true(image_finite_and_written(&f.p.out));
+        double p = warp_psnr(&f.p.out, &f.p.b.color, &f.p.mask, WARP_MASK_FRINGE);
         if (p < 28) fail_msg("roll %g: %.2f dB", rolls[i], p);
     }
     /* 180 degree quaternions are +-(0, axis): the homography must not depend on the sign */
     warp_quat q = warp_quat_from_axis_angle(warp_v3(0, 0, 1), WARP_PI), nq = {-q.w, -q.x, -q.y, -q.z};
-    warp_mat3 h1 = warp_reproject_homography(&f.v, &f.c, q), h2 = warp_reproject_homography(&f.v, &f.c, nq);
+    warp_mat3 h1 = warp_reproject_homography(&f.p.v, &f.c, q), h2 = warp_reproject_homography(&f.p.v, &f.c, nq);
     for (int r = 0; r < 3; r++)
         for (int cidx = 0; cidx < 3; cidx++) assert_true(fabs(h1.m[r][cidx] - h2.m[r][cidx]) < 1e-9);
     fx_free(&f);
@@ -424,16 +409,16 @@ static void test_ten_km_from_origin(void **state)
     warp_pose a = {warp_quat_from_ypr(0.2, 0, 0), warp_v3(0, 1.6, 0)};
     warp_pose b = {warp_quat_from_ypr(0.23, 0.01, 0), warp_v3(0.03, 1.61, -0.01)};
     fx_render(&f, "near", a, b);
-    raytrace(&f, b, &f.out);
+    raytrace(&f, b, &f.p.out);
     const warp_vec3 far = {10000.0, 3.0, -10000.0};
-    f.v.pose.p = warp_v3_add(a.p, far);
+    f.p.v.pose.p = warp_v3_add(a.p, far);
     warp_pose b2 = b;
     b2.p = warp_v3_add(b.p, far);
-    raytrace(&f, b2, &f.out2);
+    raytrace(&f, b2, &f.p.out2);
     long diff = 0;
     for (int y = 0; y < H; y++)
         for (int x = 0; x < W; x++) {
-            warp_rgba8 p = WARP_AT(&f.out, x, y), q = WARP_AT(&f.out2, x, y);
+            warp_rgba8 p = WARP_AT(&f.p.out, x, y), q = WARP_AT(&f.p.out2, x, y);
             diff += abs(p.r - q.r) + abs(p.g - q.g) + abs(p.b - q.b) > 3;
         }
     assert_true(diff <= W * H / 1000); /* at most 0.1 % of pixels differ visibly */
@@ -483,23 +468,23 @@ static void test_unorm16_depth_quantisation(void **state)
     warp_pose a = {warp_quat_identity(), warp_v3(0, 1.6, 0)};
     warp_pose b = {warp_quat_from_ypr(0.02, 0, 0), warp_v3(0.04, 1.6, 0)};
     fx_render(&f, "near", a, b);
-    raytrace(&f, b, &f.out);
-    double p_float = warp_psnr(&f.out, &f.truth.color, NULL, 0);
+    raytrace(&f, b, &f.p.out);
+    double p_float = warp_psnr(&f.p.out, &f.p.b.color, NULL, 0);
     warp_image_f32 d16;
     assert_true(warp_image_f32_alloc(&d16, W, H));
     for (int y = 0; y < H; y++)
         for (int x = 0; x < W; x++) {
-            double z = WARP_AT(&f.src.depth, x, y);
+            double z = WARP_AT(&f.p.a.depth, x, y);
             double d = isinf(z) ? 0 : f.c.near_z / z; /* reversed-Z, infinite far */
             WARP_AT(&d16, x, y) = (float)(round(d * 65535) / 65535);
         }
-    assert_int_equal(warp_inverse_depth_from(&f.c, WARP_DEPTH_REVERSED, &d16, &f.inv, &f.v.inv_depth_min,
-                                             &f.v.inv_depth_max),
+    assert_int_equal(warp_inverse_depth_from(&f.c, WARP_DEPTH_REVERSED, &d16, &f.p.inv, &f.p.v.inv_depth_min,
+                                             &f.p.v.inv_depth_max),
                      0);
-    raytrace(&f, b, &f.out2);
-    double p_16 = warp_psnr(&f.out2, &f.truth.color, NULL, 0);
+    raytrace(&f, b, &f.p.out2);
+    double p_16 = warp_psnr(&f.p.out2, &f.p.b.color, NULL, 0);
     print_message("raytrace vs truth: float depth %.2f dB, 16-bit reversed-Z %.2f dB\n", p_float, p_16);
-    assert_true(image_finite_and_written(&f.out2));
+    assert_true(image_finite_and_written(&f.p.out2));
     assert_true(p_16 > p_float - 1.0);
     warp_image_free(&d16);
     fx_free(&f);
@@ -527,9 +512,9 @@ static void test_random_round_trips(void **state)
                                                              test_rng_uniform(&r, -0.1, 0.1))),
                        a.p};
         fx_render(&f, "room", a, b);
-        reproject(&f, b.q, &f.out);
+        reproject(&f, b.q, &f.p.out);
         /* warp the result back: treat it as a frame rendered at b */
-        warp_view vb = {.cam = f.c, .pose = b, .color = &f.out};
+        warp_view vb = {.cam = f.c, .pose = b, .color = &f.p.out};
         warp_mat3 h = warp_reproject_homography(&vb, &f.c, a.q);
         warp_reproject_rows(&vb, &h, &back, &mask2, 0, H);
         /* compare where neither pass was fringe: mark pixels whose forward sample was fringe too */
@@ -549,7 +534,7 @@ static void test_random_round_trips(void **state)
             for (int x = 0; x < W; x++)
                 WARP_AT(&centre, x, y) =
                     (x > W / 4 && x < 3 * W / 4 && y > H / 4 && y < 3 * H / 4) ? 0 : WARP_MASK_FRINGE;
-        double p = warp_psnr(&back, &f.src.color, &centre, WARP_MASK_FRINGE);
+        double p = warp_psnr(&back, &f.p.a.color, &centre, WARP_MASK_FRINGE);
         warp_image_free(&centre);
         if (p < 26) fail_msg("rotation round trip %d: %.2f dB", it, p);
         assert_true(n_valid > 0);
@@ -563,16 +548,17 @@ static void test_random_round_trips(void **state)
         fx_render(&f, "near", a, b);
         warp_image_rgba8 src_copy;
         assert_true(warp_image_rgba8_alloc(&src_copy, W, H));
-        warp_image_rgba8_copy(&src_copy, &f.src.color);
-        raytrace(&f, b, &f.out); /* A -> B */
+        warp_image_rgba8_copy(&src_copy, &f.p.a.color);
+        raytrace(&f, b, &f.p.out); /* A -> B */
         /* B -> A: the truth render at B gives the depth of B */
         const sim_scene *s = sim_scene_find("near");
-        sim_render(s, 0, b, &f.c, SIM_PLANE_COLOR | SIM_PLANE_DEPTH, &f.src);
-        warp_image_rgba8_copy(&f.src.color, &f.out); /* but the colour of the warped image */
-        f.v.pose = b;
-        warp_inverse_depth_from(&f.c, WARP_DEPTH_LINEAR, &f.src.depth, &f.inv, &f.v.inv_depth_min, &f.v.inv_depth_max);
+        sim_render(s, 0, b, &f.c, SIM_PLANE_COLOR | SIM_PLANE_DEPTH, &f.p.a);
+        warp_image_rgba8_copy(&f.p.a.color, &f.p.out); /* but the colour of the warped image */
+        f.p.v.pose = b;
+        warp_inverse_depth_from(&f.c, WARP_DEPTH_LINEAR, &f.p.a.depth, &f.p.inv, &f.p.v.inv_depth_min,
+                                &f.p.v.inv_depth_max);
         raytrace(&f, a, &back);
-        double p = warp_psnr(&back, &src_copy, &f.mask, WARP_MASK_FRINGE | WARP_MASK_EDGE);
+        double p = warp_psnr(&back, &src_copy, &f.p.mask, WARP_MASK_FRINGE | WARP_MASK_EDGE);
         if (p < 24) fail_msg("raytrace round trip %d: %.2f dB", it, p);
         warp_image_free(&src_copy);
     }

@@ -4,6 +4,7 @@
 #ifndef TEST_SCENE_H
 #define TEST_SCENE_H
 
+#include <math.h>
 #include <stdbool.h>
 
 #include "sim/sim_scene.h"
@@ -19,6 +20,21 @@ void test_render_pair(const char *scene, const warp_camera *cam, warp_pose a, wa
 static inline warp_pose test_eye_at(double yaw, double pitch, double roll, warp_vec3 p)
 {
     return (warp_pose){warp_quat_from_ypr(yaw, pitch, roll), p};
+}
+
+/* The eye camera the grid, stereo and transparency tests render with: view tangents 1.0 left and right, 0.8 up,
+ * 0.7 down, near plane 5 cm, no far plane. */
+static inline warp_camera test_camera(int w, int h) { return (warp_camera){w, h, 1.0, 1.0, 0.8, 0.7, 0.05, INFINITY}; }
+
+/* The source eye most warp tests render from: standing (1.6 m), level, looking 3 degrees down. */
+static inline warp_pose test_eye_home(void) { return test_eye_at(0, -3 * (WARP_PI / 180.0), 0, warp_v3(0, 1.6, 0)); }
+
+/* test_eye_home moved by d without turning: the pure-translation targets. */
+static inline warp_pose test_eye_home_moved(warp_vec3 d)
+{
+    warp_pose e = test_eye_home();
+    e.p = warp_v3_add(e.p, d);
+    return e;
 }
 
 /* The images a source-vs-truth warp test works on: the two renders, the source's inverse depth and view, two

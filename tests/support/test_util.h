@@ -105,6 +105,20 @@ static inline bool test_capture(const char *cmd, char *out, size_t cap, int *sta
     return true;
 }
 
+/* Runs `program args` under test_runner() with stderr into stdout, its output into out (test_capture); returns its
+ * exit status, -1 when it could not be started or a signal ended it. The tests of the tools run them through this. */
+static inline int test_run_program(const char *program, const char *args, char *out, size_t cap)
+{
+    size_t n = strlen(program) + strlen(args) + 300;
+    char *cmd = malloc(n);
+    if (!cmd) return -1;
+    snprintf(cmd, n, "%s%s %s 2>&1", test_runner(), program, args);
+    int st = -1;
+    if (!test_capture(cmd, out, cap, &st)) st = -1;
+    free(cmd);
+    return st;
+}
+
 /* The file at path into buf, NUL-terminated; its length, 0 when it cannot be read (a status file not written yet). */
 static inline size_t test_slurp(const char *path, char *buf, size_t cap)
 {

@@ -157,6 +157,14 @@ static rt_fusion *fusion_started(const rt_fusion_params *p, sim *s, int64_t *t)
     return f;
 }
 
+/* f reset to parameters p and started again on s's first sample at T0, for a second run over the same data. */
+static void fusion_restart(rt_fusion *f, const rt_fusion_params *p, sim *s, int64_t *t)
+{
+    rt_fusion_init(f, p);
+    *t = T0;
+    feed_first(f, s, *t);
+}
+
 static rt_fusion_state latest(const rt_fusion *f)
 {
     rt_fusion_state st;
@@ -170,6 +178,13 @@ static bool quat_close(warp_quat a, warp_quat b, double tol)
 }
 
 static const warp_vec3 k_bias = {0.02, -0.015, 0.01};
+
+/* The headset lying still, pitched 10 and rolled 20 degrees, with gyro bias k_bias and light noise from seed: the
+ * start of the tests of what the filter learns at rest. */
+static sim sim_still_tilted(uint64_t seed)
+{
+    return sim_make(warp_quat_from_ypr(0, 10 * DEG, 20 * DEG), warp_v3(0, 0, 0), k_bias, 0.005, 0.02, seed);
+}
 
 /* ---- tests ---- */
 
@@ -213,8 +228,7 @@ static void test_first_sample_tilt(void **state)
 static void test_static_bias_and_yaw(void **state)
 {
     (void)state;
-    warp_quat q0 = warp_quat_from_ypr(0, 10 * DEG, 20 * DEG);
-    sim s = sim_make(q0, warp_v3(0, 0, 0), k_bias, 0.005, 0.02, 100);
+    sim s = sim_still_tilted(100);
     int64_t t;
     rt_fusion *f = fusion_started(NULL, &s, &t);
     feed(f, &s, &t, T0 + 30000 * MS, MS);
@@ -232,10 +246,8 @@ static void test_static_bias_and_yaw(void **state)
     rt_fusion_params p = rt_fusion_default_params();
     p.bias_gain = 0;
     p.still_gyro = 0; /* |omega| < 0 never holds: never still */
-    s = sim_make(q0, warp_v3(0, 0, 0), k_bias, 0.005, 0.02, 100);
-    rt_fusion_init(f, &p);
-    t = T0;
-    feed_first(f, &s, t);
+    s = sim_still_tilted(100);
+    fusion_restart(f, &p, &s, &t);
     feed(f, &s, &t, T0 + 30000 * MS, MS);
     st = latest(f);
     truth = sim_truth(&s, st.t_ns);
@@ -250,13 +262,13 @@ static void test_static_bias_and_yaw(void **state)
 static void test_integral_term_converges(void **state)
 {
     (void)state;
-    warp_quat q0 = warp_quat_from_ypr(0, 10 * DEG, 20 * DEG);
+    sim s = sim_still_tilted(200);
+    warp_quat q0 = s.seg_q[0];
     warp_vec3 up = warp_quat_rotate(warp_quat_conj(q0), warp_v3(0, 1, 0));
     warp_vec3 b_perp = warp_v3_sub(k_bias, warp_v3_scale(up, warp_v3_dot(k_bias, up)));
     rt_fusion_params p = rt_fusion_default_params();
     p.still_gyro = 0;
     p.bias_gain = 0.1; /* well damped (poles at -0.25 +- 0.2i per s): settled after 60 s */
-    sim s = sim_make(q0, warp_v3(0, 0, 0), k_bias, 0.005, 0.02, 200);
     int64_t t;
     rt_fusion *f = fusion_started(&p, &s, &t);
     feed(f, &s, &t, T0 + 60000 * MS, MS);
@@ -268,10 +280,8 @@ static void test_integral_term_converges(void **state)
     assert_true(fabs(yaw_err_deg(st.q, truth)) > 10.0);
 
     p.bias_gain = 0;
-    s = sim_make(q0, warp_v3(0, 0, 0), k_bias, 0.005, 0.02, 200);
-    rt_fusion_init(f, &p);
-    t = T0;
-    feed_first(f, &s, t);
+    s = sim_still_tilted(200);
+    fusion_restart(f, &p, &s, &t);
     feed(f, &s, &t, T0 + 60000 * MS, MS);
     st = latest(f);
     assert_true(tilt_err_deg(st.q, sim_truth(&s, st.t_ns)) > 2.0);
@@ -479,8 +489,8 @@ static void test_rejections(void **state)
 static void test_hours(void **state)
 {
     (void)state;
-    warp_quat q0 = warp_quat_from_ypr(0, 10 * DEG, 20 * DEG);
-    sim s = sim_make(q0, warp_v3(0, 0, 0), k_bias, 0.005, 0.02, 600);
+    sim s = sim_still_tilted(600);
+    warp_quat q0 = s.seg_q[0];
     int64_t t;
     rt_fusion *f = fusion_started(NULL, &s, &t);
     double worst_norm = 0, worst_err = 0;

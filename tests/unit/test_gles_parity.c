@@ -279,12 +279,12 @@ static void test_raytrace_parity(void **state)
     static const char *const scenes[] = {"near", "room", "hairball", "outdoor"};
     warp_raytrace_params rp = warp_raytrace_default_params();
     for (size_t i = 0; i < sizeof scenes / sizeof scenes[0]; i++) {
-        warp_pose a = test_eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
+        warp_pose a = test_eye_home();
         source(scenes[i], a);
         const warp_pose to[3] = {
             test_eye_at(1.5 * D2R, -3 * D2R, 0, warp_v3(0.04, 1.61, -0.01)), /* 4 cm lean */
             test_eye_at(-4 * D2R, -1 * D2R, 1 * D2R, warp_v3(-0.02, 1.58, 0.03)),
-            test_eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0)), /* identity */
+            test_eye_home(), /* identity */
         };
         for (int t = 0; t < 3; t++) {
             double p;
@@ -298,7 +298,7 @@ static void test_raytrace_parity(void **state)
         }
     }
     /* The edge fills and the fringe are exercised: the lean opens disocclusions in "near". */
-    warp_pose a = test_eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
+    warp_pose a = test_eye_home();
     source("near", a);
     double p;
     long unmatched, flagged;
@@ -324,7 +324,7 @@ static void test_pyramid_skips_empty_space(void **state)
 {
     (void)state;
     /* A lean in the room: rays cross long stretches of open space before reaching the walls. */
-    warp_pose a = test_eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
+    warp_pose a = test_eye_home();
     source("room", a);
     warp_raytrace_params rp = warp_raytrace_default_params();
     warp_raytrace_setup s;
@@ -349,7 +349,7 @@ static void test_pyramid_skips_empty_space(void **state)
 static void test_raytrace_then_lens_parity(void **state)
 {
     (void)state;
-    warp_pose a = test_eye_at(0, -3 * D2R, 0, warp_v3(0, 1.6, 0));
+    warp_pose a = test_eye_home();
     warp_pose b = test_eye_at(2 * D2R, -2 * D2R, 0, warp_v3(0.03, 1.6, 0));
     source("near", a);
     warp_raytrace_params rp = warp_raytrace_default_params();

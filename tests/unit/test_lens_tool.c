@@ -2,7 +2,6 @@
 /* hmdwarp-lens import and fit end to end: each format's section, loaded back as board.ini, builds the same lens as
  * the model built from the source's parameters directly; the fit recovers a known lens from a CSV; malformed JSON,
  * YAML and CSV are refused with a message naming what was wrong (file, line, key), never a crash. */
-#include <libgen.h>
 #include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
@@ -19,14 +18,7 @@
 static char tool[256], dir[256];
 static const char board[] = "[display]\nwidth = 2160\nheight = 1200\n[eye]\nwidth = 1080\nheight = 1200\n";
 
-static int run(const char *args, char *out, size_t cap)
-{
-    char cmd[2000];
-    snprintf(cmd, sizeof cmd, "%s%s %s 2>&1", test_runner(), tool, args);
-    int st = -1;
-    assert_true(test_capture(cmd, out, cap, &st));
-    return st;
-}
+static int run(const char *args, char *out, size_t cap) { return test_run_program(tool, args, out, cap); }
 
 static const char *path_of(const char *name)
 {
@@ -59,6 +51,16 @@ static warp_lens lens_of(const char *out, rt_config *c)
     assert_true(ok);
     assert_true(rt_config_validate(c, &err));
     return rt_config_lens(c, 0);
+}
+
+/* `import --config board.ini OPT NAME` of text written to DIR/NAME: the section it prints, loaded over the board. */
+static warp_lens import_file(const char *name, const char *text, const char *opt, rt_config *c)
+{
+    char out[8000], args[1000];
+    write_file(name, text);
+    snprintf(args, sizeof args, "import --config %s %s %s", path_of("board.ini"), opt, path_of(name));
+    assert_int_equal(run(args, out, sizeof out), 0);
+    return lens_of(out, c);
 }
 
 static void same_lens(const warp_lens *a, const warp_lens *b, int vw, int vh)
@@ -122,12 +124,8 @@ static const char vive_json[] =
 static void test_import_vive(void **state)
 {
     (void)state;
-    char out[8000], args[1000];
-    write_file("vive.json", vive_json);
-    snprintf(args, sizeof args, "import --config %s --vive %s", path_of("board.ini"), path_of("vive.json"));
-    assert_int_equal(run(args, out, sizeof out), 0);
     rt_config c;
-    warp_lens got = lens_of(out, &c);
+    warp_lens got = import_file("vive.json", vive_json, "--vive", &c);
     warp_lens_vive_params p = {.k = {{-0.022, -0.049, -0.079, 0}, {-0.188, -0.221, -0.254, 0}, {-0.073, -0.023, 0.025, 0}},
                                .center = {{0.0890, -0.009}, {0.0894, -0.009}, {0.0898, -0.009}},
                                .aspect_x_over_y = 0.9, .intrinsics = {0.92, -0.06, 1.02, 0.01}, .r2_cutoff = 1.116};
@@ -153,12 +151,9 @@ static const char opencv_yaml[] = "%YAML:1.0\n"
 static void test_import_opencv_and_cardboard(void **state)
 {
     (void)state;
-    char out[8000], args[1000];
-    write_file("cam.yaml", opencv_yaml);
-    snprintf(args, sizeof args, "import --config %s --opencv %s", path_of("board.ini"), path_of("cam.yaml"));
-    assert_int_equal(run(args, out, sizeof out), 0);
     rt_config c;
-    warp_lens got = lens_of(out, &c);
+    warp_lens got = import_file("cam.yaml", opencv_yaml, "--opencv", &c);
+    char out[8000], args[1000];
     /* the 540 x 600 calibration image scaled to the 1080 x 1200 viewport */
     warp_lens_opencv_params p = {700, 690, 545, 598, -0.21, 0.045, 0.0012, -0.0008, -0.004};
     warp_lens want = warp_lens_opencv(&p);
@@ -297,14 +292,9 @@ static void test_fit(void **state)
 int main(int argc, char **argv)
 {
     (void)argc;
-    char tmp[512];
-    snprintf(tmp, sizeof tmp, "%s", argv[0]);
-    char *build = dirname(dirname(dirname(tmp)));
+    char build[200];
+    if (!test_build_dirs(argv[0], build, sizeof build, dir, sizeof dir, "lens-tool")) return 1;
     snprintf(tool, sizeof tool, "%s/hmdwarp-lens", build);
-    snprintf(dir, sizeof dir, "%s/tests/lens-tool", build);
-    char cmd[600];
-    snprintf(cmd, sizeof cmd, "mkdir -p %s", dir);
-    if (system(cmd) != 0) return 1;
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_import_openhmd), cmocka_unit_test(test_import_vive),
         cmocka_unit_test(test_import_opencv_and_cardboard), cmocka_unit_test(test_import_malformed),

@@ -200,33 +200,18 @@ static void test_smooth_plane_matches_two_pass(void **state)
 
 typedef struct {
     warp_camera cam;
-    sim_buffers a, b;
-    warp_image_f32 inv;
-    warp_view v;
-    warp_image_rgba8 out, out2;
-    warp_image_u8 mask;
+    test_pair p;
 } near_fx;
 
 static void near_make(near_fx *f, warp_pose a, warp_pose b)
 {
     f->cam = (warp_camera){W, H, 1.0, 1.0, 0.85, 0.82, 0.05, INFINITY};
-    assert_true(sim_buffers_alloc(&f->a, W, H, SIM_PLANE_COLOR | SIM_PLANE_DEPTH, 1));
-    assert_true(sim_buffers_alloc(&f->b, W, H, SIM_PLANE_COLOR | SIM_PLANE_DEPTH, 1));
-    assert_true(warp_image_f32_alloc(&f->inv, W, H) && warp_image_rgba8_alloc(&f->out, W, H) &&
-                warp_image_rgba8_alloc(&f->out2, W, H) && warp_image_u8_alloc(&f->mask, W, H));
-    test_render_pair("near", &f->cam, a, b, &f->a, &f->b, &f->inv, &f->v);
-    sim_render(sim_scene_find("near"), 0.0, b, &f->cam, SIM_PLANE_DEPTH, &f->b); /* where the true edges are */
+    assert_true(test_pair_alloc(&f->p, W, H, SIM_PLANE_COLOR | SIM_PLANE_DEPTH));
+    test_pair_render(&f->p, "near", &f->cam, a, b);
+    sim_render(sim_scene_find("near"), 0.0, b, &f->cam, SIM_PLANE_DEPTH, &f->p.b); /* where the true edges are */
 }
 
-static void near_free(near_fx *f)
-{
-    sim_buffers_free(&f->a);
-    sim_buffers_free(&f->b);
-    warp_image_free(&f->inv);
-    warp_image_free(&f->out);
-    warp_image_free(&f->out2);
-    warp_image_free(&f->mask);
-}
+static void near_free(near_fx *f) { test_pair_free(&f->p); }
 
 static const warp_pose near_a = {{0, 0, 0, 1}, {-0.032, 1.6, 0}};
 
@@ -237,7 +222,7 @@ static warp_pose near_5cm(near_fx *f, warp_raytrace_setup *s)
     const warp_pose b = moved(near_a, 2, 0, 0.05, 0, 0);
     near_make(f, near_a, b);
     const warp_raytrace_params p = warp_raytrace_default_params();
-    assert_null(warp_raytrace_prepare(s, &f->v, &f->cam, b, &p));
+    assert_null(warp_raytrace_prepare(s, &f->p.v, &f->cam, b, &p));
     return b;
 }
 
@@ -252,25 +237,25 @@ static void test_point_agrees_with_rows(void **state)
     near_make(&f, a, b);
     warp_image_f32 bmax;
     assert_true(warp_image_f32_alloc(&bmax, (W + 7) / 8, (H + 7) / 8));
-    warp_raytrace_blockmax(&f.inv, &bmax, 8);
+    warp_raytrace_blockmax(&f.p.inv, &bmax, 8);
     for (int cfg = 0; cfg < 4; cfg++) {
         warp_raytrace_params p = warp_raytrace_default_params();
         if (cfg == 1) p.edge_fill = WARP_EDGE_FILL_LINEAR;
         if (cfg == 2) p.refine_iters = 0;
         if (cfg == 3) p.max_steps = 8;
         warp_raytrace_setup s;
-        assert_null(warp_raytrace_prepare(&s, &f.v, &f.cam, b, &p));
+        assert_null(warp_raytrace_prepare(&s, &f.p.v, &f.cam, b, &p));
         if (cfg != 2) warp_raytrace_use_blockmax(&s, &bmax, 8);
         warp_raytrace_stats rst = {0}, pst = {0};
-        warp_raytrace_rows(&s, &f.out, &f.mask, 0, H, &rst);
+        warp_raytrace_rows(&s, &f.p.out, &f.p.mask, 0, H, &rst);
         long same = 0, flag_same = 0;
         for (int y = 0; y < H; y++)
             for (int x = 0; x < W; x++) {
                 double sx, sy;
                 int flag = warp_raytrace_point(&s, x + 0.5, y + 0.5, &sx, &sy, &pst);
-                warp_rgba8 c = warp_sample_bilinear(f.v.color, (float)sx, (float)sy), r = WARP_AT(&f.out, x, y);
-                flag_same += flag == WARP_AT(&f.mask, x, y);
-                same += flag == WARP_AT(&f.mask, x, y) && c.r == r.r && c.g == r.g && c.b == r.b;
+                warp_rgba8 c = warp_sample_bilinear(f.p.v.color, (float)sx, (float)sy), r = WARP_AT(&f.p.out, x, y);
+                flag_same += flag == WARP_AT(&f.p.mask, x, y);
+                same += flag == WARP_AT(&f.p.mask, x, y) && c.r == r.r && c.g == r.g && c.b == r.b;
             }
         print_message("config %d: %ld of %d rays alike (flags alike %ld); edge %ld/%ld fringe %ld/%ld steps %ld/%ld\n",
                       cfg, same, W * H, flag_same, pst.edge_pixels, rst.edge_pixels, pst.fringe_pixels,
@@ -322,16 +307,16 @@ static double edge_error(const warp_image_rgba8 *img, const near_fx *f, long *co
 {
     double sum = 0;
     long n = 0;
-    const warp_image_f32 *z = &f->b.depth;
+    const warp_image_f32 *z = &f->p.b.depth;
     for (int y = 4; y < H - 4; y++)
         for (int x = 4; x < W - 4; x++) {
-            if (WARP_AT(&f->mask, x, y) & WARP_MASK_FRINGE) continue;
+            if (WARP_AT(&f->p.mask, x, y) & WARP_MASK_FRINGE) continue;
             float z0 = WARP_AT(z, x, y);
             bool edge = false;
             for (int d = -4; d <= 4 && !edge; d++)
                 edge = fabsf(WARP_AT(z, x + d, y) - z0) > 0.2f * z0 || fabsf(WARP_AT(z, x, y + d) - z0) > 0.2f * z0;
             if (!edge) continue;
-            warp_rgba8 p = WARP_AT(img, x, y), q = WARP_AT(&f->b.color, x, y);
+            warp_rgba8 p = WARP_AT(img, x, y), q = WARP_AT(&f->p.b.color, x, y);
             sum += abs(p.r - q.r) + abs(p.g - q.g) + abs(p.b - q.b);
             n++;
         }
@@ -348,21 +333,21 @@ static void test_depth_edges_favour_per_pixel(void **state)
     near_fx f;
     warp_raytrace_setup s;
     const warp_pose b = near_5cm(&f, &s);
-    warp_raytrace_rows(&s, &f.out, &f.mask, 0, H, NULL);
+    warp_raytrace_rows(&s, &f.p.out, &f.p.mask, 0, H, NULL);
     warp_mesh m;
     assert_true(warp_mesh_alloc_eye(&m, 21, &f.cam)); /* 24 px cells, as the default mesh on the panel */
     warp_planar3 src_p;
     assert_true(warp_planar3_alloc(&src_p, W, H));
-    warp_planar3_from_rgba_rows(&src_p, f.v.color, 0, H);
-    warp_mesh_raytrace_draw(&m, NULL, &f.cam, &s, NULL, NULL, NULL, &src_p, &f.out2); /* the vertices alone */
-    double pix = warp_psnr(&f.out, &f.b.color, &f.mask, WARP_MASK_FRINGE);
-    double mesh = warp_psnr(&f.out2, &f.b.color, &f.mask, WARP_MASK_FRINGE);
+    warp_planar3_from_rgba_rows(&src_p, f.p.v.color, 0, H);
+    warp_mesh_raytrace_draw(&m, NULL, &f.cam, &s, NULL, NULL, NULL, &src_p, &f.p.out2); /* the vertices alone */
+    double pix = warp_psnr(&f.p.out, &f.p.b.color, &f.p.mask, WARP_MASK_FRINGE);
+    double mesh = warp_psnr(&f.p.out2, &f.p.b.color, &f.p.mask, WARP_MASK_FRINGE);
     long n_edge;
-    double e_pix = edge_error(&f.out, &f, &n_edge), e_mesh = edge_error(&f.out2, &f, &n_edge);
+    double e_pix = edge_error(&f.p.out, &f, &n_edge), e_mesh = edge_error(&f.p.out2, &f, &n_edge);
     /* rotation only, for scale */
     warp_mesh_update(&m, &f.cam, warp_quat_mul(warp_quat_conj(near_a.q), b.q));
-    warp_mesh_resample(&m, &src_p, &f.out2, 0, 0, W, H);
-    double rot = warp_psnr(&f.out2, &f.b.color, &f.mask, WARP_MASK_FRINGE);
+    warp_mesh_resample(&m, &src_p, &f.p.out2, 0, 0, W, H);
+    double rot = warp_psnr(&f.p.out2, &f.p.b.color, &f.p.mask, WARP_MASK_FRINGE);
     print_message("near, 5 cm: per-pixel %.2f dB, mesh %.2f dB, rotation %.2f dB; at %ld edge pixels mean error "
                   "per-pixel %.2f, mesh %.2f\n",
                   pix, mesh, rot, n_edge, e_pix, e_mesh);
@@ -381,16 +366,16 @@ static double band_psnr(const warp_image_rgba8 *img, const near_fx *f, int band,
 {
     double sse = 0;
     long n = 0;
-    const warp_image_f32 *z = &f->b.depth;
+    const warp_image_f32 *z = &f->p.b.depth;
     for (int y = band; y < H - band; y++)
         for (int x = band; x < W - band; x++) {
-            if (WARP_AT(&f->mask, x, y) & WARP_MASK_FRINGE) continue;
+            if (WARP_AT(&f->p.mask, x, y) & WARP_MASK_FRINGE) continue;
             float z0 = WARP_AT(z, x, y);
             bool edge = false;
             for (int d = -band; d <= band && !edge; d++)
                 edge = fabsf(WARP_AT(z, x + d, y) - z0) > 0.2f * z0 || fabsf(WARP_AT(z, x, y + d) - z0) > 0.2f * z0;
             if (!edge) continue;
-            warp_rgba8 p = WARP_AT(img, x, y), q = WARP_AT(&f->b.color, x, y);
+            warp_rgba8 p = WARP_AT(img, x, y), q = WARP_AT(&f->p.b.color, x, y);
             sse += (double)(p.r - q.r) * (p.r - q.r) + (double)(p.g - q.g) * (p.g - q.g) +
                    (double)(p.b - q.b) * (p.b - q.b);
             n++;
@@ -414,12 +399,12 @@ static void test_edge_cells_traced_per_pixel(void **state)
         near_make(&f, near_a, b);
         warp_raytrace_params p = warp_raytrace_default_params();
         warp_raytrace_setup s;
-        assert_null(warp_raytrace_prepare(&s, &f.v, &f.cam, b, &p));
+        assert_null(warp_raytrace_prepare(&s, &f.p.v, &f.cam, b, &p));
         warp_image_f32 bmax;
         assert_true(warp_image_f32_alloc(&bmax, (W + 7) / 8, (H + 7) / 8));
-        warp_raytrace_blockmax(&f.inv, &bmax, 8);
+        warp_raytrace_blockmax(&f.p.inv, &bmax, 8);
         warp_raytrace_use_blockmax(&s, &bmax, 8);
-        warp_raytrace_rows(&s, &f.out, &f.mask, 0, H, NULL);
+        warp_raytrace_rows(&s, &f.p.out, &f.p.mask, 0, H, NULL);
         warp_mesh m;
         warp_mesh_trace tr;
         /* 12 px cells, 40 across the view: fewer per degree than the default mesh's 60 across the panel's eye */
@@ -427,16 +412,16 @@ static void test_edge_cells_traced_per_pixel(void **state)
         assert_true(warp_mesh_trace_alloc(&tr, &m));
         warp_planar3 src_p;
         assert_true(warp_planar3_alloc(&src_p, W, H));
-        warp_planar3_from_rgba_rows(&src_p, f.v.color, 0, H);
-        warp_mesh_raytrace_draw(&m, NULL, &f.cam, &s, NULL, NULL, NULL, &src_p, &f.out2);
+        warp_planar3_from_rgba_rows(&src_p, f.p.v.color, 0, H);
+        warp_mesh_raytrace_draw(&m, NULL, &f.cam, &s, NULL, NULL, NULL, &src_p, &f.p.out2);
         long n_band;
-        const double vert = warp_psnr(&f.out2, &f.b.color, &f.mask, WARP_MASK_FRINGE);
-        const double vert_band = band_psnr(&f.out2, &f, 3, &n_band);
+        const double vert = warp_psnr(&f.p.out2, &f.p.b.color, &f.p.mask, WARP_MASK_FRINGE);
+        const double vert_band = band_psnr(&f.p.out2, &f, 3, &n_band);
         const warp_mesh_trace_params tp = warp_mesh_trace_default_params();
-        const int marked = warp_mesh_raytrace_draw(&m, &tr, &f.cam, &s, NULL, NULL, &tp, &src_p, &f.out2);
-        const double pix = warp_psnr(&f.out, &f.b.color, &f.mask, WARP_MASK_FRINGE);
-        const double hyb = warp_psnr(&f.out2, &f.b.color, &f.mask, WARP_MASK_FRINGE);
-        const double pix_band = band_psnr(&f.out, &f, 3, &n_band), hyb_band = band_psnr(&f.out2, &f, 3, &n_band);
+        const int marked = warp_mesh_raytrace_draw(&m, &tr, &f.cam, &s, NULL, NULL, &tp, &src_p, &f.p.out2);
+        const double pix = warp_psnr(&f.p.out, &f.p.b.color, &f.p.mask, WARP_MASK_FRINGE);
+        const double hyb = warp_psnr(&f.p.out2, &f.p.b.color, &f.p.mask, WARP_MASK_FRINGE);
+        const double pix_band = band_psnr(&f.p.out, &f, 3, &n_band), hyb_band = band_psnr(&f.p.out2, &f, 3, &n_band);
         const int cells = tr.cells_x * tr.cells_y;
         print_message("near, motion %d: per-pixel %.2f dB (band %.2f), vertices only %.2f (band %.2f), hybrid %.2f "
                       "(band %.2f) over %ld band pixels; %d of %d cells traced per pixel (%.1f %%)\n",
@@ -454,7 +439,7 @@ static void test_edge_cells_traced_per_pixel(void **state)
 }
 
 /* The reference of (f) and (g): every panel pixel traced per channel, at the lens's exact directions (lens NULL:
- * the pixel's own centre for all three), into f->out. */
+ * the pixel's own centre for all three), into f->p.out. */
 static void trace_every_pixel(near_fx *f, const warp_raytrace_setup *s, const warp_lens *lens)
 {
     for (int y = 0; y < H; y++)
@@ -467,10 +452,10 @@ static void trace_every_pixel(near_fx *f, const warp_raytrace_setup *s, const wa
                     warp_camera_tan_to_pixel(&f->cam, u, v, &tx, &ty);
                 }
                 warp_raytrace_point(s, tx, ty, &sx, &sy, NULL);
-                const warp_rgba8 q = warp_sample_bilinear(f->v.color, (float)sx, (float)sy);
+                const warp_rgba8 q = warp_sample_bilinear(f->p.v.color, (float)sx, (float)sy);
                 o[c] = c == 0 ? q.r : (c == 1 ? q.g : q.b);
             }
-            WARP_AT(&f->out, x, y) = (warp_rgba8){o[0], o[1], o[2], 255};
+            WARP_AT(&f->p.out, x, y) = (warp_rgba8){o[0], o[1], o[2], 255};
         }
 }
 
@@ -491,14 +476,14 @@ static void test_edge_cells_under_chromatic_aberration(void **state)
     assert_true(warp_mesh_trace_alloc(&tr, &m));
     warp_planar3 src_p;
     assert_true(warp_planar3_alloc(&src_p, W, H));
-    warp_planar3_from_rgba_rows(&src_p, f.v.color, 0, H);
+    warp_planar3_from_rgba_rows(&src_p, f.p.v.color, 0, H);
     /* the reference: three rays per panel pixel, at the lens's exact directions */
     trace_every_pixel(&f, &s, &lens);
-    warp_mesh_raytrace_draw(&m, NULL, &f.cam, &s, NULL, NULL, NULL, &src_p, &f.out2);
-    const double vert = warp_psnr(&f.out2, &f.out, NULL, 0);
+    warp_mesh_raytrace_draw(&m, NULL, &f.cam, &s, NULL, NULL, NULL, &src_p, &f.p.out2);
+    const double vert = warp_psnr(&f.p.out2, &f.p.out, NULL, 0);
     const warp_mesh_trace_params tp = warp_mesh_trace_default_params();
-    const int marked = warp_mesh_raytrace_draw(&m, &tr, &f.cam, &s, NULL, NULL, &tp, &src_p, &f.out2);
-    const double hyb = warp_psnr(&f.out2, &f.out, NULL, 0);
+    const int marked = warp_mesh_raytrace_draw(&m, &tr, &f.cam, &s, NULL, NULL, &tp, &src_p, &f.p.out2);
+    const double hyb = warp_psnr(&f.p.out2, &f.p.out, NULL, 0);
     print_message("panel with CA, near at 5 cm, against three rays per pixel: vertices only %.2f dB, raytrace_mesh "
                   "%.2f dB (%d of %d cells traced)\n",
                   vert, hyb, marked, tr.cells_x * tr.cells_y);
@@ -523,7 +508,7 @@ static void test_edge_cells_few_full_rays(void **state)
         near_5cm(&f, &s);
         warp_image_f32 bmax;
         assert_true(warp_image_f32_alloc(&bmax, (W + 7) / 8, (H + 7) / 8));
-        warp_raytrace_blockmax(&f.inv, &bmax, 8);
+        warp_raytrace_blockmax(&f.p.inv, &bmax, 8);
         warp_raytrace_use_blockmax(&s, &bmax, 8);
         const warp_lens lens = test_reference_lens(W / 2.0, H / 2.0, 300);
         warp_mesh m;
@@ -538,10 +523,10 @@ static void test_edge_cells_few_full_rays(void **state)
         tr.stats = &st;
         warp_planar3 src_p;
         assert_true(warp_planar3_alloc(&src_p, W, H));
-        warp_planar3_from_rgba_rows(&src_p, f.v.color, 0, H);
+        warp_planar3_from_rgba_rows(&src_p, f.p.v.color, 0, H);
         const warp_mesh_trace_params tp = warp_mesh_trace_default_params();
-        const int marked = warp_mesh_raytrace_draw(&m, &tr, &f.cam, &s, NULL, NULL, &tp, &src_p, &f.out2);
-        const double hyb = warp_psnr(&f.out2, &f.out, NULL, 0);
+        const int marked = warp_mesh_raytrace_draw(&m, &tr, &f.cam, &s, NULL, NULL, &tp, &src_p, &f.p.out2);
+        const double hyb = warp_psnr(&f.p.out2, &f.p.out, NULL, 0);
         const long px = st.pixels, full = st.pixel_rays + st.channel_rays;
         print_message("near at 5 cm, %s: %d cells traced, %ld pixels: %ld lattice rays, %ld pixel rays, %ld channel "
                       "rays: %.1f %% of the pixels took a full ray of their own; %.2f dB against every pixel traced\n",

@@ -3,7 +3,6 @@
  * read back through its file loaders give the same warp and the same score; ray-distance depth and 16-bit
  * reversed-Z depth convert to the same result; bad inputs are refused with a message naming them, and declared sizes
  * are checked against the file before anything is allocated. */
-#include <libgen.h>
 #include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
@@ -19,14 +18,7 @@
 static char tool[256], dir[256];
 
 /* Runs the tool; returns its exit status and its stdout in out. */
-static int run(const char *args, char *out, size_t cap)
-{
-    char cmd[9000];
-    snprintf(cmd, sizeof cmd, "%s%s %s 2>&1", test_runner(), tool, args);
-    int st = -1;
-    assert_true(test_capture(cmd, out, cap, &st));
-    return st;
-}
+static int run(const char *args, char *out, size_t cap) { return test_run_program(tool, args, out, cap); }
 
 static double psnr_of(const char *out)
 {
@@ -59,16 +51,28 @@ static double sim_inputs(const char *scene, const char *warp, const char *sub)
     return psnr_of(out);
 }
 
+/* The arguments that warp, with `warp`, what --write-inputs wrote into DIR/sub and score it against that truth:
+ * colour, depth, each file of `planes` (space-separated: ids.png as --ids DIR/sub/ids.png), the view, then `more`. */
+static const char *files_args(const char *sub, const char *planes, const char *warp, const char *more)
+{
+    static char a[8192];
+    size_t n = (size_t)snprintf(a, sizeof a, "--color %s/%s/color.png --depth %s/%s/depth.pfm", dir, sub, dir, sub);
+    char list[256];
+    snprintf(list, sizeof list, "%s", planes);
+    for (char *save = NULL, *f = strtok_r(list, " ", &save); f; f = strtok_r(NULL, " ", &save))
+        n += (size_t)snprintf(a + n, sizeof a - n, " --%.*s %s/%s/%s", (int)strcspn(f, "."), f, dir, sub, f);
+    snprintf(a + n, sizeof a - n, " --view %s/%s/view.txt --warp %s --ref %s/%s/truth.png %s", dir, sub, warp, dir,
+             sub, more);
+    return a;
+}
+
 static void test_files_match_simulator(void **state)
 {
     (void)state;
-    char out[4096], args[8192];
+    char out[4096], args[8192], more[600];
     double sim_psnr = sim_inputs("near", "raytrace", "in");
-    snprintf(args, sizeof args,
-             "--color %s/in/color.png --depth %s/in/depth.pfm --ids %s/in/ids.png --view %s/in/view.txt "
-             "--warp raytrace --ref %s/in/truth.png --out %s/o.png --mask %s/m.png",
-             dir, dir, dir, dir, dir, dir, dir);
-    assert_int_equal(run(args, out, sizeof out), 0);
+    snprintf(more, sizeof more, "--out %s/o.png --mask %s/m.png", dir, dir);
+    assert_int_equal(run(files_args("in", "ids.png", "raytrace", more), out, sizeof out), 0);
     print_message("%s", out);
     /* colour through 8-bit PNG is exact, depth through PFM is float-exact: the same result */
     assert_true(fabs(psnr_of(out) - sim_psnr) < 1e-6);
@@ -85,11 +89,7 @@ static void test_layers_file_round_trip(void **state)
     /* the A-buffer through its file format warps exactly as from the simulator */
     char out[4096], args[8192];
     double sim_psnr = sim_inputs("glass", "transparency", "glass");
-    snprintf(args, sizeof args,
-             "--color %s/glass/color.png --depth %s/glass/depth.pfm --layers %s/glass/layers.bin --view "
-             "%s/glass/view.txt --warp transparency --ref %s/glass/truth.png",
-             dir, dir, dir, dir, dir);
-    assert_int_equal(run(args, out, sizeof out), 0);
+    assert_int_equal(run(files_args("glass", "layers.bin", "transparency", ""), out, sizeof out), 0);
     assert_true(fabs(psnr_of(out) - sim_psnr) < 1e-6);
     /* a truncated layers file is refused with its name */
     snprintf(args, sizeof args, "head -c 100 %s/glass/layers.bin > %s/short.bin", dir, dir);
@@ -114,10 +114,8 @@ static void test_objects_file_matches_simulator(void **state)
     assert_int_equal(run(args, out, sizeof out), 0);
     double sim_psnr = psnr_of(out);
     assert_non_null(strstr(out, "moved"));
-    snprintf(args, sizeof args,
-             "--color %s/mov/color.png --depth %s/mov/depth.pfm --ids %s/mov/ids.png --motion %s/mov/motion.pfm "
-             "--view %s/mov/view.txt --warp objects --time 0 --target-time 0.05 --ref %s/mov/truth.png",
-             dir, dir, dir, dir, dir, dir);
+    snprintf(args, sizeof args, "%s",
+             files_args("mov", "ids.png motion.pfm", "objects", "--time 0 --target-time 0.05"));
     char with[8800];
     snprintf(with, sizeof with, "%s --objects %s/mov/objects.txt", args, dir);
     assert_int_equal(run(with, out, sizeof out), 0);
@@ -251,14 +249,9 @@ static void test_bad_inputs_named(void **state)
 int main(int argc, char **argv)
 {
     (void)argc;
-    char tmp[512];
-    snprintf(tmp, sizeof tmp, "%s", argv[0]);
-    char *build = dirname(dirname(dirname(tmp)));
+    char build[200];
+    if (!test_build_dirs(argv[0], build, sizeof build, dir, sizeof dir, "warp-tool")) return 1;
     snprintf(tool, sizeof tool, "%s/hmdwarp-warp", build);
-    snprintf(dir, sizeof dir, "%s/tests/warp-tool", build);
-    char cmd[600];
-    snprintf(cmd, sizeof cmd, "mkdir -p %s", dir);
-    if (system(cmd) != 0) return 1;
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_files_match_simulator),
         cmocka_unit_test(test_layers_file_round_trip),

@@ -20,6 +20,7 @@
  *   a frame's age when shown is encode + transfer + decode + half the gap to the next frame + half a vsync. The
  *   raytrace is then scored at that age. */
 #include "tools/hmdwarp-bench/bench_link.h"
+#include "tools/hmdwarp-bench/bench_samples.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -53,30 +54,6 @@
 #define MAX_FRAME_BYTES ((size_t)64 << 20) /* rpi5's [frames] max_frame_mb */
 #define MAX_FRAMES 6
 #define MAX_ROWS 32
-#define MAX_SAMPLES 64
-
-typedef struct {
-    double v[MAX_SAMPLES];
-    int n;
-} samples;
-
-static void add(samples *s, double v)
-{
-    if (s->n < MAX_SAMPLES) s->v[s->n++] = v;
-}
-static int cmpd(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
-static double median(const samples *s)
-{
-    if (!s->n) return NAN;
-    double t[MAX_SAMPLES];
-    memcpy(t, s->v, sizeof(double) * (size_t)s->n);
-    qsort(t, (size_t)s->n, sizeof(double), cmpd);
-    return s->n % 2 ? t[s->n / 2] : 0.5 * (t[s->n / 2 - 1] + t[s->n / 2]);
-}
 
 typedef enum { ROW_RAW, ROW_COLOUR, ROW_DEPTH, ROW_FRAME } row_group;
 static const char *const group_name[] = {"raw", "colour", "depth", "frame"};
@@ -88,7 +65,7 @@ typedef struct {
     char na[200];                    /* not measured: why */
     double bytes_sum, key_bytes_sum; /* steady-state frames; video key frames */
     int bytes_n, key_n;
-    samples enc_ms, dec_ms;
+    bench_samples enc_ms, dec_ms;
     double psnr_sum;
     int psnr_n;
     double ray_db_sum, ray_delta_sum; /* per scene, last frame, left eye */
@@ -289,8 +266,8 @@ static void run_row(link_row *r, const sim_scene *sc, drv_frame *src, int nf, dr
             break;
         }
         double ems = (double)(t1 - t0) * 1e-6, dms = (double)(t2 - t1) * 1e-6;
-        add(&r->enc_ms, ems);
-        add(&r->dec_ms, dms);
+        bench_add(&r->enc_ms, ems);
+        bench_add(&r->dec_ms, dms);
         if (video && k == 0) r->key_bytes_sum += (double)n, r->key_n++;
         else r->bytes_sum += (double)n, bytes_sum += (double)n, r->bytes_n++;
         for (int e = 0; e < 2; e++) {
@@ -317,8 +294,8 @@ static void run_row(link_row *r, const sim_scene *sc, drv_frame *src, int nf, dr
         if (r->group == ROW_RAW || r->group == ROW_FRAME) {
             int steady = video ? nf - 1 : nf;
             /* medians: one descheduled frame on a busy machine would otherwise set the age */
-            const double bytes = bytes_sum / steady, enc_s = median(&r->enc_ms) * 1e-3,
-                         dec_s = median(&r->dec_ms) * 1e-3, xfer_s = bytes / (USB2_MBS * 1e6);
+            const double bytes = bytes_sum / steady, enc_s = bench_median(&r->enc_ms) * 1e-3,
+                         dec_s = bench_median(&r->dec_ms) * 1e-3, xfer_s = bytes / (USB2_MBS * 1e6);
             const double gap_s = fmax(fmax(1.0 / HOST_HZ, xfer_s), fmax(enc_s, dec_s));
             const double age_s = enc_s + xfer_s + dec_s + gap_s / 2 + 0.5 / PANEL_HZ;
             r->usb2_age_ms_sum += age_s * 1e3;
@@ -344,8 +321,8 @@ static row_fig figures(const link_row *r, double other_plane_bytes, double eye_p
     f.bytes = r->bytes_sum / r->bytes_n - other_plane_bytes;
     f.bpp = f.bytes / (2 * eye_px);
     f.mbs = f.bytes * HOST_HZ / 1e6;
-    f.enc = median(&r->enc_ms);
-    f.dec = median(&r->dec_ms);
+    f.enc = bench_median(&r->enc_ms);
+    f.dec = bench_median(&r->dec_ms);
     f.psnr = r->psnr_sum / r->psnr_n;
     f.ray = r->ray_db_sum / r->ray_n;
     f.dray = r->ray_delta_sum / r->ray_n;

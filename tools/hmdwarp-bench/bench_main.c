@@ -18,6 +18,7 @@
 #include "bench_display.h"
 #include "bench_link.h"
 #include "bench_opencv.h"
+#include "bench_samples.h"
 #include "platform/plat_clock.h"
 #include "platform/plat_egl.h"
 #include "platform/plat_gles.h"
@@ -35,7 +36,7 @@
 #include "warp/warp_raytrace.h"
 #include "warp/warp_resample.h"
 
-#define MAX_REPS 400
+#define MAX_REPS BENCH_MAX_SAMPLES
 
 typedef struct {
     bool quick;
@@ -48,32 +49,6 @@ typedef struct {
     bool link_only; /* --link-only: the link section alone */
     bool rolling_only; /* --rolling-only: the rolling-scan section alone */
 } opts;
-
-/* ---- timing samples ---- */
-
-typedef struct {
-    double v[MAX_REPS];
-    int n;
-} samples;
-
-static void add(samples *s, double v)
-{
-    if (s->n < MAX_REPS) s->v[s->n++] = v;
-}
-static int cmpd(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
-static double pct(const samples *s, double p)
-{
-    if (!s->n) return NAN;
-    double t[MAX_REPS];
-    memcpy(t, s->v, sizeof(double) * (size_t)s->n);
-    qsort(t, (size_t)s->n, sizeof(double), cmpd);
-    int i = (int)ceil(p / 100.0 * s->n) - 1;
-    return t[i < 0 ? 0 : (i >= s->n ? s->n - 1 : i)];
-}
 
 /* ---- scenes and ground truth ---- */
 
@@ -430,9 +405,9 @@ int main(int argc, char **argv)
         cv[e] = bench_cv_create(vw, cfg.panel_h, mx, my, cfg.eye_w, cfg.eye_h);
     }
     /* ---- 1. the display path, interleaved rounds ---- */
-    samples t_memcpy = {0}, t_ours = {0}, t_ours1 = {0}, t_cv = {0}, t_cv1 = {0}, t_ray = {0}, r_cv = {0},
+    bench_samples t_memcpy = {0}, t_ours = {0}, t_ours1 = {0}, t_cv = {0}, t_cv1 = {0}, t_ray = {0}, r_cv = {0},
             r_ray = {0}, t_raymesh = {0}, r_raymesh = {0};
-    samples t_kern[4];
+    bench_samples t_kern[4];
     memset(t_kern, 0, sizeof t_kern);
     static const warp_resample_kernel_id kern[4] = {WARP_RESAMPLE_SCALAR, WARP_RESAMPLE_VECTOR, WARP_RESAMPLE_AVX2,
                                                     WARP_RESAMPLE_AVX512};
@@ -463,22 +438,22 @@ int main(int argc, char **argv)
         if (ray_round) ms_ray = timed(&D, 0, eyes, RT_METHOD_RAYTRACE);
         double ms_raymesh = timed(&D, 0, eyes, RT_METHOD_RAYTRACE_MESH);
         if (r < 0) continue;
-        add(&t_memcpy, ms_memcpy);
-        add(&t_cv, ms_cv);
-        add(&t_ours, ms_ours);
-        add(&t_cv1, ms_cv1);
-        add(&t_ours1, ms_ours1);
-        add(&r_cv, ms_ours / ms_cv);
+        bench_add(&t_memcpy, ms_memcpy);
+        bench_add(&t_cv, ms_cv);
+        bench_add(&t_ours, ms_ours);
+        bench_add(&t_cv1, ms_cv1);
+        bench_add(&t_ours1, ms_ours1);
+        bench_add(&r_cv, ms_ours / ms_cv);
         if (ray_round) {
-            add(&t_ray, ms_ray);
-            add(&r_ray, ms_ray / ms_ours);
+            bench_add(&t_ray, ms_ray);
+            bench_add(&r_ray, ms_ray / ms_ours);
         }
-        add(&t_raymesh, ms_raymesh);
-        add(&r_raymesh, ms_raymesh / ms_ours);
+        bench_add(&t_raymesh, ms_raymesh);
+        bench_add(&r_raymesh, ms_raymesh / ms_ours);
         if (r % 4 == 0)
             for (int k = 0; k < 4; k++) {
                 if (!warp_resample_force_kernel(kern[k])) continue;
-                add(&t_kern[k], timed(&D, 0, eyes, RT_METHOD_ROTATION));
+                bench_add(&t_kern[k], timed(&D, 0, eyes, RT_METHOD_ROTATION));
                 warp_resample_force_kernel(WARP_RESAMPLE_AUTO);
             }
     }
@@ -492,12 +467,12 @@ int main(int argc, char **argv)
         all_cells += mt->cells_x * mt->cells_y;
     }
     const double traced_pct = all_cells ? 100.0 * traced_cells / all_cells : 0;
-    double cv_speedup = 1.0 / pct(&r_cv, 50), ray_ratio = pct(&r_ray, 50), raymesh_ratio = pct(&r_raymesh, 50);
+    double cv_speedup = 1.0 / bench_pct(&r_cv, 50), ray_ratio = bench_pct(&r_ray, 50), raymesh_ratio = bench_pct(&r_raymesh, 50);
     printf("display path: ours %.2f ms, OpenCV %.2f ms (%s), memcpy %.2f ms: %.2fx faster than OpenCV (target 3x); "
            "raytrace at 5 cm %.2f ms = %.2fx rotation (target <= 2x); raytrace_mesh %.2f ms = %.2fx (%.1f %% of "
            "its cells traced per pixel)\n",
-           pct(&t_ours, 50), pct(&t_cv, 50), bench_cv_version(), pct(&t_memcpy, 50), cv_speedup, pct(&t_ray, 50),
-           ray_ratio, pct(&t_raymesh, 50), raymesh_ratio, traced_pct);
+           bench_pct(&t_ours, 50), bench_pct(&t_cv, 50), bench_cv_version(), bench_pct(&t_memcpy, 50), cv_speedup, bench_pct(&t_ray, 50),
+           ray_ratio, bench_pct(&t_raymesh, 50), raymesh_ratio, traced_pct);
     fflush(stdout);
 
     /* ---- 2. raytrace cost vs head translation (003 eq. 11: steps grow with the screen-space parallax) ---- */
@@ -528,15 +503,15 @@ int main(int argc, char **argv)
             eyes[e] = fc[e].b;
         }
         if (!load_frame(&D, fc, ++seq)) return 1;
-        samples sr = {0}, so = {0}, sm = {0};
+        bench_samples sr = {0}, so = {0}, sm = {0};
         for (int r = 0; r < (o.quick ? 3 : 7); r++) {
-            add(&sr, timed(&D, 0, eyes, RT_METHOD_RAYTRACE));
-            add(&so, timed(&D, 0, eyes, RT_METHOD_ROTATION));
-            add(&sm, timed(&D, 0, eyes, RT_METHOD_RAYTRACE_MESH));
+            bench_add(&sr, timed(&D, 0, eyes, RT_METHOD_RAYTRACE));
+            bench_add(&so, timed(&D, 0, eyes, RT_METHOD_ROTATION));
+            bench_add(&sm, timed(&D, 0, eyes, RT_METHOD_RAYTRACE_MESH));
         }
-        ray_ms[m] = pct(&sr, 50);
-        rot_ms[m] = pct(&so, 50);
-        mesh_ms[m] = pct(&sm, 50);
+        ray_ms[m] = bench_pct(&sr, 50);
+        rot_ms[m] = bench_pct(&so, 50);
+        mesh_ms[m] = bench_pct(&sm, 50);
         /* accuracy before the lens, left eye */
         warp_raytrace_setup rts0;
         warp_raytrace_stats st = {0};
@@ -617,7 +592,7 @@ int main(int argc, char **argv)
                 for (int k = 0; k < nk && nrows < MAX_ROWS; k++) {
                     sweep_row *row = &rows[nrows];
                     memset(row, 0, sizeof *row);
-                    samples ts = {0};
+                    bench_samples ts = {0};
                     cat_stats cs;
                     const char *why = NULL;
                     /* three runs for a median, but one is enough for the slow reference warps (the bench must
@@ -628,7 +603,7 @@ int main(int argc, char **argv)
                         int64_t t = plat_now_ns();
                         why = (*wp)->run(&fc[0].v, &fc[0].cam, fc[0].b, fc[0].t1, params[k], &eye_out, &eye_mask,
                                          &cs);
-                        add(&ts, (double)(plat_now_ns() - t) * 1e-6);
+                        bench_add(&ts, (double)(plat_now_ns() - t) * 1e-6);
                     }
                     if (why) continue;
                     snprintf(row->scene, sizeof row->scene, "%s", scenes[s]);
@@ -636,8 +611,8 @@ int main(int argc, char **argv)
                     snprintf(row->params, sizeof row->params, "%s", params[k] ? params[k] : "defaults");
                     row->motion_deg = mdeg[m];
                     row->motion_cm = mcm[m];
-                    row->med_ms = pct(&ts, 50);
-                    row->p99_ms = pct(&ts, 99);
+                    row->med_ms = bench_pct(&ts, 50);
+                    row->p99_ms = bench_pct(&ts, 99);
                     row->psnr = warp_psnr(&eye_out, &fc[0].truth.color, NULL, 0);
                     row->ssim = warp_ssim(&eye_out, &fc[0].truth.color, NULL, 0);
                     row->err = warp_error_pixel_percent(&eye_out, &fc[0].truth.color, NULL, 0, 20);
@@ -689,7 +664,7 @@ int main(int argc, char **argv)
                  "primitives,samples,pareto\n");
     struct {
         const char *name;
-        samples *s;
+        bench_samples *s;
     } disp[] = {{"memcpy of the output frame", &t_memcpy},
                 {"ours: rotation+lens+CA, both eyes, 2 threads", &t_ours},
                 {"ours: the same, 1 thread", &t_ours1},
@@ -699,11 +674,11 @@ int main(int argc, char **argv)
                 {"ours: raytrace_mesh at 5 cm (vertices, per pixel at depth edges), both eyes, 2 threads",
                  &t_raymesh}};
     for (size_t i = 0; i < sizeof disp / sizeof disp[0]; i++)
-        fprintf(csv, "display,near,%s,,5,5,%.4f,%.4f,,,,,,\n", disp[i].name, pct(disp[i].s, 50), pct(disp[i].s, 99));
+        fprintf(csv, "display,near,%s,,5,5,%.4f,%.4f,,,,,,\n", disp[i].name, bench_pct(disp[i].s, 50), bench_pct(disp[i].s, 99));
     for (int k = 0; k < 4; k++)
         if (t_kern[k].n)
-            fprintf(csv, "display,near,kernel %s 2 threads,,5,5,%.4f,%.4f,,,,,,\n", kern_name[k], pct(&t_kern[k], 50),
-                    pct(&t_kern[k], 99));
+            fprintf(csv, "display,near,kernel %s 2 threads,,5,5,%.4f,%.4f,,,,,,\n", kern_name[k], bench_pct(&t_kern[k], 50),
+                    bench_pct(&t_kern[k], 99));
     for (int m = 0; m < n_motion; m++)
         fprintf(csv, "motion,near,raytrace+lens,,2,%g,%.4f,,%.3f,,,,%.2f,\n", motions_cm[m], ray_ms[m], ray_psnr[m],
                 ray_steps[m]);
@@ -790,12 +765,12 @@ int main(int argc, char **argv)
     }
     fprintf(md, "\n## Display path, both eyes\n\n| what | median ms | p99 ms | x memcpy |\n|---|---:|---:|---:|\n");
     for (size_t i = 0; i < sizeof disp / sizeof disp[0]; i++)
-        fprintf(md, "| %s | %.2f | %.2f | %.1f |\n", disp[i].name, pct(disp[i].s, 50), pct(disp[i].s, 99),
-                pct(disp[i].s, 50) / pct(&t_memcpy, 50));
+        fprintf(md, "| %s | %.2f | %.2f | %.1f |\n", disp[i].name, bench_pct(disp[i].s, 50), bench_pct(disp[i].s, 99),
+                bench_pct(disp[i].s, 50) / bench_pct(&t_memcpy, 50));
     for (int k = 0; k < 4; k++)
         if (t_kern[k].n)
-            fprintf(md, "| ours, %s kernel, 2 threads | %.2f | %.2f | %.1f |\n", kern_name[k], pct(&t_kern[k], 50),
-                    pct(&t_kern[k], 99), pct(&t_kern[k], 50) / pct(&t_memcpy, 50));
+            fprintf(md, "| ours, %s kernel, 2 threads | %.2f | %.2f | %.1f |\n", kern_name[k], bench_pct(&t_kern[k], 50),
+                    bench_pct(&t_kern[k], 99), bench_pct(&t_kern[k], 50) / bench_pct(&t_memcpy, 50));
     if (have_gpu) {
         fprintf(md, "\n## GPU passes (GLES 3, %s; %s)\n\n| pass | ms per vsync | CPU path equivalent |\n|---|---:|---|\n",
                 gl_renderer, gl_timing);
