@@ -193,6 +193,69 @@ static ray_ctx ray_ctx_make(const warp_raytrace_setup *s)
     return c;
 }
 
+/* The homogeneous source position (*bx, *by, *bw) of the point at infinity of the ray through continuous target
+ * position (tx, ty): what warp_raytrace_rows reaches by stepping along a row (up to rounding). */
+static inline void ray_at_infinity(const warp_raytrace_setup *s, double tx, double ty, double *bx, double *by,
+                                   double *bw)
+{
+    *bx = s->h.m[0][0] * tx + s->h.m[0][1] * ty + s->h.m[0][2];
+    *by = s->h.m[1][0] * tx + s->h.m[1][1] * ty + s->h.m[1][2];
+    *bw = s->h.m[2][0] * tx + s->h.m[2][1] * ty + s->h.m[2][2];
+}
+
+/* One ray's line in the source (S(D) = pi + D * e, the derivation at the top) and the search's interval and step
+ * grid on it: every search over a ray (trace_ray and the bracketed ones) takes these, so that they sample the same
+ * depths. */
+typedef struct {
+    double pix, piy, ex, ey;
+    double lo, hi;     /* the interval in inverse depth, clipped to the image (lo: far end, hi: near end) */
+    bool near_clipped; /* hi was cut at the image border (the ray enters it below the near limit) */
+    double epx;        /* source pixels of parallax per unit of inverse depth: |e| */
+    double len;        /* the interval's length in source pixels */
+    int n;             /* steps: one per source pixel (003 §3.5: n_d is the pixel count), within the budget */
+    double dd;         /* inverse depth per step */
+} ray_span;
+
+enum {
+    RAY_SPAN_OK = 0,
+    RAY_SPAN_BEYOND_90 = 1, /* no point at infinity in the source image: g unset */
+    RAY_SPAN_OUTSIDE = 2,   /* no part of the interval inside the image: lo and hi as far as the clip got (the fringe
+                             * fill samples there), len, n and dd unset */
+};
+
+/* Fills g for the ray whose point at infinity has homogeneous source position (bx, by, bw). Returns RAY_SPAN_*. */
+static inline __attribute__((always_inline)) int ray_span_make(const ray_ctx *c, double bx, double by, double bw,
+                                                                ray_span *g)
+{
+    const warp_raytrace_setup *s = c->s;
+    /* A ray at or beyond 90 degrees from the source view axis has no point at infinity in the source
+     * image; with centimetre head translations such rays see nothing the source saw: fringe. */
+    if (!(bw > 1e-9 * (fabs(bx) + fabs(by) + fabs(bw)))) return RAY_SPAN_BEYOND_90;
+    g->pix = bx / bw;
+    g->piy = by / bw;
+    g->ex = s->ax - s->aw * g->pix;
+    g->ey = s->ay - s->aw * g->piy;
+    /* Search interval in inverse depth: the scene's depth range, cut to the part of the ray in front of
+     * the target eye (D <= 1/aw when the eye is in front of the source eye's plane) ... */
+    g->hi = c->dmax;
+    g->lo = c->dmin;
+    if (s->aw > 0 && 1.0 / s->aw < g->hi) g->hi = 1.0 / s->aw;
+    const double hi0 = g->hi;
+    /* ... and to the part that projects inside the source image, where the height map is known. */
+    if (!(g->lo <= g->hi && clip_axis(g->pix, g->ex, c->sw, &g->lo, &g->hi) &&
+          clip_axis(g->piy, g->ey, c->sh, &g->lo, &g->hi)))
+        return RAY_SPAN_OUTSIDE;
+    g->near_clipped = g->hi < hi0;
+    /* One step per source pixel along the segment (003 §3.5: n_d is the pixel count), within budget. */
+    g->epx = sqrt(g->ex * g->ex + g->ey * g->ey);
+    g->len = fabs(g->hi - g->lo) * g->epx;
+    g->n = (int)ceil(g->len);
+    if (g->n < 1) g->n = 1;
+    if (g->n > c->max_steps) g->n = c->max_steps;
+    g->dd = (g->hi - g->lo) / g->n;
+    return 0;
+}
+
 /* The hit between the last search sample in front of the surface (inverse depth da, height over the ray fa < 0)
  * and the first one behind it (db, fb >= 0): regula falsi (Illinois), so that it lands between samples, not on
  * the step grid. */
@@ -270,47 +333,31 @@ static inline __attribute__((always_inline)) uint8_t trace_ray(const ray_ctx *c,
 {
     const warp_raytrace_setup *s = c->s;
     const warp_image_f32 *dimg = c->dimg;
-    const double sw = c->sw, sh = c->sh;
-    const double dmin = c->dmin, dmax = c->dmax;
-    const int max_steps = c->max_steps;
     const float jump = c->jump;
     const int chunk = c->chunk;
     uint8_t flag = 0;
-    /* A ray at or beyond 90 degrees from the source view axis has no point at infinity in the source
-     * image; with centimetre head translations such rays see nothing the source saw: fringe. */
-    if (!(bw > 1e-9 * (fabs(bx) + fabs(by) + fabs(bw)))) {
-        *hx = bx > 0 ? (float)sw : 0.f;
-        *hy = by > 0 ? (float)sh : 0.f;
-        *dhit = 0;
-        return WARP_MASK_FRINGE;
-    }
-    double pix = bx / bw, piy = by / bw;
-    double ex = s->ax - s->aw * pix, ey = s->ay - s->aw * piy;
-    /* Search interval in inverse depth: the scene's depth range, cut to the part of the ray in front of
-     * the target eye (D <= 1/aw when the eye is in front of the source eye's plane) ... */
-    double hi = dmax, lo = dmin;
-    if (s->aw > 0 && 1.0 / s->aw < hi) hi = 1.0 / s->aw;
-    bool near_clipped = false;
-    double hi0 = hi;
-    /* ... and to the part that projects inside the source image, where the height map is known. */
-    bool inside = lo <= hi && clip_axis(pix, ex, sw, &lo, &hi) && clip_axis(piy, ey, sh, &lo, &hi);
-    if (!inside) {
+    ray_span g;
+    const int span = ray_span_make(c, bx, by, bw, &g);
+    if (span != RAY_SPAN_OK) {
+        /* with centimetre head translations a ray beyond 90 degrees sees nothing the source saw: fringe */
+        if (span == RAY_SPAN_BEYOND_90) {
+            *hx = bx > 0 ? (float)c->sw : 0.f;
+            *hy = by > 0 ? (float)c->sh : 0.f;
+            *dhit = 0;
+            return WARP_MASK_FRINGE;
+        }
         /* The clip moved lo to where the ray would enter the image, which may lie nearer than anything in
          * the frame; the fringe fill samples the ray within the frame's depth range (for an all-sky
          * frame exactly the rotation reprojection's clamped sample). */
-        double d = lo < dmin ? dmin : (lo > dmax ? dmax : lo);
+        double d = g.lo < c->dmin ? c->dmin : (g.lo > c->dmax ? c->dmax : g.lo);
         *dhit = d;
-        *hx = (float)(pix + d * ex);
-        *hy = (float)(piy + d * ey);
+        *hx = (float)(g.pix + d * g.ex);
+        *hy = (float)(g.piy + d * g.ey);
         return WARP_MASK_FRINGE;
     }
-    near_clipped = hi < hi0;
-    /* One step per source pixel along the segment (003 §3.5: n_d is the pixel count), within budget. */
-    double len = fabs(hi - lo) * sqrt(ex * ex + ey * ey);
-    int n = (int)ceil(len);
-    if (n < 1) n = 1;
-    if (n > max_steps) n = max_steps;
-    double dd = (hi - lo) / n;
+    const double pix = g.pix, piy = g.piy, ex = g.ex, ey = g.ey, hi = g.hi, lo = g.lo, len = g.len, dd = g.dd;
+    const bool near_clipped = g.near_clipped;
+    const int n = g.n;
 
     double da = hi, fa;
     float sa = inv_at(dimg, (float)(pix + da * ex), (float)(piy + da * ey), jump);
@@ -431,10 +478,8 @@ int warp_raytrace_point_depth(const warp_raytrace_setup *s, double tx, double ty
                               warp_raytrace_stats *st)
 {
     const ray_ctx c = ray_ctx_make(s);
-    /* the same homogeneous position warp_raytrace_rows reaches by stepping along a row (up to rounding) */
-    double bx = s->h.m[0][0] * tx + s->h.m[0][1] * ty + s->h.m[0][2];
-    double by = s->h.m[1][0] * tx + s->h.m[1][1] * ty + s->h.m[1][2];
-    double bw = s->h.m[2][0] * tx + s->h.m[2][1] * ty + s->h.m[2][2];
+    double bx, by, bw;
+    ray_at_infinity(s, tx, ty, &bx, &by, &bw);
     long steps = 0, samples = 0;
     float hx, hy;
     double dhit;
@@ -455,26 +500,18 @@ int warp_raytrace_point_within(const warp_raytrace_setup *s, double tx, double t
                                double margin_px, double *sx, double *sy, double *d, int *samples)
 {
     const ray_ctx c = ray_ctx_make(s);
-    const double bx = s->h.m[0][0] * tx + s->h.m[0][1] * ty + s->h.m[0][2];
-    const double by = s->h.m[1][0] * tx + s->h.m[1][1] * ty + s->h.m[1][2];
-    const double bw = s->h.m[2][0] * tx + s->h.m[2][1] * ty + s->h.m[2][2];
-    if (!(bw > 1e-9 * (fabs(bx) + fabs(by) + fabs(bw)))) return WARP_WITHIN_MISSED;
-    const double pix = bx / bw, piy = by / bw;
-    const double ex = s->ax - s->aw * pix, ey = s->ay - s->aw * piy;
-    /* the full search's interval (trace_ray), for its length and to keep the bracket inside it */
-    double hi = c.dmax, lo = c.dmin;
-    if (s->aw > 0 && 1.0 / s->aw < hi) hi = 1.0 / s->aw;
-    if (!(lo <= hi && clip_axis(pix, ex, c.sw, &lo, &hi) && clip_axis(piy, ey, c.sh, &lo, &hi)))
-        return WARP_WITHIN_MISSED;
-    const double epx = sqrt(ex * ex + ey * ey), len = fabs(hi - lo) * epx;
+    double bx, by, bw;
+    ray_at_infinity(s, tx, ty, &bx, &by, &bw);
+    /* The full search's interval and step grid (trace_ray: n steps from hi to lo), so that the samples bracketing a
+     * hit, on which the refinement and the edge rules decide, are the full search's own: a hit that is the ray's
+     * first comes out bit for bit as warp_raytrace_point's. */
+    ray_span g;
+    if (ray_span_make(&c, bx, by, bw, &g) != RAY_SPAN_OK) return WARP_WITHIN_MISSED;
+    const double pix = g.pix, piy = g.piy, ex = g.ex, ey = g.ey, hi = g.hi, lo = g.lo, dd = g.dd;
+    const int n = g.n;
+    const double epx = g.epx;
     /* Without translation every depth is the same source point: the full ray takes one step, nothing to save. */
     if (!(epx > 1e-9)) return WARP_WITHIN_MISSED;
-    /* The full search's step grid (trace_ray: n steps from hi to lo), so that the samples bracketing a hit, on
-     * which the refinement and the edge rules decide, are the full search's own: a hit that is the ray's first
-     * comes out bit for bit as warp_raytrace_point's. */
-    int n = (int)ceil(len);
-    n = n < 1 ? 1 : (n > s->p.max_steps ? s->p.max_steps : n);
-    const double dd = (hi - lo) / n;
     const double top = d_hi + margin_px / epx, bot = d_lo - margin_px / epx;
     /* A bracket reaching the search's near end would also have to repeat its image-border rule: the full ray. */
     if (!(top < hi)) return WARP_WITHIN_MISSED;
@@ -502,7 +539,7 @@ int warp_raytrace_point_within(const warp_raytrace_setup *s, double tx, double t
     const double dfront = da;
     da = refine_hit(&c, pix, piy, ex, ey, da, fa, db, fb);
     float hx, hy;
-    const uint8_t flag = edge_rules(&c, pix, piy, ex, ey, len, da, dfront, 0, &hx, &hy);
+    const uint8_t flag = edge_rules(&c, pix, piy, ex, ey, g.len, da, dfront, 0, &hx, &hy);
     point_source(s, flag, hx, hy, sx, sy);
     if (d) *d = da;
     return flag;
