@@ -3,6 +3,7 @@
  * display image of each eye is produced in one resampling pass (the approach of Monado's and Cardboard's meshes). */
 #include "warp/warp_mesh.h"
 
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -225,18 +226,46 @@ static int trace_tan(const warp_camera *dst_cam, const warp_raytrace_setup *s, w
     return warp_raytrace_point(s, tx, ty, x, y, NULL);
 }
 
+/* Red's or blue's ray of a vertex whose green ray (through eye-buffer position (gx, gy)) met a surface at inverse
+ * depth dg without an edge: sought at that surface first (warp_raytrace_point_guess), within a pixel plus the
+ * chromatic aberration between them, and traced in full where it is not there or meets an edge. */
+static int trace_channel(const warp_camera *dst_cam, const warp_raytrace_setup *s, warp_vec2f t, double gx, double gy,
+                         double dg, double *x, double *y)
+{
+    double tx, ty;
+    warp_camera_tan_to_pixel(dst_cam, t.x, t.y, &tx, &ty);
+    const double ca = sqrt((tx - gx) * (tx - gx) + (ty - gy) * (ty - gy));
+    double d;
+    if (warp_raytrace_point_guess(s, tx, ty, &dg, 1, 1.0 + ca, x, y, &d, NULL) == 0) return 0;
+    return warp_raytrace_point(s, tx, ty, x, y, NULL);
+}
+
+/* The three channels' rays of a vertex seeing tangent directions t[0..3) under s: their source positions and
+ * flags. Green first: where it meets a surface without an edge, red and blue, a chromatic aberration away, meet the
+ * same one but at a silhouette (a third of the vertex's full searches where the guess finds them there). */
+static void trace_vertex(const warp_camera *dst_cam, const warp_raytrace_setup *s, const warp_vec2f t[3], double x[3],
+                         double y[3], int f[3])
+{
+    double gx, gy, dg;
+    warp_camera_tan_to_pixel(dst_cam, t[1].x, t[1].y, &gx, &gy);
+    f[1] = warp_raytrace_point_depth(s, gx, gy, &x[1], &y[1], &dg, NULL);
+    for (int c = 0; c < 3; c += 2)
+        f[c] = f[1] ? trace_tan(dst_cam, s, t[c], &x[c], &y[c])
+                    : trace_channel(dst_cam, s, t[c], gx, gy, dg, &x[c], &y[c]);
+}
+
 void warp_mesh_update_raytrace(warp_mesh *m, const warp_camera *dst_cam, const warp_raytrace_setup *s)
 {
     int left = 0;
     for (int j = 0; j < m->rows; j++)
         for (int i = 0; i < m->cols; i++) {
-            int fl = 0;
+            double x[3], y[3];
+            int f[3], fl = 0;
+            trace_vertex(dst_cam, s, &m->tan[((size_t)j * m->cols + i) * 3], x, y, f);
             for (int c = 0; c < 3; c++) {
-                double x, y;
-                const int f = trace_tan(dst_cam, s, m->tan[((size_t)j * m->cols + i) * 3 + c], &x, &y);
-                left += f == WARP_MASK_FRINGE;
-                fl |= f;
-                set_vertex(m, j, i, c, x, y);
+                left += f[c] == WARP_MASK_FRINGE;
+                fl |= f[c];
+                set_vertex(m, j, i, c, x[c], y[c]);
             }
             m->flags[(size_t)j * m->cols + i] = (uint8_t)fl;
         }
@@ -250,26 +279,25 @@ void warp_mesh_update_raytrace_rolling(warp_mesh *m, const warp_camera *dst_cam,
     for (int j = 0; j < m->rows; j++)
         for (int i = 0; i < m->cols; i++) {
             const double f = vertex_fraction(m, scan, i, j);
-            int fl = 0;
+            const warp_vec2f *t = &m->tan[((size_t)j * m->cols + i) * 3];
+            double x0[3] = {0, 0, 0}, y0[3] = {0, 0, 0}, x1[3] = {0, 0, 0}, y1[3] = {0, 0, 0};
+            int g0[3] = {0, 0, 0}, g1[3] = {0, 0, 0}, fl = 0;
+            /* an endpoint's trace only where it has weight: the first and last vertex lines cost one */
+            if (f < 1) trace_vertex(dst_cam, first, t, x0, y0, g0);
+            if (f > 0) trace_vertex(dst_cam, last, t, x1, y1, g1);
             for (int c = 0; c < 3; c++) {
-                const warp_vec2f t = m->tan[((size_t)j * m->cols + i) * 3 + c];
-                double x0 = 0, y0 = 0, x1 = 0, y1 = 0;
-                int g = 0;
-                /* an endpoint's trace only where it has weight: the first and last vertex lines cost one */
-                if (f < 1) g |= trace_tan(dst_cam, first, t, &x0, &y0);
-                if (f > 0) g |= trace_tan(dst_cam, last, t, &x1, &y1);
-                const bool out = (g & WARP_MASK_FRINGE) != 0;
+                const int g = g0[c] | g1[c];
                 fl |= g;
                 if (f <= 0) {
-                    x1 = x0;
-                    y1 = y0;
+                    x1[c] = x0[c];
+                    y1[c] = y0[c];
                 } else if (f >= 1) {
-                    x0 = x1;
-                    y0 = y1;
+                    x0[c] = x1[c];
+                    y0[c] = y1[c];
                 }
-                left += out;
+                left += (g & WARP_MASK_FRINGE) != 0;
                 /* equal endpoints give x0 exactly (a still head: the global mesh bit for bit) */
-                set_vertex(m, j, i, c, x0 + (x1 - x0) * f, y0 + (y1 - y0) * f);
+                set_vertex(m, j, i, c, x0[c] + (x1[c] - x0[c]) * f, y0[c] + (y1[c] - y0[c]) * f);
             }
             m->flags[(size_t)j * m->cols + i] = (uint8_t)fl;
         }

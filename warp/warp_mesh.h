@@ -84,10 +84,11 @@ void warp_mesh_update_rolling(warp_mesh *m, const warp_camera *src_cam, warp_qua
 /* Rebuilds the source positions for a depth warp traced at the vertices only (a grid variant of the raytrace,
  * cf. 000's adaptive grid): a vertex seeing tangent direction t of the target eye takes the source position of
  * the ray through t's position in dst_cam's image, traced with warp_raytrace_point under s (prepared for dst_cam),
- * per channel, so lens distortion, chromatic aberration and the depth warp are one resampling pass straight from
- * the host frame. In between, the resampler interpolates: parallax is smeared across depth edges inside a cell
- * (a rubber sheet) where the per-pixel raytrace keeps them sharp. Vertices whose ray leaves the source sample
- * where the fringe fill does (clamped to the border). Allocation-free: safe on the vsync path. */
+ * per channel (red and blue sought first at the surface green's ray met, warp_raytrace_point_guess), so lens
+ * distortion, chromatic aberration and the depth warp are one resampling pass straight from the host frame. In
+ * between, the resampler interpolates: parallax is smeared across depth edges inside a cell (a rubber sheet) where
+ * the per-pixel raytrace keeps them sharp. Vertices whose ray leaves the source sample where the fringe fill does
+ * (clamped to the border). Allocation-free: safe on the vsync path. */
 void warp_mesh_update_raytrace(warp_mesh *m, const warp_camera *dst_cam, const warp_raytrace_setup *s);
 /* The same on a rolling-scan panel: each vertex traced under `first` (prepared for the pose at the scan's first
  * line) and `last` (its last line) and its source position interpolated by the vertex's scan fraction (ILLIXR

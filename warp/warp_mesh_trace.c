@@ -208,58 +208,95 @@ static int trace_at(const rect_ctx *c, int x, int y, double tx, double ty, doubl
     return flag;
 }
 
-/* The inverse depths the corners of a block hit (dhit), nearest (hi) to farthest (lo): at an edge where their rays
- * met its wall; corners whose rays left the source left out (their depths are the fill's): n = 0 when none is
- * left. */
+/* The surfaces the corners of a block hit, nearest first: their hits' inverse depths (dhit: at an edge where the
+ * ray met its wall), grouped where they lie within GUESS_GAP_PX of parallax of each other (a slanted surface), apart
+ * where more (the near and the far side of an edge, and a wall between). Corners whose rays left the source are left
+ * out (their depths are the fill's): n = 0 when none is left. */
+typedef struct {
+    int n;             /* surfaces */
+    uint8_t corner[4]; /* per surface: bit k = corner k (q[k]) hit it */
+    double dhit[4];    /* per corner */
+} block_surfaces;
+
+/* A ray's guesses: the inverse depth at which it would meet each of its block's surfaces, nearest first. */
 typedef struct {
     int n;
-    double lo, hi;
-} hit_range;
+    double d[4];
+} hit_guess;
 
-static void block_hits(const ray_px *const q[4], hit_range *h)
+/* Parallax (source pixels) between two corners' hits that still counts as one surface: a slanted one spreads its
+ * corners' hits over a few pixels, where an edge's sides lie tens apart at a few centimetres of head motion. */
+#define GUESS_GAP_PX 2.0
+
+static void block_surfaces_of(const ray_px *const q[4], double elen, block_surfaces *b)
 {
-    h->n = 0;
-    h->lo = INFINITY;
-    h->hi = -INFINITY;
-    for (int k = 0; k < 4; k++)
-        if (!(q[k]->flag & WARP_MASK_FRINGE)) {
-            h->n++;
-            h->lo = q[k]->dhit < h->lo ? q[k]->dhit : h->lo;
-            h->hi = q[k]->dhit > h->hi ? q[k]->dhit : h->hi;
+    int order[4], k = 0;
+    for (int i = 0; i < 4; i++) {
+        b->dhit[i] = q[i]->dhit;
+        if (q[i]->flag & WARP_MASK_FRINGE) continue;
+        int at = k++;
+        while (at > 0 && b->dhit[order[at - 1]] < b->dhit[i]) {
+            order[at] = order[at - 1];
+            at--;
         }
+        order[at] = i;
+    }
+    b->n = 0;
+    for (int i = 0; i < k; i++) {
+        if (i == 0 || (b->dhit[order[i - 1]] - b->dhit[order[i]]) * elen > GUESS_GAP_PX) b->corner[b->n++] = 0;
+        b->corner[b->n - 1] |= (uint8_t)(1u << order[i]);
+    }
 }
 
-/* How far beyond the corners' hits (source pixels of parallax) a ray of their block looks: its pixel lies between
- * the corners, so on their surfaces its hit does too, up to a curved surface's bulge and the half pixel the edge
- * rules snap a corner's hit by (its inverse depth is read back from the snapped position). */
-#define HIT_MARGIN_PX 2.0
+/* The guesses of the ray of the pixel at (u, v) across its block (0..1 from corner q[0] to q[3]): per surface its
+ * corners' hits weighted bilinearly (000 §3's interpolation between vertices; a surface that one corner alone hit is
+ * taken as flat there). */
+static void guess_at(const block_surfaces *b, double u, double v, hit_guess *g)
+{
+    const double w[4] = {(1 - u) * (1 - v) + 1e-3, u * (1 - v) + 1e-3, (1 - u) * v + 1e-3, u * v + 1e-3};
+    g->n = b->n;
+    for (int i = 0; i < b->n; i++) {
+        double sw = 0, sd = 0;
+        for (int k = 0; k < 4; k++)
+            if (b->corner[i] >> k & 1) {
+                sw += w[k];
+                sd += w[k] * b->dhit[k];
+            }
+        g->d[i] = sd / sw;
+    }
+}
 
-/* trace_at, but the search kept to the depths the block's corners hit (h; NULL: the full search), where one of its
- * surfaces (at a depth edge the near or the far side, or a third between them that a corner hit) meets the ray: a
- * few steps where the full search takes one per source pixel of the whole depth range (003 §3.5). A hit there is
- * the ray's first unless something nearer than every corner's hit stands in its way, which no corner saw (at 4
- * pixels apart, a thin object in front of the block's nearest surface); where the ray is behind the height map
- * already at the range's near end or meets nothing in it (a disocclusion's wall, or it leaves the source) it is
- * traced in full (*full). Rolling: under both setups, over the same range (a scan's pose change moves a surface's
- * depth by far less than the margin). */
-static int resolve_at(const rect_ctx *c, const hit_range *h, int x, int y, double tx, double ty, double *sx,
-                      double *sy, double *d, bool *full)
+/* How far around a guess (source pixels of parallax) a ray's hit is sought: the interpolation between corners 4
+ * pixels apart misses a curved surface's hit by far less. Red's and blue's rays, a chromatic aberration away from
+ * the pixel the guesses are for, look as much farther (on a slanted surface their hits' parallax differs by about
+ * as much: at the full panel's aberration a pixel's margin alone sent four times as many of them to full rays). */
+#define GUESS_MARGIN_PX 1.0
+
+/* trace_at, but the hit sought only at the guesses g (NULL: the full search) of where the ray meets its block's
+ * surfaces, margin_px around each (warp_raytrace_point_guess: a few depth samples, where the full search takes one
+ * per source pixel of the whole depth range, 003 §3.5). A hit there is the ray's first unless something nearer than
+ * every corner's hit stands in its way, or a thin object between two of the surfaces, which no corner saw (at 4
+ * pixels apart); where the ray is behind the height map already at the nearest guess or meets nothing at any (a
+ * disocclusion's wall beyond them, or it leaves the source) it is traced in full (*full). Rolling: under both setups,
+ * at the same guesses (a scan's pose change moves a surface's depth by far less than the margin). */
+static int resolve_at(const rect_ctx *c, const hit_guess *g, double margin_px, int x, int y, double tx, double ty,
+                      double *sx, double *sy, double *d, bool *full)
 {
     *full = false;
     int taken = 0;
-    if (h && h->n) {
+    if (g && g->n) {
         if (!(c->last && c->scan)) {
-            const int r = warp_raytrace_point_within(c->s, tx, ty, h->lo, h->hi, HIT_MARGIN_PX, sx, sy, d, &taken);
+            const int r = warp_raytrace_point_guess(c->s, tx, ty, g->d, g->n, margin_px, sx, sy, d, &taken);
             c->n->samples += taken;
             if (r >= 0) return r;
         } else {
             const double f = warp_scan_fraction(c->scan, c->m->vp_x + x + 0.5, c->m->vp_y + y + 0.5);
             double fx = 0, fy = 0, lx = 0, ly = 0, dl = 0;
             int rf = 0, rl = 0;
-            if (f < 1) rf = warp_raytrace_point_within(c->s, tx, ty, h->lo, h->hi, HIT_MARGIN_PX, &fx, &fy, d, &taken);
+            if (f < 1) rf = warp_raytrace_point_guess(c->s, tx, ty, g->d, g->n, margin_px, &fx, &fy, d, &taken);
             if (rf >= 0 && f > 0)
-                rl = warp_raytrace_point_within(c->last, tx, ty, h->lo, h->hi, HIT_MARGIN_PX, &lx, &ly,
-                                                f < 1 ? &dl : d, &taken);
+                rl = warp_raytrace_point_guess(c->last, tx, ty, g->d, g->n, margin_px, &lx, &ly,
+                                               f < 1 ? &dl : d, &taken);
             c->n->samples += taken;
             if (rf >= 0 && rl >= 0) {
                 *sx = f <= 0 ? fx : (f >= 1 ? lx : fx + (lx - fx) * f);
@@ -276,10 +313,10 @@ static int resolve_at(const rect_ctx *c, const hit_range *h, int x, int y, doubl
 }
 
 /* Traces viewport pixel (x, y) of cell (i, j) (fy: its fraction across the band). all3: each channel its own ray
- * (beside a depth edge, where red's or blue's ray may meet the other side), else green's alone. h: the depths its
- * block's corners hit, where its rays are searched (NULL: full rays). */
+ * (beside a depth edge, where red's or blue's ray may meet the other side), else green's alone. h: where its rays
+ * meet its block's surfaces, where their hits are sought (NULL: full rays). */
 static void trace_pixel(const rect_ctx *c, int i, int j, int x, int y, double fy, bool all3, double dnear,
-                        const hit_range *h, ray_px *r)
+                        const hit_guess *h, ray_px *r)
 {
     const warp_mesh *m = c->m;
     const int cw = m->cell_w;
@@ -298,7 +335,7 @@ static void trace_pixel(const rect_ctx *c, int i, int j, int x, int y, double fy
      * take the surface green hit at their own lens directions. */
     double gx = 0, gy = 0;
     bool full;
-    const int flag = resolve_at(c, h, x, y, px[1], py[1], &gx, &gy, &r->dhit, &full);
+    const int flag = resolve_at(c, h, GUESS_MARGIN_PX, x, y, px[1], py[1], &gx, &gy, &r->dhit, &full);
     if (all3) c->n->pixel_rays += full;
     r->flag = flag;
     r->x[1] = gx;
@@ -327,7 +364,7 @@ static void trace_pixel(const rect_ctx *c, int i, int j, int x, int y, double fy
                     own = inv_at(inv, ic[0] + dnear * ec[0], ic[1] + dnear * ec[1]) > 0.9 * dnear;
                 if (own) {
                     double dh;
-                    resolve_at(c, h, x, y, px[k], py[k], &r->x[k], &r->y[k], &dh, &full);
+                    resolve_at(c, h, GUESS_MARGIN_PX + sqrt(ca), x, y, px[k], py[k], &r->x[k], &r->y[k], &dh, &full);
                     c->n->channel_rays += full;
                 }
             }
@@ -402,8 +439,8 @@ static void trace_block(const rect_ctx *c, int i, int j, int xa, int xb, int ya,
                 el = q[n]->elen > el ? q[n]->elen : el;
             }
             const bool smooth = same && (q[0]->flag & WARP_MASK_FRINGE || (dhi - dlo) * el <= c->px_max);
-            hit_range h;
-            block_hits(q, &h);
+            block_surfaces bs;
+            block_surfaces_of(q, el, &bs);
             for (int y = y0; y < yend; y++) {
                 double fy;
                 band_of(m, y, &fy);
@@ -423,6 +460,8 @@ static void trace_block(const rect_ctx *c, int i, int j, int xa, int xb, int ya,
                         }
                         put(c, row, x, sx, sy);
                     } else {
+                        hit_guess h;
+                        guess_at(&bs, x1 > x0 ? (double)(x - x0) / (x1 - x0) : 0, ty, &h);
                         ray_px r;
                         trace_pixel(c, i, j, x, y, fy, true, dhi, &h, &r);
                         put(c, row, x, r.x, r.y);

@@ -34,8 +34,9 @@ typedef struct {
     _Atomic long lattice_rays; /* full rays (green) on the lattice of the marked cells */
     _Atomic long pixel_rays;   /* full rays (green) for single pixels */
     _Atomic long channel_rays; /* full rays of red or blue beside depth edges */
-    _Atomic long samples;      /* depth samples the searches took: the lattice's, the single pixels' (full or kept
-                                * to their block's depths), red's and blue's (the refinement's not counted) */
+    _Atomic long samples;      /* depth samples the searches took: the lattice's, the single pixels' (full or at
+                                * their block's surfaces, where a surface read counts one), red's and blue's (the
+                                * refinement's not counted) */
 } warp_mesh_trace_stats;
 
 /* The per-cell marks of one mesh: allocated once (start-up), rewritten per vsync by warp_mesh_trace_mark. */
@@ -63,8 +64,9 @@ int warp_mesh_trace_mark(warp_mesh_trace *t, const warp_mesh *m, const warp_came
  * from green's (chromatic aberration) gets its own ray when that surface is not there or something nearer may stop it;
  * sampled from src as the resampler samples (1/64 pixel, clamped border). Rays run on a lattice 4 pixels apart first,
  * and per pixel only in the 4 x 4 blocks whose corners disagree (a flag, or their hits' parallax by more than a pixel);
- * the rest is interpolated between them. A pixel's ray searches only the depths its block's corners hit (a few
- * steps: warp_raytrace_point_within), and the whole depth range only where it finds nothing there. On a rolling
+ * the rest is interpolated between them. A pixel's ray is sought only where it would meet the surfaces its block's
+ * corners hit (their depths interpolated to it: one surface read where that surface is smooth, a few steps at an
+ * edge: warp_raytrace_point_guess), and over the whole depth range only where it finds nothing there. On a rolling
  * panel (last and scan not NULL) each pixel is traced under s (the first line's pose) and last and interpolated by
  * its scan fraction, as the mesh's vertices are. Hidden pixels (m->visible) are left alone. Allocation-free;
  * rectangles are independent (threads). */

@@ -193,6 +193,69 @@ static ray_ctx ray_ctx_make(const warp_raytrace_setup *s)
     return c;
 }
 
+/* The homogeneous source position (*bx, *by, *bw) of the point at infinity of the ray through continuous target
+ * position (tx, ty): what warp_raytrace_rows reaches by stepping along a row (up to rounding). */
+static inline void ray_at_infinity(const warp_raytrace_setup *s, double tx, double ty, double *bx, double *by,
+                                   double *bw)
+{
+    *bx = s->h.m[0][0] * tx + s->h.m[0][1] * ty + s->h.m[0][2];
+    *by = s->h.m[1][0] * tx + s->h.m[1][1] * ty + s->h.m[1][2];
+    *bw = s->h.m[2][0] * tx + s->h.m[2][1] * ty + s->h.m[2][2];
+}
+
+/* One ray's line in the source (S(D) = pi + D * e, the derivation at the top) and the search's interval and step
+ * grid on it: every search over a ray (trace_ray and the bracketed ones) takes these, so that they sample the same
+ * depths. */
+typedef struct {
+    double pix, piy, ex, ey;
+    double lo, hi;     /* the interval in inverse depth, clipped to the image (lo: far end, hi: near end) */
+    bool near_clipped; /* hi was cut at the image border (the ray enters it below the near limit) */
+    double epx;        /* source pixels of parallax per unit of inverse depth: |e| */
+    double len;        /* the interval's length in source pixels */
+    int n;             /* steps: one per source pixel (003 §3.5: n_d is the pixel count), within the budget */
+    double dd;         /* inverse depth per step */
+} ray_span;
+
+enum {
+    RAY_SPAN_OK = 0,
+    RAY_SPAN_BEYOND_90 = 1, /* no point at infinity in the source image: g unset */
+    RAY_SPAN_OUTSIDE = 2,   /* no part of the interval inside the image: lo and hi as far as the clip got (the fringe
+                             * fill samples there), len, n and dd unset */
+};
+
+/* Fills g for the ray whose point at infinity has homogeneous source position (bx, by, bw). Returns RAY_SPAN_*. */
+static inline __attribute__((always_inline)) int ray_span_make(const ray_ctx *c, double bx, double by, double bw,
+                                                                ray_span *g)
+{
+    const warp_raytrace_setup *s = c->s;
+    /* A ray at or beyond 90 degrees from the source view axis has no point at infinity in the source
+     * image; with centimetre head translations such rays see nothing the source saw: fringe. */
+    if (!(bw > 1e-9 * (fabs(bx) + fabs(by) + fabs(bw)))) return RAY_SPAN_BEYOND_90;
+    g->pix = bx / bw;
+    g->piy = by / bw;
+    g->ex = s->ax - s->aw * g->pix;
+    g->ey = s->ay - s->aw * g->piy;
+    /* Search interval in inverse depth: the scene's depth range, cut to the part of the ray in front of
+     * the target eye (D <= 1/aw when the eye is in front of the source eye's plane) ... */
+    g->hi = c->dmax;
+    g->lo = c->dmin;
+    if (s->aw > 0 && 1.0 / s->aw < g->hi) g->hi = 1.0 / s->aw;
+    const double hi0 = g->hi;
+    /* ... and to the part that projects inside the source image, where the height map is known. */
+    if (!(g->lo <= g->hi && clip_axis(g->pix, g->ex, c->sw, &g->lo, &g->hi) &&
+          clip_axis(g->piy, g->ey, c->sh, &g->lo, &g->hi)))
+        return RAY_SPAN_OUTSIDE;
+    g->near_clipped = g->hi < hi0;
+    /* One step per source pixel along the segment (003 §3.5: n_d is the pixel count), within budget. */
+    g->epx = sqrt(g->ex * g->ex + g->ey * g->ey);
+    g->len = fabs(g->hi - g->lo) * g->epx;
+    g->n = (int)ceil(g->len);
+    if (g->n < 1) g->n = 1;
+    if (g->n > c->max_steps) g->n = c->max_steps;
+    g->dd = (g->hi - g->lo) / g->n;
+    return 0;
+}
+
 /* The hit between the last search sample in front of the surface (inverse depth da, height over the ray fa < 0)
  * and the first one behind it (db, fb >= 0): regula falsi (Illinois), so that it lands between samples, not on
  * the step grid. */
@@ -270,47 +333,31 @@ static inline __attribute__((always_inline)) uint8_t trace_ray(const ray_ctx *c,
 {
     const warp_raytrace_setup *s = c->s;
     const warp_image_f32 *dimg = c->dimg;
-    const double sw = c->sw, sh = c->sh;
-    const double dmin = c->dmin, dmax = c->dmax;
-    const int max_steps = c->max_steps;
     const float jump = c->jump;
     const int chunk = c->chunk;
     uint8_t flag = 0;
-    /* A ray at or beyond 90 degrees from the source view axis has no point at infinity in the source
-     * image; with centimetre head translations such rays see nothing the source saw: fringe. */
-    if (!(bw > 1e-9 * (fabs(bx) + fabs(by) + fabs(bw)))) {
-        *hx = bx > 0 ? (float)sw : 0.f;
-        *hy = by > 0 ? (float)sh : 0.f;
-        *dhit = 0;
-        return WARP_MASK_FRINGE;
-    }
-    double pix = bx / bw, piy = by / bw;
-    double ex = s->ax - s->aw * pix, ey = s->ay - s->aw * piy;
-    /* Search interval in inverse depth: the scene's depth range, cut to the part of the ray in front of
-     * the target eye (D <= 1/aw when the eye is in front of the source eye's plane) ... */
-    double hi = dmax, lo = dmin;
-    if (s->aw > 0 && 1.0 / s->aw < hi) hi = 1.0 / s->aw;
-    bool near_clipped = false;
-    double hi0 = hi;
-    /* ... and to the part that projects inside the source image, where the height map is known. */
-    bool inside = lo <= hi && clip_axis(pix, ex, sw, &lo, &hi) && clip_axis(piy, ey, sh, &lo, &hi);
-    if (!inside) {
+    ray_span g;
+    const int span = ray_span_make(c, bx, by, bw, &g);
+    if (span != RAY_SPAN_OK) {
+        /* with centimetre head translations a ray beyond 90 degrees sees nothing the source saw: fringe */
+        if (span == RAY_SPAN_BEYOND_90) {
+            *hx = bx > 0 ? (float)c->sw : 0.f;
+            *hy = by > 0 ? (float)c->sh : 0.f;
+            *dhit = 0;
+            return WARP_MASK_FRINGE;
+        }
         /* The clip moved lo to where the ray would enter the image, which may lie nearer than anything in
          * the frame; the fringe fill samples the ray within the frame's depth range (for an all-sky
          * frame exactly the rotation reprojection's clamped sample). */
-        double d = lo < dmin ? dmin : (lo > dmax ? dmax : lo);
+        double d = g.lo < c->dmin ? c->dmin : (g.lo > c->dmax ? c->dmax : g.lo);
         *dhit = d;
-        *hx = (float)(pix + d * ex);
-        *hy = (float)(piy + d * ey);
+        *hx = (float)(g.pix + d * g.ex);
+        *hy = (float)(g.piy + d * g.ey);
         return WARP_MASK_FRINGE;
     }
-    near_clipped = hi < hi0;
-    /* One step per source pixel along the segment (003 §3.5: n_d is the pixel count), within budget. */
-    double len = fabs(hi - lo) * sqrt(ex * ex + ey * ey);
-    int n = (int)ceil(len);
-    if (n < 1) n = 1;
-    if (n > max_steps) n = max_steps;
-    double dd = (hi - lo) / n;
+    const double pix = g.pix, piy = g.piy, ex = g.ex, ey = g.ey, hi = g.hi, lo = g.lo, len = g.len, dd = g.dd;
+    const bool near_clipped = g.near_clipped;
+    const int n = g.n;
 
     double da = hi, fa;
     float sa = inv_at(dimg, (float)(pix + da * ex), (float)(piy + da * ey), jump);
@@ -431,10 +478,8 @@ int warp_raytrace_point_depth(const warp_raytrace_setup *s, double tx, double ty
                               warp_raytrace_stats *st)
 {
     const ray_ctx c = ray_ctx_make(s);
-    /* the same homogeneous position warp_raytrace_rows reaches by stepping along a row (up to rounding) */
-    double bx = s->h.m[0][0] * tx + s->h.m[0][1] * ty + s->h.m[0][2];
-    double by = s->h.m[1][0] * tx + s->h.m[1][1] * ty + s->h.m[1][2];
-    double bw = s->h.m[2][0] * tx + s->h.m[2][1] * ty + s->h.m[2][2];
+    double bx, by, bw;
+    ray_at_infinity(s, tx, ty, &bx, &by, &bw);
     long steps = 0, samples = 0;
     float hx, hy;
     double dhit;
@@ -451,59 +496,172 @@ int warp_raytrace_point_depth(const warp_raytrace_setup *s, double tx, double ty
     return flag;
 }
 
-int warp_raytrace_point_within(const warp_raytrace_setup *s, double tx, double ty, double d_lo, double d_hi,
-                               double margin_px, double *sx, double *sy, double *d, int *samples)
+/* Height of the height map over the ray at the full search's k-th step (k = n: its far end exactly, as trace_ray
+ * takes it); >= 0: at or behind the surface. */
+static inline double grid_height(const ray_ctx *c, const ray_span *g, int k, double *dk)
+{
+    const double dv = k >= g->n ? g->lo : g->hi - g->dd * k;
+    *dk = dv;
+    return inv_at(c->dimg, (float)(g->pix + dv * g->ex), (float)(g->piy + dv * g->ey), c->jump) - dv;
+}
+
+/* The 2 x 2 texels a bilinear sample at (x, y) reads (clamped as inv_at clamps), its bilinear value and gradient
+ * (per source pixel) into *v, *gx, *gy, and the nearest and farthest of them into *near_d and *far_d (as
+ * cell_range). */
+static inline void cell_at(const warp_image_f32 *d, float x, float y, float *v, float *gx, float *gy, float *near_d,
+                           float *far_d)
+{
+    float fx = x - 0.5f, fy = y - 0.5f;
+    fx = fx > 0 ? (fx < (float)(d->w - 1) ? fx : (float)(d->w - 1)) : 0; /* NaN too: to 0 */
+    fy = fy > 0 ? (fy < (float)(d->h - 1) ? fy : (float)(d->h - 1)) : 0;
+    const int x0 = (int)fx, y0 = (int)fy;
+    const int x1 = x0 + (x0 + 1 < d->w), y1 = y0 + (y0 + 1 < d->h);
+    const float ax = fx - (float)x0, ay = fy - (float)y0;
+    const float *r0 = &WARP_AT(d, 0, y0), *r1 = &WARP_AT(d, 0, y1);
+    const float d00 = r0[x0], d10 = r0[x1], d01 = r1[x0], d11 = r1[x1];
+    const float m0 = d00 > d10 ? d00 : d10, m1 = d01 > d11 ? d01 : d11, n0 = d00 < d10 ? d00 : d10,
+                n1 = d01 < d11 ? d01 : d11;
+    const float top = d00 + (d10 - d00) * ax, bot = d01 + (d11 - d01) * ax;
+    *v = top + (bot - top) * ay;
+    *gx = (d10 - d00) + ((d11 - d01) - (d10 - d00)) * ay;
+    *gy = bot - top;
+    *near_d = m0 > m1 ? m0 : m1;
+    *far_d = n0 < n1 ? n0 : n1;
+}
+
+/* How close (source pixels along the ray) the hit that guess_on_surface solves for must come to the height map: the
+ * full search's refinement stops at a bracket of 1/64 pixel. */
+#define GUESS_RESIDUAL_PX (1.0 / 32)
+
+enum { GUESS_UNSURE, GUESS_HIT, GUESS_FRONT };
+
+/* The ray's hit near inverse depth dg where the height map is one smooth surface there (003 §3.5 with no edge
+ * rule to apply): one Newton step from dg on the bilinear surface under the ray, accepted when it lands within half
+ * a pixel, the surface under it (and up to one search step nearer, where the full search's last sample in front
+ * lies) spans no depth edge, and the height map there is within GUESS_RESIDUAL_PX of the ray. Then the full search
+ * would find this hit too (if it is the ray's first), to its refinement's precision, and leave it where it is:
+ * GUESS_HIT with the hit's inverse depth in *dh. Two or three cell reads, where the search, its refinement and its
+ * edge rules take some ten. GUESS_FRONT where the ray passes in front of a smooth surface there by more than
+ * margin (inverse depth): it does not meet that surface near dg. */
+static int guess_on_surface(const ray_ctx *c, const ray_span *g, double dg, double margin, double *dh, int *taken)
+{
+    if (!(dg > g->lo && dg < g->hi - 2 * g->dd)) return GUESS_UNSURE;
+    float v, gx, gy, nd, fd;
+    (*taken)++;
+    cell_at(c->dimg, (float)(g->pix + dg * g->ex), (float)(g->piy + dg * g->ey), &v, &gx, &gy, &nd, &fd);
+    if (nd - fd > c->jump * nd) return GUESS_UNSURE;
+    if (nd < dg - margin) return GUESS_FRONT;
+    /* f(D) = h(S(D)) - D falls through 0 at the hit: its slope is h's gradient along e, less 1 */
+    const double slope = 1 - ((double)gx * g->ex + (double)gy * g->ey);
+    /* a ray grazing the surface (or one leaving it) is the full search's to resolve */
+    if (!(slope > 0.25)) return GUESS_UNSURE;
+    const double d1 = dg + (v - dg) / slope;
+    if (!(fabs(d1 - dg) * g->epx <= 0.5 && d1 > g->lo && d1 < g->hi - 2 * g->dd)) return GUESS_UNSURE;
+    float v1, gx1, gy1, nd1, fd1, v2, gx2, gy2, nd2, fd2;
+    *taken += 2;
+    cell_at(c->dimg, (float)(g->pix + d1 * g->ex), (float)(g->piy + d1 * g->ey), &v1, &gx1, &gy1, &nd1, &fd1);
+    const double df = d1 + g->dd;
+    cell_at(c->dimg, (float)(g->pix + df * g->ex), (float)(g->piy + df * g->ey), &v2, &gx2, &gy2, &nd2, &fd2);
+    const float near_d = nd1 > nd2 ? nd1 : nd2, far_d = fd1 < fd2 ? fd1 : fd2;
+    if (near_d - far_d > c->jump * near_d) return GUESS_UNSURE;
+    if (!(fabs(v1 - d1) / slope * g->epx <= GUESS_RESIDUAL_PX)) return GUESS_UNSURE;
+    *dh = d1;
+    return GUESS_HIT;
+}
+
+int warp_raytrace_point_guess(const warp_raytrace_setup *s, double tx, double ty, const double *cand, int n_cand,
+                              double margin_px, double *sx, double *sy, double *d, int *samples)
 {
     const ray_ctx c = ray_ctx_make(s);
-    const double bx = s->h.m[0][0] * tx + s->h.m[0][1] * ty + s->h.m[0][2];
-    const double by = s->h.m[1][0] * tx + s->h.m[1][1] * ty + s->h.m[1][2];
-    const double bw = s->h.m[2][0] * tx + s->h.m[2][1] * ty + s->h.m[2][2];
-    if (!(bw > 1e-9 * (fabs(bx) + fabs(by) + fabs(bw)))) return WARP_WITHIN_MISSED;
-    const double pix = bx / bw, piy = by / bw;
-    const double ex = s->ax - s->aw * pix, ey = s->ay - s->aw * piy;
-    /* the full search's interval (trace_ray), for its length and to keep the bracket inside it */
-    double hi = c.dmax, lo = c.dmin;
-    if (s->aw > 0 && 1.0 / s->aw < hi) hi = 1.0 / s->aw;
-    if (!(lo <= hi && clip_axis(pix, ex, c.sw, &lo, &hi) && clip_axis(piy, ey, c.sh, &lo, &hi)))
-        return WARP_WITHIN_MISSED;
-    const double epx = sqrt(ex * ex + ey * ey), len = fabs(hi - lo) * epx;
-    /* Without translation every depth is the same source point: the full ray takes one step, nothing to save. */
-    if (!(epx > 1e-9)) return WARP_WITHIN_MISSED;
-    /* The full search's step grid (trace_ray: n steps from hi to lo), so that the samples bracketing a hit, on
-     * which the refinement and the edge rules decide, are the full search's own: a hit that is the ray's first
-     * comes out bit for bit as warp_raytrace_point's. */
-    int n = (int)ceil(len);
-    n = n < 1 ? 1 : (n > s->p.max_steps ? s->p.max_steps : n);
-    const double dd = (hi - lo) / n;
-    const double top = d_hi + margin_px / epx, bot = d_lo - margin_px / epx;
-    /* A bracket reaching the search's near end would also have to repeat its image-border rule: the full ray. */
-    if (!(top < hi)) return WARP_WITHIN_MISSED;
-    const int k0 = (int)((hi - top) / dd), k1 = bot > lo ? (int)ceil((hi - bot) / dd) : n;
-    if (k0 < 1 || k0 >= k1 || k1 > n) return WARP_WITHIN_MISSED;
-    double da = hi - dd * k0;
-    double fa = inv_at(c.dimg, (float)(pix + da * ex), (float)(piy + da * ey), c.jump) - da;
-    int taken = 1;
-    if (fa >= 0) {
-        if (samples) *samples += taken;
-        return WARP_WITHIN_BEHIND;
+    double bx, by, bw;
+    ray_at_infinity(s, tx, ty, &bx, &by, &bw);
+    ray_span g;
+    if (ray_span_make(&c, bx, by, bw, &g) != RAY_SPAN_OK || !(g.epx > 1e-9)) return WARP_GUESS_MISSED;
+    const double m = margin_px / g.epx;
+    int taken = 0;
+    /* The candidates at their word, nearest first, while the ray passes clearly in front of the smooth surfaces at
+     * the nearer ones: a ray in front of an edge's near side at its depth and on the far side at the far side's
+     * depth did not meet the near side's wall between (a straight silhouette between the two points does not cross
+     * the straight line between them; a thin object there is the caller's to exclude, as for the search below). */
+    double dh;
+    for (int i = 0; i < n_cand; i++) {
+        const int r = guess_on_surface(&c, &g, cand[i], m, &dh, &taken);
+        if (r == GUESS_FRONT) continue;
+        if (r == GUESS_HIT) {
+            if (samples) *samples += taken;
+            *sx = (float)(g.pix + dh * g.ex);
+            *sy = (float)(g.piy + dh * g.ey);
+            if (d) *d = dh;
+            return 0;
+        }
+        break;
     }
-    double db = da, fb = fa;
-    int k;
-    for (k = k0 + 1; k <= k1; k++) {
-        db = k == n ? lo : hi - dd * k;
-        fb = inv_at(c.dimg, (float)(pix + db * ex), (float)(piy + db * ey), c.jump) - db;
+    /* Samples on the full search's step grid only (step k at hi - k dd), so that the two bracketing the crossing,
+     * on which the refinement and the edge rules decide, are the ones the full search would take: the last step
+     * known in front of the height map (kf) and, once found, the first behind it (kb). */
+    int kf = 0, kb = 0;
+    double da = 0, fa = 0, db = 0, fb = 0;
+    bool front = false, hit = false;
+    for (int i = 0; i < n_cand && !hit; i++) {
+        const double kt = floor((g.hi - (cand[i] + m)) / g.dd), kl = ceil((g.hi - (cand[i] - m)) / g.dd);
+        /* A bracket reaching the search's near end would also have to repeat its image-border rule: the full ray.
+         * One beyond its far end searches nothing. */
+        if (!(kt >= 1) || !(kt < g.n)) break;
+        const int kbot = kl < g.n ? (int)kl : g.n;
+        /* every step of the candidate's bracket (a few: a thin surface may lie between two), from its near end or
+         * the previous candidate's far end, where that lies below it */
+        for (int k = front && kf >= (int)kt ? kf + 1 : (int)kt; k <= kbot; k++) {
+            double dk;
+            const double fk = grid_height(&c, &g, k, &dk);
+            taken++;
+            if (fk < 0) {
+                kf = k;
+                da = dk;
+                fa = fk;
+                front = true;
+                continue;
+            }
+            if (!front) {
+                /* behind the height map already in front of the nearest surface: something nearer stands in the
+                 * ray's way, which only the full search finds */
+                if (samples) *samples += taken;
+                return WARP_GUESS_BEHIND;
+            }
+            /* behind: the crossing lies after kf (at this candidate's near end after passing in front of the
+             * previous candidate's surface: what lies between them, at a disocclusion the near side's wall) */
+            kb = k;
+            db = dk;
+            fb = fk;
+            hit = true;
+            break;
+        }
+    }
+    if (!hit) {
+        if (samples) *samples += taken;
+        return WARP_GUESS_MISSED;
+    }
+    /* halve the bracket down to one step */
+    while (kb - kf > 1) {
+        const int km = kf + (kb - kf) / 2;
+        double dm;
+        const double fm = grid_height(&c, &g, km, &dm);
         taken++;
-        if (fb >= 0) break;
-        da = db;
-        fa = fb;
+        if (fm >= 0) {
+            kb = km;
+            db = dm;
+            fb = fm;
+        } else {
+            kf = km;
+            da = dm;
+            fa = fm;
+        }
     }
     if (samples) *samples += taken;
-    if (k > k1) return WARP_WITHIN_MISSED;
     const double dfront = da;
-    da = refine_hit(&c, pix, piy, ex, ey, da, fa, db, fb);
+    dh = refine_hit(&c, g.pix, g.piy, g.ex, g.ey, da, fa, db, fb);
     float hx, hy;
-    const uint8_t flag = edge_rules(&c, pix, piy, ex, ey, len, da, dfront, 0, &hx, &hy);
+    const uint8_t flag = edge_rules(&c, g.pix, g.piy, g.ex, g.ey, g.len, dh, dfront, 0, &hx, &hy);
     point_source(s, flag, hx, hy, sx, sy);
-    if (d) *d = da;
+    if (d) *d = dh;
     return flag;
 }

@@ -77,21 +77,26 @@ int warp_raytrace_point_depth(const warp_raytrace_setup *s, double tx, double ty
                               warp_raytrace_stats *st);
 
 enum {
-    WARP_WITHIN_BEHIND = -1, /* the ray is behind the height map already at the bracket's near end */
-    WARP_WITHIN_MISSED = -2, /* it meets nothing inside the bracket (or the bracket cannot be searched) */
+    WARP_GUESS_BEHIND = -1, /* the ray is behind the height map already at the first guess's near end */
+    WARP_GUESS_MISSED = -2, /* it meets nothing at any guess (or cannot be searched there) */
 };
 
-/* warp_raytrace_point's ray through (tx, ty), searched only between the inverse depths d_hi and d_lo, each widened
- * by margin_px source pixels of the ray's parallax: the raytrace's hit test (003 §3.5) around a surface the caller
- * expects the ray to meet (one its neighbours' rays met), a few steps where the full search takes one per pixel
- * of the whole depth range. The search steps, refinement and edge rules are warp_raytrace_point's, so a hit inside
- * the bracket that is the ray's first is where warp_raytrace_point puts it; whether it is the first (nothing
- * nearer before d_hi) is the caller's to know. Returns the flag (0 or WARP_MASK_EDGE) and writes the source
- * position as warp_raytrace_point does and the hit's inverse depth as warp_raytrace_point_depth does (d may be
- * NULL); or WARP_WITHIN_BEHIND or WARP_WITHIN_MISSED, and writes nothing (MISSED also for a ray of no parallax,
- * beyond 90 degrees, or whose bracket leaves the image or reaches the search's near end: warp_raytrace_point's own
- * rules hold there). Adds the depth samples taken to *samples (may be NULL). */
-int warp_raytrace_point_within(const warp_raytrace_setup *s, double tx, double ty, double d_lo, double d_hi,
-                               double margin_px, double *sx, double *sy, double *d, int *samples);
+/* warp_raytrace_point_depth's ray through (tx, ty) without its linear search over the whole depth range: its hit
+ * sought only at the inverse depths cand[0..n_cand) (nearest first) at which the caller expects it to meet a surface
+ * (where its neighbours' rays met theirs, interpolated to this ray; 000 §3-4's reasoning on a grid's vertices), each
+ * within margin_px source pixels of parallax. First each guess at its word, one surface read: where the height map
+ * is smooth there, one Newton step on it gives the hit if the ray meets it within half a pixel (and to 1/32 pixel);
+ * a guess it passes clearly in front of is skipped. Otherwise the full search's own steps in each guess's margin,
+ * and a crossing between two guesses (in front of the nearer surface, behind the farther one's near end: at a
+ * disocclusion the near side's wall) halved down to one step; then the full search's refinement and edge rules
+ * (003 §3.5, §4.4), so that such a hit lands bit for bit where warp_raytrace_point_depth puts it when it is the
+ * ray's first. That it is (nothing nearer than the first guess, no thin object between two) is the caller's to know.
+ * Returns the flag (0 or WARP_MASK_EDGE) and writes the source position as warp_raytrace_point does and the hit's
+ * inverse depth into *d (may be NULL); or WARP_GUESS_BEHIND or WARP_GUESS_MISSED, writing nothing (MISSED also for
+ * a ray of no parallax, beyond 90 degrees, or whose guess reaches the search's near end, where the full search's
+ * own rules hold). Adds the depth samples taken (surface reads and steps, not the refinement's) to *samples (may be
+ * NULL). */
+int warp_raytrace_point_guess(const warp_raytrace_setup *s, double tx, double ty, const double *cand, int n_cand,
+                              double margin_px, double *sx, double *sy, double *d, int *samples);
 
 #endif
