@@ -643,11 +643,7 @@ static bool ffs_wait_enabled(ffs_transport *t, int timeout_ms)
 {
     pthread_mutex_lock(&t->lock);
     if (!t->enabled && timeout_ms > 0) {
-        struct timespec ts;
-        clock_gettime(CLOCK_MONOTONIC, &ts);
-        int64_t ns = ts.tv_nsec + (int64_t)timeout_ms * PLAT_NS_PER_MS;
-        ts.tv_sec += ns / PLAT_NS_PER_S;
-        ts.tv_nsec = ns % PLAT_NS_PER_S;
+        struct timespec ts = plat_deadline_after_ms(timeout_ms);
         while (!t->enabled && pthread_cond_timedwait(&t->cond, &t->lock, &ts) == 0) {
         }
     }
@@ -914,11 +910,7 @@ drv_frames *drv_frames_usb_create(const drv_frames_usb_params *p, char *err, int
     t->out.fd = t->in.fd = t->out.efd = t->in.efd = -1;
     t->owner = u;
     pthread_mutex_init(&t->lock, NULL);
-    pthread_condattr_t ca;
-    pthread_condattr_init(&ca);
-    pthread_condattr_setclock(&ca, CLOCK_MONOTONIC);
-    pthread_cond_init(&t->cond, &ca);
-    pthread_condattr_destroy(&ca);
+    plat_cond_init_monotonic(&t->cond);
     t->base.read = ffs_read;
     t->base.write = ffs_write;
     t->base.connected = ffs_connected;
