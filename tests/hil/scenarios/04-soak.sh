@@ -38,6 +38,10 @@ while kill -0 "$HIL_HMD_PID" 2>/dev/null; do
     if [ "$now" -ge "$next_rss" ]; then
         r=$(hil_rss_kb "$HIL_HMD_PID"); [ -n "$r" ] && echo "$now $r" >>"$HIL_WORK/rss"; next_rss=$((now + 5))
     fi
+    # The relock after the TE dropout, watched from 2 s after the line came back (the TE player started before t0,
+    # so its stop ended by then): a starved VM can hold the player back at the run's very end, and the source then
+    # rightly falls back for a moment, so the stats file's last word alone is a target (hil_expect_locked).
+    [ "$now" -lt $((te_stop_at + 3)) ] || hil_live_watch_locked
     sleep 1
 done
 hil_hmdwarpd_wait 60
@@ -57,7 +61,7 @@ hil_expect_stat imu_reconnects '>=' 1 "IMU replug seen"
 hil_expect_stat imu_connected '==' 1 "IMU connected at the end"
 hil_expect_stat imu_bad_reports '>=' 1 "damaged HID reports counted"
 hil_expect_te vsync_fallbacks '>=' 1 "timer fallback during the TE dropout"
-hil_expect_te vsync_on_timer '==' 0 "relocked on the TE line"
+hil_expect_locked "relocked on the TE line after its dropout"
 hil_expect_stat frames_received '>=' 20 "host frames over the soak"
 hil_target frames_received '>=' "$D" "host frame rate over the soak"
 hil_expect_stat frames_rejected '==' 0 "rejected frames on a clean link"

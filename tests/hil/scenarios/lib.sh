@@ -395,9 +395,22 @@ hil_live_wait_locked() {
     case "$(hil_stat vsync_backend "$HIL_LIVE" 2>/dev/null)" in gpio | kms) ;; *) return 0 ;; esac
     while [ "$(hil_stat vsync_on_timer "$HIL_LIVE" 2>/dev/null)" != 0 ] && [ "$i" -lt $(($1 * 5)) ] &&
         kill -0 "$HIL_HMD_PID" 2>/dev/null; do
-        sleep 0.2; hlni=$((hlni + 1))
+        sleep 0.2; i=$((i + 1))
     done
     if [ "$(hil_stat vsync_on_timer "$HIL_LIVE" 2>/dev/null)" = 0 ]; then HIL_LOCKED_SEEN=1; else HIL_LOCKED_SEEN=0; fi
+    HIL_WAIT_TE1=$(hil_te_counts)
+}
+# hil_live_watch_locked: hil_live_wait_locked for a scenario whose own loop runs beside hmdwarpd (04's soak): call
+# it once per turn from a point after the line's last fault on; the first call starts the watch (its TE counts),
+# each call records a lock the live stats show (vsync_on_timer=0) and where the TE player stands. hil_expect_locked
+# judges it as it judges a wait: a lock seen any time after the fault, not only in the run's last second.
+hil_live_watch_locked() {
+    case "${HIL_LOCKED_SEEN:-}" in
+    1 | none) return 0 ;;
+    "") HIL_WAIT_TE0=$(hil_te_counts); HIL_LOCKED_SEEN=0
+        case "$(hil_stat vsync_backend "$HIL_LIVE" 2>/dev/null)" in gpio | kms) ;; *) HIL_LOCKED_SEEN=none; return 0 ;; esac ;;
+    esac
+    [ "$(hil_stat vsync_on_timer "$HIL_LIVE" 2>/dev/null)" = 0 ] && HIL_LOCKED_SEEN=1
     HIL_WAIT_TE1=$(hil_te_counts)
 }
 # hil_te_counts: "PULSES DROPPED_LATE" of the TE player so far (its ready file, once a second), empty without one.
