@@ -88,27 +88,46 @@ static float region_max(const warp_raytrace_setup *s, double px, double py, doub
     return m;
 }
 
-/* Inverse depth of the height map at continuous position (x, y), clamped to the image like the colour fringe
- * fill: bilinear on a surface, but in a cell whose four texels span a depth edge (a relative jump over `jump`) the
- * nearest texel's. The map then has a vertical wall halfway between a near and a far texel instead of a slope one
- * pixel wide, which rays grazing a near object's silhouette passed over: each texel keeps its own half pixel. */
+/* The 2 x 2 texels a bilinear sample of the height map at continuous position (x, y) reads, clamped to the image
+ * like the colour fringe fill (a NaN position to 0), and its weights: inv_at's and cell_at's one fetch. */
+typedef struct {
+    float d00, d10, d01, d11; /* texels (x0, y0), (x1, y0), (x0, y1), (x1, y1) */
+    float ax, ay;             /* the weights of x1 and y1 */
+    const float *r0, *r1;     /* rows y0 and y1 */
+    int x0, x1;
+} cell_texels;
+
+static inline cell_texels cell_fetch(const warp_image_f32 *d, float x, float y)
+{
+    cell_texels t;
+    float fx = x - 0.5f, fy = y - 0.5f;
+    fx = fx > 0 ? (fx < (float)(d->w - 1) ? fx : (float)(d->w - 1)) : 0;
+    fy = fy > 0 ? (fy < (float)(d->h - 1) ? fy : (float)(d->h - 1)) : 0;
+    t.x0 = (int)fx;
+    const int y0 = (int)fy;
+    t.x1 = t.x0 + (t.x0 + 1 < d->w);
+    const int y1 = y0 + (y0 + 1 < d->h);
+    t.ax = fx - (float)t.x0, t.ay = fy - (float)y0;
+    t.r0 = &WARP_AT(d, 0, y0), t.r1 = &WARP_AT(d, 0, y1);
+    t.d00 = t.r0[t.x0], t.d10 = t.r0[t.x1], t.d01 = t.r1[t.x0], t.d11 = t.r1[t.x1];
+    return t;
+}
+
+/* Inverse depth of the height map at continuous position (x, y): bilinear on a surface, but in a cell whose four
+ * texels span a depth edge (a relative jump over `jump`) the nearest texel's. The map then has a vertical wall
+ * halfway between a near and a far texel instead of a slope one pixel wide, which rays grazing a near object's
+ * silhouette passed over: each texel keeps its own half pixel. */
 static inline float inv_at(const warp_image_f32 *d, float x, float y, float jump)
 {
-    float fx = x - 0.5f, fy = y - 0.5f;
-    fx = fx < 0 ? 0 : (fx > (float)(d->w - 1) ? (float)(d->w - 1) : fx);
-    fy = fy < 0 ? 0 : (fy > (float)(d->h - 1) ? (float)(d->h - 1) : fy);
-    int x0 = (int)fx, y0 = (int)fy;
-    int x1 = x0 + (x0 + 1 < d->w), y1 = y0 + (y0 + 1 < d->h);
-    float ax = fx - (float)x0, ay = fy - (float)y0;
-    const float *r0 = &WARP_AT(d, 0, y0), *r1 = &WARP_AT(d, 0, y1);
-    float d00 = r0[x0], d10 = r0[x1], d01 = r1[x0], d11 = r1[x1];
+    const cell_texels t = cell_fetch(d, x, y);
     /* ternaries, not fmaxf: they compile to maxss/minss, where fmaxf's NaN rules cost a call per sample */
-    float m0 = d00 > d10 ? d00 : d10, m1 = d01 > d11 ? d01 : d11, n0 = d00 < d10 ? d00 : d10, n1 = d01 < d11 ? d01 : d11;
+    float m0 = t.d00 > t.d10 ? t.d00 : t.d10, m1 = t.d01 > t.d11 ? t.d01 : t.d11;
+    float n0 = t.d00 < t.d10 ? t.d00 : t.d10, n1 = t.d01 < t.d11 ? t.d01 : t.d11;
     float mx = m0 > m1 ? m0 : m1, mn = n0 < n1 ? n0 : n1;
-    if (mx - mn > jump * mx) return (ay < 0.5f ? r0 : r1)[ax < 0.5f ? x0 : x1];
-    float top = d00 + (d10 - d00) * ax;
-    float bot = d01 + (d11 - d01) * ax;
-    return top + (bot - top) * ay;
+    if (mx - mn > jump * mx) return (t.ay < 0.5f ? t.r0 : t.r1)[t.ax < 0.5f ? t.x0 : t.x1];
+    float top = t.d00 + (t.d10 - t.d00) * t.ax;
+    float bot = t.d01 + (t.d11 - t.d01) * t.ax;
+    return top + (bot - top) * t.ay;
 }
 
 /* Nearest and farthest of the four texels a bilinear sample at (x, y) reads, into *near_d and *far_d. */
@@ -505,25 +524,17 @@ static inline double grid_height(const ray_ctx *c, const ray_span *g, int k, dou
     return inv_at(c->dimg, (float)(g->pix + dv * g->ex), (float)(g->piy + dv * g->ey), c->jump) - dv;
 }
 
-/* The 2 x 2 texels a bilinear sample at (x, y) reads (clamped as inv_at clamps), its bilinear value and gradient
- * (per source pixel) into *v, *gx, *gy, and the nearest and farthest of them into *near_d and *far_d (as
- * cell_range). */
+/* The bilinear value and gradient (per source pixel) of the height map at (x, y) (cell_fetch's texels) into *v,
+ * *gx, *gy, and the nearest and farthest of the texels into *near_d and *far_d (as cell_range). */
 static inline void cell_at(const warp_image_f32 *d, float x, float y, float *v, float *gx, float *gy, float *near_d,
                            float *far_d)
 {
-    float fx = x - 0.5f, fy = y - 0.5f;
-    fx = fx > 0 ? (fx < (float)(d->w - 1) ? fx : (float)(d->w - 1)) : 0; /* NaN too: to 0 */
-    fy = fy > 0 ? (fy < (float)(d->h - 1) ? fy : (float)(d->h - 1)) : 0;
-    const int x0 = (int)fx, y0 = (int)fy;
-    const int x1 = x0 + (x0 + 1 < d->w), y1 = y0 + (y0 + 1 < d->h);
-    const float ax = fx - (float)x0, ay = fy - (float)y0;
-    const float *r0 = &WARP_AT(d, 0, y0), *r1 = &WARP_AT(d, 0, y1);
-    const float d00 = r0[x0], d10 = r0[x1], d01 = r1[x0], d11 = r1[x1];
-    const float m0 = d00 > d10 ? d00 : d10, m1 = d01 > d11 ? d01 : d11, n0 = d00 < d10 ? d00 : d10,
-                n1 = d01 < d11 ? d01 : d11;
-    const float top = d00 + (d10 - d00) * ax, bot = d01 + (d11 - d01) * ax;
-    *v = top + (bot - top) * ay;
-    *gx = (d10 - d00) + ((d11 - d01) - (d10 - d00)) * ay;
+    const cell_texels t = cell_fetch(d, x, y);
+    const float m0 = t.d00 > t.d10 ? t.d00 : t.d10, m1 = t.d01 > t.d11 ? t.d01 : t.d11;
+    const float n0 = t.d00 < t.d10 ? t.d00 : t.d10, n1 = t.d01 < t.d11 ? t.d01 : t.d11;
+    const float top = t.d00 + (t.d10 - t.d00) * t.ax, bot = t.d01 + (t.d11 - t.d01) * t.ax;
+    *v = top + (bot - top) * t.ay;
+    *gx = (t.d10 - t.d00) + ((t.d11 - t.d01) - (t.d10 - t.d00)) * t.ay;
     *gy = bot - top;
     *near_d = m0 > m1 ? m0 : m1;
     *far_d = n0 < n1 ? n0 : n1;
