@@ -56,12 +56,6 @@ static double time_kernel(bench_bufs *b, warp_resample_kernel_id k)
     return ms;
 }
 
-static int cmp_double(const void *a, const void *b)
-{
-    const double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
 bool rt_kernel_measure(const rt_config *c, rt_render_cpu *pass, rt_kernel_choice *out, char *err, int errlen)
 {
     memset(out, 0, sizeof *out);
@@ -99,7 +93,7 @@ bool rt_kernel_measure(const rt_config *c, rt_render_cpu *pass, rt_kernel_choice
     for (int y0 = 0; y0 < h; y0 += RT_RENDER_CPU_TILE_H, rows++) timed += rows % b.step == 0;
     for (int k = WARP_RESAMPLE_SCALAR; k < WARP_RESAMPLE_KERNELS; k++)
         if (out->usable[k] && warm[k] <= best * CUTOFF) {
-            qsort(t[k], ROUNDS, sizeof t[k][0], cmp_double);
+            qsort(t[k], ROUNDS, sizeof t[k][0], warp_cmp_double);
             out->ms[k] = t[k][ROUNDS / 2] * rows / timed;
         }
     bufs_free(&b);

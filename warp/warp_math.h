@@ -20,6 +20,13 @@ typedef struct { warp_quat q; warp_vec3 p; } warp_pose;
 typedef struct { double m[3][3]; } warp_mat3;
 typedef struct { double m[4][4]; } warp_mat4;
 
+/* qsort's order on doubles, ascending: the medians and percentiles of timings (the kernel pick, the bench). */
+static inline int warp_cmp_double(const void *a, const void *b)
+{
+    const double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
 /* vectors */
 static inline warp_vec3 warp_v3(double x, double y, double z) { warp_vec3 v = {x, y, z}; return v; }
 static inline warp_vec3 warp_v3_add(warp_vec3 a, warp_vec3 b) { return warp_v3(a.x + b.x, a.y + b.y, a.z + b.z); }

@@ -8,6 +8,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "warp/warp_math.h"
+
 /* --reps is clamped to this; the link section adds at most MAX_FRAMES per scene to a row. */
 #define BENCH_MAX_SAMPLES 400
 
@@ -22,17 +24,11 @@ static inline void bench_add(bench_samples *s, double v)
     if (s->n < BENCH_MAX_SAMPLES) s->v[s->n++] = v;
 }
 
-static inline int bench_cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
-
 /* s's samples sorted into t (BENCH_MAX_SAMPLES long); their count. */
 static inline int bench_sorted(const bench_samples *s, double *t)
 {
     memcpy(t, s->v, sizeof(double) * (size_t)s->n);
-    qsort(t, (size_t)s->n, sizeof(double), bench_cmp_double);
+    qsort(t, (size_t)s->n, sizeof(double), warp_cmp_double);
     return s->n;
 }
 
