@@ -6,6 +6,7 @@
 #include <math.h>
 #include <stdbool.h>
 #include <stdlib.h>
+#include <string.h>
 
 uint16_t drv_depth_to_inv16(float z, double near_z)
 {
@@ -120,61 +121,141 @@ void drv_depth_upsample(const float *lo, int lw, int lh, int scale, warp_depth_e
     drv_depth_upsample_rows(lo, lw, lh, scale, enc, color, dst, w, h, stride, 0, h, scratch);
 }
 
+/* Columns per tile of drv_depth_upsample_rows: a tile's per-x tables and two horizontally interpolated sample rows
+ * live on the stack (6 KiB; no VLA, nothing allocated), and every row of the band reuses them. */
+#define UPS_TILE 256
+
+/* Where pixel x (or row y) falls between samples: the clamped sample pair and the weight of the second, exactly as
+ * the per-pixel code computed them (the equivalence test holds the two bit for bit). */
+static void ups_coord(int x, int scale, int lw, int *xa, int *xb, float *tx)
+{
+    const float inv_b = 1.0f / (float)(1 << scale);
+    /* Low-resolution coordinates of the pixel centre; samples sit at their block centres. */
+    float fx = ((float)x + 0.5f) * inv_b - 0.5f;
+    int x0 = (int)floorf(fx);
+    *tx = fx - (float)x0;
+    *xa = x0 < 0 ? 0 : x0 >= lw ? lw - 1 : x0;
+    *xb = x0 + 1 >= lw ? lw - 1 : x0 + 1 < 0 ? 0 : x0 + 1;
+}
+
+/* A run of one-surface pixels: bilinear in inverse depth from the two horizontally interpolated rows (the same
+ * float operations, in the same order, as a + (b - a) tx, c + (d - c) tx, then along y), then from_inverse, 4
+ * pixels at a time in GCC/clang vector extensions (SSE2 on x86-64, NEON on aarch64; element-wise IEEE operations
+ * round like their scalar counterparts, and -O2 would not vectorise a plain loop of unknown count). C has no
+ * vector ?:, so a selection is a mask: a comparison gives -1 in the lanes where it holds. */
+typedef float ups_v4f __attribute__((vector_size(16)));
+typedef double ups_v4d __attribute__((vector_size(32)));
+typedef int32_t ups_v4i __attribute__((vector_size(16)));
+
+static void ups_flat_run(float *restrict out, const float *restrict top, const float *restrict bot, float ty, int n,
+                         warp_depth_encoding enc)
+{
+    const ups_v4f vty = (ups_v4f){0} + ty, inf = (ups_v4f){0} + INFINITY;
+    int i = 0;
+    for (; i + 4 <= n; i += 4) {
+        ups_v4f t, u;
+        memcpy(&t, top + i, sizeof t), memcpy(&u, bot + i, sizeof u);
+        ups_v4f s = t + (u - t) * vty, o;
+        if (enc == WARP_DEPTH_LINEAR) {
+            /* q > 0 ? (float)(1.0 / q) : INFINITY, q = (double)s; s > 0 is the same test */
+            ups_v4f r = __builtin_convertvector(1.0 / __builtin_convertvector(s, ups_v4d), ups_v4f);
+            ups_v4i m = s > 0.0f;
+            o = (ups_v4f)(((ups_v4i)r & m) | ((ups_v4i)inf & ~m));
+        } else if (enc == WARP_DEPTH_STANDARD) {
+            o = __builtin_convertvector(1.0 - __builtin_convertvector(s, ups_v4d), ups_v4f);
+        } else {
+            o = s;
+        }
+        memcpy(out + i, &o, sizeof o);
+    }
+    for (; i < n; i++) out[i] = from_inverse(top[i] + (bot[i] - top[i]) * ty, enc);
+}
+
+/* One pixel whose block's neighbourhood is not one surface: the per-pixel path (rare: depth edges and sky borders). */
+static float ups_edge_pixel(const float *lo, const float *q, int lw, int lh, int scale, warp_depth_encoding enc,
+                            const warp_image_rgba8 *color, int w, int h, int x, int y, int xa, int xb, float tx,
+                            const int ys[2], float ty)
+{
+    const int b = 1 << scale, bx = x >> scale, by = y >> scale;
+    const float *q0 = q + (size_t)ys[0] * (size_t)lw, *q1 = q + (size_t)ys[1] * (size_t)lw;
+    float a = q0[xa], bq = q0[xb], c = q1[xa], d = q1[xb];
+    if (!color) {
+        /* Without colour the 4 nearest samples judge for themselves. */
+        float mn = fminf(fminf(a, bq), fminf(c, d)), mx = fmaxf(fmaxf(a, bq), fmaxf(c, d));
+        if (!isnan(a + bq + c + d) && mx - mn <= (float)DRV_DEPTH_EDGE_REL * mx) {
+            float s = (a + (bq - a) * tx) + ((c + (d - c) * tx) - (a + (bq - a) * tx)) * ty;
+            return from_inverse(s, enc);
+        }
+        /* the spatially nearest */
+        return lo[(size_t)ys[ty >= 0.5f] * (size_t)lw + (size_t)(tx >= 0.5f ? xb : xa)];
+    }
+    /* A depth edge: the sample of the pixel's own block or one of its 8 neighbours (the 4 nearest may all lie on
+     * the far side of the edge) whose block-centre colour is closest to the pixel's, taken as it is. A tie goes to
+     * the farther sample: a nearer one sharing the colour took its depth from a few foreground pixels of a block
+     * whose centre shows the background. */
+    warp_rgba8 px = WARP_AT(color, x, y);
+    int bd = 1 << 30;
+    float best_q = INFINITY, out = lo[(size_t)by * (size_t)lw + (size_t)bx];
+    static const int off[3] = {0, -1, 1}; /* own block first: it wins ties of colour and depth */
+    for (int i = 0; i < 9; i++) {
+        int sx = bx + off[i % 3], sy = by + off[i / 3];
+        if (sx < 0 || sy < 0 || sx >= lw || sy >= lh) continue;
+        int cx = sx * b + b / 2, cy = sy * b + b / 2;
+        if (cx >= w) cx = w - 1;
+        if (cy >= h) cy = h - 1;
+        size_t si = (size_t)sy * (size_t)lw + (size_t)sx;
+        int dist = colour_dist(px, WARP_AT(color, cx, cy));
+        if (dist < bd || (dist == bd && q[si] < best_q)) bd = dist, best_q = q[si], out = lo[si];
+    }
+    return out;
+}
+
+/* The pixels of a flat block depend on x only through (xa, xb, tx) and on y only through the sample rows and ty,
+ * so a column tile tabulates x once, interpolates each sample row it needs along x once (kept while successive
+ * rows share it: 2^scale + 1 output rows read each), and a run of flat blocks is then one vectorised loop. */
 void drv_depth_upsample_rows(const float *lo, int lw, int lh, int scale, warp_depth_encoding enc,
                              const warp_image_rgba8 *color, float *dst, int w, int h, size_t stride, int row0,
                              int row1, const void *scratch)
 {
-    const int b = 1 << scale;
-    const float inv_b = 1.0f / (float)b;
     const float *q = scratch;
     const uint8_t *flat = (const uint8_t *)(q + (size_t)lw * (size_t)lh);
-    for (int y = row0; y < row1; y++) {
-        /* Low-resolution coordinates of the pixel centre; samples sit at their block centres. */
-        float fy = ((float)y + 0.5f) * inv_b - 0.5f;
-        int y0 = (int)floorf(fy), by = y >> scale;
-        float ty = fy - (float)y0;
-        int ys[2] = {y0 < 0 ? 0 : y0 >= lh ? lh - 1 : y0, y0 + 1 >= lh ? lh - 1 : y0 + 1 < 0 ? 0 : y0 + 1};
-        const float *q0 = q + (size_t)ys[0] * (size_t)lw, *q1 = q + (size_t)ys[1] * (size_t)lw;
-        const uint8_t *frow = flat + (size_t)by * (size_t)lw;
-        float *drow = dst + (size_t)y * stride;
-        for (int x = 0; x < w; x++) {
-            float fx = ((float)x + 0.5f) * inv_b - 0.5f;
-            int x0 = (int)floorf(fx), bx = x >> scale;
-            float tx = fx - (float)x0;
-            int xa = x0 < 0 ? 0 : x0 >= lw ? lw - 1 : x0, xb = x0 + 1 >= lw ? lw - 1 : x0 + 1 < 0 ? 0 : x0 + 1;
-            float a = q0[xa], bq = q0[xb], c = q1[xa], d = q1[xb];
-            bool one = frow[bx];
-            if (!one && !color) {
-                float mn = fminf(fminf(a, bq), fminf(c, d)), mx = fmaxf(fmaxf(a, bq), fmaxf(c, d));
-                one = !isnan(a + bq + c + d) && mx - mn <= (float)DRV_DEPTH_EDGE_REL * mx;
+    int xa[UPS_TILE], xb[UPS_TILE];
+    float tx[UPS_TILE], hrow[2][UPS_TILE];
+    for (int t0 = 0; t0 < w; t0 += UPS_TILE) {
+        const int n = w - t0 < UPS_TILE ? w - t0 : UPS_TILE;
+        for (int i = 0; i < n; i++) ups_coord(t0 + i, scale, lw, &xa[i], &xb[i], &tx[i]);
+        int tag[2] = {-1, -1}; /* the sample row each hrow holds */
+        for (int y = row0; y < row1; y++) {
+            int ys[2], by = y >> scale;
+            float ty;
+            ups_coord(y, scale, lh, &ys[0], &ys[1], &ty);
+            /* hrow slots for the two sample rows: reuse what the previous row left, fill the other slot */
+            int s[2];
+            for (int k = 0; k < 2; k++) {
+                int o = k ? s[0] : -1; /* the slot row 0 took: only row 1 may share it, and only if equal */
+                s[k] = tag[0] == ys[k] ? 0 : tag[1] == ys[k] ? 1 : -1;
+                if (s[k] >= 0) continue;
+                s[k] = o == 0 ? 1 : o == 1 ? 0 : tag[0] == ys[1] ? 1 : 0;
+                const float *qr = q + (size_t)ys[k] * (size_t)lw;
+                float *hr = hrow[s[k]];
+                for (int i = 0; i < n; i++) hr[i] = qr[xa[i]] + (qr[xb[i]] - qr[xa[i]]) * tx[i];
+                tag[s[k]] = ys[k];
             }
-            if (one) {
-                /* One surface: bilinear in inverse depth, exact for planes. */
-                float s = (a + (bq - a) * tx) + ((c + (d - c) * tx) - (a + (bq - a) * tx)) * ty;
-                drow[x] = from_inverse(s, enc);
-            } else if (!color) {
-                /* the spatially nearest */
-                drow[x] = lo[(size_t)ys[ty >= 0.5f] * (size_t)lw + (size_t)(tx >= 0.5f ? xb : xa)];
-            } else {
-                /* A depth edge: the sample of the pixel's own block or one of its 8 neighbours (the 4 nearest
-                 * may all lie on the far side of the edge) whose block-centre colour is closest to the pixel's,
-                 * taken as it is. A tie goes to the farther sample: a nearer one sharing the colour took its
-                 * depth from a few foreground pixels of a block whose centre shows the background. */
-                warp_rgba8 px = WARP_AT(color, x, y);
-                int bd = 1 << 30;
-                float best_q = INFINITY, out = lo[(size_t)by * (size_t)lw + (size_t)bx];
-                static const int off[3] = {0, -1, 1}; /* own block first: it wins ties of colour and depth */
-                for (int i = 0; i < 9; i++) {
-                    int sx = bx + off[i % 3], sy = by + off[i / 3];
-                    if (sx < 0 || sy < 0 || sx >= lw || sy >= lh) continue;
-                    int cx = sx * b + b / 2, cy = sy * b + b / 2;
-                    if (cx >= w) cx = w - 1;
-                    if (cy >= h) cy = h - 1;
-                    size_t si = (size_t)sy * (size_t)lw + (size_t)sx;
-                    int dist = colour_dist(px, WARP_AT(color, cx, cy));
-                    if (dist < bd || (dist == bd && q[si] < best_q)) bd = dist, best_q = q[si], out = lo[si];
-                }
-                drow[x] = out;
+            const float *top = hrow[s[0]], *bot = hrow[s[1]];
+            const uint8_t *frow = flat + (size_t)by * (size_t)lw;
+            float *drow = dst + (size_t)y * stride + (size_t)t0;
+            /* runs of flat blocks, and the blocks between them pixel by pixel */
+            for (int i = 0, bx = t0 >> scale, bend = ((t0 + n - 1) >> scale) + 1; i < n;) {
+                const bool one = frow[bx];
+                while (++bx < bend && (bool)frow[bx] == one) continue;
+                const int e = (bx << scale) - t0 < n ? (bx << scale) - t0 : n;
+                if (one)
+                    ups_flat_run(drow + i, top + i, bot + i, ty, e - i, enc);
+                else
+                    for (; i < e; i++)
+                        drow[i] = ups_edge_pixel(lo, q, lw, lh, scale, enc, color, w, h, t0 + i, y, xa[i], xb[i],
+                                                 tx[i], ys, ty);
+                i = e;
             }
         }
     }
