@@ -88,20 +88,37 @@ static int colour_dist(warp_rgba8 a, warp_rgba8 b)
 
 size_t drv_depth_upsample_scratch(int lw, int lh) { return (size_t)lw * (size_t)lh * (sizeof(float) + 1); }
 
-/* Whether the samples of block (bx, by) and its 8 neighbours lie on one surface (or are all sky): within
- * DRV_DEPTH_EDGE_REL of each other in inverse depth (q). A pixel of a block next to an edge is treated as on the
- * edge even when its 4 nearest samples agree: its own block's sample may be a foreground depth its pixel lacks. */
-static bool one_surface(const float *q, int lw, int lh, int bx, int by)
+/* Vectors of 4 in GCC/clang vector extensions (SSE2 on x86-64, NEON on aarch64): element-wise IEEE operations
+ * round like their scalar counterparts, and -O2's very cheap vectoriser takes no loop of unknown count. C has no
+ * vector ?:, so a selection is a mask: a comparison gives -1 in the lanes where it holds. */
+typedef float ups_v4f __attribute__((vector_size(16)));
+typedef double ups_v4d __attribute__((vector_size(32)));
+typedef int32_t ups_v4i __attribute__((vector_size(16)));
+
+/* Whether the samples of block bx and its 8 neighbours lie on one surface (or are all sky): within
+ * DRV_DEPTH_EDGE_REL of each other in inverse depth. A pixel of a block next to an edge is treated as on the edge
+ * even when its 4 nearest samples agree: its own block's sample may be a foreground depth its pixel lacks. Each
+ * column's min, max and NaN over the 3 sample rows is found once and slid along x; a row or column past the border
+ * repeats the border's, which changes no min, max or NaN. These are those of the 9 samples, so the test is the one
+ * on the 9 (a -0 for a 0 changes nothing). */
+typedef struct { float mn, mx; bool nan; } ups_col;
+static inline ups_col ups_column(const float *r0, const float *r1, const float *r2, int x)
 {
-    float qmin = INFINITY, qmax = -INFINITY;
-    for (int sy = by - 1; sy <= by + 1; sy++)
-        for (int sx = bx - 1; sx <= bx + 1; sx++) {
-            if (sx < 0 || sy < 0 || sx >= lw || sy >= lh) continue;
-            float v = q[(size_t)sy * (size_t)lw + (size_t)sx];
-            if (isnan(v)) return false;
-            qmin = v < qmin ? v : qmin, qmax = v > qmax ? v : qmax;
-        }
-    return qmax - qmin <= (float)DRV_DEPTH_EDGE_REL * qmax;
+    float a = r0[x], b = r1[x], c = r2[x];
+    float mn = a < b ? a : b, mx = a > b ? a : b;
+    return (ups_col){c < mn ? c : mn, c > mx ? c : mx, isnan(a) || isnan(b) || isnan(c)};
+}
+static void ups_flat_row(const float *q, int lw, int lh, int by, uint8_t *flat)
+{
+    const float *r1 = q + (size_t)by * (size_t)lw, *r0 = by > 0 ? r1 - lw : r1, *r2 = by + 1 < lh ? r1 + lw : r1;
+    ups_col a, b = ups_column(r0, r1, r2, 0), c;
+    a = b;
+    for (int bx = 0; bx < lw; bx++, a = b, b = c) {
+        c = bx + 1 < lw ? ups_column(r0, r1, r2, bx + 1) : b;
+        float mn = a.mn < b.mn ? a.mn : b.mn, mx = a.mx > b.mx ? a.mx : b.mx;
+        mn = c.mn < mn ? c.mn : mn, mx = c.mx > mx ? c.mx : mx;
+        flat[bx] = !(a.nan || b.nan || c.nan) && mx - mn <= (float)DRV_DEPTH_EDGE_REL * mx;
+    }
 }
 
 void drv_depth_upsample_prepare(const float *lo, int lw, int lh, warp_depth_encoding enc, void *scratch)
@@ -109,9 +126,23 @@ void drv_depth_upsample_prepare(const float *lo, int lw, int lh, warp_depth_enco
     /* Inverse depth of every sample (sky 0) and whether its block's neighbourhood is one surface, once. */
     float *q = scratch;
     uint8_t *flat = (uint8_t *)(q + (size_t)lw * (size_t)lh);
-    for (size_t i = 0, n = (size_t)lw * (size_t)lh; i < n; i++) q[i] = (float)inverse(lo[i], enc);
-    for (int by = 0; by < lh; by++)
-        for (int bx = 0; bx < lw; bx++) flat[(size_t)by * (size_t)lw + (size_t)bx] = one_surface(q, lw, lh, bx, by);
+    size_t i = 0, n = (size_t)lw * (size_t)lh;
+    for (; i + 4 <= n; i += 4) {
+        /* (float)inverse(d, enc), 4 at a time: in double as inverse() computes it */
+        ups_v4f d, o;
+        memcpy(&d, lo + i, sizeof d);
+        if (enc == WARP_DEPTH_LINEAR) {
+            ups_v4f r = __builtin_convertvector(1.0 / __builtin_convertvector(d, ups_v4d), ups_v4f);
+            o = (ups_v4f)((ups_v4i)r & (d > 0.0f)); /* else +0 */
+        } else if (enc == WARP_DEPTH_STANDARD) {
+            o = __builtin_convertvector(1.0 - __builtin_convertvector(d, ups_v4d), ups_v4f);
+        } else {
+            o = __builtin_convertvector(__builtin_convertvector(d, ups_v4d), ups_v4f);
+        }
+        memcpy(q + i, &o, sizeof o);
+    }
+    for (; i < n; i++) q[i] = (float)inverse(lo[i], enc);
+    for (int by = 0; by < lh; by++) ups_flat_row(q, lw, lh, by, flat + (size_t)by * (size_t)lw);
 }
 
 void drv_depth_upsample(const float *lo, int lw, int lh, int scale, warp_depth_encoding enc,
@@ -140,13 +171,7 @@ static void ups_coord(int x, int scale, int lw, int *xa, int *xb, float *tx)
 
 /* A run of one-surface pixels: bilinear in inverse depth from the two horizontally interpolated rows (the same
  * float operations, in the same order, as a + (b - a) tx, c + (d - c) tx, then along y), then from_inverse, 4
- * pixels at a time in GCC/clang vector extensions (SSE2 on x86-64, NEON on aarch64; element-wise IEEE operations
- * round like their scalar counterparts, and -O2 would not vectorise a plain loop of unknown count). C has no
- * vector ?:, so a selection is a mask: a comparison gives -1 in the lanes where it holds. */
-typedef float ups_v4f __attribute__((vector_size(16)));
-typedef double ups_v4d __attribute__((vector_size(32)));
-typedef int32_t ups_v4i __attribute__((vector_size(16)));
-
+ * pixels at a time. */
 static void ups_flat_run(float *restrict out, const float *restrict top, const float *restrict bot, float ty, int n,
                          warp_depth_encoding enc)
 {

@@ -1,7 +1,8 @@
 /* SPDX-License-Identifier: MIT */
-/* Unit tests for drv_codec_depth's upsample: the tiled, vectorised drv_depth_upsample_rows against a copy of the
- * per-pixel code it replaced (ref_upsample_rows), bit for bit. An equivalence test: it passed on the old code by
- * construction; it is here so the fast path can never drift from what the per-pixel code computes. */
+/* Unit tests for drv_codec_depth's upsample: drv_depth_upsample_prepare and _rows against a copy of the
+ * per-pixel code the fast paths replaced (ref_upsample_prepare, ref_upsample_rows), bit for bit. An equivalence
+ * test: it passed on the old code by construction; it is here so the fast paths can never drift from what the
+ * per-pixel code computes. */
 #include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
@@ -15,7 +16,8 @@
 #include "drivers/drv_codec_depth.h"
 #include "tests/support/test_util.h"
 
-/* ---- The reference: drv_depth_upsample_rows as it was before the fast path (d49a3f1), unchanged. ---- */
+/* ---- The reference: drv_depth_upsample_prepare and _rows as they were before the fast paths (d49a3f1),
+ * unchanged but for the ref_ prefix. ---- */
 
 static float ref_from_inverse(double q, warp_depth_encoding enc)
 {
@@ -24,6 +26,38 @@ static float ref_from_inverse(double q, warp_depth_encoding enc)
     case WARP_DEPTH_STANDARD: return (float)(1.0 - q);
     default: return (float)q;
     }
+}
+
+static double ref_inverse(float d, warp_depth_encoding enc)
+{
+    switch (enc) {
+    case WARP_DEPTH_LINEAR: return d > 0.0f ? 1.0 / d : 0.0;
+    case WARP_DEPTH_STANDARD: return 1.0 - d;
+    default: return d;
+    }
+}
+
+static bool ref_one_surface(const float *q, int lw, int lh, int bx, int by)
+{
+    float qmin = INFINITY, qmax = -INFINITY;
+    for (int sy = by - 1; sy <= by + 1; sy++)
+        for (int sx = bx - 1; sx <= bx + 1; sx++) {
+            if (sx < 0 || sy < 0 || sx >= lw || sy >= lh) continue;
+            float v = q[(size_t)sy * (size_t)lw + (size_t)sx];
+            if (isnan(v)) return false;
+            qmin = v < qmin ? v : qmin, qmax = v > qmax ? v : qmax;
+        }
+    return qmax - qmin <= (float)DRV_DEPTH_EDGE_REL * qmax;
+}
+
+static void ref_upsample_prepare(const float *lo, int lw, int lh, warp_depth_encoding enc, void *scratch)
+{
+    float *q = scratch;
+    uint8_t *flat = (uint8_t *)(q + (size_t)lw * (size_t)lh);
+    for (size_t i = 0, n = (size_t)lw * (size_t)lh; i < n; i++) q[i] = (float)ref_inverse(lo[i], enc);
+    for (int by = 0; by < lh; by++)
+        for (int bx = 0; bx < lw; bx++)
+            flat[(size_t)by * (size_t)lw + (size_t)bx] = ref_one_surface(q, lw, lh, bx, by);
 }
 
 static int ref_colour_dist(warp_rgba8 a, warp_rgba8 b)
@@ -135,18 +169,25 @@ static void check_case(int w, int h, int scale, warp_depth_encoding enc, bool wi
     int lw = drv_depth_scaled(w, scale), lh = drv_depth_scaled(h, scale);
     size_t stride = (size_t)w + PAD, n = stride * (size_t)h;
     float *lo = malloc(sizeof(float) * (size_t)lw * (size_t)lh);
-    void *scratch = malloc(drv_depth_upsample_scratch(lw, lh));
+    size_t scratch_bytes = drv_depth_upsample_scratch(lw, lh);
+    void *scratch = malloc(scratch_bytes), *ref_scratch = malloc(scratch_bytes);
     float *want = malloc(sizeof(float) * n), *got = malloc(sizeof(float) * n);
     warp_image_rgba8 col = {w, h, w + PAD, malloc(sizeof(warp_rgba8) * (size_t)(w + PAD) * (size_t)h)};
-    assert_true(lo && scratch && want && got && col.px);
+    assert_true(lo && scratch && ref_scratch && want && got && col.px);
     for (int y = 0; y < lh; y++)
         for (int x = 0; x < lw; x++) lo[(size_t)y * (size_t)lw + (size_t)x] = encode_q(scene_q(x, y, lw, lh, &r), enc);
     make_colour(&col, w, h, &r);
     const warp_image_rgba8 *cp = with_colour ? &col : NULL;
 
     for (size_t i = 0; i < n; i++) want[i] = SENTINEL;
+    /* prepare's inverse depths and flat flags, byte for byte */
+    ref_upsample_prepare(lo, lw, lh, enc, ref_scratch);
     drv_depth_upsample_prepare(lo, lw, lh, enc, scratch);
-    ref_upsample_rows(lo, lw, lh, scale, enc, cp, want, w, h, stride, 0, h, scratch);
+    for (size_t i = 0; i < scratch_bytes; i++)
+        if (((const uint8_t *)scratch)[i] != ((const uint8_t *)ref_scratch)[i])
+            fail_msg("%dx%d scale %d enc %d: prepare's scratch differs at byte %zu of %zu", w, h, scale, (int)enc, i,
+                     scratch_bytes);
+    ref_upsample_rows(lo, lw, lh, scale, enc, cp, want, w, h, stride, 0, h, ref_scratch);
 
     for (int mode = 0; mode < 3; mode++) {
         for (size_t i = 0; i < n; i++) got[i] = SENTINEL;
@@ -168,7 +209,7 @@ static void check_case(int w, int h, int scale, warp_depth_encoding enc, bool wi
                 fail_msg("%dx%d scale %d enc %d colour %d mode %d: (%zu,%zu) got %a, want %a", w, h, scale, (int)enc,
                          with_colour, mode, i % stride, i / stride, (double)got[i], (double)want[i]);
     }
-    free(lo), free(scratch), free(want), free(got), free(col.px);
+    free(lo), free(scratch), free(ref_scratch), free(want), free(got), free(col.px);
 }
 
 /* Sizes that are and are not multiples of the block, single rows and columns, and widths past several of the fast
