@@ -272,7 +272,11 @@ void drv_depth_upsample_rows(const float *lo, int lw, int lh, int scale, warp_de
             /* runs of flat blocks, and the blocks between them pixel by pixel */
             for (int i = 0, bx = t0 >> scale, bend = ((t0 + n - 1) >> scale) + 1; i < n;) {
                 const bool one = frow[bx];
-                while (++bx < bend && (bool)frow[bx] == one) continue;
+                /* flags are 0 or 1: 8 at a time while all match, then one by one */
+                const uint64_t all = one ? UINT64_C(0x0101010101010101) : 0;
+                uint64_t v8;
+                for (bx++; bx + 8 <= bend && (memcpy(&v8, frow + bx, 8), v8 == all);) bx += 8;
+                for (; bx < bend && (bool)frow[bx] == one;) bx++;
                 const int e = (bx << scale) - t0 < n ? (bx << scale) - t0 : n;
                 if (one)
                     ups_flat_run(drow + i, top + i, bot + i, ty, e - i, enc);
