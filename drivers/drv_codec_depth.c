@@ -153,7 +153,7 @@ void drv_depth_upsample(const float *lo, int lw, int lh, int scale, warp_depth_e
 }
 
 /* Columns per tile of drv_depth_upsample_rows: a tile's per-x tables and two horizontally interpolated sample rows
- * live on the stack (6 KiB; no VLA, nothing allocated), and every row of the band reuses them. */
+ * live on the stack (5 KiB; no VLA, nothing allocated), and every row of the band reuses them. */
 #define UPS_TILE 256
 
 /* Where pixel x (or row y) falls between samples: the clamped sample pair and the weight of the second, exactly as
@@ -169,9 +169,9 @@ static void ups_coord(int x, int scale, int lw, int *xa, int *xb, float *tx)
     *xb = x0 + 1 >= lw ? lw - 1 : x0 + 1 < 0 ? 0 : x0 + 1;
 }
 
-/* A run of one-surface pixels: bilinear in inverse depth from the two horizontally interpolated rows (the same
- * float operations, in the same order, as a + (b - a) tx, c + (d - c) tx, then along y), then from_inverse, 4
- * pixels at a time. */
+/* A run of one-surface pixels: bilinear in inverse depth, exact for planes, from the two horizontally interpolated
+ * rows (the same float operations, in the same order, as a + (b - a) tx, c + (d - c) tx, then along y), then
+ * from_inverse, 4 pixels at a time. */
 static void ups_flat_run(float *restrict out, const float *restrict top, const float *restrict bot, float ty, int n,
                          warp_depth_encoding enc)
 {
@@ -237,7 +237,7 @@ static float ups_edge_pixel(const float *lo, const float *q, int lw, int lh, int
 
 /* The pixels of a flat block depend on x only through (xa, xb, tx) and on y only through the sample rows and ty,
  * so a column tile tabulates x once, interpolates each sample row it needs along x once (kept while successive
- * rows share it: 2^scale + 1 output rows read each), and a run of flat blocks is then one vectorised loop. */
+ * rows share it: 2^(scale + 1) output rows read each), and a run of flat blocks is then one vectorised loop. */
 void drv_depth_upsample_rows(const float *lo, int lw, int lh, int scale, warp_depth_encoding enc,
                              const warp_image_rgba8 *color, float *dst, int w, int h, size_t stride, int row0,
                              int row1, const void *scratch)
