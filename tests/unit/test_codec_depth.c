@@ -161,6 +161,9 @@ static void make_colour(warp_image_rgba8 *c, int w, int h, test_rng *r)
         }
 }
 
+/* Blocks seen, and of them flat ones (one surface): both paths must be exercised. */
+static size_t blocks_seen, blocks_flat;
+
 /* One size, scale, encoding and colour choice: the reference over all rows against drv_depth_upsample (one call)
  * and drv_depth_upsample_rows in uneven bands, every float of dst compared as bits (padding included). */
 static void check_case(int w, int h, int scale, warp_depth_encoding enc, bool with_colour, uint64_t seed)
@@ -188,6 +191,8 @@ static void check_case(int w, int h, int scale, warp_depth_encoding enc, bool wi
             fail_msg("%dx%d scale %d enc %d: prepare's scratch differs at byte %zu of %zu", w, h, scale, (int)enc, i,
                      scratch_bytes);
     ref_upsample_rows(lo, lw, lh, scale, enc, cp, want, w, h, stride, 0, h, ref_scratch);
+    for (size_t i = 0, nb = (size_t)lw * (size_t)lh; i < nb; i++)
+        blocks_flat += ((const uint8_t *)ref_scratch)[sizeof(float) * nb + i], blocks_seen++;
 
     for (int mode = 0; mode < 3; mode++) {
         for (size_t i = 0; i < n; i++) got[i] = SENTINEL;
@@ -225,6 +230,8 @@ static void test_upsample_bit_identical(void **state)
             for (int enc = WARP_DEPTH_LINEAR; enc <= WARP_DEPTH_REVERSED; enc++)
                 for (int c = 0; c < 2; c++)
                     check_case(sizes[s][0], sizes[s][1], scale, (warp_depth_encoding)enc, c, seed++);
+    print_message("%zu of %zu blocks flat\n", blocks_flat, blocks_seen);
+    assert_true(blocks_flat > blocks_seen / 4 && blocks_flat < blocks_seen * 3 / 4);
 }
 
 /* The framelink eye size at half resolution (the case the fast path is for), once per encoding. */
