@@ -86,7 +86,7 @@ hil_gadget_start --config "$(hil_board hid-usb-gpio)" --duration 0 --set "vsync.
     --set sim.trace=still --set display.sink=raw --set display.sink_every=45 --set "display.sink_path=$HIL_WORK/real" \
     --set "telemetry.live_stats=$HIL_LIVE"
 # raw frames: the comparison is byte for byte with the in-process board's (the feed's auto would send JPEG on USB)
-hil_feed_usb --rate 30 --duration 200 --color-codec raw --depth-codec raw --other-codec raw
+hil_feed_usb --rate 30 --duration 900 --color-codec raw --depth-codec raw --other-codec raw
 same_inputs_wait
 kill "$HIL_FEED_PID" 2>/dev/null; wait "$HIL_FEED_PID" 2>/dev/null
 hil_gadget_stop

@@ -25,7 +25,9 @@ hil_te_start --rate 90 --duration 900 --stop-at 9 --stop-for 1
 hil_usb_udc
 hil_gadget_start --config "$(hil_board hid-usb-gpio)" --duration 0 --set "vsync.chip=$HIL_GPIO_CHIP" \
     --set "telemetry.live_stats=$HIL_LIVE"
-hil_feed_usb --rate 30 --duration 200 --damage-every 15
+# --duration only a guard (the scenario kills it): on a starved VM its waits below can outlast any shorter one
+# (make test-busy: the feed's old 200 s ran out before the USB replug, which then saw no frames come again)
+hil_feed_usb --rate 30 --duration 900 --damage-every 15
 t0=$(cut -d. -f1 /proc/uptime)
 # The host stall, timed from here (the IMU and TE timelines started a few seconds earlier: they are only
 # ordered, not simultaneous).
@@ -51,9 +53,9 @@ echo dummy_udc.0 >/sys/kernel/config/usb_gadget/hmdwarp/UDC && hil_log "USB repl
 if hil_live_wait 120 frames_link_connections "$((${c0:-1} + 1))"; then
     r0=$(hil_stat frames_received "$HIL_LIVE")
     hil_live_wait 120 frames_received "$((${r0:-0} + 10))" ||
-        hil_miss "USB replug: frames did not come again ($(hil_stat frames_received "$HIL_LIVE") received, ${r0:-none} when the host was back; $(tail -n 1 "$HIL_WORK/feed.log"))"
+        hil_miss "USB replug: frames did not come again ($(hil_stat frames_received "$HIL_LIVE") received, ${r0:-none} when the host was back; hmdwarp-feed $(hil_feed_state): $(tail -n 1 "$HIL_WORK/feed.log"))"
 else
-    hil_miss "USB replug: the board saw no host connect again within 120 s (frames_link_connections $(hil_stat frames_link_connections "$HIL_LIVE"), ${c0:-none} before the unplug; $(tail -n 1 "$HIL_WORK/feed.log"))"
+    hil_miss "USB replug: the board saw no host connect again within 120 s (frames_link_connections $(hil_stat frames_link_connections "$HIL_LIVE"), ${c0:-none} before the unplug; hmdwarp-feed $(hil_feed_state): $(tail -n 1 "$HIL_WORK/feed.log"))"
 fi
 hil_hmdwarpd_stop 30
 kill "$HIL_FEED_PID" 2>/dev/null; wait "$HIL_FEED_PID" 2>/dev/null

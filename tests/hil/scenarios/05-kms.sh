@@ -111,7 +111,7 @@ kms_same_picture() {
     hil_gadget_start --config "$BOARD" --duration 0 --set "render.renderer=$r" --set "display.kms_device=$HIL_DRI_CARD" \
         --set sim.trace=still
     # raw frames: the CRCs are compared with the in-process board's (the feed's auto would send JPEG on USB)
-    hil_feed_usb --rate 30 --duration 300 --color-codec raw --depth-codec raw --other-codec raw
+    hil_feed_usb --rate 30 --duration 900 --color-codec raw --depth-codec raw --other-codec raw
     # capture after the modeset (a modeset may reset it) and once host frames are shown
     # (sysfs's lock-free "enabled", not debugfs's state, which takes every modeset lock a stuck commit may hold)
     hil_wait_until 60 grep -qx enabled "$HIL_DRI_CONN/enabled" || hil_miss "$r: vkms's connector never got a CRTC"

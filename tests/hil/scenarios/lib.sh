@@ -344,6 +344,10 @@ hil_feed_usb() {
     hmdwarp-feed --eye "$HIL_EYE" --wait 30 "$@" >"$HIL_WORK/feed.log" 2>&1 &
     HIL_FEED_PID=$!
 }
+# hil_feed_state: "running" or "ended" (hmdwarp-feed, for a miss's message: a feed that ended sends nothing more).
+hil_feed_state() {
+    if kill -0 "$HIL_FEED_PID" 2>/dev/null; then echo running; else echo ended; fi
+}
 # hil_expect_usb_speed: the board's stats name the speed dummy_hcd was loaded for (the speed the host negotiated,
 # read from the UDC's current_speed when the host enabled the function).
 hil_expect_usb_speed() {
