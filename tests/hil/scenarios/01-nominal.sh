@@ -21,7 +21,7 @@ hil_te_start --rate 90 --duration 900
 hil_usb_udc
 # D seconds and on until every device path has carried its share of data (a starved VM takes longer)
 hil_gadget_start --config "$(hil_board hid-usb-gpio)" --duration 0 --set "vsync.chip=$HIL_GPIO_CHIP"
-hil_feed_usb --rate 30 --duration 900
+hil_feed_usb --rate 30
 hil_run_until "$D" 150 frames_received 20 imu_samples 1000 vsync_edges 100 vsyncs 100
 kill "$HIL_FEED_PID" 2>/dev/null; wait "$HIL_FEED_PID" 2>/dev/null
 tail -n 3 "$HIL_WORK/feed.log"
@@ -86,7 +86,7 @@ hil_gadget_start --config "$(hil_board hid-usb-gpio)" --duration 0 --set "vsync.
     --set sim.trace=still --set display.sink=raw --set display.sink_every=45 --set "display.sink_path=$HIL_WORK/real" \
     --set "telemetry.live_stats=$HIL_LIVE"
 # raw frames: the comparison is byte for byte with the in-process board's (the feed's auto would send JPEG on USB)
-hil_feed_usb --rate 30 --duration 900 --color-codec raw --depth-codec raw --other-codec raw
+hil_feed_usb --rate 30 --color-codec raw --depth-codec raw --other-codec raw
 same_inputs_wait
 kill "$HIL_FEED_PID" 2>/dev/null; wait "$HIL_FEED_PID" 2>/dev/null
 hil_gadget_stop
@@ -114,7 +114,7 @@ esac
 # it, and the board decodes on its frames thread. Frames arrive, all compressed, none rejected, and are shown.
 hil_log "--- compressed: codecs negotiated (auto: JPEG colour, zstd depth) over FunctionFS"
 hil_gadget_start --config "$(hil_board hid-usb-gpio)" --duration 0 --set "vsync.chip=$HIL_GPIO_CHIP"
-hil_feed_usb --rate 30 --duration 900
+hil_feed_usb --rate 30
 hil_run_until "$D" 150 frames_received 20 frames_link_compressed_frames 20
 kill "$HIL_FEED_PID" 2>/dev/null; wait "$HIL_FEED_PID" 2>/dev/null
 tail -n 3 "$HIL_WORK/feed.log"

@@ -20,7 +20,7 @@ hil_gpio_sim hil04 1
 hil_te_start --rate 90 --duration $((D + 60)) --stop-at "$te_stop_at" --stop-for 1
 hil_usb_udc
 hil_gadget_start --config "$(hil_board hid-usb-gpio)" --duration "$D" --set "vsync.chip=$HIL_GPIO_CHIP"
-hil_feed_usb --rate 30 --duration $((D + 30))
+hil_feed_usb --rate 30
 
 # Host stalls at random and RSS samples until hmdwarpd ends.
 awk -v s="$SEED" -v d="$D" 'BEGIN { srand(s + 1); t = 4; while (t < d - 4) { printf "%d %.1f\n", t, 0.5 + rand() * 1.5; t += 6 + int(rand() * 8) } }' >"$HIL_WORK/stalls"

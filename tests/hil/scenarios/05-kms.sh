@@ -40,7 +40,7 @@ kms_nominal() {
     hil_log "--- $r: $D s on vkms, then until it has its data"
     hil_imu_start --duration 900 --trace slow
     hil_gadget_start --config "$BOARD" --duration 0 --set "render.renderer=$r" --set "display.kms_device=$HIL_DRI_CARD"
-    hil_feed_usb --rate 30 --duration 900
+    hil_feed_usb --rate 30
     if [ "$r" = cpu ]; then hil_run_until "$D" 150 kms_vblanks 100 vsyncs 100 frames_received 5 kms_flips 3
     else hil_run_until "$D" 150 kms_vblanks 1 kms_flips 3   # llvmpipe: few presents (see below)
     fi
@@ -111,7 +111,7 @@ kms_same_picture() {
     hil_gadget_start --config "$BOARD" --duration 0 --set "render.renderer=$r" --set "display.kms_device=$HIL_DRI_CARD" \
         --set sim.trace=still
     # raw frames: the CRCs are compared with the in-process board's (the feed's auto would send JPEG on USB)
-    hil_feed_usb --rate 30 --duration 900 --color-codec raw --depth-codec raw --other-codec raw
+    hil_feed_usb --rate 30 --color-codec raw --depth-codec raw --other-codec raw
     # capture after the modeset (a modeset may reset it) and once host frames are shown
     # (sysfs's lock-free "enabled", not debugfs's state, which takes every modeset lock a stuck commit may hold)
     hil_wait_until 60 grep -qx enabled "$HIL_DRI_CONN/enabled" || hil_miss "$r: vkms's connector never got a CRTC"

@@ -337,7 +337,9 @@ hil_gadget_start() {
 }
 # hil_feed_usb ARGS...: hmdwarp-feed over USB (HIL_FEED_PID), started once the host side has enumerated the
 # gadget: hmdwarp-feed calls libusb_init once and then retries libusb_open_device_with_vid_pid, and without udevd
-# libusb gets no hotplug events, so a device that enumerates after its libusb_init is never seen.
+# libusb gets no hotplug events, so a device that enumerates after its libusb_init is never seen. It runs until the
+# scenario kills it: no --duration, which a starved VM's waits could outlast (make test-busy once ran 03's 200 s
+# feed out before its USB replug, which then saw no frames come again).
 hil_feed_usb() {
     hil_wait_until 20 sh -c 'grep -qx 0104 /sys/bus/usb/devices/*/idProduct 2>/dev/null' ||
         hil_fail "dummy_hcd host side never enumerated the gadget (no 1d6b:0104 in /sys/bus/usb/devices)"
@@ -395,19 +397,18 @@ hil_run_until() {
 # can take longer than the run to gather the edges it locks on. HIL_LOCKED_SEEN says what the live stats showed:
 # 1 paced from the line, 0 still on the timer after CAP_S, "none" for a source that is no line (hil_expect_locked).
 hil_live_wait_locked() {
-    i=0; HIL_LOCKED_SEEN=none; HIL_WAIT_TE0=$(hil_te_counts)
-    case "$(hil_stat vsync_backend "$HIL_LIVE" 2>/dev/null)" in gpio | kms) ;; *) return 0 ;; esac
-    while [ "$(hil_stat vsync_on_timer "$HIL_LIVE" 2>/dev/null)" != 0 ] && [ "$i" -lt $(($1 * 5)) ] &&
-        kill -0 "$HIL_HMD_PID" 2>/dev/null; do
+    unset HIL_LOCKED_SEEN; i=0
+    hil_live_watch_locked
+    while [ "$HIL_LOCKED_SEEN" = 0 ] && [ "$i" -lt $(($1 * 5)) ] && kill -0 "$HIL_HMD_PID" 2>/dev/null; do
         sleep 0.2; i=$((i + 1))
+        hil_live_watch_locked
     done
-    if [ "$(hil_stat vsync_on_timer "$HIL_LIVE" 2>/dev/null)" = 0 ]; then HIL_LOCKED_SEEN=1; else HIL_LOCKED_SEEN=0; fi
-    HIL_WAIT_TE1=$(hil_te_counts)
 }
-# hil_live_watch_locked: hil_live_wait_locked for a scenario whose own loop runs beside hmdwarpd (04's soak): call
-# it once per turn from a point after the line's last fault on; the first call starts the watch (its TE counts),
-# each call records a lock the live stats show (vsync_on_timer=0) and where the TE player stands. hil_expect_locked
-# judges it as it judges a wait: a lock seen any time after the fault, not only in the run's last second.
+# hil_live_watch_locked: one look of hil_live_wait_locked, for a scenario whose own loop runs beside hmdwarpd (04's
+# soak): call it once per turn from a point after the line's last fault on; the first call starts the watch (its TE
+# counts), each call records a lock the live stats show (vsync_on_timer=0) and where the TE player stands.
+# hil_expect_locked judges it as it judges a wait: a lock seen any time after the fault, not only in the run's last
+# second.
 hil_live_watch_locked() {
     case "${HIL_LOCKED_SEEN:-}" in
     1 | none) return 0 ;;
