@@ -8,19 +8,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-uint16_t drv_depth_to_inv16(float z, double near_z)
-{
-    if (!(z < INFINITY)) return 0; /* +inf and NaN: sky */
-    if (z <= near_z) return 65535;
-    long v = lround(65535.0 * near_z / z);
-    return (uint16_t)(v < 1 ? 1 : v > 65535 ? 65535 : v);
-}
-
-float drv_depth_from_inv16(uint16_t v, double near_z)
-{
-    return v ? (float)(65535.0 * near_z / v) : INFINITY;
-}
-
 uint16_t drv_depth_to_unorm16(float d)
 {
     double c = d >= 0.0f ? (d <= 1.0f ? d : 1.0) : (d < 0.0f ? 0.0 : 1.0);

@@ -4,6 +4,7 @@
 #ifndef DRV_CODEC_DEPTH_H
 #define DRV_CODEC_DEPTH_H
 
+#include <math.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -13,11 +14,28 @@
 /* INV16: round(65535 * near_z / z) of linear metres. Precision follows parallax (a step is z^2 / (65535 near_z)
  * metres, a relative error of at most z / (2 * 65535 near_z)); 0 is sky (+inf, NaN). Nearer than near_z clamps
  * to 65535, a finite depth too far for a step to 1. */
-uint16_t drv_depth_to_inv16(float z, double near_z);
-float drv_depth_from_inv16(uint16_t v, double near_z); /* 0 -> +inf */
+static inline uint16_t drv_depth_to_inv16(float z, double near_z);
+static inline float drv_depth_from_inv16(uint16_t v, double near_z); /* 0 -> +inf */
 /* UNORM16: round(d * 65535) of window depth d clamped to [0, 1], NaN as far (1); v1's format. */
 uint16_t drv_depth_to_unorm16(float d);
 float drv_depth_from_unorm16(uint16_t v);
+
+/* Inline: the encoder and decoder convert every pixel of a full-resolution plane with these. The rounding is
+ * lround's (half away from zero) without its libm call: for 1 <= x < 65534.5, x - trunc(x) is exact. */
+static inline uint16_t drv_depth_to_inv16(float z, double near_z)
+{
+    if (!(z < INFINITY)) return 0; /* +inf and NaN: sky */
+    if (z <= near_z) return 65535;
+    const double x = 65535.0 * near_z / z;
+    if (!(x >= 1.0)) return 1; /* lround gives 0 or less (or, for NaN, anything), clamped to 1 */
+    if (x >= 65534.5) return 65535;
+    const long v = (long)x;
+    return (uint16_t)(v + (x - (double)v >= 0.5));
+}
+static inline float drv_depth_from_inv16(uint16_t v, double near_z)
+{
+    return v ? (float)(65535.0 * near_z / v) : INFINITY;
+}
 
 /* Low-resolution size of an eye side at 1/2^scale (ceil). */
 static inline int drv_depth_scaled(int side, int scale) { return (side + (1 << scale) - 1) >> scale; }

@@ -270,30 +270,21 @@ size_t drv_framelink_put_eye(const drv_frame *f, int t, int format, int e, uint8
         for (int y = 0; y < h; y++, p += (size_t)w * 4) memcpy(p, &WARP_AT(&f->color[e], 0, y), (size_t)w * 4);
         return (size_t)(p - start);
     }
+    if (t == 1) { /* a loop per format: the per-pixel switch below cost more than the conversions */
+        for (int y = 0; y < h; y++) {
+            const float *d = &WARP_AT(&f->depth[e], 0, y);
+            if (format == DRV_FRAMELINK_FMT_INV16)
+                for (int x = 0; x < w; x++, p += 2) put_u16(p, drv_depth_to_inv16(d[x], near_z));
+            else if (format == DRV_FRAMELINK_FMT_UNORM16) /* NaN (never valid depth) goes to far, as a cleared */
+                for (int x = 0; x < w; x++, p += 2) put_u16(p, drv_depth_to_unorm16(d[x])); /* buffer holds */
+            else
+                for (int x = 0; x < w; x++, p += 4) put_f32(p, d[x]);
+        }
+        return (size_t)(p - start);
+    }
     for (int y = 0; y < h && t != 4; y++) {
         for (int x = 0; x < w; x++) {
             switch (t) {
-            case 0: {
-                warp_rgba8 c = WARP_AT(&f->color[e], x, y);
-                p[0] = c.r, p[1] = c.g, p[2] = c.b, p[3] = c.a;
-                p += 4;
-                break;
-            }
-            case 1: {
-                float d = WARP_AT(&f->depth[e], x, y);
-                if (format == DRV_FRAMELINK_FMT_UNORM16) {
-                    /* NaN (never valid depth) goes to far like a cleared depth buffer would hold. */
-                    put_u16(p, drv_depth_to_unorm16(d));
-                    p += 2;
-                } else if (format == DRV_FRAMELINK_FMT_INV16) {
-                    put_u16(p, drv_depth_to_inv16(d, near_z));
-                    p += 2;
-                } else {
-                    put_f32(p, d);
-                    p += 4;
-                }
-                break;
-            }
             case 2: put_u16(p, WARP_AT(&f->ids[e], x, y)); p += 2; break;
             case 3: {
                 warp_vec2f m = WARP_AT(&f->motion[e], x, y);
@@ -482,27 +473,21 @@ void drv_framelink_get_eye(drv_frame *out, int type, int format, int e, int w, i
         for (int y = 0; y < h; y++, p += (size_t)w * 4) memcpy(&WARP_AT(&out->color[e], 0, y), p, (size_t)w * 4);
         return;
     }
+    if (type == 1) { /* a loop per format, as drv_framelink_put_eye */
+        for (int y = 0; y < h; y++) {
+            float *d = &WARP_AT(&out->depth[e], 0, y);
+            if (format == DRV_FRAMELINK_FMT_INV16)
+                for (int x = 0; x < w; x++, p += 2) d[x] = drv_depth_from_inv16(get_u16(p), near_z);
+            else if (format == DRV_FRAMELINK_FMT_UNORM16)
+                for (int x = 0; x < w; x++, p += 2) d[x] = drv_depth_from_unorm16(get_u16(p));
+            else
+                for (int x = 0; x < w; x++, p += 4) d[x] = get_f32(p);
+        }
+        return;
+    }
     for (int y = 0; y < h && type != 4; y++) {
         for (int x = 0; x < w; x++) {
             switch (type) {
-            case 0: {
-                warp_rgba8 *c = &WARP_AT(&out->color[e], x, y);
-                c->r = p[0], c->g = p[1], c->b = p[2], c->a = p[3];
-                p += 4;
-                break;
-            }
-            case 1:
-                if (format == DRV_FRAMELINK_FMT_UNORM16) {
-                    WARP_AT(&out->depth[e], x, y) = drv_depth_from_unorm16(get_u16(p));
-                    p += 2;
-                } else if (format == DRV_FRAMELINK_FMT_INV16) {
-                    WARP_AT(&out->depth[e], x, y) = drv_depth_from_inv16(get_u16(p), near_z);
-                    p += 2;
-                } else {
-                    WARP_AT(&out->depth[e], x, y) = get_f32(p);
-                    p += 4;
-                }
-                break;
             case 2: WARP_AT(&out->ids[e], x, y) = get_u16(p); p += 2; break;
             case 3:
                 WARP_AT(&out->motion[e], x, y).x = get_f32(p);
