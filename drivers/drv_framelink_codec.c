@@ -43,17 +43,25 @@ static int shuffle_size(int format)
     default: return 1;
     }
 }
+/* Byte planes: element byte b of element i at b * n + i. A loop per element size, so the compiler sees constant
+ * strides (the generic double loop cost more than zstd itself on a full-resolution depth plane). */
 static void shuffle(const uint8_t *in, uint8_t *out, size_t bytes, int es)
 {
     size_t n = bytes / (size_t)es;
-    for (size_t i = 0; i < n; i++)
-        for (int b = 0; b < es; b++) out[(size_t)b * n + i] = in[i * (size_t)es + (size_t)b];
+    if (es == 2)
+        for (size_t i = 0; i < n; i++) out[i] = in[2 * i], out[n + i] = in[2 * i + 1];
+    else
+        for (size_t i = 0; i < n; i++)
+            for (int b = 0; b < es; b++) out[(size_t)b * n + i] = in[i * (size_t)es + (size_t)b];
 }
 static void unshuffle(const uint8_t *in, uint8_t *out, size_t bytes, int es)
 {
     size_t n = bytes / (size_t)es;
-    for (size_t i = 0; i < n; i++)
-        for (int b = 0; b < es; b++) out[i * (size_t)es + (size_t)b] = in[(size_t)b * n + i];
+    if (es == 2)
+        for (size_t i = 0; i < n; i++) out[2 * i] = in[i], out[2 * i + 1] = in[n + i];
+    else
+        for (size_t i = 0; i < n; i++)
+            for (int b = 0; b < es; b++) out[i * (size_t)es + (size_t)b] = in[(size_t)b * n + i];
 }
 
 static int video_index(int codec) { return codec == DRV_CODEC_HEVC; }
@@ -516,6 +524,8 @@ struct drv_framelink_dec {
     size_t zcap[8];
     float *lo[2];
     void *upscratch[2];
+    float *inv16[2];        /* drv_depth_from_inv16 of every code for the eye's near plane inv16_near[e] (NaN: none */
+    double inv16_near[2];   /* yet): a look-up where each pixel cost a double division */
     drv_jpeg *jpeg[DRV_FRAMELINK_MAX_CHUNKS];
     drv_video_dec *video[2][2]; /* [H264, HEVC][eye] */
     /* the video colour stream (frames thread only) */
@@ -576,11 +586,13 @@ drv_framelink_dec *drv_framelink_dec_create(int w, int h, unsigned planes, int m
             }
         }
     }
+    d->inv16_near[0] = d->inv16_near[1] = NAN;
     int lw = drv_depth_scaled(w, 1), lh = drv_depth_scaled(h, 1); /* scale 1 is the largest reduced one */
     if (planes & DRV_PLANE_DEPTH)
         for (int e = 0; e < 2; e++)
             if (!(d->lo[e] = malloc(sizeof(float) * (size_t)lw * (size_t)lh)) ||
-                !(d->upscratch[e] = malloc(drv_depth_upsample_scratch(lw, lh)))) {
+                !(d->upscratch[e] = malloc(drv_depth_upsample_scratch(lw, lh))) ||
+                !(d->inv16[e] = malloc(sizeof(float) * 65536))) {
                 warp_err(err, errlen, "out of memory");
                 goto fail;
             }
@@ -614,7 +626,7 @@ void drv_framelink_dec_destroy(drv_framelink_dec *d)
         free(d->zbuf[i]);
         free(d->ubuf[i]);
     }
-    for (int e = 0; e < 2; e++) free(d->lo[e]), free(d->upscratch[e]);
+    for (int e = 0; e < 2; e++) free(d->lo[e]), free(d->upscratch[e]), free(d->inv16[e]);
     for (int i = 0; i < DRV_FRAMELINK_MAX_CHUNKS; i++) drv_jpeg_destroy(d->jpeg[i]);
     for (int c = 0; c < 2; c++)
         for (int e = 0; e < 2; e++) drv_video_dec_destroy(d->video[c][e]);
@@ -712,6 +724,28 @@ static void dec_convert(void *ctx, int i)
     int e = t->eye, w = d->lay->w[e], h = d->lay->h[e], s = slot(pl->type, e);
     double near_z = d->lay->near_z[e];
     const uint8_t *p;
+    if (pl->type == 1 && pl->codec == DRV_CODEC_ZSTD && pl->format == DRV_FRAMELINK_FMT_INV16) {
+        /* zstd INV16 (auto's depth): the two byte planes straight through the eye's table, no unshuffled copy */
+        if (!(d->inv16_near[e] == near_z)) {
+            for (int v = 0; v < 65536; v++) d->inv16[e][v] = drv_depth_from_inv16((uint16_t)v, near_z);
+            d->inv16_near[e] = near_z;
+        }
+        const float *lut = d->inv16[e];
+        const int lw = drv_depth_scaled(w, pl->scale), lh = drv_depth_scaled(h, pl->scale);
+        const size_t n = (size_t)lw * (size_t)lh;
+        const uint8_t *lo8 = d->zbuf[s], *hi8 = lo8 + n;
+        if (!pl->scale) {
+            warp_image_f32 *img = &d->out->depth[e];
+            for (int y = 0; y < h; y++, lo8 += w, hi8 += w) {
+                float *row = &WARP_AT(img, 0, y);
+                for (int x = 0; x < w; x++) row[x] = lut[lo8[x] | hi8[x] << 8];
+            }
+            return;
+        }
+        for (size_t k = 0; k < n; k++) d->lo[e][k] = lut[lo8[k] | hi8[k] << 8];
+        drv_depth_upsample_prepare(d->lo[e], lw, lh, d->lay->depth_encoding, d->upscratch[e]);
+        return;
+    }
     if (pl->codec == DRV_CODEC_ZSTD) {
         size_t n = pl->type == 4 ? 0 : wire_eye_bytes(pl, w, h, 0);
         int es = shuffle_size(pl->format);

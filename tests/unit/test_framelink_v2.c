@@ -253,6 +253,94 @@ static void test_inv16(void **state)
     free(buf);
 }
 
+/* The quantiser rounds as lround (half away from zero) clamped to 1..65535, for any depth and near plane: the
+ * inline one skips libm's call, and this holds it to the formula (exact halves included). */
+static uint16_t inv16_by_lround(float z, double near_z)
+{
+    if (!(z < INFINITY)) return 0;
+    if (z <= near_z) return 65535;
+    long v = lround(65535.0 * near_z / z);
+    return (uint16_t)(v < 1 ? 1 : v > 65535 ? 65535 : v);
+}
+static void test_inv16_rounding(void **state)
+{
+    (void)state;
+    static const double nears[] = {0.05, 0.1, 0.3, 1.0, 1e-3, -0.5, 0.0, 1e30};
+    long checked = 0;
+    for (size_t k = 0; k < sizeof nears / sizeof nears[0]; k++) {
+        const double nz = nears[k];
+        /* a geometric sweep over 10 decades, and every code's exact half-way depth and its float neighbours */
+        for (double z = 1e-4; z < 1e6; z *= 1.0001, checked++)
+            assert_int_equal(drv_depth_to_inv16((float)z, nz), inv16_by_lround((float)z, nz));
+        for (int c = 1; c < 65535 && nz > 0 && nz < 1e3; c++) {
+            const float half = (float)(65535.0 * nz / (c + 0.5));
+            const float zs[3] = {nextafterf(half, 0), half, nextafterf(half, INFINITY)};
+            for (int i = 0; i < 3; i++, checked++)
+                assert_int_equal(drv_depth_to_inv16(zs[i], nz), inv16_by_lround(zs[i], nz));
+        }
+    }
+    /* (a near plane at or below 0, which cameras refuse, can make the quotient infinite, where lround's result is
+     * the platform's: not compared) */
+    const float odd[] = {NAN, INFINITY, -INFINITY, 0.0f, -0.0f, -1.0f, 1e-45f, 3.4e38f};
+    for (size_t i = 0; i < sizeof odd / sizeof odd[0]; i++)
+        for (size_t k = 0; k < sizeof nears / sizeof nears[0]; k++)
+            if (nears[k] > 0)
+            assert_int_equal(drv_depth_to_inv16(odd[i], nears[k]), inv16_by_lround(odd[i], nears[k]));
+    assert_true(checked > 1000000);
+}
+
+/* The decoder's INV16 look-up (zstd, per eye and near plane) gives exactly drv_depth_from_inv16 of each code, at
+ * full and reduced resolution, and follows a near plane that changes between frames. */
+static void test_inv16_decoded_exactly(void **state)
+{
+    (void)state;
+    uint8_t *buf = malloc(CAP);
+    drv_frame f, g;
+    make_frame(&f, W, H, DRV_PLANE_COLOR | DRV_PLANE_DEPTH, WARP_DEPTH_LINEAR, 13);
+    assert_true(drv_frame_alloc(&g, W, H, ALL, MAX_LAYERS));
+    drv_framelink_dec *d = make_dec(W, H, 2);
+    static const double nears[3] = {0.05, 0.2, 0.05};
+    for (int fr = 0; fr < 3; fr++)
+        for (int codec = 0; codec < 2; codec++) {
+            for (int e = 0; e < 2; e++) f.cam[e].near_z = nears[fr] * (1 + e);
+            drv_framelink_enc_params p = drv_framelink_enc_params_raw();
+            p.depth_format = DRV_FRAMELINK_FMT_INV16, p.depth = codec ? DRV_CODEC_ZSTD : DRV_CODEC_RAW;
+            size_t n = encode(&p, &f, buf);
+            char detail[200];
+            assert_int_equal(drv_framelink_dec_decode(d, buf, n, 0, &g, NULL, detail, sizeof detail), DRV_FRAME_OK);
+            for (int e = 0; e < 2; e++)
+                for (int y = 0; y < H; y++)
+                    for (int x = 0; x < W; x++) {
+                        const float want = drv_depth_from_inv16(
+                            drv_depth_to_inv16(WARP_AT(&f.depth[e], x, y), f.cam[e].near_z), f.cam[e].near_z);
+                        const float got = WARP_AT(&g.depth[e], x, y);
+                        if (!(got == want || (isinf(got) && isinf(want))))
+                            fail_msg("frame %d %s eye %d (%d,%d): %.9g, want %.9g", fr, codec ? "zstd" : "raw", e,
+                                     x, y, got, want);
+                    }
+            /* at 1/2 resolution the samples the upsample starts from are the codes' values too: on a flat frame
+             * each pixel is that value through inverse depth and back, as the upsample interpolates */
+            p.depth_scale = 1;
+            for (int e = 0; e < 2; e++)
+                for (int y = 0; y < H; y++)
+                    for (int x = 0; x < W; x++) WARP_AT(&f.depth[e], x, y) = 3.25f;
+            n = encode(&p, &f, buf);
+            assert_int_equal(drv_framelink_dec_decode(d, buf, n, 0, &g, NULL, detail, sizeof detail), DRV_FRAME_OK);
+            for (int e = 0; e < 2; e++) {
+                const float code = drv_depth_from_inv16(drv_depth_to_inv16(3.25f, f.cam[e].near_z), f.cam[e].near_z);
+                const float want = (float)(1.0 / (double)(float)(1.0 / (double)code));
+                for (int y = 0; y < H; y++)
+                    for (int x = 0; x < W; x++) assert_true(WARP_AT(&g.depth[e], x, y) == want);
+            }
+            drv_frame_free(&f);
+            make_frame(&f, W, H, DRV_PLANE_COLOR | DRV_PLANE_DEPTH, WARP_DEPTH_LINEAR, 13 + fr);
+        }
+    drv_framelink_dec_destroy(d);
+    drv_frame_free(&f);
+    drv_frame_free(&g);
+    free(buf);
+}
+
 /* A foreground surface (red, about 2 m, sloping) left of x = EDGE_X and a background wall (blue, 10 m) right of it,
  * sent at 1/2 and 1/4 resolution: every pixel gets one surface's depth (never one in between), its own surface's
  * by colour, and away from the edge the sloping surface is interpolated closely. */
@@ -686,6 +774,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_zstd_lossless),   cmocka_unit_test(test_all_raw_is_v1),
         cmocka_unit_test(test_inv16),           cmocka_unit_test(test_upsample_edges),
+        cmocka_unit_test(test_inv16_rounding),  cmocka_unit_test(test_inv16_decoded_exactly),
         cmocka_unit_test(test_downsample_nearest), cmocka_unit_test(test_damage),
         cmocka_unit_test(test_params),          cmocka_unit_test(test_cams_codecs),
         cmocka_unit_test(test_jpeg),            cmocka_unit_test(test_video),
