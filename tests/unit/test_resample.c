@@ -51,8 +51,12 @@ static void test_planar_deinterleave(void **state)
         for (int x = 0; x < 37; x++) {
             int yb = y + 1 < 11 ? y + 1 : y;
             assert_int_equal(p.plane[0][y * p.stride + x], WARP_AT(&img, x, y).r | WARP_AT(&img, x, yb).r << 8);
+            assert_int_equal(p.plane[1][y * p.stride + x], WARP_AT(&img, x, y).g | WARP_AT(&img, x, yb).g << 8);
             assert_int_equal(p.plane[2][y * p.stride + x], WARP_AT(&img, x, y).b | WARP_AT(&img, x, yb).b << 8);
         }
+    /* and the element right of the last column repeats it */
+    for (int y = 0; y < 11; y++)
+        for (int c = 0; c < 3; c++) assert_int_equal(p.plane[c][y * p.stride + 37], p.plane[c][y * p.stride + 36]);
     warp_planar3_free(&p);
     warp_image_free(&img);
 }
