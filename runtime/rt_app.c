@@ -220,6 +220,10 @@ bool rt_app_init(rt_app *a, const rt_config *cfg, char *err, int errlen)
         return false;
     if (!rt_frameq_alloc(&a->fq, c->eye_w, c->eye_h, drv_frames_planes(a->dev.frames), 4))
         return warp_err(err, errlen, "cannot allocate the frame slots");
+    /* The frames thread prepares each eye of a host frame on its own thread, as many as decode a frame's planes
+     * ([frames] decode_threads): at normal priority, below the compositor's. */
+    if (c->decode_threads > 1 && !(a->prepare_workers = plat_workers_create(1, 0)))
+        return warp_err(err, errlen, "cannot start the frames thread's worker");
 
     if (a->dev.display) {
         /* the CPU path's KMS output, opened with the renderer */
@@ -287,7 +291,7 @@ void rt_app_run(rt_app *a)
     }
     a->run_start_ns = plat_now_ns();
     a->feed = (rt_devices_feed){&a->dev, a->fusion, &a->fq, a->tel, &a->stop, a->cfg.rt_priority, a->t0_ns,
-                                rt_frame_prepare};
+                                rt_frame_prepare_on, a->prepare_workers};
     a->th_imu_up = pthread_create(&a->th_imu, NULL, rt_devices_imu_thread, &a->feed) == 0;
     a->th_frames_up = pthread_create(&a->th_frames, NULL, rt_devices_frames_thread, &a->feed) == 0;
     a->th_aux_up = pthread_create(&a->th_aux, NULL, aux_thread, a) == 0;
@@ -445,6 +449,7 @@ void rt_app_free(rt_app *a)
     rt_render_cpu_destroy(&a->render); /* before the workers it borrows */
     rt_pacer_destroy(&a->pacer);
     if (a->workers) plat_workers_destroy(a->workers);
+    if (a->prepare_workers) plat_workers_destroy(a->prepare_workers);
     plat_swapchain_free(&a->sc);
     rt_frameq_free(&a->fq);
     rt_simboard_destroy(&a->sim);

@@ -51,6 +51,7 @@ typedef struct {
     warp_camera eye_cam[2];
     plat_swapchain sc;
     plat_workers *workers;
+    plat_workers *prepare_workers; /* the frames thread's: a host frame's eyes prepared in parallel (or NULL) */
     rt_render_cpu *render;      /* the CPU pass: lens meshes (GLES draws through them too), scratch, fallbacks */
     rt_pacer *pacer;            /* when to wake for which vsync, what warps cost, misses (started by the loop) */
     /* set by rt_app_run once the helper thread, which reads them for the live stats, may be running */

@@ -330,7 +330,8 @@ void *rt_devices_frames_thread(void *arg)
             }
             continue;
         }
-        drv_frame_err e = rc < 0 ? (drv_frame_err)(-rc) : a->prepare(slot);
+        drv_frame_err e = rc < 0 ? (drv_frame_err)(-rc) : a->prepare(slot, a->prepare_workers);
+        if (rc > 0) rt_hist_add(&a->tel->prepare_ms, (double)(plat_now_ns() - now) * 1e-6);
         if (e != DRV_FRAME_OK) {
             /* Rejected: counted, and the compositor keeps warping the last good frame. */
             if (e < 0 || e >= DRV_FRAME_ERR_COUNT) e = DRV_FRAME_ERR_IO;

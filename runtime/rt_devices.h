@@ -61,8 +61,10 @@ typedef struct {
     _Atomic int *stop;     /* the threads return once it is set */
     int rt_priority;       /* the compositor's: the IMU thread runs just below it */
     int64_t t0_ns;         /* scene time origin: a mock host's frames get their scene time from it */
-    /* validation and everything derived from a frame, on the frames thread: once per host frame, never per vsync */
-    drv_frame_err (*prepare)(rt_frame *slot);
+    /* validation and everything derived from a frame, on the frames thread: once per host frame, never per vsync;
+     * its eyes as tasks on prepare_workers (NULL: on the frames thread alone) */
+    drv_frame_err (*prepare)(rt_frame *slot, plat_workers *w);
+    plat_workers *prepare_workers;
 } rt_devices_feed;
 /* The IMU thread: samples into the tracker; a lost device is logged, counted and retried (the display holds the
  * last orientation meanwhile). arg: an rt_devices_feed. */

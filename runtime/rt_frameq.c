@@ -5,6 +5,7 @@
 
 #include <string.h>
 
+#include "platform/plat_workers.h"
 #include "warp/warp_raytrace.h"
 #include "warp/warp_transparency.h"
 
@@ -32,27 +33,45 @@ warp_view rt_frame_view(const rt_frame *fr, int eye)
     return v;
 }
 
+/* One eye of rt_frame_prepare_on: everything derived from a frame is per eye. */
+typedef struct {
+    rt_frame *s;
+    long bad[2]; /* depth values that are not depths (NaN, negative), per eye */
+} prepare_job;
+
+static void prepare_eye(void *ctx, int eye)
+{
+    prepare_job *j = ctx;
+    rt_frame *s = j->s;
+    j->bad[eye] = 0;
+    if (s->has_depth) {
+        j->bad[eye] = warp_inverse_depth_from(&s->f.cam[eye], s->f.depth_encoding, &s->f.depth[eye],
+                                              &s->inv_depth[eye], &s->inv_min[eye], &s->inv_max[eye]);
+        if (j->bad[eye]) return; /* the frame is rejected: nothing else of it is read */
+        warp_raytrace_blockmax(&s->inv_depth[eye], &s->blockmax[eye], RT_BLOCK);
+    }
+    warp_planar3_from_rgba_rows(&s->planar[eye], &s->f.color[eye], 0, s->f.color[eye].h);
+    /* The host blended its transparent fragments into the colour; the transparency warp moves them on their own,
+     * over the surface behind them: recover that once per frame, here, off the vsync path. */
+    if ((s->f.planes & DRV_PLANE_LAYERS) && s->opaque[eye].px)
+        warp_transparency_unblend(&s->f.color[eye], &s->f.layers[eye], &s->opaque[eye]);
+}
+
 /* here rather than in the frames thread: the bench and the tests prepare their frames exactly as hmdwarpd does */
-drv_frame_err rt_frame_prepare(rt_frame *s)
+drv_frame_err rt_frame_prepare_on(rt_frame *s, plat_workers *w)
 {
     drv_frame_err e = drv_frame_validate(&s->f);
     if (e != DRV_FRAME_OK) return e;
     s->has_depth = (s->f.planes & DRV_PLANE_DEPTH) != 0;
-    for (int eye = 0; eye < 2; eye++) {
-        if (s->has_depth) {
-            long bad = warp_inverse_depth_from(&s->f.cam[eye], s->f.depth_encoding, &s->f.depth[eye],
-                                               &s->inv_depth[eye], &s->inv_min[eye], &s->inv_max[eye]);
-            if (bad) return DRV_FRAME_ERR_BAD_DEPTH;
-            warp_raytrace_blockmax(&s->inv_depth[eye], &s->blockmax[eye], RT_BLOCK);
-        }
-        warp_planar3_from_rgba_rows(&s->planar[eye], &s->f.color[eye], 0, s->f.color[eye].h);
-        /* The host blended its transparent fragments into the colour; the transparency warp moves them on their
-         * own, over the surface behind them: recover that once per frame, here, off the vsync path. */
-        if ((s->f.planes & DRV_PLANE_LAYERS) && s->opaque[eye].px)
-            warp_transparency_unblend(&s->f.color[eye], &s->f.layers[eye], &s->opaque[eye]);
-    }
-    return DRV_FRAME_OK;
+    prepare_job j = {s, {0, 0}};
+    if (w)
+        plat_workers_run(w, 2, prepare_eye, &j);
+    else
+        for (int eye = 0; eye < 2; eye++) prepare_eye(&j, eye);
+    return j.bad[0] || j.bad[1] ? DRV_FRAME_ERR_BAD_DEPTH : DRV_FRAME_OK;
 }
+
+drv_frame_err rt_frame_prepare(rt_frame *s) { return rt_frame_prepare_on(s, NULL); }
 
 bool rt_frame_alloc(rt_frame *s, int w, int h, unsigned planes, int max_layers)
 {

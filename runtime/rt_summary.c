@@ -21,7 +21,8 @@ enum {
     R_KMS_API, R_KMS_FORMAT, R_GLES_P50, R_GLES_P99, R_GLES_ERRORS, R_VSYNCS, R_MISSED, R_MISSED_BY, R_NO_FRAME,
     R_NO_BUFFER, R_METHOD, R_WARP_P50, R_WARP_P99, R_STALL, R_M2P_P50, R_M2P_P99, R_AGE_P50, R_AGE_MAX, R_OUTSIDE_P50, R_OUTSIDE_P99,
     R_OUTSIDE_PX, R_VISIBLE_PX, R_SELECT,
-    R_SWITCHES, R_RECEIVED, R_BYTES, R_SHOWN, R_DROPPED, R_REJECTED_BY, R_REJECTED, R_LINK_CONNECTED,
+    R_SWITCHES, R_RECEIVED, R_BYTES, R_SHOWN, R_DROPPED, R_REJECTED_BY, R_REJECTED, R_PREPARE_P50, R_PREPARE_P99,
+    R_LINK_CONNECTED,
     R_LINK_CONNECTIONS, R_LINK_REFUSED, R_LINK_DISCONNECTS, R_LINK_POSES, R_LINK_POSES_DROPPED, R_LINK_CAMS, R_LINK_MASKS,
     R_LINK_USB_SPEED,
     R_LINK_DECODE_P50, R_LINK_DECODE_P99, R_LINK_COMPRESSED, R_LINK_CODEC_ERRORS, R_LINK_KEY_REQUESTS,
@@ -31,7 +32,7 @@ enum {
     R_ORIENT_X, R_ORIENT_Y, R_ORIENT_Z, R_ORIENT_ERR, R_PSNR, R_SSIM,
     /* the summary's own: histograms it prints whole, and what only a reader needs */
     R_PANEL, R_ADVICE, R_WARP_MS, R_GLES_TIMING, R_GLES_MS, R_RT_FALLBACKS, R_PLANE_FALLBACKS, R_M2P, R_AGE,
-    R_OUTPUT, R_HOST_RENDER, R_LINK_DECODE_MS, R_PLANES, R_IMU_REJECTED, R_EVAL_N, R_POSE_ERR, R_CSV, R_COUNT
+    R_OUTPUT, R_HOST_RENDER, R_LINK_DECODE_MS, R_PREPARE_MS, R_PLANES, R_IMU_REJECTED, R_EVAL_N, R_POSE_ERR, R_CSV, R_COUNT
 };
 
 #define B RT_SUM_BOTH
@@ -83,6 +84,8 @@ const rt_summary_row rt_summary_table[] = {
     [R_DROPPED] = {"frames_dropped", "received", B, 'u', 0, false},
     [R_REJECTED_BY] = {"frames_rejected_%s", "rejected as", B, 'u', 0, false},
     [R_REJECTED] = {"frames_rejected", "received", B, 'u', 0, false},
+    [R_PREPARE_P50] = {"frames_prepare_ms_p50", "frame prepare", B, 'f', 3, false},
+    [R_PREPARE_P99] = {"frames_prepare_ms_p99", "frame prepare", B, 'f', 3, false},
     [R_LINK_CONNECTED] = {"frames_link_connected", "host link", B, 'd', 0, false},
     [R_LINK_CONNECTIONS] = {"frames_link_connections", "host link", B, 'u', 0, false},
     [R_LINK_REFUSED] = {"frames_link_refused", "host link", B, 'u', 0, false},
@@ -134,6 +137,7 @@ const rt_summary_row rt_summary_table[] = {
     [R_OUTPUT] = {NULL, "output", S, 's', 0, false},
     [R_HOST_RENDER] = {NULL, "host render + transport", S, 'h', 0, false},
     [R_LINK_DECODE_MS] = {NULL, "link decode", S, 'h', 0, false},
+    [R_PREPARE_MS] = {NULL, "frame prepare", S, 'h', 0, false},
     [R_PLANES] = {NULL, "planes rendered", S, 'u', 0, false},
     [R_IMU_REJECTED] = {NULL, "IMU samples", S, 'u', 0, false},
     [R_EVAL_N] = {NULL, "accuracy vs ground truth", S, 'd', 0, false},
@@ -309,6 +313,8 @@ static val value(const rt_summary_src *s, int r, int i)
     case R_REJECTED:
         for (int e = 1; e < DRV_FRAME_ERR_COUNT; e++) v.u += t->frames_rejected[e];
         break;
+    case R_PREPARE_P50: v.f = rt_hist_pct(&t->prepare_ms, 50); break;
+    case R_PREPARE_P99: v.f = rt_hist_pct(&t->prepare_ms, 99); break;
     case R_LINK_CONNECTED: v.u = s->link.connected; break;
     case R_LINK_CONNECTIONS: v.u = s->link.connections; break;
     case R_LINK_REFUSED: v.u = s->link.refused; break;
@@ -368,6 +374,7 @@ static val value(const rt_summary_src *s, int r, int i)
     case R_AGE: v.h = &t->frame_age_ms; break;
     case R_OUTPUT: v.s = s->output ? s->output : ""; break;
     case R_HOST_RENDER: v.h = &t->host_render_ms; break;
+    case R_PREPARE_MS: v.h = &t->prepare_ms; break;
     case R_PLANES: v.u = s->sim_plane_renders[i]; break;
     case R_IMU_REJECTED: v.u = s->imu_rejected; break;
     case R_EVAL_N: v.u = (unsigned)s->eval[RT_EVAL_NONE].n; break;
@@ -567,6 +574,7 @@ void rt_summary_print(const rt_summary_src *s, FILE *out)
         pct_line(out, L(R_LINK_DECODE_MS), value(s, R_LINK_DECODE_MS, 0).h);
     }
     pct_line(out, L(R_HOST_RENDER), value(s, R_HOST_RENDER, 0).h);
+    pct_line(out, L(R_PREPARE_MS), value(s, R_PREPARE_MS, 0).h);
     if (rt_summary_members(s, R_PLANES)) {
         buf[0] = 0;
         for (int p = 0; p < rt_summary_members(s, R_PLANES); p++) {

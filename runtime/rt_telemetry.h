@@ -94,6 +94,7 @@ typedef struct {
     _Atomic uint64_t frames_rejected[DRV_FRAME_ERR_COUNT];
     rt_hist host_render_ms;
     rt_hist decode_ms;     /* framelink: a frame's decode on the frames thread (and its decode threads) */
+    rt_hist prepare_ms;    /* a received frame's validation and what the warps read from it (rt_frame_prepare_on) */
     /* IMU thread */
     _Atomic uint64_t imu_samples, imu_read_errors;
     _Atomic uint64_t imu_lost;   /* times the IMU went away (read() reported the device gone) */

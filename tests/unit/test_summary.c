@@ -48,6 +48,7 @@ static int setup(void **state)
     rt_hist_add(&t->m2p_ms, 20.0);
     rt_hist_add(&t->frame_age_ms, 30.0);
     rt_hist_add(&t->host_render_ms, 9.0);
+    rt_hist_add(&t->prepare_ms, 3.0);
     for (int w = 0; w < RT_WHY_COUNT; w++) t->select_why[w] = (uint64_t)w + 1;
     t->method_switches = 4;
     t->frames_received = 20;
@@ -228,12 +229,14 @@ static void test_values_and_formats(void **state)
                           /* 1.125 MB in run_s 2.25 s; 9 MB of planes from 1.125 MB on the wire */
                           "\nframes_link_compressed_frames=40\n", "\nframes_link_codec_errors=2\n",
                           "\nframes_link_key_requests=1\n", "\nframes_link_wire_mb_s=0.50\n",
-                          "\nframes_link_compression=8.00\n", "\nframes_link_video_decoder=software\n"};
+                          "\nframes_link_compression=8.00\n", "\nframes_link_video_decoder=software\n",
+                          "\nframes_prepare_ms_p50=3.005\nframes_prepare_ms_p99=3.005\n"};
     for (size_t i = 0; i < sizeof want / sizeof want[0]; i++)
         if (!strstr(kv, want[i])) fail_msg("--stats lacks '%s':\n%s", want[i], kv);
     const char *lines[] = {
         "  vsyncs                     200, missed 43 (21.50 %) (some with no free swapchain image)\n",
         "  warp time (raytrace)       p50   5.00 ms",
+        "  frame prepare              p50   3.00 ms",
         "    rejected as I/O error     ",
         "  KMS output                 Virtual-1 1440x800@90, atomic, XRGB8888: 180 page flips, 1 failed, 2 late\n",
         "  planes rendered            color 0, depth 1, ids 2, motion 3, layers 4 (scene effects: rotation)\n",
