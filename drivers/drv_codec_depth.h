@@ -13,15 +13,9 @@
 
 /* INV16: round(65535 * near_z / z) of linear metres. Precision follows parallax (a step is z^2 / (65535 near_z)
  * metres, a relative error of at most z / (2 * 65535 near_z)); 0 is sky (+inf, NaN). Nearer than near_z clamps
- * to 65535, a finite depth too far for a step to 1. */
-static inline uint16_t drv_depth_to_inv16(float z, double near_z);
-static inline float drv_depth_from_inv16(uint16_t v, double near_z); /* 0 -> +inf */
-/* UNORM16: round(d * 65535) of window depth d clamped to [0, 1], NaN as far (1); v1's format. */
-uint16_t drv_depth_to_unorm16(float d);
-float drv_depth_from_unorm16(uint16_t v);
-
-/* Inline: the encoder and decoder convert every pixel of a full-resolution plane with these. The rounding is
- * lround's (half away from zero) without its libm call: for 1 <= x < 65534.5, x - trunc(x) is exact. */
+ * to 65535, a finite depth too far for a step to 1. Inline: the encoder and decoder convert every pixel of a
+ * full-resolution plane with these; the rounding is lround's (half away from zero) without its libm call, as for
+ * 1 <= x < 65534.5, x - trunc(x) is exact. */
 static inline uint16_t drv_depth_to_inv16(float z, double near_z)
 {
     if (!(z < INFINITY)) return 0; /* +inf and NaN: sky */
@@ -32,10 +26,13 @@ static inline uint16_t drv_depth_to_inv16(float z, double near_z)
     const long v = (long)x;
     return (uint16_t)(v + (x - (double)v >= 0.5));
 }
-static inline float drv_depth_from_inv16(uint16_t v, double near_z)
+static inline float drv_depth_from_inv16(uint16_t v, double near_z) /* 0 -> +inf */
 {
     return v ? (float)(65535.0 * near_z / v) : INFINITY;
 }
+/* UNORM16: round(d * 65535) of window depth d clamped to [0, 1], NaN as far (1); v1's format. */
+uint16_t drv_depth_to_unorm16(float d);
+float drv_depth_from_unorm16(uint16_t v);
 
 /* Low-resolution size of an eye side at 1/2^scale (ceil). */
 static inline int drv_depth_scaled(int side, int scale) { return (side + (1 << scale) - 1) >> scale; }
