@@ -5,7 +5,6 @@
 
 #include <string.h>
 
-#include "platform/plat_workers.h"
 #include "warp/warp_raytrace.h"
 #include "warp/warp_transparency.h"
 

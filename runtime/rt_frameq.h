@@ -8,6 +8,7 @@
 #include <stdbool.h>
 
 #include "drivers/drv_frames.h"
+#include "platform/plat_workers.h"
 #include "warp/warp_resample.h"
 #include "warp/warp_view.h"
 
@@ -34,7 +35,6 @@ void rt_frame_free(rt_frame *s);
 drv_frame_err rt_frame_prepare(rt_frame *s);
 /* The same with each eye's part as its own task on w (the frames thread's pool; NULL: the caller alone): the same
  * result, in about half the time on two threads (both eyes at 1440x1600 take some 13 ms on one core here). */
-typedef struct plat_workers plat_workers;
 drv_frame_err rt_frame_prepare_on(rt_frame *s, plat_workers *w);
 /* Builds the warp input for one eye of a prepared frame. */
 warp_view rt_frame_view(const rt_frame *fr, int eye);
