@@ -8,6 +8,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "warp/warp_v4.h"
+
 uint16_t drv_depth_to_unorm16(float d)
 {
     double c = d >= 0.0f ? (d <= 1.0f ? d : 1.0) : (d < 0.0f ? 0.0 : 1.0);
@@ -75,12 +77,7 @@ static int colour_dist(warp_rgba8 a, warp_rgba8 b)
 
 size_t drv_depth_upsample_scratch(int lw, int lh) { return (size_t)lw * (size_t)lh * (sizeof(float) + 1); }
 
-/* Vectors of 4 in GCC/clang vector extensions (SSE2 on x86-64, NEON on aarch64): element-wise IEEE operations
- * round like their scalar counterparts, and -O2's very cheap vectoriser takes no loop of unknown count. C has no
- * vector ?:, so a selection is a mask: a comparison gives -1 in the lanes where it holds. */
-typedef float ups_v4f __attribute__((vector_size(16)));
-typedef double ups_v4d __attribute__((vector_size(32)));
-typedef int32_t ups_v4i __attribute__((vector_size(16)));
+/* Four lanes at a time (warp_v4.h); -O2's very cheap vectoriser takes no loop of unknown count. */
 
 /* Whether the samples of block bx and its 8 neighbours lie on one surface (or are all sky): within
  * DRV_DEPTH_EDGE_REL of each other in inverse depth. A pixel of a block next to an edge is treated as on the edge
@@ -116,15 +113,15 @@ void drv_depth_upsample_prepare(const float *lo, int lw, int lh, warp_depth_enco
     size_t i = 0, n = (size_t)lw * (size_t)lh;
     for (; i + 4 <= n; i += 4) {
         /* (float)inverse(d, enc), 4 at a time: in double as inverse() computes it */
-        ups_v4f d, o;
+        warp_v4f d, o;
         memcpy(&d, lo + i, sizeof d);
         if (enc == WARP_DEPTH_LINEAR) {
-            ups_v4f r = __builtin_convertvector(1.0 / __builtin_convertvector(d, ups_v4d), ups_v4f);
-            o = (ups_v4f)((ups_v4i)r & (d > 0.0f)); /* else +0 */
+            warp_v4f r = __builtin_convertvector(1.0 / __builtin_convertvector(d, warp_v4d), warp_v4f);
+            o = (warp_v4f)((warp_v4i)r & (d > 0.0f)); /* else +0 */
         } else if (enc == WARP_DEPTH_STANDARD) {
-            o = __builtin_convertvector(1.0 - __builtin_convertvector(d, ups_v4d), ups_v4f);
+            o = __builtin_convertvector(1.0 - __builtin_convertvector(d, warp_v4d), warp_v4f);
         } else {
-            o = __builtin_convertvector(__builtin_convertvector(d, ups_v4d), ups_v4f);
+            o = __builtin_convertvector(__builtin_convertvector(d, warp_v4d), warp_v4f);
         }
         memcpy(q + i, &o, sizeof o);
     }
@@ -162,19 +159,19 @@ static void ups_coord(int x, int scale, int lw, int *xa, int *xb, float *tx)
 static void ups_flat_run(float *restrict out, const float *restrict top, const float *restrict bot, float ty, int n,
                          warp_depth_encoding enc)
 {
-    const ups_v4f vty = (ups_v4f){0} + ty, inf = (ups_v4f){0} + INFINITY;
+    const warp_v4f vty = (warp_v4f){0} + ty, inf = (warp_v4f){0} + INFINITY;
     int i = 0;
     for (; i + 4 <= n; i += 4) {
-        ups_v4f t, u;
+        warp_v4f t, u;
         memcpy(&t, top + i, sizeof t), memcpy(&u, bot + i, sizeof u);
-        ups_v4f s = t + (u - t) * vty, o;
+        warp_v4f s = t + (u - t) * vty, o;
         if (enc == WARP_DEPTH_LINEAR) {
             /* q > 0 ? (float)(1.0 / q) : INFINITY, q = (double)s; s > 0 is the same test */
-            ups_v4f r = __builtin_convertvector(1.0 / __builtin_convertvector(s, ups_v4d), ups_v4f);
-            ups_v4i m = s > 0.0f;
-            o = (ups_v4f)(((ups_v4i)r & m) | ((ups_v4i)inf & ~m));
+            warp_v4f r = __builtin_convertvector(1.0 / __builtin_convertvector(s, warp_v4d), warp_v4f);
+            warp_v4i m = s > 0.0f;
+            o = warp_v4f_select(m, r, inf);
         } else if (enc == WARP_DEPTH_STANDARD) {
-            o = __builtin_convertvector(1.0 - __builtin_convertvector(s, ups_v4d), ups_v4f);
+            o = __builtin_convertvector(1.0 - __builtin_convertvector(s, warp_v4d), warp_v4f);
         } else {
             o = s;
         }

@@ -4,8 +4,9 @@
 #include "warp/warp_raytrace.h"
 
 #include <math.h>
-#include <stdint.h>
 #include <string.h>
+
+#include "warp/warp_v4.h"
 
 /* Geometry of one ray, in the source image. A point of the target ray X = o + l*dir has homogeneous source
  * position a + l*b (a = K o, b = K dir), so its inverse depth is D = 1/(aw + l*bw) and its pixel position is
@@ -49,10 +50,6 @@ const char *warp_raytrace_prepare(warp_raytrace_setup *s, const warp_view *src, 
     return NULL;
 }
 
-/* Four floats (SSE2 on x86-64, NEON on aarch64): the blocks of 8 texels of a whole frame, on the frames thread. */
-typedef float bmax_v4f __attribute__((vector_size(16)));
-typedef int32_t bmax_v4i __attribute__((vector_size(16)));
-
 void warp_raytrace_blockmax(const warp_image_f32 *inv, warp_image_f32 *bmax, int block)
 {
     int bw = (inv->w + block - 1) / block, bh = (inv->h + block - 1) / block;
@@ -63,15 +60,13 @@ void warp_raytrace_blockmax(const warp_image_f32 *inv, warp_image_f32 *bmax, int
             int y1 = (by + 1) * block < inv->h ? (by + 1) * block : inv->h;
             if (block == 8 && x1 - bx * block == 8) {
                 /* a whole row of the block is two vectors; v > m ? v : m per lane skips a NaN as the loop below */
-                bmax_v4f vm = {0, 0, 0, 0};
+                warp_v4f vm = {0, 0, 0, 0};
                 for (int y = by * block; y < y1; y++) {
-                    bmax_v4f a, b;
+                    warp_v4f a, b;
                     memcpy(&a, &WARP_AT(inv, bx * block, y), sizeof a);
                     memcpy(&b, &WARP_AT(inv, bx * block + 4, y), sizeof b);
-                    bmax_v4i ga = a > vm;
-                    vm = (bmax_v4f)(((bmax_v4i)a & ga) | ((bmax_v4i)vm & ~ga));
-                    bmax_v4i gb = b > vm;
-                    vm = (bmax_v4f)(((bmax_v4i)b & gb) | ((bmax_v4i)vm & ~gb));
+                    vm = warp_v4f_select(a > vm, a, vm);
+                    vm = warp_v4f_select(b > vm, b, vm);
                 }
                 for (int k = 0; k < 4; k++) m = vm[k] > m ? vm[k] : m;
             } else {

@@ -6,6 +6,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "warp/warp_v4.h"
+
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
 #include <immintrin.h>
 #define HAVE_X86_KERNELS 1
@@ -50,12 +52,6 @@ void warp_planar3_free(warp_planar3 *p)
     memset(p, 0, sizeof *p);
 }
 
-/* Four pixels of two rows as 32-bit words (little-endian: r | g << 8 | b << 16 | a << 24, warp_rgba8 being those
- * four bytes in that order) into the three planes' 16-bit elements; other byte orders take the scalar loop. 16-byte
- * vectors: SSE2 on x86-64, NEON on aarch64. */
-typedef uint32_t planar_v4u __attribute__((vector_size(16)));
-typedef uint16_t planar_v4h __attribute__((vector_size(8)));
-
 void warp_planar3_from_rgba_rows(warp_planar3 *p, const warp_image_rgba8 *src, int y0, int y1)
 {
     for (int y = y0; y < y1; y++) {
@@ -66,11 +62,13 @@ void warp_planar3_from_rgba_rows(warp_planar3 *p, const warp_image_rgba8 *src, i
         int x = 0;
 #if __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
         for (; x + 4 <= p->w; x += 4) {
-            planar_v4u a, c;
+            /* four pixels of each row as 32-bit words, r | g << 8 | b << 16 | a << 24 (warp_rgba8's byte order
+             * read little-endian; other byte orders take the loop below) */
+            warp_v4u a, c;
             memcpy(&a, s0 + x, sizeof a), memcpy(&c, s1 + x, sizeof c);
-            const planar_v4h vr = __builtin_convertvector((a & 0xff) | (c & 0xff) << 8, planar_v4h);
-            const planar_v4h vg = __builtin_convertvector((a >> 8 & 0xff) | (c & 0xff00), planar_v4h);
-            const planar_v4h vb = __builtin_convertvector((a >> 16 & 0xff) | (c >> 8 & 0xff00), planar_v4h);
+            const warp_v4h vr = __builtin_convertvector((a & 0xff) | (c & 0xff) << 8, warp_v4h);
+            const warp_v4h vg = __builtin_convertvector((a >> 8 & 0xff) | (c & 0xff00), warp_v4h);
+            const warp_v4h vb = __builtin_convertvector((a >> 16 & 0xff) | (c >> 8 & 0xff00), warp_v4h);
             memcpy(r + x, &vr, sizeof vr), memcpy(g + x, &vg, sizeof vg), memcpy(b + x, &vb, sizeof vb);
         }
 #endif

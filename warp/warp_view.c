@@ -4,13 +4,9 @@
 #include "warp/warp_view.h"
 
 #include <math.h>
-#include <stdint.h>
 #include <string.h>
 
-/* Four floats and their masks: GCC/clang vector extensions, which are SSE2 on x86-64 and NEON on aarch64 at 16
- * bytes (wider ones are split into scalars where the target lacks them). */
-typedef float v4f __attribute__((vector_size(16)));
-typedef int32_t v4i __attribute__((vector_size(16)));
+#include "warp/warp_v4.h"
 
 long warp_inverse_depth_from(const warp_camera *cam, warp_depth_encoding enc, const warp_image_f32 *depth,
                              warp_image_f32 *inv, float *inv_min, float *inv_max)
@@ -29,25 +25,23 @@ long warp_inverse_depth_from(const warp_camera *cam, warp_depth_encoding enc, co
      * values as the double path below: the quotient 1/d rounded to double and then to float is the float quotient
      * (double rounding of a division is innocuous with 53 >= 2 * 24 + 2 bits), and rounding is monotonic, so the
      * clamp to near commutes with it. Lanes that are not depths (d <= 0, NaN) become 0 and count as bad. */
-    const v4f vin = (v4f){0} + (float)in;
-    v4f vmn = (v4f){0} + INFINITY, vmx = (v4f){0};
-    v4i vbad = (v4i){0};
+    const warp_v4f vin = (warp_v4f){0} + (float)in, zero = {0};
+    warp_v4f vmn = (warp_v4f){0} + INFINITY, vmx = zero;
+    warp_v4i vbad = (warp_v4i){0};
     for (int y = 0; y < depth->h; y++) {
         const float *src = &WARP_AT(depth, 0, y);
         float *dst = &WARP_AT(inv, 0, y);
         int x = 0;
         for (; enc == WARP_DEPTH_LINEAR && x + 4 <= depth->w; x += 4) {
-            v4f d, r;
+            warp_v4f d;
             memcpy(&d, src + x, sizeof d);
-            const v4i pos = d > 0.0f;
-            r = 1.0f / d;
-            const v4i big = r > vin;
-            r = (v4f)((((v4i)r & ~big) | ((v4i)vin & big)) & pos);
+            const warp_v4i pos = d > 0.0f;
+            warp_v4f r = 1.0f / d;
+            r = warp_v4f_select(pos, warp_v4f_select(r > vin, vin, r), zero);
             vbad += pos + 1; /* pos is -1 where d is a depth */
             memcpy(dst + x, &r, sizeof r);
-            const v4i lo = r < vmn, hi = r > vmx;
-            vmn = (v4f)(((v4i)r & lo) | ((v4i)vmn & ~lo));
-            vmx = (v4f)(((v4i)r & hi) | ((v4i)vmx & ~hi));
+            vmn = warp_v4f_select(r < vmn, r, vmn);
+            vmx = warp_v4f_select(r > vmx, r, vmx);
         }
         for (; x < depth->w; x++) {
             double d = src[x], v;
