@@ -82,7 +82,8 @@ static void depth_to_wire(const float *lo, size_t n, int format, double near_z, 
         }
     }
 }
-static void depth_from_wire(const uint8_t *p, size_t n, int format, double near_z, float *lo)
+/* Reduced F32 or UNORM16 depth from the wire (INV16 goes through the decoder's table: inv16_run). */
+static void depth_from_wire(const uint8_t *p, size_t n, int format, float *lo)
 {
     for (size_t i = 0; i < n; i++) {
         if (format == DRV_FRAMELINK_FMT_F32) {
@@ -90,10 +91,15 @@ static void depth_from_wire(const uint8_t *p, size_t n, int format, double near_
                          (uint32_t)p[4 * i + 3] << 24;
             memcpy(&lo[i], &v, 4);
         } else {
-            uint16_t v = (uint16_t)(p[2 * i] | p[2 * i + 1] << 8);
-            lo[i] = format == DRV_FRAMELINK_FMT_INV16 ? drv_depth_from_inv16(v, near_z) : drv_depth_from_unorm16(v);
+            lo[i] = drv_depth_from_unorm16((uint16_t)(p[2 * i] | p[2 * i + 1] << 8));
         }
     }
+}
+/* n INV16 codes, low bytes at lo[k * step] and high bytes at hi[k * step], through table (drv_depth_from_inv16 of
+ * every code for one near plane) into out. */
+static void inv16_run(const float *table, const uint8_t *lo, const uint8_t *hi, size_t step, size_t n, float *out)
+{
+    for (size_t k = 0; k < n; k++) out[k] = table[lo[k * step] | hi[k * step] << 8];
 }
 
 /* ---- parameters ---- */
@@ -723,34 +729,13 @@ static void dec_convert(void *ctx, int i)
     const drv_framelink_plane *pl = &d->lay->pl[t->plane];
     int e = t->eye, w = d->lay->w[e], h = d->lay->h[e], s = slot(pl->type, e);
     double near_z = d->lay->near_z[e];
+    const bool inv16 = pl->type == 1 && pl->format == DRV_FRAMELINK_FMT_INV16;
     const uint8_t *p;
-    if (pl->type == 1 && pl->codec == DRV_CODEC_ZSTD && pl->format == DRV_FRAMELINK_FMT_INV16) {
-        /* zstd INV16 (auto's depth): the two byte planes straight through the eye's table, no unshuffled copy */
-        if (!(d->inv16_near[e] == near_z)) {
-            for (int v = 0; v < 65536; v++) d->inv16[e][v] = drv_depth_from_inv16((uint16_t)v, near_z);
-            d->inv16_near[e] = near_z;
-        }
-        const float *lut = d->inv16[e];
-        const int lw = drv_depth_scaled(w, pl->scale), lh = drv_depth_scaled(h, pl->scale);
-        const size_t n = (size_t)lw * (size_t)lh;
-        const uint8_t *lo8 = d->zbuf[s], *hi8 = lo8 + n;
-        if (!pl->scale) {
-            warp_image_f32 *img = &d->out->depth[e];
-            for (int y = 0; y < h; y++, lo8 += w, hi8 += w) {
-                float *row = &WARP_AT(img, 0, y);
-                for (int x = 0; x < w; x++) row[x] = lut[lo8[x] | hi8[x] << 8];
-            }
-            return;
-        }
-        for (size_t k = 0; k < n; k++) d->lo[e][k] = lut[lo8[k] | hi8[k] << 8];
-        drv_depth_upsample_prepare(d->lo[e], lw, lh, d->lay->depth_encoding, d->upscratch[e]);
-        return;
-    }
     if (pl->codec == DRV_CODEC_ZSTD) {
         size_t n = pl->type == 4 ? 0 : wire_eye_bytes(pl, w, h, 0);
         int es = shuffle_size(pl->format);
         p = d->zbuf[s];
-        if (es > 1) {
+        if (es > 1 && !inv16) { /* INV16 is read from its two byte planes below, without the copy */
             unshuffle(d->zbuf[s], d->ubuf[s], n, es);
             p = d->ubuf[s];
         }
@@ -758,12 +743,29 @@ static void dec_convert(void *ctx, int i)
         /* RAW at a reduced scale: eye 1 follows eye 0 in the plane */
         p = pl->data + (e ? wire_eye_bytes(pl, d->lay->w[0], d->lay->h[0], 0) : 0);
     }
-    if (pl->type != 1 || !pl->scale) {
+    const int lw = drv_depth_scaled(w, pl->scale), lh = drv_depth_scaled(h, pl->scale);
+    if (inv16) {
+        /* Every code through the eye's table of drv_depth_from_inv16 (auto's depth: a double division per pixel
+         * cost more than zstd); zstd's bytes as its two byte planes, raw ones interleaved. */
+        if (!(d->inv16_near[e] == near_z)) {
+            for (int v = 0; v < 65536; v++) d->inv16[e][v] = drv_depth_from_inv16((uint16_t)v, near_z);
+            d->inv16_near[e] = near_z;
+        }
+        const size_t n = (size_t)lw * (size_t)lh, step = pl->codec == DRV_CODEC_ZSTD ? 1 : 2;
+        const uint8_t *hi = pl->codec == DRV_CODEC_ZSTD ? p + n : p + 1;
+        if (!pl->scale) {
+            for (int y = 0; y < h; y++)
+                inv16_run(d->inv16[e], p + (size_t)y * (size_t)w * step, hi + (size_t)y * (size_t)w * step, step,
+                          (size_t)w, &WARP_AT(&d->out->depth[e], 0, y));
+            return;
+        }
+        inv16_run(d->inv16[e], p, hi, step, n, d->lo[e]);
+    } else if (pl->type != 1 || !pl->scale) {
         drv_framelink_get_eye(d->out, pl->type, pl->format, e, w, h, near_z, p);
         return;
+    } else {
+        depth_from_wire(p, (size_t)lw * (size_t)lh, pl->format, d->lo[e]);
     }
-    int lw = drv_depth_scaled(w, pl->scale), lh = drv_depth_scaled(h, pl->scale);
-    depth_from_wire(p, (size_t)lw * (size_t)lh, pl->format, near_z, d->lo[e]);
     drv_depth_upsample_prepare(d->lo[e], lw, lh, d->lay->depth_encoding, d->upscratch[e]);
 }
 
