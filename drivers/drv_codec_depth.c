@@ -77,8 +77,6 @@ static int colour_dist(warp_rgba8 a, warp_rgba8 b)
 
 size_t drv_depth_upsample_scratch(int lw, int lh) { return (size_t)lw * (size_t)lh * (sizeof(float) + 1); }
 
-/* Four lanes at a time (warp_v4.h); -O2's very cheap vectoriser takes no loop of unknown count. */
-
 /* Whether the samples of block bx and its 8 neighbours lie on one surface (or are all sky): within
  * DRV_DEPTH_EDGE_REL of each other in inverse depth. A pixel of a block next to an edge is treated as on the edge
  * even when its 4 nearest samples agree: its own block's sample may be a foreground depth its pixel lacks. Each
@@ -112,7 +110,8 @@ void drv_depth_upsample_prepare(const float *lo, int lw, int lh, warp_depth_enco
     uint8_t *flat = (uint8_t *)(q + (size_t)lw * (size_t)lh);
     size_t i = 0, n = (size_t)lw * (size_t)lh;
     for (; i + 4 <= n; i += 4) {
-        /* (float)inverse(d, enc), 4 at a time: in double as inverse() computes it */
+        /* (float)inverse(d, enc), 4 lanes at a time (warp_v4.h: -O2's very cheap vectoriser takes no loop of
+         * unknown count), in double as inverse() computes it */
         warp_v4f d, o;
         memcpy(&d, lo + i, sizeof d);
         if (enc == WARP_DEPTH_LINEAR) {

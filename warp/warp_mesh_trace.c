@@ -32,20 +32,6 @@ void warp_mesh_trace_free(warp_mesh_trace *t)
 
 static int clampi(int v, int lo, int hi) { return v < lo ? lo : (v > hi ? hi : v); }
 
-/* Bilinear inverse depth at source position (x, y), clamped to the image (warp_raytrace.c's inv_at). */
-static float inv_at(const warp_image_f32 *d, double x, double y)
-{
-    float fx = (float)x - 0.5f, fy = (float)y - 0.5f;
-    fx = fx > 0 ? (fx < (float)(d->w - 1) ? fx : (float)(d->w - 1)) : 0; /* NaN too: to 0 */
-    fy = fy > 0 ? (fy < (float)(d->h - 1) ? fy : (float)(d->h - 1)) : 0;
-    const int x0 = (int)fx, y0 = (int)fy;
-    const int x1 = x0 + (x0 + 1 < d->w), y1 = y0 + (y0 + 1 < d->h);
-    const float ax = fx - (float)x0, ay = fy - (float)y0;
-    const float top = WARP_AT(d, x0, y0) + (WARP_AT(d, x1, y0) - WARP_AT(d, x0, y0)) * ax;
-    const float bot = WARP_AT(d, x0, y1) + (WARP_AT(d, x1, y1) - WARP_AT(d, x0, y1)) * ax;
-    return top + (bot - top) * ay;
-}
-
 /* Whether cell (i, j) needs per-pixel rays (the criteria in warp_mesh_trace.h). */
 static bool cell_discontinuous(const warp_mesh *m, int i, int j, const warp_camera *dst_cam,
                                const warp_raytrace_setup *s, const warp_raytrace_setup *last, const warp_scan *scan,
@@ -358,10 +344,12 @@ static void trace_pixel(const rect_ctx *c, int i, int j, int x, int y, double fy
                 /* its own ray unless the surface is there at green's depth and nothing as near as the block's
                  * nearest hit (dnear) stands where its ray would cross that depth */
                 const warp_image_f32 *inv = c->s->src->inv_depth;
-                const double dk = inv_at(inv, r->x[k], r->y[k]);
+                const double dk = warp_sample_f32(inv, (float)r->x[k], (float)r->y[k]);
                 bool own = (flag & WARP_MASK_EDGE) || fabs(dk - r->d) > 0.1 * r->d;
-                if (!own && dnear > r->d * 1.1)
-                    own = inv_at(inv, ic[0] + dnear * ec[0], ic[1] + dnear * ec[1]) > 0.9 * dnear;
+                if (!own && dnear > r->d * 1.1) {
+                    const float nx = (float)(ic[0] + dnear * ec[0]), ny = (float)(ic[1] + dnear * ec[1]);
+                    own = warp_sample_f32(inv, nx, ny) > 0.9 * dnear;
+                }
                 if (own) {
                     double dh;
                     resolve_at(c, h, GUESS_MARGIN_PX + sqrt(ca), x, y, px[k], py[k], &r->x[k], &r->y[k], &dh, &full);

@@ -136,8 +136,6 @@ static void fill_frame(rt_frame *s, uint64_t seed)
     }
 }
 
-static void assert_images_equal(const void *a, const void *b, size_t bytes) { assert_memory_equal(a, b, bytes); }
-
 /* Each eye on its own thread (the frames thread's pool) derives exactly what one thread does, and a depth that
  * is not a depth in either eye rejects the frame either way. */
 static void test_prepare_on_workers_same(void **state)
@@ -156,15 +154,15 @@ static void test_prepare_on_workers_same(void **state)
         for (int e = 0; e < 2; e++) {
             assert_true(same_bits(a.inv_min[e], b.inv_min[e]) && same_bits(a.inv_max[e], b.inv_max[e]));
             for (int y = 0; y < H; y++) {
-                assert_images_equal(&WARP_AT(&a.inv_depth[e], 0, y), &WARP_AT(&b.inv_depth[e], 0, y),
+                assert_memory_equal(&WARP_AT(&a.inv_depth[e], 0, y), &WARP_AT(&b.inv_depth[e], 0, y),
                                     sizeof(float) * W);
                 for (int c = 0; c < 3; c++)
-                    assert_images_equal(a.planar[e].plane[c] + (size_t)y * a.planar[e].stride,
+                    assert_memory_equal(a.planar[e].plane[c] + (size_t)y * a.planar[e].stride,
                                         b.planar[e].plane[c] + (size_t)y * b.planar[e].stride,
                                         sizeof(uint16_t) * (W + 1));
             }
             for (int y = 0; y < a.blockmax[e].h; y++)
-                assert_images_equal(&WARP_AT(&a.blockmax[e], 0, y), &WARP_AT(&b.blockmax[e], 0, y),
+                assert_memory_equal(&WARP_AT(&a.blockmax[e], 0, y), &WARP_AT(&b.blockmax[e], 0, y),
                                     sizeof(float) * (size_t)a.blockmax[e].w);
         }
         /* a NaN in one eye's depth: rejected alone or in parallel */
