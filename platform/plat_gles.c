@@ -1,6 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /* plat_gles: the warp on the GPU with OpenGL ES 3.0 (GLSL ES 3.00): host frame upload, the min-max depth pyramid,
- * the height-map raytrace with its edge fills, and the lens pass through the distortion mesh; per-pass GPU times. */
+ * the height-map raytrace with its edge fills, and the lens pass through the distortion mesh (with per-pixel rays in
+ * raytrace_mesh's marked cells); per-pass GPU times. */
 #include "platform/plat_gles.h"
 
 #include <EGL/egl.h>
@@ -23,48 +24,62 @@ static const char vs_full[] =
     "    gl_Position = vec4(p, 0.0, 1.0);\n"
     "}\n";
 
+#define GLSL_HEAD "#version 300 es\n" "precision highp float;\n" "precision highp int;\n"
+
+/* The lens pass's uniforms and its interpolation (shared by the lens pass and the traced lens pass). */
+#define LENS_BODY                                                                                                     \
+    "uniform highp sampler2D u_src;\n"                                                                                \
+    "uniform highp sampler2D u_mesh;\n"                                                                               \
+    "uniform ivec2 u_vp;      /* viewport origin on the panel (x from the left, y from the top) */\n"                 \
+    "uniform int u_flip_h;    /* 0: window row = panel row; else the window height (GL row 0 at the bottom) */\n"     \
+    "uniform int u_vp_h, u_rows, u_cell_w;\n"                                                                         \
+    "uniform vec2 u_src_size;\n"                                                                                      \
+    "uniform highp isampler2D u_vis; /* the hidden-area mask: texel (y, 0) = row y's visible [x0, x1) */\n"           \
+    "uniform int u_has_vis;\n"                                                                                        \
+    "layout(location = 0) out vec4 o;\n"                                                                              \
+    "int g_vx, g_vy; /* lens_cell's viewport pixel */\n"                                                              \
+    "vec2 pos(highp sampler2D m, int i, int j, int c, float fx, float ty) {\n"                                        \
+    "    vec2 p00 = texelFetch(m, ivec2(i * 3 + c, j), 0).xy;\n"                                                      \
+    "    vec2 p10 = texelFetch(m, ivec2(i * 3 + 3 + c, j), 0).xy;\n"                                                  \
+    "    vec2 p01 = texelFetch(m, ivec2(i * 3 + c, j + 1), 0).xy;\n"                                                  \
+    "    vec2 p11 = texelFetch(m, ivec2(i * 3 + 3 + c, j + 1), 0).xy;\n"                                              \
+    "    vec2 l = p00 + (p01 - p00) * ty, r = p10 + (p11 - p10) * ty;\n"                                              \
+    "    return l + (r - l) * fx;\n"                                                                                  \
+    "}\n"                                                                                                             \
+    "/* the viewport pixel of this fragment, its cell (i, j) and its fractions across it; false where masked */\n"    \
+    "bool lens_cell(out int i, out int j, out float fx, out float ty) {\n"                                            \
+    "    ivec2 f = ivec2(gl_FragCoord.xy);\n"                                                                         \
+    "    int x = f.x - u_vp.x;\n"                                                                                     \
+    "    int y = (u_flip_h != 0 ? u_flip_h - 1 - f.y : f.y) - u_vp.y;\n"                                              \
+    "    i = 0; j = 0; fx = 0.0; ty = 0.0; g_vx = x; g_vy = y;\n"                                                     \
+    "    if (u_has_vis != 0) {\n"                                                                                     \
+    "        ivec2 sp = texelFetch(u_vis, ivec2(y, 0), 0).xy;\n"                                                      \
+    "        if (x < sp.x || x >= sp.y) return false;\n"                                                              \
+    "    }\n"                                                                                                         \
+    "    float gy = (float(y) + 0.5) * float(u_rows - 1) / float(u_vp_h);\n"                                          \
+    "    j = min(int(gy), u_rows - 2);\n"                                                                             \
+    "    ty = gy - float(j);\n"                                                                                       \
+    "    i = x / u_cell_w;\n"                                                                                         \
+    "    fx = (float(x - i * u_cell_w) + 0.5) / float(u_cell_w);\n"                                                   \
+    "    return true;\n"                                                                                              \
+    "}\n"                                                                                                             \
+    "vec3 lens_sample(int i, int j, float fx, float ty) {\n"                                                          \
+    "    vec2 inv = 1.0 / u_src_size;\n"                                                                              \
+    "    float r = texture(u_src, pos(u_mesh, i, j, 0, fx, ty) * inv).r;\n"                                           \
+    "    float g = texture(u_src, pos(u_mesh, i, j, 1, fx, ty) * inv).g;\n"                                           \
+    "    float b = texture(u_src, pos(u_mesh, i, j, 2, fx, ty) * inv).b;\n"                                           \
+    "    return vec3(r, g, b);\n"                                                                                     \
+    "}\n"
+
 /* The lens pass. Same interpolation as warp_mesh_resample (warp_mesh.h): rows evenly spread over the viewport,
  * columns cell_w apart, bilinear between the cell's four vertices, vertical first. The vertex positions are in an
  * RG32F texture, texel (i*3 + c, j) = source position of vertex (i, j) for channel c. */
-static const char fs_lens[] =
-    "#version 300 es\n"
-    "precision highp float;\n"
-    "precision highp int;\n"
-    "uniform highp sampler2D u_src;\n"
-    "uniform highp sampler2D u_mesh;\n"
-    "uniform ivec2 u_vp;      /* viewport origin on the panel (x from the left, y from the top) */\n"
-    "uniform int u_flip_h;    /* 0: window row = panel row; else the window height (GL row 0 at the bottom) */\n"
-    "uniform int u_vp_h, u_rows, u_cell_w;\n"
-    "uniform vec2 u_src_size;\n"
-    "uniform highp isampler2D u_vis; /* the hidden-area mask: texel (y, 0) = row y's visible [x0, x1) */\n"
-    "uniform int u_has_vis;\n"
-    "layout(location = 0) out vec4 o;\n"
-    "vec2 pos(int i, int j, int c, float fx, float ty) {\n"
-    "    vec2 p00 = texelFetch(u_mesh, ivec2(i * 3 + c, j), 0).xy;\n"
-    "    vec2 p10 = texelFetch(u_mesh, ivec2(i * 3 + 3 + c, j), 0).xy;\n"
-    "    vec2 p01 = texelFetch(u_mesh, ivec2(i * 3 + c, j + 1), 0).xy;\n"
-    "    vec2 p11 = texelFetch(u_mesh, ivec2(i * 3 + 3 + c, j + 1), 0).xy;\n"
-    "    vec2 l = p00 + (p01 - p00) * ty, r = p10 + (p11 - p10) * ty;\n"
-    "    return l + (r - l) * fx;\n"
-    "}\n"
+static const char fs_lens[] = GLSL_HEAD LENS_BODY
     "void main() {\n"
-    "    ivec2 f = ivec2(gl_FragCoord.xy);\n"
-    "    int x = f.x - u_vp.x;\n"
-    "    int y = (u_flip_h != 0 ? u_flip_h - 1 - f.y : f.y) - u_vp.y;\n"
-    "    if (u_has_vis != 0) {\n"
-    "        ivec2 sp = texelFetch(u_vis, ivec2(y, 0), 0).xy;\n"
-    "        if (x < sp.x || x >= sp.y) { o = vec4(0.0, 0.0, 0.0, 1.0); return; }\n"
-    "    }\n"
-    "    float gy = (float(y) + 0.5) * float(u_rows - 1) / float(u_vp_h);\n"
-    "    int j = min(int(gy), u_rows - 2);\n"
-    "    float ty = gy - float(j);\n"
-    "    int i = x / u_cell_w;\n"
-    "    float fx = (float(x - i * u_cell_w) + 0.5) / float(u_cell_w);\n"
-    "    vec2 inv = 1.0 / u_src_size;\n"
-    "    float r = texture(u_src, pos(i, j, 0, fx, ty) * inv).r;\n"
-    "    float g = texture(u_src, pos(i, j, 1, fx, ty) * inv).g;\n"
-    "    float b = texture(u_src, pos(i, j, 2, fx, ty) * inv).b;\n"
-    "    o = vec4(r, g, b, 1.0);\n"
+    "    int i, j;\n"
+    "    float fx, ty;\n"
+    "    if (!lens_cell(i, j, fx, ty)) { o = vec4(0.0, 0.0, 0.0, 1.0); return; }\n"
+    "    o = vec4(lens_sample(i, j, fx, ty), 1.0);\n"
     "}\n";
 
 /* The pyramid's levels share one shader: level 0 holds the largest inverse depth a bilinear sample in each cell can
@@ -93,176 +108,240 @@ static const char fs_pyrn[] = FS_PYRAMID(" * 2");
  * the pyramid whether the surface anywhere in the block of cells the ray is crossing comes as near as the ray
  * gets there; when not, every step inside that block is skipped at once (and the next, larger, block is tried).
  * Skipping is conservative (one step of margin at the block's exit) and the bracketing samples are recomputed
- * exactly, so the hit is the one the CPU's linear search finds; only empty space is skipped (000 §5.3). */
-static const char fs_raytrace[] =
-    "#version 300 es\n"
-    "precision highp float;\n"
-    "precision highp int;\n"
-    "uniform highp sampler2D u_color;\n"
-    "uniform highp sampler2D u_depth;\n"
-    "uniform highp sampler2D u_pyr;\n"
-    "uniform mat3 u_h;\n"
-    "uniform vec3 u_a;\n"
-    "uniform vec2 u_drange;\n"
-    "uniform ivec2 u_size;\n"
-    "uniform int u_max_steps, u_refine, u_fill_far, u_levels;\n"
-    "uniform float u_jump;\n"
-    "uniform ivec2 u_lvl_off[16];\n"
+ * exactly, so the hit is the one the CPU's linear search finds; only empty space is skipped (000 §5.3).
+ * trace(fc) is the ray through eye-buffer position fc (pixel units, centres at +0.5): colour, and the flag (0,
+ * FRINGE or EDGE) in alpha; the raytrace pass and the traced lens pass share it. */
+#define RT_BODY                                                                                                       \
+    "uniform highp sampler2D u_color;\n"                                                                              \
+    "uniform highp sampler2D u_depth;\n"                                                                              \
+    "uniform highp sampler2D u_pyr;\n"                                                                                \
+    "uniform mat3 u_h;\n"                                                                                             \
+    "uniform vec3 u_a;\n"                                                                                             \
+    "uniform vec2 u_drange;\n"                                                                                        \
+    "uniform ivec2 u_size;\n"                                                                                         \
+    "uniform int u_max_steps, u_refine, u_fill_far, u_levels;\n"                                                      \
+    "uniform float u_jump;\n"                                                                                         \
+    "uniform ivec2 u_lvl_off[16];\n"                                                                                  \
+    "const float FRINGE = 1.0, EDGE = 2.0;\n"                                                                         \
+    "float g_pix, g_piy, g_ex, g_ey, g_hi, g_lo, g_dd;\n"                                                             \
+    "int g_n, g_samples = 0;\n"                                                                                       \
+    "float inv_at(vec2 p) {\n"                                                                                        \
+    "    vec2 f = clamp(p - 0.5, vec2(0.0), vec2(u_size - 1));\n"                                                     \
+    "    ivec2 i0 = ivec2(f);\n"                                                                                      \
+    "    ivec2 i1 = min(i0 + 1, u_size - 1);\n"                                                                       \
+    "    vec2 a = f - vec2(i0);\n"                                                                                    \
+    "    float d00 = texelFetch(u_depth, i0, 0).r, d10 = texelFetch(u_depth, ivec2(i1.x, i0.y), 0).r;\n"              \
+    "    float d01 = texelFetch(u_depth, ivec2(i0.x, i1.y), 0).r, d11 = texelFetch(u_depth, i1, 0).r;\n"              \
+    "    float mx = max(max(d00, d10), max(d01, d11)), mn = min(min(d00, d10), min(d01, d11));\n"                     \
+    "    if (mx - mn > u_jump * mx) return a.y < 0.5 ? (a.x < 0.5 ? d00 : d10) : (a.x < 0.5 ? d01 : d11);\n"          \
+    "    float top = d00 + (d10 - d00) * a.x, bot = d01 + (d11 - d01) * a.x;\n"                                       \
+    "    return top + (bot - top) * a.y;\n"                                                                           \
+    "}\n"                                                                                                             \
+    "vec4 bilinear(vec2 p) { return texture(u_color, p / vec2(u_size)); }\n"                                          \
+    "vec2 far_texel(vec2 p) { /* the centre of the farthest of the texels a bilinear sample at p reads */\n"          \
+    "    ivec2 b0 = ivec2(floor(p - 0.5));\n"                                                                         \
+    "    ivec2 bi = clamp(b0, ivec2(0), u_size - 1);\n"                                                               \
+    "    float best = 3.0e38;\n"                                                                                      \
+    "    for (int j = 0; j < 2; j++)\n"                                                                               \
+    "        for (int i = 0; i < 2; i++) {\n"                                                                         \
+    "            ivec2 q = clamp(b0 + ivec2(i, j), ivec2(0), u_size - 1);\n"                                          \
+    "            float d = texelFetch(u_depth, q, 0).r;\n"                                                            \
+    "            if (d < best) { best = d; bi = q; }\n"                                                               \
+    "        }\n"                                                                                                     \
+    "    return vec2(bi) + 0.5;\n"                                                                                    \
+    "}\n"                                                                                                             \
+    "void cell_range(vec2 p, inout float nd, inout float fd) {\n"                                                     \
+    "    ivec2 b0 = ivec2(floor(p - 0.5));\n"                                                                         \
+    "    for (int j = 0; j < 2; j++)\n"                                                                               \
+    "        for (int i = 0; i < 2; i++) {\n"                                                                         \
+    "            float d = texelFetch(u_depth, clamp(b0 + ivec2(i, j), ivec2(0), u_size - 1), 0).r;\n"                \
+    "            nd = max(nd, d); fd = min(fd, d);\n"                                                                 \
+    "        }\n"                                                                                                     \
+    "}\n"                                                                                                             \
+    "float texel_at(vec2 p, out vec2 c) {\n"                                                                          \
+    "    ivec2 t = clamp(ivec2(floor(p)), ivec2(0), u_size - 1);\n"                                                   \
+    "    c = vec2(t) + 0.5;\n"                                                                                        \
+    "    return texelFetch(u_depth, t, 0).r;\n"                                                                       \
+    "}\n"                                                                                                             \
+    "bool clip_axis(float p, float e, float size, inout float lo, inout float hi) {\n"                                \
+    "    if (abs(e) < 1e-12) return p >= 0.0 && p <= size;\n"                                                         \
+    "    float d0 = (0.0 - p) / e, d1 = (size - p) / e;\n"                                                            \
+    "    if (d0 > d1) { float t = d0; d0 = d1; d1 = t; }\n"                                                           \
+    "    if (d0 > lo) lo = d0;\n"                                                                                     \
+    "    if (d1 < hi) hi = d1;\n"                                                                                     \
+    "    return lo <= hi;\n"                                                                                          \
+    "}\n"                                                                                                             \
+    "float dk(int k) { return k >= g_n ? g_lo : g_hi - g_dd * float(k); }\n"                                          \
+    "vec2 at(float d) { return vec2(g_pix + d * g_ex, g_piy + d * g_ey); }\n"                                         \
+    "/* First step index >= k whose sample may lie outside block [b0, b1) of cells along one axis. */\n"              \
+    "int axis_exit(int k, float s, float v, int b0, int b1, int size) {\n"                                            \
+    "    float lim = float(g_n + 2);\n"                                                                               \
+    "    if (v > 0.0 && b1 < size) return k + int(min(ceil((float(b1) + 0.5 - s) / v), lim));\n"                      \
+    "    if (v < 0.0 && b0 > 0) return k + int(min(floor((s - float(b0) - 0.5) / -v), lim)) + 1;\n"                   \
+    "    return g_n + 2;\n"                                                                                           \
+    "}\n"                                                                                                             \
+    "/* the ray through fc under (h, a) (u_h and u_a, or a rolling panel's last line's): where its\n"                 \
+    " * colour is sampled, and its flag */\n"                                                                         \
+    "vec2 trace_at(vec2 fc, mat3 h, vec3 a, out float flag) {\n"                                                      \
+    "    vec3 b = h * vec3(fc, 1.0);\n"                                                                               \
+    "    float sw = float(u_size.x), sh = float(u_size.y);\n"                                                         \
+    "    if (!(b.z > 1e-9 * (abs(b.x) + abs(b.y) + abs(b.z)))) {\n"                                                   \
+    "        flag = FRINGE;\n"                                                                                        \
+    "        return vec2(b.x > 0.0 ? sw : 0.0, b.y > 0.0 ? sh : 0.0);\n"                                              \
+    "    }\n"                                                                                                         \
+    "    g_pix = b.x / b.z; g_piy = b.y / b.z;\n"                                                                     \
+    "    g_ex = a.x - a.z * g_pix; g_ey = a.y - a.z * g_piy;\n"                                                       \
+    "    float hi = u_drange.y, lo = u_drange.x;\n"                                                                   \
+    "    if (a.z > 0.0 && 1.0 / a.z < hi) hi = 1.0 / a.z;\n"                                                          \
+    "    float hi0 = hi;\n"                                                                                           \
+    "    bool inside = lo <= hi && clip_axis(g_pix, g_ex, sw, lo, hi) && clip_axis(g_piy, g_ey, sh, lo, hi);\n"       \
+    "    if (!inside) {\n"                                                                                            \
+    "        float d = clamp(lo, u_drange.x, u_drange.y); /* the CPU rule: within the frame's depth range */\n"       \
+    "        flag = FRINGE;\n"                                                                                        \
+    "        return at(d);\n"                                                                                         \
+    "    }\n"                                                                                                         \
+    "    bool near_clipped = hi < hi0;\n"                                                                             \
+    "    float len = abs(hi - lo) * sqrt(g_ex * g_ex + g_ey * g_ey);\n"                                               \
+    "    g_n = clamp(int(ceil(len)), 1, u_max_steps);\n"                                                              \
+    "    g_hi = hi; g_lo = lo; g_dd = (hi - lo) / float(g_n);\n"                                                      \
+    "    flag = 0.0;\n"                                                                                               \
+    "    float da = hi, sa = inv_at(at(da)), fa = sa - da;\n"                                                         \
+    "    float db = da, sb = sa, fb = fa, dfront = da;\n"                                                             \
+    "    if (fa >= 0.0) {\n"                                                                                          \
+    "        if (near_clipped) flag = FRINGE;\n"                                                                      \
+    "    } else {\n"                                                                                                  \
+    "        int k = 1, lvl = min(1, u_levels - 1);\n"                                                                \
+    "        bool hit = false, prev_exact = true;\n"                                                                  \
+    "        vec2 v = vec2(-g_dd * g_ex, -g_dd * g_ey); /* sample movement per step */\n"                             \
+    "        for (int it = 0; it < 16384 && k <= g_n; it++) {\n"                                                      \
+    "            vec2 s = at(dk(k));\n"                                                                               \
+    "            ivec2 cell = clamp(ivec2(floor(s - 0.5)), ivec2(0), u_size - 1);\n"                                  \
+    "            ivec2 blk = cell >> lvl;\n"                                                                          \
+    "            int kx = axis_exit(k, s.x, v.x, blk.x << lvl, (blk.x + 1) << lvl, u_size.x);\n"                      \
+    "            int ky = axis_exit(k, s.y, v.y, blk.y << lvl, (blk.y + 1) << lvl, u_size.y);\n"                      \
+    "            int klast = min(min(kx, ky), g_n + 1) - 2; /* last step surely inside the block */\n"                \
+    "            if (klast >= k) {\n"                                                                                 \
+    "                float m = texelFetch(u_pyr, u_lvl_off[lvl] + blk, 0).r;\n"                                       \
+    "                if (m < dk(klast)) {\n"                                                                          \
+    "                    k = klast + 1; prev_exact = false;\n"                                                        \
+    "                    lvl = min(lvl + 1, u_levels - 1);\n"                                                         \
+    "                    continue;\n"                                                                                 \
+    "                }\n"                                                                                             \
+    "                if (lvl > 0) { lvl--; continue; }\n"                                                             \
+    "            }\n"                                                                                                 \
+    "            db = dk(k); sb = inv_at(at(db)); fb = sb - db; g_samples++;\n"                                       \
+    "            if (fb >= 0.0) { hit = true; break; }\n"                                                             \
+    "            da = db; fa = fb; sa = sb; prev_exact = true;\n"                                                     \
+    "            k++;\n"                                                                                              \
+    "        }\n"                                                                                                     \
+    "        if (!hit) {\n"                                                                                           \
+    "            flag = FRINGE;\n"                                                                                    \
+    "            da = g_lo;\n"                                                                                        \
+    "        } else {\n"                                                                                              \
+    "            if (!prev_exact) { da = dk(k - 1); sa = inv_at(at(da)); fa = sa - da; }\n"                           \
+    "            dfront = da;\n"                                                                                      \
+    "            int side = 0;\n"                                                                                     \
+    "            float epx = sqrt(g_ex * g_ex + g_ey * g_ey);\n"                                                      \
+    "            for (int it = 0; it < u_refine && abs(db - da) * epx > 1.0 / 64.0; it++) {\n"                        \
+    "                float dm = da + (db - da) * (-fa) / (fb - fa);\n"                                                \
+    "                float fm = inv_at(at(dm)) - dm;\n"                                                               \
+    "                if (fm < 0.0) {\n"                                                                               \
+    "                    da = dm; fa = fm;\n"                                                                         \
+    "                    if (side == -1) fb *= 0.5;\n"                                                                \
+    "                    side = -1;\n"                                                                                \
+    "                } else {\n"                                                                                      \
+    "                    db = dm; fb = fm;\n"                                                                         \
+    "                    if (side == 1) fa *= 0.5;\n"                                                                 \
+    "                    side = 1;\n"                                                                                 \
+    "                }\n"                                                                                             \
+    "            }\n"                                                                                                 \
+    "            if (u_refine > 0) da = fb - fa != 0.0 ? da + (db - da) * (-fa) / (fb - fa) : db;\n"                  \
+    "            else da = db;\n"                                                                                     \
+    "        }\n"                                                                                                     \
+    "    }\n"                                                                                                         \
+    "    vec2 hp = at(da);\n"                                                                                         \
+    "    if (flag == 0.0 && len * 64.0 > 1.0) {\n"                                                                    \
+    "        float nd = 0.0, fd = 3.0e38;\n"                                                                          \
+    "        vec2 c;\n"                                                                                               \
+    "        cell_range(hp, nd, fd);\n"                                                                               \
+    "        cell_range(at(dfront), nd, fd);\n"                                                                       \
+    "        if (nd - fd > u_jump * nd) {\n"                                                                          \
+    "            float near_lo = nd * (1.0 - u_jump);\n"                                                              \
+    "            if (texel_at(at(nd), c) < near_lo && texel_at(hp, c) >= near_lo) flag = EDGE;\n"                     \
+    "            else hp = c;\n"                                                                                      \
+    "        }\n"                                                                                                     \
+    "    }\n"                                                                                                         \
+    "    return flag == EDGE && u_fill_far != 0 ? far_texel(hp) : hp;\n"                                              \
+    "}\n"                                                                                                             \
+    "/* the colour of a ray that trace_at put at p with flag (the far fill: that texel) */\n"                         \
+    "vec4 hit_colour(vec2 p, float flag) {\n"                                                                         \
+    "    return flag == EDGE && u_fill_far != 0 ? texelFetch(u_color, ivec2(p), 0) : bilinear(p);\n"                  \
+    "}\n"                                                                                                             \
+    "vec4 trace(vec2 fc) { /* its colour and its flag */\n"                                                           \
+    "    float flag;\n"                                                                                               \
+    "    vec2 p = trace_at(fc, u_h, u_a, flag);\n"                                                                    \
+    "    return vec4(hit_colour(p, flag).rgb, flag);\n"                                                               \
+    "}\n"
+
+static const char fs_raytrace[] = GLSL_HEAD RT_BODY
     "uniform int u_count;     /* diagnostics: output the search's depth samples instead of colour */\n"
     "layout(location = 0) out vec4 o;\n"
-    "const float FRINGE = 1.0, EDGE = 2.0;\n"
-    "float g_pix, g_piy, g_ex, g_ey, g_hi, g_lo, g_dd;\n"
-    "int g_n, g_samples = 0;\n"
-    "vec4 result(vec3 c, float flag) {\n"
-    "    if (u_count != 0) c = vec3(float(g_samples & 255), float((g_samples >> 8) & 255), 0.0) / 255.0;\n"
-    "    return vec4(c, flag / 255.0);\n"
-    "}\n"
-    "float inv_at(vec2 p) {\n"
-    "    vec2 f = clamp(p - 0.5, vec2(0.0), vec2(u_size - 1));\n"
-    "    ivec2 i0 = ivec2(f);\n"
-    "    ivec2 i1 = min(i0 + 1, u_size - 1);\n"
-    "    vec2 a = f - vec2(i0);\n"
-    "    float d00 = texelFetch(u_depth, i0, 0).r, d10 = texelFetch(u_depth, ivec2(i1.x, i0.y), 0).r;\n"
-    "    float d01 = texelFetch(u_depth, ivec2(i0.x, i1.y), 0).r, d11 = texelFetch(u_depth, i1, 0).r;\n"
-    "    float mx = max(max(d00, d10), max(d01, d11)), mn = min(min(d00, d10), min(d01, d11));\n"
-    "    if (mx - mn > u_jump * mx) return a.y < 0.5 ? (a.x < 0.5 ? d00 : d10) : (a.x < 0.5 ? d01 : d11);\n"
-    "    float top = d00 + (d10 - d00) * a.x, bot = d01 + (d11 - d01) * a.x;\n"
-    "    return top + (bot - top) * a.y;\n"
-    "}\n"
-    "vec4 bilinear(vec2 p) { return texture(u_color, p / vec2(u_size)); }\n"
-    "vec4 far_texel(vec2 p) {\n"
-    "    ivec2 b0 = ivec2(floor(p - 0.5));\n"
-    "    ivec2 bi = clamp(b0, ivec2(0), u_size - 1);\n"
-    "    float best = 3.0e38;\n"
-    "    for (int j = 0; j < 2; j++)\n"
-    "        for (int i = 0; i < 2; i++) {\n"
-    "            ivec2 q = clamp(b0 + ivec2(i, j), ivec2(0), u_size - 1);\n"
-    "            float d = texelFetch(u_depth, q, 0).r;\n"
-    "            if (d < best) { best = d; bi = q; }\n"
-    "        }\n"
-    "    return texelFetch(u_color, bi, 0);\n"
-    "}\n"
-    "void cell_range(vec2 p, inout float nd, inout float fd) {\n"
-    "    ivec2 b0 = ivec2(floor(p - 0.5));\n"
-    "    for (int j = 0; j < 2; j++)\n"
-    "        for (int i = 0; i < 2; i++) {\n"
-    "            float d = texelFetch(u_depth, clamp(b0 + ivec2(i, j), ivec2(0), u_size - 1), 0).r;\n"
-    "            nd = max(nd, d); fd = min(fd, d);\n"
-    "        }\n"
-    "}\n"
-    "float texel_at(vec2 p, out vec2 c) {\n"
-    "    ivec2 t = clamp(ivec2(floor(p)), ivec2(0), u_size - 1);\n"
-    "    c = vec2(t) + 0.5;\n"
-    "    return texelFetch(u_depth, t, 0).r;\n"
-    "}\n"
-    "bool clip_axis(float p, float e, float size, inout float lo, inout float hi) {\n"
-    "    if (abs(e) < 1e-12) return p >= 0.0 && p <= size;\n"
-    "    float d0 = (0.0 - p) / e, d1 = (size - p) / e;\n"
-    "    if (d0 > d1) { float t = d0; d0 = d1; d1 = t; }\n"
-    "    if (d0 > lo) lo = d0;\n"
-    "    if (d1 < hi) hi = d1;\n"
-    "    return lo <= hi;\n"
-    "}\n"
-    "float dk(int k) { return k >= g_n ? g_lo : g_hi - g_dd * float(k); }\n"
-    "vec2 at(float d) { return vec2(g_pix + d * g_ex, g_piy + d * g_ey); }\n"
-    "/* First step index >= k whose sample may lie outside block [b0, b1) of cells along one axis. */\n"
-    "int axis_exit(int k, float s, float v, int b0, int b1, int size) {\n"
-    "    float lim = float(g_n + 2);\n"
-    "    if (v > 0.0 && b1 < size) return k + int(min(ceil((float(b1) + 0.5 - s) / v), lim));\n"
-    "    if (v < 0.0 && b0 > 0) return k + int(min(floor((s - float(b0) - 0.5) / -v), lim)) + 1;\n"
-    "    return g_n + 2;\n"
+    "void main() {\n"
+    "    vec4 t = trace(gl_FragCoord.xy);\n"
+    "    vec3 c = u_count != 0 ? vec3(float(g_samples & 255), float((g_samples >> 8) & 255), 0.0) / 255.0 : t.rgb;\n"
+    "    o = vec4(c, t.a / 255.0);\n"
+    "}\n";
+
+/* The display path's depth warp (raytrace_mesh, warp_mesh_trace.h) in the lens pass: u_mesh holds the vertices'
+ * raytraced source positions, interpolated as the lens pass does, except in the cells u_cells marks (a depth edge or
+ * too much parallax between the vertices), where each channel's ray is traced from the pixel's own eye-buffer
+ * position (u_eyepos: the vertices' lens directions in the eye buffer, interpolated alike). One pass, no eye-space
+ * image: the traced pixels are sampled once, where the two-pass raytrace resamples its intermediate. */
+static const char fs_lens_traced[] = GLSL_HEAD LENS_BODY RT_BODY
+    "uniform highp usampler2D u_cells; /* texel (i, j) != 0: cell (i, j) traced per pixel */\n"
+    "uniform highp sampler2D u_eyepos;\n"
+    "uniform mat3 u_h2;       /* a rolling panel's last line's setup (u_h, u_a: its first line's) */\n"
+    "uniform vec3 u_a2;\n"
+    "uniform int u_roll;      /* 0: a global panel; else 1 + its warp_scan_dir */\n"
+    "uniform ivec2 u_panel;   /* the panel's size (warp_scan's) */\n"
+    "/* warp_scan_fraction of this fragment's panel position */\n"
+    "float scan_fraction() {\n"
+    "    int dir = u_roll - 1;\n"
+    "    bool vertical = dir < 2;\n"
+    "    float p = vertical ? float(u_vp.y + g_vy) + 0.5 : float(u_vp.x + g_vx) + 0.5;\n"
+    "    int n = vertical ? u_panel.y : u_panel.x;\n"
+    "    float f = n > 1 ? clamp((p - 0.5) / float(n - 1), 0.0, 1.0) : 0.5;\n"
+    "    return dir == 1 || dir == 3 ? 1.0 - f : f;\n"
     "}\n"
     "void main() {\n"
-    "    vec3 b = u_h * vec3(gl_FragCoord.xy, 1.0);\n"
-    "    float sw = float(u_size.x), sh = float(u_size.y);\n"
-    "    if (!(b.z > 1e-9 * (abs(b.x) + abs(b.y) + abs(b.z)))) {\n"
-    "        o = result(bilinear(vec2(b.x > 0.0 ? sw : 0.0, b.y > 0.0 ? sh : 0.0)).rgb, FRINGE);\n"
+    "    int i, j;\n"
+    "    float fx, ty;\n"
+    "    if (!lens_cell(i, j, fx, ty)) { o = vec4(0.0, 0.0, 0.0, 1.0); return; }\n"
+    "    ivec2 nc = textureSize(u_cells, 0);\n"
+    "    if (texelFetch(u_cells, min(ivec2(i, j), nc - 1), 0).r == 0u) {\n"
+    "        o = vec4(lens_sample(i, j, fx, ty), 1.0);\n"
     "        return;\n"
     "    }\n"
-    "    g_pix = b.x / b.z; g_piy = b.y / b.z;\n"
-    "    g_ex = u_a.x - u_a.z * g_pix; g_ey = u_a.y - u_a.z * g_piy;\n"
-    "    float hi = u_drange.y, lo = u_drange.x;\n"
-    "    if (u_a.z > 0.0 && 1.0 / u_a.z < hi) hi = 1.0 / u_a.z;\n"
-    "    float hi0 = hi;\n"
-    "    bool inside = lo <= hi && clip_axis(g_pix, g_ex, sw, lo, hi) && clip_axis(g_piy, g_ey, sh, lo, hi);\n"
-    "    if (!inside) {\n"
-    "        float d = clamp(lo, u_drange.x, u_drange.y); /* the CPU rule: within the frame's depth range */\n"
-    "        o = result(bilinear(at(d)).rgb, FRINGE);\n"
-    "        return;\n"
-    "    }\n"
-    "    bool near_clipped = hi < hi0;\n"
-    "    float len = abs(hi - lo) * sqrt(g_ex * g_ex + g_ey * g_ey);\n"
-    "    g_n = clamp(int(ceil(len)), 1, u_max_steps);\n"
-    "    g_hi = hi; g_lo = lo; g_dd = (hi - lo) / float(g_n);\n"
-    "    float flag = 0.0;\n"
-    "    float da = hi, sa = inv_at(at(da)), fa = sa - da;\n"
-    "    float db = da, sb = sa, fb = fa, dfront = da;\n"
-    "    if (fa >= 0.0) {\n"
-    "        if (near_clipped) flag = FRINGE;\n"
-    "    } else {\n"
-    "        int k = 1, lvl = min(1, u_levels - 1);\n"
-    "        bool hit = false, prev_exact = true;\n"
-    "        vec2 v = vec2(-g_dd * g_ex, -g_dd * g_ey); /* sample movement per step */\n"
-    "        for (int it = 0; it < 16384 && k <= g_n; it++) {\n"
-    "            vec2 s = at(dk(k));\n"
-    "            ivec2 cell = clamp(ivec2(floor(s - 0.5)), ivec2(0), u_size - 1);\n"
-    "            ivec2 blk = cell >> lvl;\n"
-    "            int kx = axis_exit(k, s.x, v.x, blk.x << lvl, (blk.x + 1) << lvl, u_size.x);\n"
-    "            int ky = axis_exit(k, s.y, v.y, blk.y << lvl, (blk.y + 1) << lvl, u_size.y);\n"
-    "            int klast = min(min(kx, ky), g_n + 1) - 2; /* last step surely inside the block */\n"
-    "            if (klast >= k) {\n"
-    "                float m = texelFetch(u_pyr, u_lvl_off[lvl] + blk, 0).r;\n"
-    "                if (m < dk(klast)) {\n"
-    "                    k = klast + 1; prev_exact = false;\n"
-    "                    lvl = min(lvl + 1, u_levels - 1);\n"
-    "                    continue;\n"
-    "                }\n"
-    "                if (lvl > 0) { lvl--; continue; }\n"
-    "            }\n"
-    "            db = dk(k); sb = inv_at(at(db)); fb = sb - db; g_samples++;\n"
-    "            if (fb >= 0.0) { hit = true; break; }\n"
-    "            da = db; fa = fb; sa = sb; prev_exact = true;\n"
-    "            k++;\n"
+    "    /* Each channel's ray; on a rolling panel traced under the first (k = 0) and the last line's setup (k = 1),\n"
+    "     * the source positions interpolated at the pixel's scan fraction f, as warp_mesh_trace_rect does. One call\n"
+    "     * of trace_at in loops: compilers inline a function at every call, and six copies of the search made the\n"
+    "     * program slow to compile on a software rasterizer. */\n"
+    "    bool roll = u_roll != 0;\n"
+    "    float f = roll ? scan_fraction() : 0.0;\n"
+    "    vec3 col = vec3(0.0);\n"
+    "    for (int c = 0; c < 3; c++) {\n"
+    "        vec2 e = pos(u_eyepos, i, j, c, fx, ty), p = vec2(0.0), q = vec2(0.0);\n"
+    "        float flag = 0.0;\n"
+    "        for (int k = 0; k < (roll ? 2 : 1); k++) {\n"
+    "            if (roll && (k == 0 ? f >= 1.0 : f <= 0.0)) continue; /* its weight is 0 */\n"
+    "            float fl;\n"
+    "            vec2 r = trace_at(e, k == 0 ? u_h : u_h2, k == 0 ? u_a : u_a2, fl);\n"
+    "            if (k == 0) { p = r; flag = fl; } else q = r;\n"
     "        }\n"
-    "        if (!hit) {\n"
-    "            flag = FRINGE;\n"
-    "            da = g_lo;\n"
-    "        } else {\n"
-    "            if (!prev_exact) { da = dk(k - 1); sa = inv_at(at(da)); fa = sa - da; }\n"
-    "            dfront = da;\n"
-    "            int side = 0;\n"
-    "            float epx = sqrt(g_ex * g_ex + g_ey * g_ey);\n"
-    "            for (int it = 0; it < u_refine && abs(db - da) * epx > 1.0 / 64.0; it++) {\n"
-    "                float dm = da + (db - da) * (-fa) / (fb - fa);\n"
-    "                float fm = inv_at(at(dm)) - dm;\n"
-    "                if (fm < 0.0) {\n"
-    "                    da = dm; fa = fm;\n"
-    "                    if (side == -1) fb *= 0.5;\n"
-    "                    side = -1;\n"
-    "                } else {\n"
-    "                    db = dm; fb = fm;\n"
-    "                    if (side == 1) fa *= 0.5;\n"
-    "                    side = 1;\n"
-    "                }\n"
-    "            }\n"
-    "            if (u_refine > 0) da = fb - fa != 0.0 ? da + (db - da) * (-fa) / (fb - fa) : db;\n"
-    "            else da = db;\n"
-    "        }\n"
+    "        vec4 v = roll ? bilinear(f <= 0.0 ? p : (f >= 1.0 ? q : p + (q - p) * f)) : hit_colour(p, flag);\n"
+    "        if (c == 0) col.r = v.r; else if (c == 1) col.g = v.g; else col.b = v.b;\n"
     "    }\n"
-    "    vec2 hp = at(da);\n"
-    "    if (flag == 0.0 && len * 64.0 > 1.0) {\n"
-    "        float nd = 0.0, fd = 3.0e38;\n"
-    "        vec2 c;\n"
-    "        cell_range(hp, nd, fd);\n"
-    "        cell_range(at(dfront), nd, fd);\n"
-    "        if (nd - fd > u_jump * nd) {\n"
-    "            float near_lo = nd * (1.0 - u_jump);\n"
-    "            if (texel_at(at(nd), c) < near_lo && texel_at(hp, c) >= near_lo) flag = EDGE;\n"
-    "            else hp = c;\n"
-    "        }\n"
-    "    }\n"
-    "    vec4 c = flag == EDGE && u_fill_far != 0 ? far_texel(hp) : bilinear(hp);\n"
-    "    o = result(c.rgb, flag);\n"
+    "    o = vec4(col, 1.0);\n"
     "}\n";
 
 /* ---- state ---- */
@@ -286,22 +365,26 @@ typedef struct {
     GLuint inter, inter_fbo;         /* raytrace output, RGBA8 */
     GLuint lvl[PLAT_GLES_MAX_LEVELS], lvl_fbo[PLAT_GLES_MAX_LEVELS]; /* pyramid levels (GPU build) */
     GLuint atlas, atlas_fbo;         /* every level side by side: what the raytrace reads */
+    GLuint cells;                    /* R8UI per mesh cell: traced per pixel (the traced lens pass) */
+    GLuint eyepos;                   /* RG32F per vertex and channel: where its lens direction meets the eye buffer */
 } eye_res;
 
 typedef struct {
     GLuint prog;
-    GLint loc[24];
+    GLint loc[32];
 } program;
 
 enum { L_SRC, L_MESH, L_VP, L_FLIP, L_VPH, L_ROWS, L_CELLW, L_SRCSIZE, L_VIS, L_HASVIS };
 enum { P_IN, P_INSIZE };
 enum { R_COLOR, R_DEPTH, R_PYR, R_H, R_A, R_DRANGE, R_SIZE, R_STEPS, R_REFINE, R_FILL, R_LEVELS, R_JUMP, R_OFF,
        R_COUNT };
+/* the traced lens pass: the lens pass's uniforms (L_*), the raytrace's at T_RT + R_* (but u_count), its own */
+enum { T_RT = L_HASVIS + 1, T_CELLS = T_RT + R_COUNT, T_EYEPOS, T_H2, T_A2, T_ROLL, T_PANEL };
 
 struct plat_gles {
     plat_egl *egl;
     plat_gles_params p;
-    program lens, pyr0, pyrn, rt;
+    program lens, pyr0, pyrn, rt, traced;
     GLuint vao;
     GLuint panel, panel_fbo;
     eye_res eye[2];
@@ -312,6 +395,7 @@ struct plat_gles {
     bool gpu_pyramid;
     bool count_samples;
     float *cpu_scratch, *cpu_level; /* CPU pyramid build */
+    float *eyepos;                  /* the traced lens pass's vertex positions, staged for upload */
     /* timing */
     int timing;
     qslot slots[QSLOTS];
@@ -613,6 +697,18 @@ plat_gles *plat_gles_create(plat_egl *egl, const plat_gles_params *p, char *err,
     static const char *const rt_u[] = {"u_color", "u_depth", "u_pyr", "u_h", "u_a", "u_drange", "u_size",
                                        "u_max_steps", "u_refine", "u_fill_far", "u_levels", "u_jump", "u_lvl_off",
                                        "u_count", NULL};
+    /* the traced lens pass: the lens pass's uniforms, the raytrace's but u_count, then its own */
+    const char *traced_u[32];
+    int nu = 0;
+    for (int i = 0; lens_u[i]; i++) traced_u[nu++] = lens_u[i];
+    for (int i = 0; rt_u[i] && i < R_COUNT; i++) traced_u[nu++] = rt_u[i];
+    traced_u[nu++] = "u_cells";
+    traced_u[nu++] = "u_eyepos";
+    traced_u[nu++] = "u_h2";
+    traced_u[nu++] = "u_a2";
+    traced_u[nu++] = "u_roll";
+    traced_u[nu++] = "u_panel";
+    traced_u[nu] = NULL;
     if (!link(&g->lens, fs_lens, "lens", lens_u, err, errlen)) goto fail;
     glGenVertexArrays(1, &g->vao);
     if (!p->to_window) {
@@ -624,7 +720,14 @@ plat_gles *plat_gles_create(plat_egl *egl, const plat_gles_params *p, char *err,
     }
     g->gpu_pyramid = !p->cpu_pyramid && plat_egl_has_extension(egl, "GL_EXT_color_buffer_float");
     if (p->depth) {
-        if (!link(&g->rt, fs_raytrace, "raytrace", rt_u, err, errlen)) goto fail;
+        if (!link(&g->rt, fs_raytrace, "raytrace", rt_u, err, errlen) ||
+            !link(&g->traced, fs_lens_traced, "traced lens", traced_u, err, errlen))
+            goto fail;
+        g->eyepos = malloc(sizeof(float) * 6 * (size_t)p->mesh_cols * (size_t)p->mesh_rows);
+        if (!g->eyepos) {
+            warp_err(err, errlen, "GLES: out of memory");
+            goto fail;
+        }
         if (g->gpu_pyramid && (!link(&g->pyr0, fs_pyr0, "pyramid level 0", pyr_u, err, errlen) ||
                                !link(&g->pyrn, fs_pyrn, "pyramid reduction", pyr_u, err, errlen)))
             goto fail;
@@ -661,6 +764,8 @@ plat_gles *plat_gles_create(plat_egl *egl, const plat_gles_params *p, char *err,
             goto fail;
         }
         r->atlas = texture(GL_R32F, g->atlas_w, g->atlas_h, GL_NEAREST);
+        r->cells = texture(GL_R8UI, p->mesh_cols - 1, p->mesh_rows - 1, GL_NEAREST);
+        r->eyepos = texture(GL_RG32F, p->mesh_cols * 3, p->mesh_rows, GL_NEAREST);
         if (g->gpu_pyramid) {
             if (!fbo_for(r->atlas, &r->atlas_fbo)) {
                 warp_err(err, errlen, "GLES: R32F is not renderable here although EXT_color_buffer_float is offered");
@@ -699,17 +804,17 @@ fail:
 void plat_gles_destroy(plat_gles *g)
 {
     if (!g) return;
-    GLuint progs[4] = {g->lens.prog, g->pyr0.prog, g->pyrn.prog, g->rt.prog};
-    for (int i = 0; i < 4; i++)
+    GLuint progs[5] = {g->lens.prog, g->pyr0.prog, g->pyrn.prog, g->rt.prog, g->traced.prog};
+    for (int i = 0; i < 5; i++)
         if (progs[i]) glDeleteProgram(progs[i]);
     if (g->vao) glDeleteVertexArrays(1, &g->vao);
     if (g->panel_fbo) glDeleteFramebuffers(1, &g->panel_fbo);
     if (g->panel) glDeleteTextures(1, &g->panel);
     for (int e = 0; e < 2; e++) {
         eye_res *r = &g->eye[e];
-        GLuint tex[6] = {r->color, r->depth, r->mesh, r->inter, r->atlas, r->vis};
+        GLuint tex[8] = {r->color, r->depth, r->mesh, r->inter, r->atlas, r->vis, r->cells, r->eyepos};
         GLuint fbo[2] = {r->inter_fbo, r->atlas_fbo};
-        for (int i = 0; i < 6; i++)
+        for (int i = 0; i < 8; i++)
             if (tex[i]) glDeleteTextures(1, &tex[i]);
         for (int i = 0; i < 2; i++)
             if (fbo[i]) glDeleteFramebuffers(1, &fbo[i]);
@@ -722,6 +827,7 @@ void plat_gles_destroy(plat_gles *g)
         for (int s = 0; s < QSLOTS; s++) glDeleteQueries(QPER, g->slots[s].q);
     free(g->cpu_scratch);
     free(g->cpu_level);
+    free(g->eyepos);
     free(g);
 }
 
@@ -793,6 +899,45 @@ bool plat_gles_upload(plat_gles *g, int eye, const warp_image_rgba8 *color, cons
     return glGetError() == GL_NO_ERROR;
 }
 
+/* The raytrace's uniforms of program pr from loc[at + R_*]: the frame's textures on units unit (colour), unit + 1
+ * (inverse depth) and unit + 2 (the pyramid's atlas), bound here, and setup s. */
+/* The part of a raytrace setup that depends on the target pose: u_h and u_a (or a rolling panel's u_h2, u_a2). */
+static void pose_uniforms(GLint loc_h, GLint loc_a, const warp_raytrace_setup *s)
+{
+    /* GLSL matrices are column-major: column c holds h.m[0..2][c]. */
+    GLfloat h[9];
+    for (int c = 0; c < 3; c++)
+        for (int rr = 0; rr < 3; rr++) h[c * 3 + rr] = (GLfloat)s->h.m[rr][c];
+    glUniformMatrix3fv(loc_h, 1, GL_FALSE, h);
+    glUniform3f(loc_a, (GLfloat)s->ax, (GLfloat)s->ay, (GLfloat)s->aw);
+}
+
+static void raytrace_uniforms(plat_gles *g, eye_res *r, const program *pr, int at, int unit,
+                              const warp_raytrace_setup *s)
+{
+    const GLint *loc = pr->loc + at;
+    bind_tex(unit, r->color);
+    bind_tex(unit + 1, r->depth);
+    bind_tex(unit + 2, r->atlas);
+    glUniform1i(loc[R_COLOR], unit);
+    glUniform1i(loc[R_DEPTH], unit + 1);
+    glUniform1i(loc[R_PYR], unit + 2);
+    pose_uniforms(loc[R_H], loc[R_A], s);
+    glUniform2f(loc[R_DRANGE], s->src->inv_depth_min, s->src->inv_depth_max);
+    glUniform2i(loc[R_SIZE], g->p.src_w, g->p.src_h);
+    glUniform1i(loc[R_STEPS], s->p.max_steps);
+    glUniform1i(loc[R_REFINE], s->p.refine_iters);
+    glUniform1i(loc[R_FILL], s->p.edge_fill == WARP_EDGE_FILL_FAR);
+    glUniform1i(loc[R_LEVELS], g->levels);
+    glUniform1f(loc[R_JUMP], s->p.edge_jump);
+    GLint off[2 * PLAT_GLES_MAX_LEVELS] = {0};
+    for (int l = 0; l < g->levels; l++) {
+        off[2 * l] = g->lvl_x[l];
+        off[2 * l + 1] = g->lvl_y[l];
+    }
+    glUniform2iv(loc[R_OFF], PLAT_GLES_MAX_LEVELS, off);
+}
+
 void plat_gles_raytrace(plat_gles *g, int eye, const warp_raytrace_setup *s)
 {
     if (!g->p.depth || eye < 0 || eye > 1) return;
@@ -801,31 +946,7 @@ void plat_gles_raytrace(plat_gles *g, int eye, const warp_raytrace_setup *s)
     pass_begin(g, PLAT_GLES_RAYTRACE);
     glUseProgram(pr->prog);
     glBindVertexArray(g->vao);
-    bind_tex(0, r->color);
-    bind_tex(1, r->depth);
-    bind_tex(2, r->atlas);
-    glUniform1i(pr->loc[R_COLOR], 0);
-    glUniform1i(pr->loc[R_DEPTH], 1);
-    glUniform1i(pr->loc[R_PYR], 2);
-    /* GLSL matrices are column-major: column c holds h.m[0..2][c]. */
-    GLfloat h[9];
-    for (int c = 0; c < 3; c++)
-        for (int rr = 0; rr < 3; rr++) h[c * 3 + rr] = (GLfloat)s->h.m[rr][c];
-    glUniformMatrix3fv(pr->loc[R_H], 1, GL_FALSE, h);
-    glUniform3f(pr->loc[R_A], (GLfloat)s->ax, (GLfloat)s->ay, (GLfloat)s->aw);
-    glUniform2f(pr->loc[R_DRANGE], s->src->inv_depth_min, s->src->inv_depth_max);
-    glUniform2i(pr->loc[R_SIZE], g->p.src_w, g->p.src_h);
-    glUniform1i(pr->loc[R_STEPS], s->p.max_steps);
-    glUniform1i(pr->loc[R_REFINE], s->p.refine_iters);
-    glUniform1i(pr->loc[R_FILL], s->p.edge_fill == WARP_EDGE_FILL_FAR);
-    glUniform1i(pr->loc[R_LEVELS], g->levels);
-    glUniform1f(pr->loc[R_JUMP], s->p.edge_jump);
-    GLint off[2 * PLAT_GLES_MAX_LEVELS] = {0};
-    for (int l = 0; l < g->levels; l++) {
-        off[2 * l] = g->lvl_x[l];
-        off[2 * l + 1] = g->lvl_y[l];
-    }
-    glUniform2iv(pr->loc[R_OFF], PLAT_GLES_MAX_LEVELS, off);
+    raytrace_uniforms(g, r, pr, 0, 0, s);
     glUniform1i(pr->loc[R_COUNT], g->count_samples);
     glBindFramebuffer(GL_FRAMEBUFFER, r->inter_fbo);
     glViewport(0, 0, s->dst_w < g->p.src_w ? s->dst_w : g->p.src_w, s->dst_h < g->p.src_h ? s->dst_h : g->p.src_h);
@@ -833,20 +954,17 @@ void plat_gles_raytrace(plat_gles *g, int eye, const warp_raytrace_setup *s)
     pass_end(g);
 }
 
-void plat_gles_lens(plat_gles *g, int eye, const warp_mesh *m, bool from_raytrace)
+/* The lens pass's mesh and uniforms of program pr (loc[L_*]), its source texture on unit 0, the mesh on 1 and the
+ * hidden-area mask on 2; then the viewport bound. */
+static void lens_setup(plat_gles *g, eye_res *r, const program *pr, const warp_mesh *m, GLuint src)
 {
-    if (eye < 0 || eye > 1 || m->cols != g->p.mesh_cols || m->rows != g->p.mesh_rows) return;
-    if (from_raytrace && !g->p.depth) return;
-    eye_res *r = &g->eye[eye];
-    const program *pr = &g->lens;
-    pass_begin(g, PLAT_GLES_LENS);
     glBindTexture(GL_TEXTURE_2D, r->mesh);
     glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
     glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
     glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, m->cols * 3, m->rows, GL_RG, GL_FLOAT, m->src);
     glUseProgram(pr->prog);
     glBindVertexArray(g->vao);
-    bind_tex(0, from_raytrace ? r->inter : r->color);
+    bind_tex(0, src);
     bind_tex(1, r->mesh);
     glUniform1i(pr->loc[L_SRC], 0);
     glUniform1i(pr->loc[L_MESH], 1);
@@ -870,6 +988,57 @@ void plat_gles_lens(plat_gles *g, int eye, const warp_mesh *m, bool from_raytrac
     glUniform1i(pr->loc[L_HASVIS], vis);
     glBindFramebuffer(GL_FRAMEBUFFER, g->p.to_window ? 0 : g->panel_fbo);
     glViewport(m->vp_x, win_y, m->vp_w, m->vp_h);
+}
+
+void plat_gles_lens(plat_gles *g, int eye, const warp_mesh *m, bool from_raytrace)
+{
+    if (eye < 0 || eye > 1 || m->cols != g->p.mesh_cols || m->rows != g->p.mesh_rows) return;
+    if (from_raytrace && !g->p.depth) return;
+    eye_res *r = &g->eye[eye];
+    pass_begin(g, PLAT_GLES_LENS);
+    lens_setup(g, r, &g->lens, m, from_raytrace ? r->inter : r->color);
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+    pass_end(g);
+}
+
+void plat_gles_lens_traced(plat_gles *g, int eye, const warp_mesh *m, const warp_mesh_trace *t,
+                           const warp_camera *cam, const warp_raytrace_setup *s, const warp_raytrace_setup *last,
+                           const warp_scan *scan)
+{
+    if (!g->p.depth || eye < 0 || eye > 1 || m->cols != g->p.mesh_cols || m->rows != g->p.mesh_rows ||
+        t->cells_x != m->cols - 1 || t->cells_y != m->rows - 1)
+        return;
+    eye_res *r = &g->eye[eye];
+    const program *pr = &g->traced;
+    pass_begin(g, PLAT_GLES_LENS);
+    /* where each vertex's lens directions meet the eye buffer (tan_to_pixel is affine, so interpolating these is
+     * interpolating the directions: the positions warp_mesh_trace traces from) */
+    const size_t nv = (size_t)m->cols * (size_t)m->rows * 3;
+    for (size_t v = 0; v < nv; v++) {
+        double x, y;
+        warp_camera_tan_to_pixel(cam, m->tan[v].x, m->tan[v].y, &x, &y);
+        g->eyepos[2 * v] = (float)x;
+        g->eyepos[2 * v + 1] = (float)y;
+    }
+    glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    glBindTexture(GL_TEXTURE_2D, r->cells);
+    glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, t->cells_x, t->cells_y, GL_RED_INTEGER, GL_UNSIGNED_BYTE, t->cell);
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+    glBindTexture(GL_TEXTURE_2D, r->eyepos);
+    glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, m->cols * 3, m->rows, GL_RG, GL_FLOAT, g->eyepos);
+    lens_setup(g, r, pr, m, r->color);
+    raytrace_uniforms(g, r, pr, T_RT, 3, s); /* after the lens pass's units 0-2 */
+    bind_tex(6, r->cells);
+    bind_tex(7, r->eyepos);
+    glUniform1i(pr->loc[T_CELLS], 6);
+    glUniform1i(pr->loc[T_EYEPOS], 7);
+    const bool rolling = last && scan && scan->rolling;
+    glUniform1i(pr->loc[T_ROLL], rolling ? 1 + (int)scan->dir : 0);
+    if (rolling) {
+        pose_uniforms(pr->loc[T_H2], pr->loc[T_A2], last);
+        glUniform2i(pr->loc[T_PANEL], scan->panel_w, scan->panel_h);
+    }
     glDrawArrays(GL_TRIANGLES, 0, 3);
     pass_end(g);
 }
@@ -939,12 +1108,16 @@ bool plat_gles_read_pyramid(plat_gles *g, int eye, int level, warp_image_f32 *ds
     return glGetError() == GL_NO_ERROR;
 }
 
-bool plat_gles_bench(plat_gles *g, const warp_image_rgba8 *color, const warp_image_f32 *inv,
-                     const warp_raytrace_setup *const rt[2], const warp_mesh *const mesh[2], int reps,
-                     plat_gles_times *mean)
+/* plat_gles_bench and plat_gles_bench_traced: the lens pass traced (t not NULL) or after the raytrace (rt not NULL)
+ * or through the rotation mesh. */
+static bool bench_run(plat_gles *g, const warp_image_rgba8 *const color[2], const warp_image_f32 *const inv[2],
+                      const warp_raytrace_setup *const rt[2], const warp_mesh *const mesh[2],
+                      const warp_mesh_trace *const t[2], const warp_camera *const cam[2], int reps,
+                      plat_gles_times *mean)
 {
     memset(mean, 0, sizeof *mean);
     if (g->timing == TIMING_OFF || reps < 1 || g->p.to_window) return false;
+    if (t && !(rt && inv && g->p.depth)) return false;
     warp_image_rgba8 out;
     if (!warp_image_rgba8_alloc(&out, g->p.panel_w, g->p.panel_h)) return false;
     char err[200];
@@ -954,8 +1127,12 @@ bool plat_gles_bench(plat_gles *g, const warp_image_rgba8 *color, const warp_ima
     /* two vsyncs more than asked: the first is warm-up (shader compilation, first touches) and results arrive a
      * vsync late, so vsyncs 1..reps are the ones counted */
     for (int r = 0; r <= reps + 1 && ok; r++) {
-        for (int e = 0; e < 2 && ok; e++) ok = plat_gles_upload(g, e, color, g->p.depth ? inv : NULL);
+        for (int e = 0; e < 2 && ok; e++) ok = plat_gles_upload(g, e, color[e], g->p.depth && inv ? inv[e] : NULL);
         for (int e = 0; e < 2; e++) {
+            if (t) {
+                plat_gles_lens_traced(g, e, mesh[e], t[e], cam[e], rt[e], NULL, NULL);
+                continue;
+            }
             bool traced = rt && g->p.depth && inv;
             if (traced) plat_gles_raytrace(g, e, rt[e]);
             plat_gles_lens(g, e, mesh[e], traced);
@@ -980,4 +1157,19 @@ bool plat_gles_bench(plat_gles *g, const warp_image_rgba8 *color, const warp_ima
     mean->seq = seq;
     warp_image_free(&out);
     return ok;
+}
+
+bool plat_gles_bench(plat_gles *g, const warp_image_rgba8 *const color[2], const warp_image_f32 *const inv[2],
+                     const warp_raytrace_setup *const rt[2], const warp_mesh *const mesh[2], int reps,
+                     plat_gles_times *mean)
+{
+    return bench_run(g, color, inv, rt, mesh, NULL, NULL, reps, mean);
+}
+
+bool plat_gles_bench_traced(plat_gles *g, const warp_image_rgba8 *const color[2], const warp_image_f32 *const inv[2],
+                            const warp_raytrace_setup *const rt[2], const warp_mesh *const mesh[2],
+                            const warp_mesh_trace *const t[2], const warp_camera *const cam[2], int reps,
+                            plat_gles_times *mean)
+{
+    return t && cam ? bench_run(g, color, inv, rt, mesh, t, cam, reps, mean) : false;
 }

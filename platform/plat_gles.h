@@ -1,6 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /* plat_gles: the warp on the GPU with OpenGL ES 3.0 (GLSL ES 3.00): host frame upload, the min-max depth pyramid,
- * the height-map raytrace with its edge fills, and the lens pass through the distortion mesh; per-pass GPU times. */
+ * the height-map raytrace with its edge fills, and the lens pass through the distortion mesh (with per-pixel rays in
+ * raytrace_mesh's marked cells); per-pass GPU times. */
 #ifndef PLAT_GLES_H
 #define PLAT_GLES_H
 
@@ -9,8 +10,11 @@
 
 #include "platform/plat_egl.h"
 #include "warp/warp_image.h"
+#include "warp/warp_camera.h"
 #include "warp/warp_mesh.h"
+#include "warp/warp_mesh_trace.h"
 #include "warp/warp_raytrace.h"
+#include "warp/warp_scan.h"
 
 typedef struct plat_gles plat_gles;
 
@@ -51,6 +55,17 @@ void plat_gles_raytrace(plat_gles *g, int eye, const warp_raytrace_setup *s);
  * between the mesh's vertices exactly as warp_mesh_resample does, then one bilinear sample per channel with
  * clamp-to-edge (the 003 §4.3 fringe fill). Source: the uploaded frame, or the raytrace output. */
 void plat_gles_lens(plat_gles *g, int eye, const warp_mesh *m, bool from_raytrace);
+/* The display path's depth warp (raytrace_mesh) in one lens pass from the uploaded frame (params.depth): m's
+ * vertices hold their raytraced source positions (warp_mesh_raytrace_vertices, which also marked t's cells) and are
+ * interpolated as plat_gles_lens does, except in the cells t marks, where each channel's ray is traced per pixel
+ * from the pixel's own eye-buffer position (m's lens directions through cam) as plat_gles_raytrace traces under s.
+ * On a rolling panel (last and scan not NULL, s the first line's setup, as warp_mesh_trace_rect takes them) each
+ * such ray is traced under s and last and its source positions interpolated at the pixel's scan fraction, so the
+ * traced pixels meet the vertices, which were warped at their own line's pose. Timed as the lens pass. Per vsync:
+ * uploads the marks and the vertices' eye-buffer positions, allocates nothing. */
+void plat_gles_lens_traced(plat_gles *g, int eye, const warp_mesh *m, const warp_mesh_trace *t,
+                           const warp_camera *cam, const warp_raytrace_setup *s, const warp_raytrace_setup *last,
+                           const warp_scan *scan);
 /* Clears the panel to black (no frame yet). */
 void plat_gles_clear(plat_gles *g);
 /* Reads the panel image into dst (panel-sized); waits for the GPU. False on a GL error (err filled). */
@@ -72,15 +87,21 @@ const char *plat_gles_timing_method(const plat_gles *g);
 bool plat_gles_gpu_pyramid(const plat_gles *g);
 
 /* A benchmark of every pass at this renderer's sizes (e.g. panel 2880x1600, eyes 1440x1600 for the reference
- * headset): `reps` vsyncs, each uploading both eyes' colour (and inverse depth when inv is not NULL: the pyramid
- * too), raytracing both eyes with rt[e] when rt is not NULL (else the rotation mesh as it is), the lens pass of
- * both eyes through mesh[e], and the readback. Writes the mean GPU milliseconds per pass and vsync to mean
+ * headset): `reps` vsyncs, each uploading eye e's colour[e] (and inv[e], its inverse depth, when inv is not NULL:
+ * the pyramid too), raytracing both eyes with rt[e] when rt is not NULL (else the rotation mesh as it is), the lens
+ * pass of both eyes through mesh[e], and the readback. Writes the mean GPU milliseconds per pass and vsync to mean
  * (valid: the pass ran and was timed). Needs params.timing. Allocates (not for the vsync path). A bench tool
  * calls plat_egl_open_offscreen, plat_gles_create, warp_mesh_alloc/update, warp_raytrace_prepare, then this, and
  * prints mean.ms[p] under plat_gles_pass_name(p) next to the CPU path's times. */
-bool plat_gles_bench(plat_gles *g, const warp_image_rgba8 *color, const warp_image_f32 *inv,
+bool plat_gles_bench(plat_gles *g, const warp_image_rgba8 *const color[2], const warp_image_f32 *const inv[2],
                      const warp_raytrace_setup *const rt[2], const warp_mesh *const mesh[2], int reps,
                      plat_gles_times *mean);
+/* The same for raytrace_mesh: the lens pass is plat_gles_lens_traced through mesh[e] (its vertices traced and t[e]'s
+ * cells marked under rt[e], warp_mesh_raytrace_vertices), with no raytrace pass. False also without inv or depth. */
+bool plat_gles_bench_traced(plat_gles *g, const warp_image_rgba8 *const color[2], const warp_image_f32 *const inv[2],
+                            const warp_raytrace_setup *const rt[2], const warp_mesh *const mesh[2],
+                            const warp_mesh_trace *const t[2], const warp_camera *const cam[2], int reps,
+                            plat_gles_times *mean);
 
 /* Tests and diagnostics: the raytrace output of one eye (colour into rgb, may be NULL; mask values
  * WARP_MASK_FRINGE / WARP_MASK_EDGE into mask, may be NULL), and pyramid level `level` (max inverse depth over

@@ -381,10 +381,10 @@ static rt_method pass_lens(rt_render_cpu *r, job *j, const rt_frame *frame, cons
     return method;
 }
 
-/* raytrace and raytrace_mesh: the per-host-frame setup (prepare, skipping grid), then per pixel in bands, or at
- * the mesh's vertices. A setup the frame cannot give falls to rotation. */
-static rt_method pass_raytrace(rt_render_cpu *r, job *j, const rt_frame *frame, const warp_pose eyes[2],
-                               rt_method method)
+/* The raytrace setups of both eyes into j->rts (and j->rts_last for raytrace_mesh on a rolling panel: j->rts then
+ * the first line's), with the frame's skipping grid. False when the frame cannot give one. */
+static bool raytrace_setups(rt_render_cpu *r, job *j, const rt_frame *frame, const warp_pose eyes[2],
+                            rt_method method)
 {
     bool ok = true;
     for (int e = 0; e < 2 && ok; e++) {
@@ -406,7 +406,15 @@ static rt_method pass_raytrace(rt_render_cpu *r, job *j, const rt_frame *frame, 
             }
         }
     }
-    if (!ok) return pass_lens(r, j, frame, eyes, RT_METHOD_ROTATION);
+    return ok;
+}
+
+/* raytrace and raytrace_mesh: the per-host-frame setup (prepare, skipping grid), then per pixel in bands, or at
+ * the mesh's vertices. A setup the frame cannot give falls to rotation. */
+static rt_method pass_raytrace(rt_render_cpu *r, job *j, const rt_frame *frame, const warp_pose eyes[2],
+                               rt_method method)
+{
+    if (!raytrace_setups(r, j, frame, eyes, method)) return pass_lens(r, j, frame, eyes, RT_METHOD_ROTATION);
     if (method == RT_METHOD_RAYTRACE_MESH) {
         /* no eye-space image: depth warp, lens and CA in the one resampling pass from the host frame */
         plat_workers_run(r->workers, 2, mesh_raytrace_task, j);
@@ -480,6 +488,27 @@ rt_method rt_render_cpu_usable(rt_render_cpu *r, const rt_frame *frame, rt_metho
     if (missing & ~(unsigned)DRV_PLANE_DEPTH) atomic_fetch_add_explicit(&r->plane_fallbacks, 1, memory_order_relaxed);
     if (missing & DRV_PLANE_DEPTH) atomic_fetch_add_explicit(&r->raytrace_fallbacks, 1, memory_order_relaxed);
     return m;
+}
+
+bool rt_render_cpu_mesh_traced(rt_render_cpu *r, const rt_frame *frame, const warp_pose eyes[2],
+                               const warp_pose first[2], const warp_pose last[2], warp_raytrace_setup rts[2],
+                               warp_raytrace_setup rts_last[2], const warp_scan **scan)
+{
+    job *j = &r->j;
+    const bool rolling = r->p.scan.rolling && first && last;
+    j->first = rolling ? first : NULL;
+    j->last = rolling ? last : NULL;
+    j->frame = frame;
+    if (!r->mtrace[0].cell || !frame->has_depth || !raytrace_setups(r, j, frame, eyes, RT_METHOD_RAYTRACE_MESH))
+        return false;
+    /* the vertices' own setups: mid-scan on a global panel, the first and the last line's on a rolling one */
+    for (int e = 0; e < 2; e++) {
+        rts[e] = j->rts[e];
+        if (j->first) rts_last[e] = j->rts_last[e];
+    }
+    *scan = j->first ? &r->p.scan : NULL;
+    plat_workers_run(r->workers, 2, mesh_raytrace_task, j);
+    return true;
 }
 
 rt_method rt_render_cpu_frame(rt_render_cpu *r, const rt_frame *frame, const warp_pose eyes[2], rt_method method,

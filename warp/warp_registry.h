@@ -63,8 +63,8 @@ typedef struct {
     int cost_rank;        /* larger = dearer and more capable; the selector escalates at once, de-escalates slowly */
     bool runtime;         /* hmdwarpd can run it ([warp] method) */
     /* What the GLES renderer (platform/plat_gles) draws for it: itself where it has a GPU pass, else the GPU pass
-     * that stands in (the GPU traces every pixel, so its raytrace serves the mesh raytrace, the A-buffer and the
-     * object warps). WARP_METHOD_COUNT (no method) for the offline warps, which hmdwarpd never runs. */
+     * that stands in (the GPU's per-pixel raytrace serves the A-buffer and the object warps). WARP_METHOD_COUNT (no
+     * method) for the offline warps, which hmdwarpd never runs. */
     warp_method gpu;
     int n_knobs;
     warp_knob knobs[WARP_MAX_KNOBS];

@@ -14,9 +14,11 @@
 #include "platform/plat_gles.h"
 #include "sim/sim_scene.h"
 #include "warp/warp_fov.h"
+#include "warp/warp_mesh_trace.h"
 #include "warp/warp_metrics.h"
 #include "warp/warp_raytrace.h"
 #include "warp/warp_resample.h"
+#include "warp/warp_scan.h"
 #include "tests/support/test_scene.h"
 
 #define W 192
@@ -369,6 +371,211 @@ static void test_raytrace_then_lens_parity(void **state)
     assert_true(p >= 45.0);
 }
 
+/* The eye-buffer position of channel c's lens direction at viewport column x of cell (i, j), ty down the cell. */
+static void eye_pos(const warp_mesh *m, int c, int i, int j, double ty, int x, double *px, double *py)
+{
+    const warp_vec2f *v00 = &m->tan[((size_t)j * m->cols + i) * 3 + c], *v10 = v00 + 3,
+                     *v01 = v00 + (size_t)m->cols * 3, *v11 = v01 + 3;
+    const double tx = (x + 0.5 - (double)i * m->cell_w) / m->cell_w;
+    const double u = (1 - ty) * ((1 - tx) * v00->x + tx * v10->x) + ty * ((1 - tx) * v01->x + tx * v11->x);
+    const double w = (1 - ty) * ((1 - tx) * v00->y + tx * v10->y) + ty * ((1 - tx) * v01->y + tx * v11->y);
+    warp_camera_tan_to_pixel(&F.cam, u, w, px, py);
+}
+
+/* Channel c of viewport pixel (x, y) (row fraction ty across band j, column cell i) of mesh m by its own full ray
+ * on the CPU (warp_raytrace_point): what the traced lens pass computes in a marked cell. Under s alone (last NULL),
+ * or on a rolling panel as warp_mesh_trace_rect traces it: under s (the first line's setup) and last, the source
+ * positions interpolated at the pixel's scan fraction. */
+static int full_ray(const warp_mesh *m, const warp_raytrace_setup *s, const warp_raytrace_setup *last,
+                    const warp_scan *scan, int c, int i, int j, double ty, int x, int y)
+{
+    double px, py, sx, sy;
+    eye_pos(m, c, i, j, ty, x, &px, &py);
+    warp_raytrace_point(s, px, py, &sx, &sy, NULL);
+    if (last) {
+        double lx, ly;
+        warp_raytrace_point(last, px, py, &lx, &ly, NULL);
+        const double f = warp_scan_fraction(scan, m->vp_x + x + 0.5, m->vp_y + y + 0.5);
+        sx += (lx - sx) * f, sy += (ly - sy) * f;
+    }
+    const warp_rgba8 v = warp_sample_bilinear(&F.src.color, (float)sx, (float)sy);
+    return c == 0 ? v.r : (c == 1 ? v.g : v.b);
+}
+
+/* The display path's depth warp in one GLES pass (plat_gles_lens_traced) against the CPU's (warp_mesh_raytrace_draw):
+ * the same vertices and marks; outside the marked cells exactly the lens pass, inside them per-pixel rays, which
+ * put the depth edges where the per-pixel raytrace puts them. */
+static void test_lens_traced_parity(void **state)
+{
+    (void)state;
+    warp_mesh_trace t[2];
+    for (int e = 0; e < 2; e++) assert_true(warp_mesh_trace_alloc(&t[e], &F.mesh[e]));
+    const warp_mesh_trace_params mp = warp_mesh_trace_default_params();
+    warp_raytrace_params rp = warp_raytrace_default_params();
+    warp_image_rgba8 lens_only, two_pass;
+    assert_true(warp_image_rgba8_alloc(&lens_only, 2 * W, H) && warp_image_rgba8_alloc(&two_pass, 2 * W, H));
+    char err[200];
+    static const char *const scenes[] = {"near", "hairball", "room"};
+    for (size_t sc = 0; sc < sizeof scenes / sizeof scenes[0]; sc++) {
+        source(scenes[sc], test_eye_home());
+        const warp_pose to = test_eye_at(1.5 * D2R, -3 * D2R, 0, warp_v3(0.04, 1.61, -0.01));
+        warp_raytrace_setup s;
+        assert_null(warp_raytrace_prepare(&s, &F.view, &F.cam, to, &rp));
+        /* the two-pass GLES raytrace (every eye-buffer pixel, then the lens): the per-pixel reference */
+        for (int e = 0; e < 2; e++) {
+            warp_mesh_update(&F.mesh[e], &F.cam, warp_quat_identity());
+            plat_gles_raytrace(F.g, e, &s);
+        }
+        gpu_lens(F.g, true);
+        memcpy(two_pass.px, F.panel_gpu.px, sizeof(warp_rgba8) * 2 * W * H);
+        /* the CPU's display path; it leaves the meshes traced and their cells marked */
+        warp_image_rgba8_fill(&F.panel_cpu, (warp_rgba8){0, 0, 0, 255});
+        int marked = 0;
+        for (int e = 0; e < 2; e++)
+            marked += warp_mesh_raytrace_draw(&F.mesh[e], &t[e], &F.cam, &s, NULL, NULL, &mp, &F.planar,
+                                              &F.panel_cpu);
+        /* the same meshes through the plain lens pass, and through the traced one */
+        gpu_lens(F.g, false);
+        memcpy(lens_only.px, F.panel_gpu.px, sizeof(warp_rgba8) * 2 * W * H);
+        for (int e = 0; e < 2; e++) plat_gles_lens_traced(F.g, e, &F.mesh[e], &t[e], &F.cam, &s, NULL, NULL);
+        assert_true(plat_gles_read(F.g, &F.panel_gpu, err, sizeof err));
+        plat_gles_end_frame(F.g);
+        long in_cells = 0, differs_outside = 0;
+        double se_traced = 0, se_lens = 0, se_rays = 0;
+        for (int e = 0; e < 2; e++) {
+            const warp_mesh *m = &F.mesh[e];
+            for (int y = 0; y < H; y++) {
+                const double b = (y + 0.5) * (m->rows - 1) / m->vp_h;
+                int j = (int)b < m->rows - 2 ? (int)b : m->rows - 2;
+                for (int x = 0; x < W; x++) {
+                    int i = x / m->cell_w < t[e].cells_x ? x / m->cell_w : t[e].cells_x - 1;
+                    warp_rgba8 g = WARP_AT(&F.panel_gpu, e * W + x, y), l = WARP_AT(&lens_only, e * W + x, y),
+                               r = WARP_AT(&two_pass, e * W + x, y);
+                    if (!t[e].cell[j * t[e].cells_x + i]) {
+                        differs_outside += memcmp(&g, &l, sizeof g) != 0;
+                        continue;
+                    }
+                    const int gc[3] = {g.r, g.g, g.b};
+                    for (int c = 0; c < 3; c++) {
+                        const int d = gc[c] - full_ray(m, &s, NULL, NULL, c, i, j, b - j, x, y);
+                        se_rays += d * d;
+                    }
+                    in_cells++;
+                    const int dg[3] = {g.r - r.r, g.g - r.g, g.b - r.b}, dl[3] = {l.r - r.r, l.g - r.g, l.b - r.b};
+                    for (int c = 0; c < 3; c++) {
+                        se_traced += dg[c] * dg[c];
+                        se_lens += dl[c] * dl[c];
+                    }
+                }
+            }
+        }
+        const double n = 3.0 * (double)in_cells;
+        const double p_traced = 10 * log10(255.0 * 255.0 * n / (se_traced + 1e-9));
+        const double p_lens = 10 * log10(255.0 * 255.0 * n / (se_lens + 1e-9));
+        const double p_rays = 10 * log10(255.0 * 255.0 * n / (se_rays + 1e-9));
+        const double p_cpu = warp_psnr(&F.panel_gpu, &F.panel_cpu, NULL, 0);
+        print_message("traced lens, %-8s %d cells marked (%ld px): in them vs the CPU's full rays %.2f dB, vs the "
+                      "two-pass raytrace %.2f dB (the vertices alone %.2f dB); whole panel vs the CPU's display path "
+                      "%.2f dB\n",
+                      scenes[sc], marked, in_cells, p_rays, p_traced, p_lens, p_cpu);
+        assert_true(marked > 0);
+        assert_int_equal(differs_outside, 0); /* outside the marks, exactly the lens pass */
+        /* near's edges are a few pixels of parallax apart at this lean: the vertices alone smear them */
+        if (sc == 0) assert_true(p_traced > p_lens + 3.0);
+        /* every channel's own full ray, as the CPU traces it */
+        assert_true(p_rays >= 50.0);
+        /* The CPU's display path saves rays: a 4-pixel lattice with guided searches between (which can miss
+         * hairball's thinnest strands), and red and blue on green's surface unless it sees a reason not to
+         * (warp_mesh_trace.c); beside edges it differs, elsewhere it is the same lens pass. */
+        assert_true(p_cpu >= 38.0);
+    }
+    /* no marks: exactly the lens pass */
+    for (int e = 0; e < 2; e++) memset(t[e].cell, 0, (size_t)t[e].cells_x * (size_t)t[e].cells_y);
+    gpu_lens(F.g, false);
+    memcpy(lens_only.px, F.panel_gpu.px, sizeof(warp_rgba8) * 2 * W * H);
+    for (int e = 0; e < 2; e++) {
+        warp_raytrace_setup s;
+        assert_null(warp_raytrace_prepare(&s, &F.view, &F.cam, test_eye_home(), &rp));
+        plat_gles_lens_traced(F.g, e, &F.mesh[e], &t[e], &F.cam, &s, NULL, NULL);
+    }
+    assert_true(plat_gles_read(F.g, &F.panel_gpu, err, sizeof err));
+    plat_gles_end_frame(F.g);
+    assert_memory_equal(F.panel_gpu.px, lens_only.px, sizeof(warp_rgba8) * 2 * W * H);
+    for (int e = 0; e < 2; e++) warp_mesh_trace_free(&t[e]);
+    warp_image_free(&lens_only);
+    warp_image_free(&two_pass);
+}
+
+/* On a rolling panel the vertices are warped at their own line's pose; the traced lens pass traces its marked
+ * cells' pixels at theirs too (the first and the last line's setups interpolated, as the CPU does), not at the
+ * mid-scan pose, which leaves the first and last lines' traced pixels a scan's motion away from their cells'
+ * vertices. */
+static void test_lens_traced_rolling(void **state)
+{
+    (void)state;
+    warp_mesh_trace t[2];
+    for (int e = 0; e < 2; e++) assert_true(warp_mesh_trace_alloc(&t[e], &F.mesh[e]));
+    const warp_mesh_trace_params mp = warp_mesh_trace_default_params();
+    warp_raytrace_params rp = warp_raytrace_default_params();
+    char err[200];
+    const warp_scan scans[] = {{true, WARP_SCAN_TOP_TO_BOTTOM, 0.01, 2 * W, H},
+                               {true, WARP_SCAN_RIGHT_TO_LEFT, 0.01, 2 * W, H}};
+    source("near", test_eye_home());
+    /* a fast turn with a lean: the last line is lit 4 degrees of yaw and 2 cm after the first */
+    const warp_pose first = test_eye_at(-0.5 * D2R, -3 * D2R, 0, warp_v3(0.03, 1.61, -0.01));
+    const warp_pose mid = test_eye_at(1.5 * D2R, -3 * D2R, 0, warp_v3(0.04, 1.61, -0.01));
+    const warp_pose last = test_eye_at(3.5 * D2R, -3 * D2R, 0, warp_v3(0.05, 1.61, -0.01));
+    warp_raytrace_setup sf, sm, sl;
+    assert_null(warp_raytrace_prepare(&sf, &F.view, &F.cam, first, &rp));
+    assert_null(warp_raytrace_prepare(&sm, &F.view, &F.cam, mid, &rp));
+    assert_null(warp_raytrace_prepare(&sl, &F.view, &F.cam, last, &rp));
+    for (size_t k = 0; k < sizeof scans / sizeof scans[0]; k++) {
+        const warp_scan *scan = &scans[k];
+        /* the vertices at their lines' poses and the marks, as the CPU's display path makes them */
+        int marked = 0;
+        for (int e = 0; e < 2; e++)
+            marked += warp_mesh_raytrace_vertices(&F.mesh[e], &t[e], &F.cam, &sf, &sl, scan, &mp);
+        /* per line (the fix) and at the mid-scan pose (before it), from the same vertices and marks */
+        double p_rays[2];
+        for (int way = 0; way < 2; way++) {
+            for (int e = 0; e < 2; e++) {
+                if (way == 0) plat_gles_lens_traced(F.g, e, &F.mesh[e], &t[e], &F.cam, &sf, &sl, scan);
+                else plat_gles_lens_traced(F.g, e, &F.mesh[e], &t[e], &F.cam, &sm, NULL, NULL);
+            }
+            assert_true(plat_gles_read(F.g, &F.panel_gpu, err, sizeof err));
+            plat_gles_end_frame(F.g);
+            long in_cells = 0;
+            double se = 0;
+            for (int e = 0; e < 2; e++) {
+                const warp_mesh *m = &F.mesh[e];
+                for (int y = 0; y < H; y++) {
+                    const double b = (y + 0.5) * (m->rows - 1) / m->vp_h;
+                    int j = (int)b < m->rows - 2 ? (int)b : m->rows - 2;
+                    for (int x = 0; x < W; x++) {
+                        int i = x / m->cell_w < t[e].cells_x ? x / m->cell_w : t[e].cells_x - 1;
+                        if (!t[e].cell[j * t[e].cells_x + i]) continue;
+                        warp_rgba8 g = WARP_AT(&F.panel_gpu, e * W + x, y);
+                        const int gc[3] = {g.r, g.g, g.b};
+                        for (int c = 0; c < 3; c++) {
+                            const int d = gc[c] - full_ray(m, &sf, &sl, scan, c, i, j, b - j, x, y);
+                            se += d * d;
+                        }
+                        in_cells++;
+                    }
+                }
+            }
+            p_rays[way] = 10 * log10(255.0 * 255.0 * 3.0 * (double)in_cells / (se + 1e-9));
+        }
+        print_message("traced lens, rolling scan %d: %d cells marked: in them vs the CPU's full rays per line "
+                      "%.2f dB (at the mid-scan pose %.2f dB)\n",
+                      (int)scan->dir, marked, p_rays[0], p_rays[1]);
+        assert_true(marked > 0);
+        assert_true(p_rays[0] >= 45.0);
+        assert_true(p_rays[0] > p_rays[1] + 6.0);
+    }
+    for (int e = 0; e < 2; e++) warp_mesh_trace_free(&t[e]);
+}
+
 static void test_pyramid_matches_cpu(void **state)
 {
     (void)state;
@@ -447,8 +654,10 @@ static void test_bench(void **state)
     assert_null(warp_raytrace_prepare(&s, &F.view, &F.cam, test_eye_at(0.02, 0, 0, warp_v3(0.02, 1.6, 0)), &rp));
     const warp_raytrace_setup *rt[2] = {&s, &s};
     const warp_mesh *m[2] = {&F.mesh[0], &F.mesh[1]};
+    const warp_image_rgba8 *color[2] = {&F.src.color, &F.src.color};
+    const warp_image_f32 *inv[2] = {&F.inv, &F.inv};
     plat_gles_times t;
-    assert_true(plat_gles_bench(F.g, &F.src.color, &F.inv, rt, m, 3, &t));
+    assert_true(plat_gles_bench(F.g, color, inv, rt, m, 3, &t));
     print_message("bench %dx%d per eye:", W, H);
     for (int p = 0; p < PLAT_GLES_PASSES; p++) {
         assert_true(t.valid[p]);
@@ -458,7 +667,7 @@ static void test_bench(void **state)
     print_message("\n");
     assert_true(t.ms[PLAT_GLES_RAYTRACE] > 0);
     /* an untimed renderer cannot bench */
-    assert_false(plat_gles_bench(F.g_cpu_pyr, &F.src.color, &F.inv, rt, m, 3, &t));
+    assert_false(plat_gles_bench(F.g_cpu_pyr, color, inv, rt, m, 3, &t));
 }
 
 static void test_kms_without_drm_device(void **state)
@@ -493,6 +702,8 @@ int main(void)
         cmocka_unit_test(test_raytrace_parity),
         cmocka_unit_test(test_pyramid_skips_empty_space),
         cmocka_unit_test(test_raytrace_then_lens_parity),
+        cmocka_unit_test(test_lens_traced_parity),
+        cmocka_unit_test(test_lens_traced_rolling),
         cmocka_unit_test(test_pyramid_matches_cpu),
         cmocka_unit_test(test_pass_timing),
         cmocka_unit_test(test_bench),

@@ -14,6 +14,7 @@
 #include "platform/plat_clock.h"
 #include "platform/plat_gles.h"
 #include "runtime/rt_app.h"
+#include "runtime/rt_render_cpu.h"
 #include "tests/support/test_run.h"
 #include "tests/support/test_settings.h"
 #include "tests/support/test_util.h"
@@ -164,17 +165,34 @@ static bool llvmpipe_enough(const rt_app *a, double elapsed_s)
            gles_count(a, PLAT_GLES_PYRAMID) > 0;
 }
 
-static void test_gles_run_on_llvmpipe(void **state)
+/* The simulated board on the GLES renderer with `method`, run until `enough` (60 s at most). */
+static void gles_run(const char *method, bool (*enough)(const rt_app *, double))
 {
-    (void)state;
     rt_config c;
-    small_config(&c, "gles", "raytrace");
+    small_config(&c, "gles", method);
     rt_config_errors e = {0};
     assert_true(rt_config_set(&c, "sim.duration_s=0", &e));
     char err[300];
     if (!rt_app_init(&app, &c, err, sizeof err)) fail_msg("init: %s", err);
     assert_true(app.gl.use);
-    if (!test_run_until(&app, llvmpipe_enough, 60)) print_message("no GPU time for every pass within 60 s\n");
+    if (!test_run_until(&app, enough, 60)) print_message("%s: not enough drawn within 60 s\n", method);
+}
+
+/* Pixels of the image on screen with some green: something was drawn, the image is not all black. */
+static long lit_on_screen(void)
+{
+    int idx = app.sc.on_screen;
+    assert_true(idx >= 0);
+    long lit = 0;
+    for (int y = 0; y < app.sc.img[idx].h; y++)
+        for (int x = 0; x < app.sc.img[idx].w; x++) lit += WARP_AT(&app.sc.img[idx], x, y).g > 10;
+    return lit;
+}
+
+static void test_gles_run_on_llvmpipe(void **state)
+{
+    (void)state;
+    gles_run("raytrace", llvmpipe_enough);
     rt_telemetry *t = app.tel;
     print_message("vsyncs %llu, raytrace %llu, gles errors %llu\n", (unsigned long long)t->vsyncs,
                   (unsigned long long)t->method_count[RT_METHOD_RAYTRACE], (unsigned long long)app.gl.errors);
@@ -183,13 +201,7 @@ static void test_gles_run_on_llvmpipe(void **state)
     assert_true(gles_count(&app, PLAT_GLES_RAYTRACE) > 0);
     assert_true(gles_count(&app, PLAT_GLES_LENS) > 0);
     assert_true(gles_count(&app, PLAT_GLES_PYRAMID) > 0); /* built for new frames */
-    /* something was drawn: the image on screen is not all black */
-    int idx = app.sc.on_screen;
-    assert_true(idx >= 0);
-    long lit = 0;
-    for (int y = 0; y < app.sc.img[idx].h; y++)
-        for (int x = 0; x < app.sc.img[idx].w; x++) lit += WARP_AT(&app.sc.img[idx], x, y).g > 10;
-    assert_true(lit > 192 * 96 / 2);
+    assert_true(lit_on_screen() > 192 * 96 / 2);
     char *kv = stats_text(), *sum = summary_text();
     assert_non_null(strstr(kv, "renderer=gles\n"));
     assert_non_null(strstr(kv, "gl_renderer=llvmpipe"));
@@ -200,6 +212,35 @@ static void test_gles_run_on_llvmpipe(void **state)
     assert_non_null(strstr(sum, "gles raytrace"));
     free(kv);
     free(sum);
+    rt_app_free(&app);
+}
+
+/* At least the run's 0.4 s, and until the GPU drew raytrace_mesh and its lens pass has a time. */
+static bool mesh_enough(const rt_app *a, double elapsed_s)
+{
+    return elapsed_s >= 0.4 &&
+           atomic_load_explicit(&a->tel->method_count[RT_METHOD_RAYTRACE_MESH], memory_order_relaxed) > 0 &&
+           gles_count(a, PLAT_GLES_LENS) > 0;
+}
+
+/* raytrace_mesh on the GLES renderer: its own pass (the CPU's vertex rays, the GPU's per-pixel rays in the marked
+ * cells), not the per-pixel raytrace standing in nor rotation. */
+static void test_gles_raytrace_mesh(void **state)
+{
+    (void)state;
+    gles_run("raytrace_mesh", mesh_enough);
+    rt_telemetry *t = app.tel;
+    print_message("vsyncs %llu, raytrace_mesh %llu, raytrace %llu, rotation %llu, gles errors %llu\n",
+                  (unsigned long long)t->vsyncs, (unsigned long long)t->method_count[RT_METHOD_RAYTRACE_MESH],
+                  (unsigned long long)t->method_count[RT_METHOD_RAYTRACE],
+                  (unsigned long long)t->method_count[RT_METHOD_ROTATION], (unsigned long long)app.gl.errors);
+    assert_true(t->method_count[RT_METHOD_RAYTRACE_MESH] > 0);
+    assert_int_equal(t->method_count[RT_METHOD_RAYTRACE], 0);
+    assert_int_equal(app.gl.errors, 0);
+    assert_true(gles_count(&app, PLAT_GLES_LENS) > 0);
+    assert_int_equal(gles_count(&app, PLAT_GLES_RAYTRACE), 0); /* no eye-space pass */
+    assert_non_null(rt_render_cpu_mesh_trace(app.render, 0));
+    assert_true(lit_on_screen() > 192 * 96 / 2);
     rt_app_free(&app);
 }
 
@@ -295,6 +336,7 @@ int main(void)
         cmocka_unit_test(test_config_keys),
         cmocka_unit_test(test_kms_without_drm_device),
         cmocka_unit_test(test_gles_run_on_llvmpipe),
+        cmocka_unit_test(test_gles_raytrace_mesh),
         cmocka_unit_test(test_gles_misses_are_the_warps),
         cmocka_unit_test(test_auto_picks_cpu_on_llvmpipe),
     };

@@ -107,11 +107,12 @@ static void gpu_column_covers_runtime(void **state)
         assert_int_equal(g->gpu, w->gpu); /* a stand-in has a GPU pass of its own */
         assert_int_equal(g->needs & ~w->needs, 0);
         bool own = w->gpu == (warp_method)m;
-        assert_int_equal(own, m == WARP_METHOD_NONE || m == WARP_METHOD_ROTATION || m == WARP_METHOD_RAYTRACE);
+        assert_int_equal(own, m == WARP_METHOD_NONE || m == WARP_METHOD_ROTATION || m == WARP_METHOD_RAYTRACE ||
+                                  m == WARP_METHOD_RAYTRACE_MESH);
     }
     assert_int_equal(warp_method_get(WARP_METHOD_TRANSPARENCY)->gpu, WARP_METHOD_RAYTRACE);
     assert_int_equal(warp_method_get(WARP_METHOD_OBJECTS)->gpu, WARP_METHOD_RAYTRACE);
-    assert_int_equal(warp_method_get(WARP_METHOD_RAYTRACE_MESH)->gpu, WARP_METHOD_RAYTRACE);
+    assert_int_equal(warp_method_get(WARP_METHOD_RAYTRACE_MESH)->gpu, WARP_METHOD_RAYTRACE_MESH);
 }
 
 /* [warp] method takes exactly the runtime methods (by the registry's names, stored as its index) and auto. */

@@ -537,8 +537,11 @@ int main(int argc, char **argv)
 
     /* ---- GPU: every GLES pass at this panel size, where EGL is there (on llvmpipe too: the numbers say why
      * render = auto picks the CPU path on a software rasterizer) ---- */
-    plat_gles_times gpu;
+    plat_gles_times gpu, gpu_traced;
     memset(&gpu, 0, sizeof gpu);
+    memset(&gpu_traced, 0, sizeof gpu_traced);
+    bool have_traced = false;
+    int gl_cells = 0;
     char gl_renderer[160] = "", gl_timing[80] = "", gl_err[300] = "";
     bool have_gpu = false;
     {
@@ -556,7 +559,24 @@ int main(int argc, char **argv)
                                           rt_render_cpu_raytrace_params(D.pass[0]));
                 }
                 const warp_raytrace_setup *rts[2] = {&gl_rts[0], &gl_rts[1]};
-                have_gpu = plat_gles_bench(g, &fc[0].src.color, &fc[0].inv, rts, meshes, o.quick ? 3 : 10, &gpu);
+                /* each eye's own render: the raytrace and the marks are eye e's, so is what they read */
+                const warp_image_rgba8 *gl_color[2] = {&fc[0].src.color, &fc[1].src.color};
+                const warp_image_f32 *gl_inv[2] = {&fc[0].inv, &fc[1].inv};
+                have_gpu = plat_gles_bench(g, gl_color, gl_inv, rts, meshes, o.quick ? 3 : 10, &gpu);
+                /* raytrace_mesh: the CPU's vertex rays and marks, then the traced lens pass alone */
+                warp_mesh_trace tr[2];
+                memset(tr, 0, sizeof tr);
+                if (have_gpu && warp_mesh_trace_alloc(&tr[0], meshes[0]) && warp_mesh_trace_alloc(&tr[1], meshes[1])) {
+                    for (int e = 0; e < 2; e++)
+                        gl_cells += warp_mesh_raytrace_vertices(rt_render_cpu_mesh(D.pass[0], e), &tr[e], &cam[e],
+                                                                    &gl_rts[e], NULL, NULL,
+                                                                    rt_render_cpu_mesh_trace_params(D.pass[0]));
+                    const warp_mesh_trace *tp[2] = {&tr[0], &tr[1]};
+                    const warp_camera *cp[2] = {&cam[0], &cam[1]};
+                    have_traced = plat_gles_bench_traced(g, gl_color, gl_inv, rts, meshes, tp, cp,
+                                                         o.quick ? 3 : 10, &gpu_traced);
+                }
+                for (int e = 0; e < 2; e++) warp_mesh_trace_free(&tr[e]);
                 snprintf(gl_renderer, sizeof gl_renderer, "%s", plat_egl_renderer(egl));
                 snprintf(gl_timing, sizeof gl_timing, "%s", plat_gles_timing_method(g));
                 plat_gles_destroy(g);
@@ -569,6 +589,9 @@ int main(int argc, char **argv)
             for (int p = 0; p < PLAT_GLES_PASSES; p++)
                 if (gpu.valid[p]) printf(" %s %.2f ms", plat_gles_pass_name((plat_gles_pass)p), gpu.ms[p]);
             printf("\n");
+            if (have_traced)
+                printf("GLES raytrace_mesh (%d cells traced per pixel): lens %.2f ms, no raytrace pass\n", gl_cells,
+                       gpu_traced.ms[PLAT_GLES_LENS]);
         } else {
             printf("GLES: not measured (%s)\n", gl_err[0] ? gl_err : "no EGL");
         }
@@ -778,6 +801,10 @@ int main(int argc, char **argv)
             if (gpu.valid[p])
                 fprintf(md, "| %s | %.2f | %s |\n", plat_gles_pass_name((plat_gles_pass)p), gpu.ms[p],
                         p == PLAT_GLES_LENS ? "display path above" : p == PLAT_GLES_RAYTRACE ? "raytrace row above" : "-");
+        if (have_traced && gpu_traced.valid[PLAT_GLES_LENS])
+            fprintf(md, "| lens, traced (raytrace_mesh: per-pixel rays in its %d marked cells, no raytrace pass) | %.2f | "
+                        "raytrace_mesh row above |\n",
+                    gl_cells, gpu_traced.ms[PLAT_GLES_LENS]);
         fprintf(md, "\nOn a software rasterizer (llvmpipe) these are CPU times too, which is why `render = auto` "
                     "picks the CPU path there.\n");
     } else {
