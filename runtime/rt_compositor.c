@@ -49,12 +49,12 @@ static rt_method compose_gles(rt_app *a, const rt_frame *frame, const warp_pose 
         /* the vertices' rays and the cells' marks on the CPU, as the CPU pass makes them; the marked cells' per-pixel
          * rays on the GPU (rolling panels: both at the first and the last line's pose, interpolated per vertex and
          * per pixel at its line's scan fraction) */
-        warp_raytrace_setup rts[2], rts_last[2];
+        const warp_raytrace_setup *rts[2], *rts_last[2];
         const warp_scan *scan = NULL;
         if (rt_render_cpu_mesh_traced(a->render, frame, eyes, first, last, rts, rts_last, &scan)) {
             for (int e = 0; e < 2; e++)
                 plat_gles_lens_traced(g, e, rt_render_cpu_mesh(a->render, e), rt_render_cpu_mesh_trace(a->render, e),
-                                      &frame->f.cam[e], &rts[e], scan ? &rts_last[e] : NULL, scan);
+                                      &frame->f.cam[e], rts[e], rts_last[e], scan);
             drawn = true;
         }
     }

@@ -491,8 +491,8 @@ rt_method rt_render_cpu_usable(rt_render_cpu *r, const rt_frame *frame, rt_metho
 }
 
 bool rt_render_cpu_mesh_traced(rt_render_cpu *r, const rt_frame *frame, const warp_pose eyes[2],
-                               const warp_pose first[2], const warp_pose last[2], warp_raytrace_setup rts[2],
-                               warp_raytrace_setup rts_last[2], const warp_scan **scan)
+                               const warp_pose first[2], const warp_pose last[2], const warp_raytrace_setup *rts[2],
+                               const warp_raytrace_setup *rts_last[2], const warp_scan **scan)
 {
     job *j = &r->j;
     const bool rolling = r->p.scan.rolling && first && last;
@@ -503,8 +503,8 @@ bool rt_render_cpu_mesh_traced(rt_render_cpu *r, const rt_frame *frame, const wa
         return false;
     /* the vertices' own setups: mid-scan on a global panel, the first and the last line's on a rolling one */
     for (int e = 0; e < 2; e++) {
-        rts[e] = j->rts[e];
-        if (j->first) rts_last[e] = j->rts_last[e];
+        rts[e] = &j->rts[e];
+        rts_last[e] = j->first ? &j->rts_last[e] : NULL;
     }
     *scan = j->first ? &r->p.scan : NULL;
     plat_workers_run(r->workers, 2, mesh_raytrace_task, j);

@@ -88,13 +88,13 @@ warp_mesh *rt_render_cpu_mesh_for(rt_render_cpu *r, const rt_frame *frame, int e
                                   warp_pose eye_pose, const warp_pose *first, const warp_pose *last);
 /* raytrace_mesh on the GLES renderer: both eyes' lens meshes traced at their vertices and their cells marked
  * (rt_render_cpu_mesh, rt_render_cpu_mesh_trace), exactly as the CPU pass does before its resampling, on the pass's
- * threads; into rts the setups the GPU's per-pixel rays take, as the CPU's take them: the mid-scan ones (eyes), or,
- * on a rolling panel (first and last given), the first line's, with the last line's into rts_last and the panel's
- * scan into *scan (else NULL). False, nothing done, when the frame or the pass has no depth or the frame cannot give
- * a raytrace setup. Allocation-free: the vsync path. */
+ * threads; rts points at the setups the GPU's per-pixel rays take, as the CPU's take them (the pass's own, valid
+ * until its next frame): the mid-scan ones (eyes), or, on a rolling panel (first and last given), the first line's,
+ * with rts_last at the last line's and *scan at the panel's scan (else both NULL). False, nothing done, when the
+ * frame or the pass has no depth or the frame cannot give a raytrace setup. Allocation-free: the vsync path. */
 bool rt_render_cpu_mesh_traced(rt_render_cpu *r, const rt_frame *frame, const warp_pose eyes[2],
-                               const warp_pose first[2], const warp_pose last[2], warp_raytrace_setup rts[2],
-                               warp_raytrace_setup rts_last[2], const warp_scan **scan);
+                               const warp_pose first[2], const warp_pose last[2], const warp_raytrace_setup *rts[2],
+                               const warp_raytrace_setup *rts_last[2], const warp_scan **scan);
 const warp_raytrace_params *rt_render_cpu_raytrace_params(const rt_render_cpu *r);
 const warp_mesh_trace_params *rt_render_cpu_mesh_trace_params(const rt_render_cpu *r);
 
