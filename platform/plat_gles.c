@@ -109,8 +109,9 @@ static const char fs_pyrn[] = FS_PYRAMID(" * 2");
  * gets there; when not, every step inside that block is skipped at once (and the next, larger, block is tried).
  * Skipping is conservative (one step of margin at the block's exit) and the bracketing samples are recomputed
  * exactly, so the hit is the one the CPU's linear search finds; only empty space is skipped (000 §5.3).
- * trace(fc) is the ray through eye-buffer position fc (pixel units, centres at +0.5): colour, and the flag (0,
- * FRINGE or EDGE) in alpha; the raytrace pass and the traced lens pass share it. */
+ * trace_at(fc, h, a) is the ray through eye-buffer position fc (pixel units, centres at +0.5) under a setup: where
+ * its colour is sampled, and its flag (0, FRINGE or EDGE); hit_colour that colour; trace(fc) both under u_h, u_a
+ * (the raytrace pass). The traced lens pass calls trace_at and hit_colour itself. */
 #define RT_BODY                                                                                                       \
     "uniform highp sampler2D u_color;\n"                                                                              \
     "uniform highp sampler2D u_depth;\n"                                                                              \
@@ -899,8 +900,6 @@ bool plat_gles_upload(plat_gles *g, int eye, const warp_image_rgba8 *color, cons
     return glGetError() == GL_NO_ERROR;
 }
 
-/* The raytrace's uniforms of program pr from loc[at + R_*]: the frame's textures on units unit (colour), unit + 1
- * (inverse depth) and unit + 2 (the pyramid's atlas), bound here, and setup s. */
 /* The part of a raytrace setup that depends on the target pose: u_h and u_a (or a rolling panel's u_h2, u_a2). */
 static void pose_uniforms(GLint loc_h, GLint loc_a, const warp_raytrace_setup *s)
 {
@@ -912,6 +911,8 @@ static void pose_uniforms(GLint loc_h, GLint loc_a, const warp_raytrace_setup *s
     glUniform3f(loc_a, (GLfloat)s->ax, (GLfloat)s->ay, (GLfloat)s->aw);
 }
 
+/* The raytrace's uniforms of program pr from loc[at + R_*]: the frame's textures on units unit (colour), unit + 1
+ * (inverse depth) and unit + 2 (the pyramid's atlas), bound here, and setup s. */
 static void raytrace_uniforms(plat_gles *g, eye_res *r, const program *pr, int at, int unit,
                               const warp_raytrace_setup *s)
 {

@@ -402,6 +402,17 @@ static int full_ray(const warp_mesh *m, const warp_raytrace_setup *s, const warp
     return c == 0 ? v.r : (c == 1 ? v.g : v.b);
 }
 
+/* The cell (i, j) of viewport pixel (x, y) of mesh m as the lens pass finds it, and ty, y's fraction down band j;
+ * whether t marks that cell (its pixels traced per pixel). */
+static bool marked_cell(const warp_mesh *m, const warp_mesh_trace *t, int x, int y, int *i, int *j, double *ty)
+{
+    const double b = (y + 0.5) * (m->rows - 1) / m->vp_h;
+    *j = (int)b < m->rows - 2 ? (int)b : m->rows - 2;
+    *i = x / m->cell_w < t->cells_x ? x / m->cell_w : t->cells_x - 1;
+    *ty = b - *j;
+    return t->cell[*j * t->cells_x + *i] != 0;
+}
+
 /* The display path's depth warp in one GLES pass (plat_gles_lens_traced) against the CPU's (warp_mesh_raytrace_draw):
  * the same vertices and marks; outside the marked cells exactly the lens pass, inside them per-pixel rays, which
  * put the depth edges where the per-pixel raytrace puts them. */
@@ -445,19 +456,18 @@ static void test_lens_traced_parity(void **state)
         for (int e = 0; e < 2; e++) {
             const warp_mesh *m = &F.mesh[e];
             for (int y = 0; y < H; y++) {
-                const double b = (y + 0.5) * (m->rows - 1) / m->vp_h;
-                int j = (int)b < m->rows - 2 ? (int)b : m->rows - 2;
                 for (int x = 0; x < W; x++) {
-                    int i = x / m->cell_w < t[e].cells_x ? x / m->cell_w : t[e].cells_x - 1;
+                    int i, j;
+                    double ty;
                     warp_rgba8 g = WARP_AT(&F.panel_gpu, e * W + x, y), l = WARP_AT(&lens_only, e * W + x, y),
                                r = WARP_AT(&two_pass, e * W + x, y);
-                    if (!t[e].cell[j * t[e].cells_x + i]) {
+                    if (!marked_cell(m, &t[e], x, y, &i, &j, &ty)) {
                         differs_outside += memcmp(&g, &l, sizeof g) != 0;
                         continue;
                     }
                     const int gc[3] = {g.r, g.g, g.b};
                     for (int c = 0; c < 3; c++) {
-                        const int d = gc[c] - full_ray(m, &s, NULL, NULL, c, i, j, b - j, x, y);
+                        const int d = gc[c] - full_ray(m, &s, NULL, NULL, c, i, j, ty, x, y);
                         se_rays += d * d;
                     }
                     in_cells++;
@@ -549,15 +559,14 @@ static void test_lens_traced_rolling(void **state)
             for (int e = 0; e < 2; e++) {
                 const warp_mesh *m = &F.mesh[e];
                 for (int y = 0; y < H; y++) {
-                    const double b = (y + 0.5) * (m->rows - 1) / m->vp_h;
-                    int j = (int)b < m->rows - 2 ? (int)b : m->rows - 2;
                     for (int x = 0; x < W; x++) {
-                        int i = x / m->cell_w < t[e].cells_x ? x / m->cell_w : t[e].cells_x - 1;
-                        if (!t[e].cell[j * t[e].cells_x + i]) continue;
+                        int i, j;
+                        double ty;
+                        if (!marked_cell(m, &t[e], x, y, &i, &j, &ty)) continue;
                         warp_rgba8 g = WARP_AT(&F.panel_gpu, e * W + x, y);
                         const int gc[3] = {g.r, g.g, g.b};
                         for (int c = 0; c < 3; c++) {
-                            const int d = gc[c] - full_ray(m, &sf, &sl, scan, c, i, j, b - j, x, y);
+                            const int d = gc[c] - full_ray(m, &sf, &sl, scan, c, i, j, ty, x, y);
                             se += d * d;
                         }
                         in_cells++;
