@@ -368,6 +368,8 @@ typedef struct {
     GLuint atlas, atlas_fbo;         /* every level side by side: what the raytrace reads */
     GLuint cells;                    /* R8UI per mesh cell: traced per pixel (the traced lens pass) */
     GLuint eyepos;                   /* RG32F per vertex and channel: where its lens direction meets the eye buffer */
+    float *eyepos_px;                /* what eyepos holds, staged; uploaded only when it changes (lens or camera) */
+    bool eyepos_sent;
 } eye_res;
 
 typedef struct {
@@ -396,7 +398,6 @@ struct plat_gles {
     bool gpu_pyramid;
     bool count_samples;
     float *cpu_scratch, *cpu_level; /* CPU pyramid build */
-    float *eyepos;                  /* the traced lens pass's vertex positions, staged for upload */
     /* timing */
     int timing;
     qslot slots[QSLOTS];
@@ -724,8 +725,9 @@ plat_gles *plat_gles_create(plat_egl *egl, const plat_gles_params *p, char *err,
         if (!link(&g->rt, fs_raytrace, "raytrace", rt_u, err, errlen) ||
             !link(&g->traced, fs_lens_traced, "traced lens", traced_u, err, errlen))
             goto fail;
-        g->eyepos = malloc(sizeof(float) * 6 * (size_t)p->mesh_cols * (size_t)p->mesh_rows);
-        if (!g->eyepos) {
+        for (int e = 0; e < 2; e++)
+            g->eye[e].eyepos_px = calloc(6 * (size_t)p->mesh_cols * (size_t)p->mesh_rows, sizeof(float));
+        if (!g->eye[0].eyepos_px || !g->eye[1].eyepos_px) {
             warp_err(err, errlen, "GLES: out of memory");
             goto fail;
         }
@@ -828,7 +830,7 @@ void plat_gles_destroy(plat_gles *g)
         for (int s = 0; s < QSLOTS; s++) glDeleteQueries(QPER, g->slots[s].q);
     free(g->cpu_scratch);
     free(g->cpu_level);
-    free(g->eyepos);
+    for (int e = 0; e < 2; e++) free(g->eye[e].eyepos_px);
     free(g);
 }
 
@@ -1013,21 +1015,28 @@ void plat_gles_lens_traced(plat_gles *g, int eye, const warp_mesh *m, const warp
     const program *pr = &g->traced;
     pass_begin(g, PLAT_GLES_LENS);
     /* where each vertex's lens directions meet the eye buffer (tan_to_pixel is affine, so interpolating these is
-     * interpolating the directions: the positions warp_mesh_trace traces from) */
+     * interpolating the directions: the positions warp_mesh_trace traces from); they change only with the lens or
+     * the frame's camera, so the texture is re-sent only then (compared as computed: no key to go stale) */
     const size_t nv = (size_t)m->cols * (size_t)m->rows * 3;
+    bool changed = !r->eyepos_sent;
     for (size_t v = 0; v < nv; v++) {
         double x, y;
         warp_camera_tan_to_pixel(cam, m->tan[v].x, m->tan[v].y, &x, &y);
-        g->eyepos[2 * v] = (float)x;
-        g->eyepos[2 * v + 1] = (float)y;
+        const float fx = (float)x, fy = (float)y;
+        changed |= fx != r->eyepos_px[2 * v] || fy != r->eyepos_px[2 * v + 1];
+        r->eyepos_px[2 * v] = fx;
+        r->eyepos_px[2 * v + 1] = fy;
     }
     glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
     glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
     glBindTexture(GL_TEXTURE_2D, r->cells);
     glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, t->cells_x, t->cells_y, GL_RED_INTEGER, GL_UNSIGNED_BYTE, t->cell);
     glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
-    glBindTexture(GL_TEXTURE_2D, r->eyepos);
-    glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, m->cols * 3, m->rows, GL_RG, GL_FLOAT, g->eyepos);
+    if (changed) {
+        glBindTexture(GL_TEXTURE_2D, r->eyepos);
+        glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, m->cols * 3, m->rows, GL_RG, GL_FLOAT, r->eyepos_px);
+        r->eyepos_sent = true;
+    }
     lens_setup(g, r, pr, m, r->color);
     raytrace_uniforms(g, r, pr, T_RT, 3, s); /* after the lens pass's units 0-2 */
     bind_tex(6, r->cells);

@@ -585,6 +585,55 @@ static void test_lens_traced_rolling(void **state)
     for (int e = 0; e < 2; e++) warp_mesh_trace_free(&t[e]);
 }
 
+/* The traced lens pass re-sends its vertices' eye-buffer positions only when they change (the lens or the frame's
+ * camera): a frame with another camera is traced at that camera's positions, and the first camera's come back
+ * with it, byte for byte. */
+static void test_lens_traced_follows_camera(void **state)
+{
+    (void)state;
+    warp_mesh_trace t[2];
+    for (int e = 0; e < 2; e++) assert_true(warp_mesh_trace_alloc(&t[e], &F.mesh[e]));
+    const warp_mesh_trace_params mp = warp_mesh_trace_default_params();
+    warp_raytrace_params rp = warp_raytrace_default_params();
+    char err[200];
+    source("near", test_eye_home());
+    warp_raytrace_setup s;
+    assert_null(warp_raytrace_prepare(&s, &F.view, &F.cam,
+                                      test_eye_at(1.5 * D2R, -3 * D2R, 0, warp_v3(0.04, 1.61, -0.01)), &rp));
+    int marked = 0;
+    for (int e = 0; e < 2; e++)
+        marked += warp_mesh_raytrace_draw(&F.mesh[e], &t[e], &F.cam, &s, NULL, NULL, &mp, &F.planar, &F.panel_cpu);
+    assert_true(marked > 0);
+    warp_camera wide = F.cam; /* 10 % wider: every vertex's position in the eye buffer moves */
+    wide.tan_left *= 1.1, wide.tan_right *= 1.1;
+    const warp_camera *cams[3] = {&F.cam, &wide, &F.cam};
+    warp_image_rgba8 drawn[3];
+    for (int k = 0; k < 3; k++) {
+        assert_true(warp_image_rgba8_alloc(&drawn[k], 2 * W, H));
+        for (int e = 0; e < 2; e++) plat_gles_lens_traced(F.g, e, &F.mesh[e], &t[e], cams[k], &s, NULL, NULL);
+        assert_true(plat_gles_read(F.g, &drawn[k], err, sizeof err));
+        plat_gles_end_frame(F.g);
+    }
+    long moved = 0, outside = 0;
+    for (int e = 0; e < 2; e++)
+        for (int y = 0; y < H; y++)
+            for (int x = 0; x < W; x++) {
+                int i, j;
+                double ty;
+                const bool in = marked_cell(&F.mesh[e], &t[e], x, y, &i, &j, &ty);
+                const bool d = memcmp(&WARP_AT(&drawn[0], e * W + x, y), &WARP_AT(&drawn[1], e * W + x, y),
+                                      sizeof(warp_rgba8)) != 0;
+                moved += in && d, outside += !in && d;
+            }
+    print_message("traced lens, another camera: %ld pixels of the marked cells moved, %ld outside them\n", moved,
+                  outside);
+    assert_true(moved > marked); /* more than a pixel a cell: the positions were re-sent */
+    assert_int_equal(outside, 0); /* the lens pass's own positions are the mesh's, not the camera's */
+    assert_memory_equal(drawn[0].px, drawn[2].px, sizeof(warp_rgba8) * 2 * W * H);
+    for (int k = 0; k < 3; k++) warp_image_free(&drawn[k]);
+    for (int e = 0; e < 2; e++) warp_mesh_trace_free(&t[e]);
+}
+
 static void test_pyramid_matches_cpu(void **state)
 {
     (void)state;
@@ -713,6 +762,7 @@ int main(void)
         cmocka_unit_test(test_raytrace_then_lens_parity),
         cmocka_unit_test(test_lens_traced_parity),
         cmocka_unit_test(test_lens_traced_rolling),
+        cmocka_unit_test(test_lens_traced_follows_camera),
         cmocka_unit_test(test_pyramid_matches_cpu),
         cmocka_unit_test(test_pass_timing),
         cmocka_unit_test(test_bench),
