@@ -8,7 +8,7 @@ BUILD=${BUILD:-build}
 bench=$BUILD/hmdwarp-bench
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-echo "1..8"
+echo "1..9"
 n=0
 ok() { n=$((n + 1)); echo "ok $n - $1"; }
 nok() { n=$((n + 1)); echo "not ok $n - $1"; }
@@ -48,6 +48,21 @@ bad=$(tail -n +2 "$out/link.csv" | awk -F'"' '{
     for (i = 4; i <= 18; i++) if (f[i] !~ /^-?[0-9]+(\.[0-9]+)?$/) { print $2 ": column " i + 1 " is \"" f[i] "\""; next }
 }' | head -n 3)
 check "every row is measured in full or n/a with its reason" "$bad"
+
+# auto's decode split: the same frames' colour alone, timed by the bench (times on this machine: only their form and
+# their sum are judged)
+why=$(awk '/^Decode time of \*\*auto: / {
+    found = 1
+    if (!match($0, /\*\*, [0-9.]+ ms: /)) { print "no total: " $0; exit }
+    all = substr($0, RSTART + 4, RLENGTH - 9)
+    if (!match($0, /decode in [0-9.]+ ms/)) { print "no colour time: " $0; exit }
+    col = substr($0, RSTART + 10, RLENGTH - 13)
+    if (!match($0, /the other -?[0-9.]+ ms/)) { print "no depth time: " $0; exit }
+    dep = substr($0, RSTART + 10, RLENGTH - 13)
+    d = all - col - dep  # each printed to 0.01
+    if (col <= 0 || d > 0.02 || d < -0.02) print "colour " col " + depth " dep " is not " all
+} END { if (!found) print "no line on auto'"'"'s decode time" }' "$out/link.md")
+check "link.md splits auto's decode time into its colour's and its depth's" "$why"
 
 raw=$(grep '^raw,' "$out/link.csv")
 # 64x64 eyes, colour RGBA8 + depth F32: 8 bytes per pixel per eye, plus the header (a few hundred bytes)
