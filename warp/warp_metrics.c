@@ -42,6 +42,40 @@ double warp_psnr(const warp_image_rgba8 *a, const warp_image_rgba8 *b, const war
     return 10.0 * log10(255.0 * 255.0 / mse);
 }
 
+/* ---- depth-edge band ---- */
+
+/* Whether depths a and b differ by more than rel times the nearer (sky, not positive or not finite, as infinitely
+ * far: an object against the sky is an edge, sky beside sky is not). */
+static bool depth_jump(float a, float b, float rel)
+{
+    const bool fa = a > 0 && isfinite(a), fb = b > 0 && isfinite(b);
+    if (!fa || !fb) return fa != fb;
+    return fabsf(a - b) > rel * fminf(a, b);
+}
+
+long warp_depth_edge_band(const warp_image_f32 *depth, float rel_jump, int radius, warp_image_u8 *band)
+{
+    if (depth->w != band->w || depth->h != band->h) return -1;
+    const int w = depth->w, h = depth->h;
+    warp_image_u8_fill(band, 1);
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            const float z = WARP_AT(depth, x, y);
+            /* the pair with the right and the one with the lower neighbour: both pixels' squares */
+            for (int k = 0; k < 2; k++) {
+                const int nx = x + (k == 0), ny = y + (k == 1);
+                if (nx >= w || ny >= h || !depth_jump(z, WARP_AT(depth, nx, ny), rel_jump)) continue;
+                const int u0 = x - radius > 0 ? x - radius : 0, u1 = nx + radius < w ? nx + radius : w - 1;
+                const int v0 = y - radius > 0 ? y - radius : 0, v1 = ny + radius < h ? ny + radius : h - 1;
+                for (int v = v0; v <= v1; v++) memset(&WARP_AT(band, u0, v), 0, (size_t)(u1 - u0 + 1));
+            }
+        }
+    long n = 0;
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) n += WARP_AT(band, x, y) == 0;
+    return n;
+}
+
 /* ---- SSIM ---- */
 
 #define SSIM_RADIUS 5

@@ -23,6 +23,13 @@ double warp_ssim(const warp_image_rgba8 *a, const warp_image_rgba8 *b, const war
 double warp_error_pixel_percent(const warp_image_rgba8 *a, const warp_image_rgba8 *b, const warp_image_u8 *mask,
                                 uint8_t exclude, double threshold);
 
+/* The band along the depth edges of a true depth image (linear or inverse: a relative jump is the same in both),
+ * where a depth warp's silhouettes and disocclusion fills show (#21's depth-edge band): band is set to 0 at every
+ * pixel within `radius` pixels (a square) of a pair of neighbours whose depths differ by more than rel_jump times the
+ * nearer one, 1 elsewhere, so that a metric with exclude = 1 scores the band alone. Depths that are not positive and
+ * finite (sky: INFINITY) count as beyond every finite one. Returns the band's pixel count, -1 when the sizes differ. */
+long warp_depth_edge_band(const warp_image_f32 *depth, float rel_jump, int radius, warp_image_u8 *band);
+
 /* sRGB (8-bit) -> CIE L*a*b* (D65). */
 void warp_srgb_to_lab(warp_rgba8 c, double lab[3]);
 

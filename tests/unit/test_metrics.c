@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /* Unit tests for warp_metrics: PSNR closed forms, SSIM against a brute-force double-precision reference,
- * CIE Lab reference colours, the 002 §4 error-pixel count, and mask exclusion. */
+ * CIE Lab reference colours, the 002 §4 error-pixel count, mask exclusion and the depth-edge band. */
 #include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
@@ -357,6 +357,61 @@ static void test_size_mismatch(void **state)
     warp_image_free(&m);
 }
 
+/* The depth-edge band (#21's accuracy where depth warps differ): against the definition, brute force, on a slanted
+ * floor (1 % a pixel: no edge), a near square on it (a 50 % jump), a 5 % step (under the 10 % asked: none) and sky
+ * (INFINITY) beside the floor (an edge) and beside sky (none). */
+static int chebyshev(int x0, int y0, int x1, int y1)
+{
+    const int dx = abs(x0 - x1), dy = abs(y0 - y1);
+    return dx > dy ? dx : dy;
+}
+
+static void test_depth_edge_band(void **state)
+{
+    (void)state;
+    enum { W = 48, H = 32, R = 3 };
+    warp_image_f32 z;
+    warp_image_u8 band, small;
+    assert_true(warp_image_f32_alloc(&z, W, H));
+    assert_true(warp_image_u8_alloc(&band, W, H));
+    assert_true(warp_image_u8_alloc(&small, W - 1, H));
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            float d = 2.0f * powf(1.01f, (float)x); /* slanted */
+            if (x >= 8 && x < 16 && y >= 8 && y < 16) d *= 0.5f; /* the near square */
+            if (x >= 24 && y >= 20) d *= 1.05f;                  /* a step under the threshold */
+            if (x >= 40) d = INFINITY;                           /* sky */
+            WARP_AT(&z, x, y) = d;
+        }
+    const long n = warp_depth_edge_band(&z, 0.1f, R, &band);
+    long want = 0;
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            /* within R of the square's border pixels or of either side of the floor-sky boundary */
+            bool in = false;
+            for (int v = 0; v < H && !in; v++)
+                for (int u = 0; u < W && !in; u++) {
+                    const bool sq = u >= 8 && u < 16 && v >= 8 && v < 16;
+                    const bool sq_border = sq && (u == 8 || u == 15 || v == 8 || v == 15);
+                    const bool sq_ring = !sq && u >= 7 && u <= 16 && v >= 7 && v <= 16 &&
+                                         !((u == 7 || u == 16) && (v == 7 || v == 16)); /* 4-neighbours only */
+                    const bool sky = u == 39 || u == 40;
+                    in = (sq_border || sq_ring || sky) && chebyshev(x, y, u, v) <= R;
+                }
+            want += in;
+            assert_int_equal(WARP_AT(&band, x, y), in ? 0 : 1);
+        }
+    assert_int_equal(n, want);
+    assert_true(n > 0 && n < W * H / 2);
+    /* the 5 % step and the slant alone: far from the square and the sky, outside the band */
+    assert_int_equal(WARP_AT(&band, 28, 20), 1);
+    assert_int_equal(WARP_AT(&band, 30, 2), 1);
+    assert_int_equal(warp_depth_edge_band(&z, 0.1f, R, &small), -1);
+    warp_image_free(&z);
+    warp_image_free(&band);
+    warp_image_free(&small);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -368,6 +423,7 @@ int main(void)
         cmocka_unit_test(test_error_pixel_percent),
         cmocka_unit_test(test_mask_exclusion),
         cmocka_unit_test(test_size_mismatch),
+        cmocka_unit_test(test_depth_edge_band),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

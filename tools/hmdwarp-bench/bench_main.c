@@ -57,6 +57,8 @@ typedef struct {
     warp_camera cam;
     sim_buffers src, truth;
     warp_image_f32 inv;
+    warp_image_u8 band; /* 0 within 3 px of the truth's depth edges (warp_depth_edge_band), 1 elsewhere */
+    long band_px;
     warp_view v;
     warp_pose a, b;
     double t0, t1;
@@ -71,8 +73,9 @@ static bool case_alloc(frame_case *fc, const warp_camera *cam)
     memset(fc, 0, sizeof *fc);
     fc->cam = *cam;
     return sim_buffers_alloc(&fc->src, cam->width, cam->height, ALL_PLANES, 8) &&
-           sim_buffers_alloc(&fc->truth, cam->width, cam->height, SIM_PLANE_COLOR, 1) &&
-           warp_image_f32_alloc(&fc->inv, cam->width, cam->height);
+           sim_buffers_alloc(&fc->truth, cam->width, cam->height, SIM_PLANE_COLOR | SIM_PLANE_DEPTH, 1) &&
+           warp_image_f32_alloc(&fc->inv, cam->width, cam->height) &&
+           warp_image_u8_alloc(&fc->band, cam->width, cam->height);
 }
 
 /* Renders the source at the left eye's rest pose and the truth after a head motion of `deg` yaw and `cm`
@@ -86,7 +89,9 @@ static void case_render(frame_case *fc, const sim_scene *sc, double deg, double 
     fc->t0 = 1.0;
     fc->t1 = 1.0 + dt;
     sim_render(sc, fc->t0, fc->a, &fc->cam, ALL_PLANES, &fc->src);
-    sim_render(sc, fc->t1, fc->b, &fc->cam, SIM_PLANE_COLOR, &fc->truth);
+    sim_render(sc, fc->t1, fc->b, &fc->cam, SIM_PLANE_COLOR | SIM_PLANE_DEPTH, &fc->truth);
+    /* #21's depth-edge band, as tests/accuracy scores it: within 3 px of a relative depth jump over 10 % */
+    fc->band_px = warp_depth_edge_band(&fc->truth.depth, 0.1f, 3, &fc->band);
     int n = sim_scene_object_count(sc) < 64 ? sim_scene_object_count(sc) : 64;
     for (int i = 0; i < n; i++) fc->objs[i] = sim_scene_object_pose(sc, i + 1, fc->t0);
     fc->v = (warp_view){.cam = fc->cam, .pose = fc->a, .color = &fc->src.color, .inv_depth = &fc->inv,
@@ -101,6 +106,7 @@ static void case_free(frame_case *fc)
     sim_buffers_free(&fc->src);
     sim_buffers_free(&fc->truth);
     warp_image_free(&fc->inv);
+    warp_image_free(&fc->band);
 }
 
 /* ---- knobs swept per warp (a warp not listed runs once with its defaults) ---- */
@@ -170,6 +176,7 @@ typedef struct {
     double motion_deg, motion_cm;
     double med_ms, p99_ms;
     double psnr, ssim, err;
+    double band_psnr; /* over the depth-edge band (NAN: the scene has no depth edge) */
     long primitives, samples;
     bool pareto;
 } sweep_row;
@@ -637,6 +644,7 @@ int main(int argc, char **argv)
                     row->med_ms = bench_pct(&ts, 50);
                     row->p99_ms = bench_pct(&ts, 99);
                     row->psnr = warp_psnr(&eye_out, &fc[0].truth.color, NULL, 0);
+                    row->band_psnr = warp_psnr(&eye_out, &fc[0].truth.color, &fc[0].band, 1);
                     row->ssim = warp_ssim(&eye_out, &fc[0].truth.color, NULL, 0);
                     row->err = warp_error_pixel_percent(&eye_out, &fc[0].truth.color, NULL, 0, 20);
                     row->primitives = cs.primitives;
@@ -684,7 +692,7 @@ int main(int argc, char **argv)
         return 1;
     }
     fprintf(csv, "section,scene,warp,params,motion_deg,motion_cm,median_ms,p99_ms,psnr_db,ssim,error_px_pct,"
-                 "primitives,samples,pareto\n");
+                 "primitives,samples,pareto,band_psnr_db\n");
     struct {
         const char *name;
         bench_samples *s;
@@ -711,9 +719,9 @@ int main(int argc, char **argv)
         if (gpu.valid[p])
             fprintf(csv, "gpu,near,gles %s,,5,5,%.4f,,,,,,,\n", plat_gles_pass_name((plat_gles_pass)p), gpu.ms[p]);
     for (int i = 0; i < nrows; i++)
-        fprintf(csv, "sweep,%s,%s,%s,%g,%g,%.4f,%.4f,%.3f,%.5f,%.3f,%ld,%ld,%d\n", rows[i].scene, rows[i].warp,
+        fprintf(csv, "sweep,%s,%s,%s,%g,%g,%.4f,%.4f,%.3f,%.5f,%.3f,%ld,%ld,%d,%.3f\n", rows[i].scene, rows[i].warp,
                 rows[i].params, rows[i].motion_deg, rows[i].motion_cm, rows[i].med_ms, rows[i].p99_ms, rows[i].psnr,
-                rows[i].ssim, rows[i].err, rows[i].primitives, rows[i].samples, rows[i].pareto);
+                rows[i].ssim, rows[i].err, rows[i].primitives, rows[i].samples, rows[i].pareto, rows[i].band_psnr);
     fclose(csv);
 
     fprintf(md, "# What accuracy costs in time\n\n"
@@ -738,19 +746,24 @@ int main(int argc, char **argv)
      * scene at the larger motion of section 3, the worst scene's shortfall: against their defaults (the warps as
      * configured), and against any of their knobs (the grid's low-pass hole fill, 000 §5.2, is a fill the
      * raytrace's far-side edge fill does not match) */
-    double gap_def = -INFINITY, gap_any = -INFINITY;
-    char scene_def[32] = "-", scene_any[32] = "-";
+    double gap_def = -INFINITY, gap_any = -INFINITY, gap_band = -INFINITY;
+    char scene_def[32] = "-", scene_any[32] = "-", scene_band[32] = "-";
     for (size_t sc = 0; sc < sizeof scenes / sizeof scenes[0]; sc++) {
-        double mesh = NAN, best_def = -INFINITY, best_any = -INFINITY;
+        double mesh = NAN, mesh_band = NAN, best_def = -INFINITY, best_any = -INFINITY, best_band = -INFINITY;
         for (int i = 0; i < nrows; i++) {
             if (strcmp(rows[i].scene, scenes[sc]) || rows[i].motion_cm != mcm[1]) continue;
-            if (!strcmp(rows[i].warp, "raytrace_mesh") && !strcmp(rows[i].params, "mesh=64")) mesh = rows[i].psnr;
+            if (!strcmp(rows[i].warp, "raytrace_mesh") && !strcmp(rows[i].params, "mesh=64")) {
+                mesh = rows[i].psnr;
+                mesh_band = rows[i].band_psnr;
+            }
             const bool ray = !strcmp(rows[i].warp, "raytrace"), grid = !strcmp(rows[i].warp, "grid");
             if (!ray && !grid) continue;
             if (rows[i].psnr > best_any) best_any = rows[i].psnr;
-            if (((ray && !strcmp(rows[i].params, "steps=512")) || (grid && !strcmp(rows[i].params, "strategy=3"))) &&
-                rows[i].psnr > best_def)
-                best_def = rows[i].psnr;
+            if ((ray && !strcmp(rows[i].params, "steps=512")) || (grid && !strcmp(rows[i].params, "strategy=3"))) {
+                if (rows[i].psnr > best_def) best_def = rows[i].psnr;
+                /* the band's best may be the other warp (NAN, no band: never above) */
+                if (rows[i].band_psnr > best_band) best_band = rows[i].band_psnr;
+            }
         }
         if (isnan(mesh)) continue;
         if (isfinite(best_def) && best_def - mesh > gap_def) {
@@ -761,6 +774,10 @@ int main(int argc, char **argv)
             gap_any = best_any - mesh;
             snprintf(scene_any, sizeof scene_any, "%s", scenes[sc]);
         }
+        if (isfinite(best_band) && !isnan(mesh_band) && best_band - mesh_band > gap_band) {
+            gap_band = best_band - mesh_band;
+            snprintf(scene_band, sizeof scene_band, "%s", scenes[sc]);
+        }
     }
     if (isfinite(gap_def))
         fprintf(md, "| raytrace_mesh within 0.3 dB of best reference at %g cm (the per-pixel raytrace or the adaptive "
@@ -768,6 +785,11 @@ int main(int argc, char **argv)
                     "Against their best knobs: %.2f dB below on %s, where the grid's low-pass hole fill wins) | "
                     "%.2f dB below | %s |\n",
                 mcm[1], scene_def, gap_any, scene_any, gap_def, gap_def <= 0.3 ? "met" : "NOT met");
+    if (isfinite(gap_band))
+        fprintf(md, "| raytrace_mesh within 1 dB of best reference at %g cm in the depth-edge band (the pixels within 3 "
+                    "px of a depth edge of the truth, the sweep's band dB column; the same references, per scene the "
+                    "better in the band; worst: %s) | %.2f dB %s | %s |\n",
+                mcm[1], scene_band, fabs(gap_band), gap_band >= 0 ? "below" : "above", gap_band <= 1 ? "met" : "NOT met");
     static const char *soak_what[] = {
         "zero missed vsyncs in %g s at 90 Hz, rotation warp, simulated board",
         "for comparison: the same without the stall reserve",
@@ -826,6 +848,8 @@ int main(int argc, char **argv)
                 ray_steps[m], ray_psnr[m], rot_ms[m], rot_psnr[m], mesh_ms[m], mesh_psnr[m], mesh_vs_ray[m]);
     fprintf(md, "\n## Every warp against ground truth (one eye, before the lens, single thread)\n\n"
                 "Pareto = no other configuration of the same scene and motion is both faster and more accurate. "
+                "band dB = PSNR over the pixels within 3 px of a depth edge of the truth (a depth jump over 10 %% "
+                "between neighbours: silhouettes and the disocclusions beside them), where depth warps differ most. "
                 "raytrace_mesh traces the vertices of a lens-free mesh over the eye buffer (`mesh=N` per "
                 "side, [lens] mesh's %d by default) and resamples in between, per pixel in the cells with a depth "
                 "discontinuity; its time includes the per-host-frame "
@@ -835,17 +859,19 @@ int main(int argc, char **argv)
             cfg.mesh_n);
     for (size_t s = 0; s < sizeof scenes / sizeof scenes[0]; s++) {
         fprintf(md, "\n### %s ![quality vs time](quality_vs_time_%s.png)\n\n"
-                    "| warp | knobs | motion | median ms | p99 ms | PSNR dB | SSIM | error px %% | primitives | samples | Pareto |\n"
-                    "|---|---|---|---:|---:|---:|---:|---:|---:|---:|:-:|\n",
+                    "| warp | knobs | motion | median ms | p99 ms | PSNR dB | band dB | SSIM | error px %% | primitives | "
+                    "samples | Pareto |\n"
+                    "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|:-:|\n",
                 scenes[s], scenes[s]);
         for (int i = 0; i < nrows; i++)
             if (!strcmp(rows[i].scene, scenes[s])) {
                 char pr[24] = "-", sa[24] = "-";
                 if (rows[i].primitives >= 0) snprintf(pr, sizeof pr, "%ld", rows[i].primitives);
                 if (rows[i].samples >= 0) snprintf(sa, sizeof sa, "%ld", rows[i].samples);
-                fprintf(md, "| %s | %s | %g deg, %g cm | %.2f | %.2f | %.2f | %.4f | %.3f | %s | %s | %s |\n",
+                fprintf(md, "| %s | %s | %g deg, %g cm | %.2f | %.2f | %.2f | %.2f | %.4f | %.3f | %s | %s | %s |\n",
                         rows[i].warp, rows[i].params, rows[i].motion_deg, rows[i].motion_cm, rows[i].med_ms,
-                        rows[i].p99_ms, rows[i].psnr, rows[i].ssim, rows[i].err, pr, sa, rows[i].pareto ? "yes" : "");
+                        rows[i].p99_ms, rows[i].psnr, rows[i].band_psnr, rows[i].ssim, rows[i].err, pr, sa,
+                        rows[i].pareto ? "yes" : "");
             }
     }
     fclose(md);
