@@ -50,6 +50,7 @@ struct rt_render_cpu {
     job j;                         /* here, not on the caller's stack: a vsync's job is a few KB */
     warp_mesh mesh[2];
     warp_mesh_trace mtrace[2];     /* raytrace_mesh: the cells traced per pixel (allocated with the depth warps) */
+    bool vertices_only;            /* raytrace_mesh without its marks and per-pixel rays (the bench) */
     warp_image_rgba8 inter[2];     /* eye-space warps' output, before the lens pass */
     warp_planar3 inter_planar[2];
     /* the further depth warps, allocated when the method may use them */
@@ -201,6 +202,10 @@ int64_t rt_render_cpu_outside(const rt_render_cpu *r, int eye, int src_w, int sr
 }
 const warp_raytrace_params *rt_render_cpu_raytrace_params(const rt_render_cpu *r) { return &r->p.raytrace; }
 const warp_mesh_trace_params *rt_render_cpu_mesh_trace_params(const rt_render_cpu *r) { return &r->p.mesh_trace; }
+void rt_render_cpu_mesh_vertices_only(rt_render_cpu *r, bool on) { r->vertices_only = on; }
+
+/* The marks raytrace_mesh's passes draw with: NULL, the vertices alone, when asked. */
+static warp_mesh_trace *cells_of(rt_render_cpu *r, int e) { return r->vertices_only ? NULL : &r->mtrace[e]; }
 
 static void resample_task(void *ctx, int task)
 {
@@ -214,8 +219,9 @@ static void resample_task(void *ctx, int task)
     int x1 = x0 + RT_RENDER_CPU_TILE_W < m->vp_w ? x0 + RT_RENDER_CPU_TILE_W : m->vp_w;
     int y1 = y0 + RT_RENDER_CPU_TILE_H < m->vp_h ? y0 + RT_RENDER_CPU_TILE_H : m->vp_h;
     if (j->trace_cells)
-        warp_mesh_raytrace_rect(m, &j->r->mtrace[e], &j->frame->f.cam[e], &j->rts[e], j->first ? &j->rts_last[e] : NULL,
-                                j->first ? &j->r->p.scan : NULL, j->src[e], j->out, x0, y0, x1, y1);
+        warp_mesh_raytrace_rect(m, cells_of(j->r, e), &j->frame->f.cam[e], &j->rts[e],
+                                j->first ? &j->rts_last[e] : NULL, j->first ? &j->r->p.scan : NULL, j->src[e], j->out,
+                                x0, y0, x1, y1);
     else
         warp_mesh_resample(m, j->src[e], j->out, x0, y0, x1, y1);
 }
@@ -298,7 +304,7 @@ static void mesh_raytrace_task(void *ctx, int e)
     job *j = ctx;
     rt_render_cpu *r = j->r;
     const warp_camera *cam = &j->frame->f.cam[e];
-    warp_mesh_raytrace_vertices(&r->mesh[e], &r->mtrace[e], cam, &j->rts[e], j->first ? &j->rts_last[e] : NULL,
+    warp_mesh_raytrace_vertices(&r->mesh[e], cells_of(r, e), cam, &j->rts[e], j->first ? &j->rts_last[e] : NULL,
                                 j->first ? &r->p.scan : NULL, &r->p.mesh_trace);
 }
 

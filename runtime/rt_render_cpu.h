@@ -97,6 +97,10 @@ bool rt_render_cpu_mesh_traced(rt_render_cpu *r, const rt_frame *frame, const wa
                                const warp_raytrace_setup *rts_last[2], const warp_scan **scan);
 const warp_raytrace_params *rt_render_cpu_raytrace_params(const rt_render_cpu *r);
 const warp_mesh_trace_params *rt_render_cpu_mesh_trace_params(const rt_render_cpu *r);
+/* raytrace_mesh with its vertices alone (on: no marks, no per-pixel rays; the last marks stay for
+ * rt_render_cpu_mesh_trace): what the per-pixel cells cost is then the difference, as `make bench` shows it. Off at
+ * creation; the caller's thread, between passes. */
+void rt_render_cpu_mesh_vertices_only(rt_render_cpu *r, bool on);
 
 /* The eye's visible panel pixels (the whole viewport without a mask), and how many of them the mesh's current warp
  * samples outside a src_w x src_h source (warp_fov_outside: per mesh vertex, the pixels nearest it). Allocation-free:

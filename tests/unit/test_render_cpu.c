@@ -296,6 +296,62 @@ static void test_rolling_scan(void **state)
     plat_workers_destroy(w);
 }
 
+/* raytrace_mesh with its vertices alone (what `make bench` times beside it, so that the per-pixel cells' cost shows):
+ * the panel differs from the full warp's in the marked cells only, the marks stay, and switched back the full warp's
+ * bytes return. */
+static void test_mesh_vertices_only(void **state)
+{
+    (void)state;
+    rt_config c;
+    config(&c);
+    plat_workers *w = plat_workers_create(1, 0);
+    assert_non_null(w);
+    char err[400] = "";
+    bench_display d;
+    if (!bench_display_init(&d, &c, w, NULL, err, sizeof err)) fail_msg("bench_display_init: %s", err);
+    warp_pose eyes[2];
+    host_frame(&d, &c, eyes);
+    warp_image_rgba8 full;
+    assert_true(warp_image_rgba8_alloc(&full, c.panel_w, c.panel_h));
+    const rt_method m = RT_METHOD_RAYTRACE_MESH;
+    assert_int_equal(bench_display_run(&d, 0, eyes, m), m);
+    for (int y = 0; y < full.h; y++)
+        memcpy(&WARP_AT(&full, 0, y), &WARP_AT(&d.panel, 0, y), sizeof(warp_rgba8) * (size_t)full.w);
+    int marked[2];
+    for (int e = 0; e < 2; e++) marked[e] = rt_render_cpu_mesh_trace(d.pass[0], e)->marked;
+    assert_true(marked[0] + marked[1] > 0);
+
+    rt_render_cpu_mesh_vertices_only(d.pass[0], true);
+    assert_int_equal(bench_display_run(&d, 0, eyes, m), m);
+    long differ = 0;
+    for (int e = 0; e < 2; e++) {
+        const warp_mesh *me = rt_render_cpu_mesh(d.pass[0], e);
+        const warp_mesh_trace *t = rt_render_cpu_mesh_trace(d.pass[0], e);
+        assert_int_equal(t->marked, marked[e]);
+        for (int y = 0; y < me->vp_h; y++)
+            for (int x = 0; x < me->vp_w; x++) {
+                const warp_rgba8 a = WARP_AT(&full, me->vp_x + x, me->vp_y + y),
+                                 b = WARP_AT(&d.panel, me->vp_x + x, me->vp_y + y);
+                if (!memcmp(&a, &b, sizeof a)) continue;
+                differ++;
+                /* the cell the resampler puts (x, y) in (warp_mesh.h: rows in bands, columns cell_w wide) */
+                int j = (int)(((double)y + 0.5) * (me->rows - 1) / me->vp_h);
+                j = j < me->rows - 2 ? j : me->rows - 2;
+                if (!t->cell[(size_t)j * t->cells_x + x / me->cell_w])
+                    fail_msg("eye %d pixel (%d, %d) changed outside the marked cells", e, x, y);
+            }
+    }
+    print_message("vertices alone: %ld pixels differ, all in the %d marked cells\n", differ, marked[0] + marked[1]);
+    assert_true(differ > 0);
+
+    rt_render_cpu_mesh_vertices_only(d.pass[0], false);
+    assert_int_equal(bench_display_run(&d, 0, eyes, m), m);
+    assert_true(same_image(&d.panel, &full));
+    warp_image_free(&full);
+    bench_display_free(&d);
+    plat_workers_destroy(w);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -303,6 +359,7 @@ int main(void)
         cmocka_unit_test(test_frame_lacking_planes_falls_back),
         cmocka_unit_test(test_bad_params),
         cmocka_unit_test(test_rolling_scan),
+        cmocka_unit_test(test_mesh_vertices_only),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
