@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /* The CPU render pass: hmdwarp-bench's display path gives the daemon's bytes for the same host frame and poses
  * (the pass rt_app_init builds against the one the bench builds), it draws a picture, and frames lacking a plane
- * fall down the registry's ladder and are counted. */
+ * fall down the registry's ladder and are counted; raytrace_mesh's vertices alone change only its marked cells. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
