@@ -10,7 +10,7 @@
 
 warp_mesh_trace_params warp_mesh_trace_default_params(void)
 {
-    warp_mesh_trace_params p = {1.0f};
+    warp_mesh_trace_params p = {0.5f};
     return p;
 }
 

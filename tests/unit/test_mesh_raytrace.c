@@ -428,8 +428,12 @@ static void test_edge_cells_traced_per_pixel(void **state)
                       t, pix, pix_band, vert, vert_band, hyb, hyb_band, n_band, marked, cells, 100.0 * marked / cells);
         assert_true(n_band > 1000);
         assert_true(hyb > pix - 0.3);
-        assert_true(hyb_band > pix_band - 1.0);
-        assert_true(marked > 0 && marked * 4 < cells);
+        /* in the band within 0.15 dB (0.00 and +0.04 measured; a 1 px centre test left silhouettes a few pixels
+         * of parallax before their wall untraced: -0.20 on motion 1) */
+        assert_true(hyb_band > pix_band - 0.15);
+        /* a small share: 24-26 % here, on this view of near that is a quarter edges (23-24 % with a 1 px centre
+         * test, which left silhouettes only a few pixels of parallax before their wall untraced) */
+        assert_true(marked > 0 && marked * 10 < cells * 3);
         warp_mesh_trace_free(&tr);
         warp_mesh_free(&m);
         warp_planar3_free(&src_p);
