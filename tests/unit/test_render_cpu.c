@@ -54,6 +54,19 @@ static void host_frame(bench_display *d, const rt_config *c, warp_pose eyes[2])
     for (int e = 0; e < 2; e++) sim_buffers_free(&b[e]);
 }
 
+/* The bench's display path on two threads (its workers returned, for the caller to destroy) with the host frame
+ * and the eye poses it warps to. */
+static plat_workers *bench_two_threads(rt_config *c, bench_display *d, warp_pose eyes[2])
+{
+    config(c);
+    plat_workers *w = plat_workers_create(1, 0);
+    assert_non_null(w);
+    char err[400] = "";
+    if (!bench_display_init(d, c, w, NULL, err, sizeof err)) fail_msg("bench_display_init: %s", err);
+    host_frame(d, c, eyes);
+    return w;
+}
+
 static bool same_image(const warp_image_rgba8 *a, const warp_image_rgba8 *b)
 {
     if (a->w != b->w || a->h != b->h) return false;
@@ -235,14 +248,10 @@ static void test_rolling_scan(void **state)
 {
     (void)state;
     rt_config c;
-    config(&c);
-    plat_workers *w = plat_workers_create(1, 0);
-    assert_non_null(w);
-    char err[400] = "";
     bench_display d;
-    if (!bench_display_init(&d, &c, w, NULL, err, sizeof err)) fail_msg("bench_display_init: %s", err);
     warp_pose eyes[2], first[2], last[2];
-    host_frame(&d, &c, eyes);
+    plat_workers *w = bench_two_threads(&c, &d, eyes);
+    char err[400] = "";
     /* a turn: 1.5 degrees of yaw either side of mid-scan */
     for (int e = 0; e < 2; e++) {
         first[e] = last[e] = eyes[e];
@@ -303,14 +312,9 @@ static void test_mesh_vertices_only(void **state)
 {
     (void)state;
     rt_config c;
-    config(&c);
-    plat_workers *w = plat_workers_create(1, 0);
-    assert_non_null(w);
-    char err[400] = "";
     bench_display d;
-    if (!bench_display_init(&d, &c, w, NULL, err, sizeof err)) fail_msg("bench_display_init: %s", err);
     warp_pose eyes[2];
-    host_frame(&d, &c, eyes);
+    plat_workers *w = bench_two_threads(&c, &d, eyes);
     warp_image_rgba8 full;
     assert_true(warp_image_rgba8_alloc(&full, c.panel_w, c.panel_h));
     const rt_method m = RT_METHOD_RAYTRACE_MESH;
