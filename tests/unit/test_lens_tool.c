@@ -158,6 +158,13 @@ static void test_import_opencv_and_cardboard(void **state)
     warp_lens_opencv_params p = {700, 690, 545, 598, -0.21, 0.045, 0.0012, -0.0008, -0.004};
     warp_lens want = warp_lens_opencv(&p);
     same_lens(&got, &want, 1080, 1200);
+    /* the same numbers written longer than 60 characters (the limit the reader once had) */
+    static char longer[2000];
+    const char *at = strstr(opencv_yaml, "350.");
+    const int head = (int)(at - opencv_yaml);
+    snprintf(longer, sizeof longer, "%.*s350.%070d%s", head, opencv_yaml, 0, at + strlen("350."));
+    got = import_file("long.yaml", longer, "--opencv", &c);
+    same_lens(&got, &want, 1080, 1200);
 
     snprintf(args, sizeof args,
              "import --config %s --cardboard 0.441,0.156 --screen 0.12096,0.06804 --screen-to-lens 0.042 "

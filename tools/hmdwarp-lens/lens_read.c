@@ -182,13 +182,17 @@ static yaml_node_t *ymap_get(yaml_document_t *d, yaml_node_t *map, const char *k
     return NULL;
 }
 
+/* A scalar as a number, written at any length (a generator may print 17 digits and more of zeros): strtod
+ * needs its text NUL-terminated, which libyaml's scalar is not promised to be. */
 static bool ynum(yaml_node_t *n, double *v)
 {
-    if (!n || n->type != YAML_SCALAR_NODE || n->data.scalar.length == 0 || n->data.scalar.length > 60) return false;
-    char buf[64], *end;
-    snprintf(buf, sizeof buf, "%.*s", (int)n->data.scalar.length, (const char *)n->data.scalar.value);
+    if (!n || n->type != YAML_SCALAR_NODE || n->data.scalar.length == 0) return false;
+    char *buf = strndup((const char *)n->data.scalar.value, n->data.scalar.length), *end;
+    if (!buf) return false;
     *v = strtod(buf, &end);
-    return end != buf && *end == 0 && isfinite(*v);
+    const bool ok = end != buf && *end == 0 && isfinite(*v);
+    free(buf);
+    return ok;
 }
 
 /* An opencv-matrix's data as up to max numbers; -1 (err set) when malformed. */
