@@ -52,9 +52,15 @@ static rt_method compose_gles(rt_app *a, const rt_frame *frame, const warp_pose 
         const warp_raytrace_setup *rts[2], *rts_last[2];
         const warp_scan *scan = NULL;
         if (rt_render_cpu_mesh_traced(a->render, frame, eyes, first, last, rts, rts_last, &scan)) {
-            for (int e = 0; e < 2; e++)
-                plat_gles_lens_traced(g, e, rt_render_cpu_mesh(a->render, e), rt_render_cpu_mesh_trace(a->render, e),
-                                      &frame->f.cam[e], rts[e], rts_last[e], scan);
+            const bool cells = rt_render_cpu_mesh_cells(a->render);
+            for (int e = 0; e < 2; e++) {
+                if (cells)
+                    plat_gles_lens_traced(g, e, rt_render_cpu_mesh(a->render, e),
+                                          rt_render_cpu_mesh_trace(a->render, e), &frame->f.cam[e], rts[e],
+                                          rts_last[e], scan);
+                else /* [warp] mesh_cells = false: the vertices alone, through the plain lens pass */
+                    plat_gles_lens(g, e, rt_render_cpu_mesh(a->render, e), false);
+            }
             drawn = true;
         }
     }

@@ -215,6 +215,10 @@ static const keydef keys[] = {
      "raytrace disocclusion fill: far (far side) or linear (003 §4.4)"},
     {"warp", "edge_jump", K_DOUBLE, F(edge_jump), 0, 0.001, 10, NULL,
      "relative inverse-depth jump per step that counts as an occlusion edge"},
+    {"warp", "mesh_cells", K_ENUM, F(mesh_cells), 0, 0, 0, bool_names,
+     "raytrace_mesh: per-pixel rays in the lens mesh cells with a depth discontinuity (true), or its vertices alone "
+     "(false: a CPU board's choice, a fraction of the cost, less accurate at depth edges; make bench times and "
+     "scores both)"},
     {"imu", "backend", K_CHOICE, F(imu_backend), S(imu_backend), 0, 0, imu_names,
      "IMU source: sim (simulated board), hid (USB HID, hidraw) or i2c (i2c-dev)"},
     {"imu", "device", K_STR, F(imu_device), S(imu_device), 0, 0, NULL,
@@ -375,6 +379,7 @@ void rt_config_defaults(rt_config *c)
     c->raytrace_steps = 512;
     c->edge_fill = 0;
     c->edge_jump = 0.1;
+    c->mesh_cells = 1;
     snprintf(c->imu_backend, sizeof c->imu_backend, "sim");
     snprintf(c->frames_backend, sizeof c->frames_backend, "sim");
     snprintf(c->vsync_backend, sizeof c->vsync_backend, "sim");

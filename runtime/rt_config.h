@@ -107,6 +107,7 @@ typedef struct {
     int raytrace_steps;
     int edge_fill;              /* warp_edge_fill */
     double edge_jump;
+    int mesh_cells;             /* raytrace_mesh: 1 per-pixel rays in its cells with a depth discontinuity, 0 not */
     /* [imu] [frames] [vsync] backends and their devices; device "mock" puts the simulated board's device behind
      * the real backend's decoding (HID reports, I2C register maps, GPIO edges, framelink, V4L2 layout) */
     char imu_backend[16], frames_backend[16], vsync_backend[16];

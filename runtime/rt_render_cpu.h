@@ -25,6 +25,7 @@ typedef struct {
     double visible_radius[2]; /* the lens's visible disc per eye (warp_fov); 0: no hidden-area mask */
     warp_raytrace_params raytrace;
     warp_mesh_trace_params mesh_trace; /* raytrace_mesh: which lens mesh cells get per-pixel rays */
+    bool mesh_cells;        /* raytrace_mesh traces those cells per pixel; false: its vertices alone */
     bool depth_warps;       /* the eye-space warps (raytrace, transparency, objects): their eye buffers */
     bool transparency;      /* the A-buffer warp's grid, tree and depth buffer */
     bool objects;           /* the per-object warp's splat and hole-filling scratch */
@@ -98,9 +99,11 @@ bool rt_render_cpu_mesh_traced(rt_render_cpu *r, const rt_frame *frame, const wa
 const warp_raytrace_params *rt_render_cpu_raytrace_params(const rt_render_cpu *r);
 const warp_mesh_trace_params *rt_render_cpu_mesh_trace_params(const rt_render_cpu *r);
 /* raytrace_mesh with its vertices alone (on: no marks, no per-pixel rays; the last marks stay for
- * rt_render_cpu_mesh_trace): what the per-pixel cells cost is then the difference, as `make bench` shows it. Off at
- * creation; the caller's thread, between passes. */
+ * rt_render_cpu_mesh_trace): what the per-pixel cells cost is then the difference, as `make bench` shows it. At
+ * creation on where the params' mesh_cells is false ([warp] mesh_cells); the caller's thread, between passes. */
 void rt_render_cpu_mesh_vertices_only(rt_render_cpu *r, bool on);
+/* Whether raytrace_mesh traces its marked cells per pixel (not its vertices alone): the GLES renderer asks. */
+bool rt_render_cpu_mesh_cells(const rt_render_cpu *r);
 
 /* The eye's visible panel pixels (the whole viewport without a mask), and how many of them the mesh's current warp
  * samples outside a src_w x src_h source (warp_fov_outside: per mesh vertex, the pixels nearest it). Allocation-free:

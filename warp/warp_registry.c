@@ -44,8 +44,10 @@ static const warp_method_info methods[WARP_METHOD_COUNT] = {
                               I("static", 0, 1, 0, "1 objects where the source saw them")}},
     [WARP_METHOD_RAYTRACE_MESH] = {"raytrace_mesh", "003 §3.5, 000 §3",
                                    "the raytrace at the lens mesh's vertices, per pixel in its cells with depth edges",
-                                   WARP_NEEDS_DEPTH, WARP_METHOD_ROTATION, 2, true, WARP_METHOD_RAYTRACE_MESH, 1,
-                                   {I("mesh", 2, 1024, 64, "vertices per side ([lens] mesh)")}},
+                                   WARP_NEEDS_DEPTH, WARP_METHOD_ROTATION, 2, true, WARP_METHOD_RAYTRACE_MESH, 2,
+                                   {I("mesh", 2, 1024, 64, "vertices per side ([lens] mesh)"),
+                                    I("cells", 0, 1, 1, "1 per pixel in its cells with depth edges, 0 its vertices "
+                                                        "alone ([warp] mesh_cells)")}},
     [WARP_METHOD_ITERATIVE] = {"iterative", "001 §3", "backward warp by fixed-point iteration", WARP_NEEDS_DEPTH,
                                WARP_METHOD_ROTATION, 5, false, WARP_METHOD_COUNT, 6,
                                {I("seeds", 1, 64, 8, NULL), I("iters", 1, 64, 32, "steps per seed at most"),

@@ -166,17 +166,20 @@ static bool llvmpipe_enough(const rt_app *a, double elapsed_s)
 }
 
 /* The simulated board on the GLES renderer with `method`, run until `enough` (60 s at most). */
-static void gles_run(const char *method, bool (*enough)(const rt_app *, double))
+static void gles_run_set(const char *method, const char *set, bool (*enough)(const rt_app *, double))
 {
     rt_config c;
     small_config(&c, "gles", method);
     rt_config_errors e = {0};
     assert_true(rt_config_set(&c, "sim.duration_s=0", &e));
+    if (set) assert_true(rt_config_set(&c, set, &e));
     char err[300];
     if (!rt_app_init(&app, &c, err, sizeof err)) fail_msg("init: %s", err);
     assert_true(app.gl.use);
     if (!test_run_until(&app, enough, 60)) print_message("%s: not enough drawn within 60 s\n", method);
 }
+
+static void gles_run(const char *method, bool (*enough)(const rt_app *, double)) { gles_run_set(method, NULL, enough); }
 
 /* Pixels of the image on screen with some green: something was drawn, the image is not all black. */
 static long lit_on_screen(void)
@@ -240,6 +243,21 @@ static void test_gles_raytrace_mesh(void **state)
     assert_true(gles_count(&app, PLAT_GLES_LENS) > 0);
     assert_int_equal(gles_count(&app, PLAT_GLES_RAYTRACE), 0); /* no eye-space pass */
     assert_non_null(rt_render_cpu_mesh_trace(app.render, 0));
+    assert_true(lit_on_screen() > 192 * 96 / 2);
+    rt_app_free(&app);
+}
+
+/* [warp] mesh_cells = false on the GLES renderer: raytrace_mesh's vertices through the plain lens pass, drawn as
+ * raytrace_mesh (not fallen back to rotation) without a GL error. */
+static void test_gles_raytrace_mesh_vertices_only(void **state)
+{
+    (void)state;
+    gles_run_set("raytrace_mesh", "warp.mesh_cells=false", mesh_enough);
+    rt_telemetry *t = app.tel;
+    assert_false(rt_render_cpu_mesh_cells(app.render));
+    assert_true(t->method_count[RT_METHOD_RAYTRACE_MESH] > 0);
+    assert_int_equal(t->method_count[RT_METHOD_ROTATION], 0);
+    assert_int_equal(app.gl.errors, 0);
     assert_true(lit_on_screen() > 192 * 96 / 2);
     rt_app_free(&app);
 }
@@ -337,6 +355,7 @@ int main(void)
         cmocka_unit_test(test_kms_without_drm_device),
         cmocka_unit_test(test_gles_run_on_llvmpipe),
         cmocka_unit_test(test_gles_raytrace_mesh),
+        cmocka_unit_test(test_gles_raytrace_mesh_vertices_only),
         cmocka_unit_test(test_gles_misses_are_the_warps),
         cmocka_unit_test(test_auto_picks_cpu_on_llvmpipe),
     };

@@ -307,7 +307,7 @@ static void test_rolling_scan(void **state)
 
 /* raytrace_mesh with its vertices alone (what `make bench` times beside it, so that the per-pixel cells' cost shows):
  * the panel differs from the full warp's in the marked cells only, the marks stay, and switched back the full warp's
- * bytes return. */
+ * bytes return. [warp] mesh_cells = false (a CPU board's choice) makes a pass that draws those very bytes. */
 static void test_mesh_vertices_only(void **state)
 {
     (void)state;
@@ -348,7 +348,28 @@ static void test_mesh_vertices_only(void **state)
     print_message("vertices alone: %ld pixels differ, all in the %d marked cells\n", differ, marked[0] + marked[1]);
     assert_true(differ > 0);
 
+    /* the same from the config: mesh_cells is on by default, and off it draws the vertices alone */
+    assert_true(rt_render_cpu_params_from_config(&c).mesh_cells);
+    assert_true(rt_render_cpu_mesh_cells(d.pass[0]) == false);
+    rt_config_errors ce;
+    rt_config off = c;
+    assert_false(rt_config_set(&off, "warp.mesh_cells=no", &ce));
+    assert_true(rt_config_set(&off, "warp.mesh_cells=false", &ce));
+    const rt_render_cpu_params po = rt_render_cpu_params_from_config(&off);
+    assert_false(po.mesh_cells);
+    char err[400] = "";
+    rt_render_cpu *vo = rt_render_cpu_create(&po, w, err, sizeof err);
+    if (!vo) fail_msg("rt_render_cpu_create: %s", err);
+    assert_false(rt_render_cpu_mesh_cells(vo));
+    warp_image_rgba8 img;
+    assert_true(warp_image_rgba8_alloc(&img, c.panel_w, c.panel_h));
+    assert_int_equal(rt_render_cpu_frame(vo, &d.frame, eyes, m, NULL, &img), m);
+    assert_true(same_image(&img, &d.panel));
+    warp_image_free(&img);
+    rt_render_cpu_destroy(&vo);
+
     rt_render_cpu_mesh_vertices_only(d.pass[0], false);
+    assert_true(rt_render_cpu_mesh_cells(d.pass[0]));
     assert_int_equal(bench_display_run(&d, 0, eyes, m), m);
     assert_true(same_image(&d.panel, &full));
     warp_image_free(&full);

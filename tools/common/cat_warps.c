@@ -425,6 +425,7 @@ static const char *run_raytrace_mesh(const warp_view *src, const warp_camera *ds
     const char *why = cat_check_params(WARP_METHOD_RAYTRACE_MESH, params);
     if (why) return why;
     int n = (int)cat_param(params, "mesh", warp_method_knob(WARP_METHOD_RAYTRACE_MESH, "mesh")->def, NULL);
+    const bool cells = cat_param(params, "cells", warp_method_knob(WARP_METHOD_RAYTRACE_MESH, "cells")->def, NULL);
     warp_raytrace_params p = warp_raytrace_default_params();
     warp_raytrace_setup s;
     if ((why = warp_raytrace_prepare(&s, src, dst_cam, dst_pose, &p))) return why;
@@ -440,11 +441,11 @@ static const char *run_raytrace_mesh(const warp_view *src, const warp_camera *ds
         warp_raytrace_blockmax(src->inv_depth, &bmax, 8);
         warp_raytrace_use_blockmax(&s, &bmax, 8);
         /* the display path's depth warp as the runtime's pass draws it: rays at the vertices, and per pixel in the
-         * cells with a depth discontinuity */
+         * cells with a depth discontinuity (cells=0: the vertices alone) */
         warp_mesh_trace tr;
         if (warp_mesh_trace_alloc(&tr, &m)) {
             const warp_mesh_trace_params tp = warp_mesh_trace_default_params();
-            warp_mesh_raytrace_draw(&m, &tr, dst_cam, &s, NULL, NULL, &tp, &planar, dst);
+            warp_mesh_raytrace_draw(&m, cells ? &tr : NULL, dst_cam, &s, NULL, NULL, &tp, &planar, dst);
             st->primitives = (long)(m.rows - 1) * (m.cols - 1);
             warp_mesh_trace_free(&tr);
         } else {
