@@ -50,7 +50,6 @@ struct rt_render_cpu {
     job j;                         /* here, not on the caller's stack: a vsync's job is a few KB */
     warp_mesh mesh[2];
     warp_mesh_trace mtrace[2];     /* raytrace_mesh: the cells traced per pixel (allocated with the depth warps) */
-    bool vertices_only;            /* raytrace_mesh without its marks and per-pixel rays ([warp] mesh_cells, the bench) */
     warp_image_rgba8 inter[2];     /* eye-space warps' output, before the lens pass */
     warp_planar3 inter_planar[2];
     /* the further depth warps, allocated when the method may use them */
@@ -128,7 +127,6 @@ rt_render_cpu *rt_render_cpu_create(const rt_render_cpu_params *p, plat_workers 
     rt_render_cpu *r = calloc(1, sizeof *r);
     if (!r) return fail(r, err, errlen, "out of memory");
     r->p = *p;
-    r->vertices_only = !p->mesh_cells;
     r->workers = workers;
     r->j.r = r;
     int vw = p->panel_w / 2;
@@ -204,11 +202,12 @@ int64_t rt_render_cpu_outside(const rt_render_cpu *r, int eye, int src_w, int sr
 }
 const warp_raytrace_params *rt_render_cpu_raytrace_params(const rt_render_cpu *r) { return &r->p.raytrace; }
 const warp_mesh_trace_params *rt_render_cpu_mesh_trace_params(const rt_render_cpu *r) { return &r->p.mesh_trace; }
-void rt_render_cpu_mesh_vertices_only(rt_render_cpu *r, bool on) { r->vertices_only = on; }
-bool rt_render_cpu_mesh_cells(const rt_render_cpu *r) { return !r->vertices_only; }
+/* the params' mesh_cells is the switch: the config sets it at creation, the bench flips it between passes */
+void rt_render_cpu_mesh_vertices_only(rt_render_cpu *r, bool on) { r->p.mesh_cells = !on; }
+bool rt_render_cpu_mesh_cells(const rt_render_cpu *r) { return r->p.mesh_cells; }
 
 /* The marks raytrace_mesh's passes draw with: NULL, the vertices alone, when asked. */
-static warp_mesh_trace *cells_of(rt_render_cpu *r, int e) { return r->vertices_only ? NULL : &r->mtrace[e]; }
+static warp_mesh_trace *cells_of(rt_render_cpu *r, int e) { return r->p.mesh_cells ? &r->mtrace[e] : NULL; }
 
 static void resample_task(void *ctx, int task)
 {

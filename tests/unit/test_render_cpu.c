@@ -350,7 +350,7 @@ static void test_mesh_vertices_only(void **state)
 
     /* the same from the config: mesh_cells is on by default, and off it draws the vertices alone */
     assert_true(rt_render_cpu_params_from_config(&c).mesh_cells);
-    assert_true(rt_render_cpu_mesh_cells(d.pass[0]) == false);
+    assert_false(rt_render_cpu_mesh_cells(d.pass[0]));
     rt_config_errors ce;
     rt_config off = c;
     assert_false(rt_config_set(&off, "warp.mesh_cells=no", &ce));

@@ -89,8 +89,8 @@ static void case_render(frame_case *fc, const sim_scene *sc, double deg, double 
     fc->t1 = 1.0 + dt;
     sim_render(sc, fc->t0, fc->a, &fc->cam, ALL_PLANES, &fc->src);
     sim_render(sc, fc->t1, fc->b, &fc->cam, SIM_PLANE_COLOR | SIM_PLANE_DEPTH, &fc->truth);
-    /* #21's depth-edge band, as tests/accuracy scores it: within 3 px of a relative depth jump over 10 % */
-    /* a scene without an edge leaves the band empty: its band PSNR is NAN, which no target row counts */
+    /* #21's depth-edge band, as tests/accuracy scores it: within 3 px of a relative depth jump over 10 % (a scene
+     * without an edge leaves it empty: its band PSNR is NAN, which no target row counts) */
     warp_depth_edge_band(&fc->truth.depth, 0.1f, 3, &fc->band);
     int n = sim_scene_object_count(sc) < 64 ? sim_scene_object_count(sc) : 64;
     for (int i = 0; i < n; i++) fc->objs[i] = sim_scene_object_pose(sc, i + 1, fc->t0);
